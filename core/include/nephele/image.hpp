@@ -1,0 +1,62 @@
+// Float images, PNG and PFM files, and the metrics the tests use.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace nephele {
+
+// Row 0 is the top row. Values are linear radiance (colour) or opacity (grey) unless a
+// function says otherwise.
+struct Image {
+    int width = 0;
+    int height = 0;
+    int channels = 0;           // 1 (grey), 3 (RGB) or 4 (RGBA)
+    std::vector<float> pixels;  // row-major, interleaved
+
+    Image() = default;
+    Image(int w, int h, int c, float fill = 0.0f)
+        : width(w), height(h), channels(c), pixels(std::size_t(w) * h * c, fill) {}
+    float& at(int x, int y, int c) { return pixels[(std::size_t(y) * width + x) * channels + c]; }
+    float at(int x, int y, int c) const { return pixels[(std::size_t(y) * width + x) * channels + c]; }
+    bool empty() const { return pixels.empty(); }
+};
+
+class ImageError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+float linearToSrgb(float linear);  // IEC 61966-2-1, input clamped to [0, 1]
+float srgbToLinear(float encoded);
+
+enum class Encoding { Srgb, Linear };
+// 8-bit PNG of 1, 3 or 4 channels. Srgb encodes colour channels (never alpha); Linear
+// writes values as they are (opacity maps). Values are clamped to [0, 1].
+void writePng(const std::string& path, const Image& image, Encoding encoding = Encoding::Srgb);
+// Reads an 8-bit PNG (grey, grey+alpha, RGB or RGBA) into values in [0, 1], as stored
+// (no sRGB decoding).
+Image readPng(const std::string& path);
+// Portable float map: "PF" (RGB) or "Pf" (grey), little-endian, linear floats.
+void writePfm(const std::string& path, const Image& image);
+Image readPfm(const std::string& path);
+
+// The channels [first, first+count) of an image, e.g. RGB of an RGBA image.
+Image channels(const Image& image, int first, int count);
+
+struct ImageDifference {
+    double maxAbs = 0;        // largest per-channel absolute difference
+    double meanAbs = 0;       // mean over all channels and pixels
+    double fractionOver = 0;  // fraction of pixels with any channel differing by > threshold
+};
+// Throws ImageError when sizes or channel counts differ.
+ImageDifference compareImages(const Image& a, const Image& b, double threshold);
+// |a - b| per channel, scaled by `gain`, for a person to look at.
+Image differenceImage(const Image& a, const Image& b, float gain = 4.0f);
+// Peak signal-to-noise ratio in dB over all channels, peak 1.
+double psnr(const Image& a, const Image& b);
+
+}  // namespace nephele

@@ -1,0 +1,188 @@
+// The `cloudscene` version 1 scene, as loaded and validated.
+// The contract is data/scene-format.md (a copy of shared/scene-format.md); the keys of
+// `generate` entries, which that format leaves to the project, are documented there too
+// in the section "generate keys (Nephele)".
+//
+// World frame: right-handed, z up, x east, y north. Lengths in metres, angles in
+// degrees, colours linear RGB. Every field below carries the format's default.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace nephele {
+
+using Vec3 = glm::dvec3;
+using Vec2 = glm::dvec2;
+
+// A scene that failed to load. what() is "FILE: JSON.PATH: fault", e.g.
+// "scene.json: clouds[2].ellipsoids[5].radii[1]: must be > 0, got -3".
+class SceneError : public std::runtime_error {
+public:
+    SceneError(std::string file, std::string jsonPath, std::string fault);
+    const std::string& file() const { return file_; }
+    const std::string& jsonPath() const { return path_; }  // "" for the whole document
+    const std::string& fault() const { return fault_; }
+
+private:
+    std::string file_, path_, fault_;
+};
+
+struct Camera {
+    Vec3 position{0.0};
+    Vec3 direction{0, 1, 0};  // unit view direction (from look_at or direction)
+    Vec3 up{0, 0, 1};         // up hint as given (not orthogonalised); not parallel to direction
+    double fovYDeg = 60.0;    // vertical field of view, degrees, 1 < fov < 179
+    double nearClip = 0.5;    // m, 0 < near < far
+    double farClip = 100000.0;
+    int width = 640;          // pixels, 1..16384
+    int height = 480;
+};
+
+struct Sun {
+    Vec3 direction = glm::normalize(Vec3(0.3, 0.2, 0.93));  // unit, towards the sun
+    Vec3 color{1.0};
+    double intensity = 3.0;  // a white Lambertian plane facing the sun reflects color*intensity/pi
+};
+
+struct Sky {
+    Vec3 zenith{0.10, 0.22, 0.55};
+    Vec3 horizon{0.40, 0.50, 0.65};
+    Vec3 ground{0.12, 0.12, 0.10};
+};
+
+struct Medium {
+    double extinction = 0.04;  // 1/m at density 1, >= 0
+    double albedo = 0.99;      // [0, 1]
+    double hgG = 0.85;         // Henyey-Greenstein asymmetry, (-1, 1)
+    double noise = 0.3;        // relative amplitude of procedural detail, >= 0; 0 = exact field
+    double noiseScale = 60.0;  // m, > 0
+};
+
+struct Ellipsoid {
+    Vec3 center{0.0};
+    Vec3 radii{1.0};           // semi-axes along local x, y, z, each > 0
+    Vec3 rotationDeg{0.0};     // R = Rz(rz) * Ry(ry) * Rx(rx)
+    double density = 1.0;      // >= 0
+};
+
+struct Cloud {
+    std::string name;
+    std::vector<Ellipsoid> ellipsoids;
+};
+
+// A procedural cloud, validated on load; expanded into a Cloud by later stages.
+struct Generator {
+    enum class Type { Cumulus, Mesh, LSystem };
+    Type type = Type::Cumulus;
+    std::string name;          // default "<type><index>", e.g. "cumulus0"
+    unsigned seed = 1;
+    double density = 1.0;      // density of every ellipsoid it makes, >= 0
+
+    // cumulus (Jimenez de Parga & Gomez Palomo 2018, section 3.6.1)
+    Vec3 center{0.0};                          // required for cumulus and lsystem
+    int count = 35;                            // ellipsoids placed, 1..100000
+    Vec3 sigma{300.0, 300.0, 120.0};           // m, Gaussian placement std-dev per axis, > 0
+    Vec3 clampLo{-2.0, -2.0, -0.5};            // placement clamped to [lo, hi] * sigma per axis
+    Vec3 clampHi{2.0, 2.0, 2.0};
+    double maxRadius = 250.0;                  // m, radius at the centre (eq. 16's epsilon), > 0
+    Vec3 aspect{1.0, 1.0, 0.7};                // radii multipliers per local axis, > 0
+    bool hollow = true;                        // drop ellipsoids in the core (eq. 17 region)
+    bool pruneContained = true;                // drop ellipsoids inside another one
+
+    // mesh (one ellipsoid per triangle of a Wavefront OBJ)
+    std::string path;                          // as written in the scene
+    std::string resolvedPath;                  // relative to the scene file's folder
+    Vec3 position{0.0};                        // m, translation applied to the mesh
+    double scale = 1.0;                        // > 0
+    Vec3 rotationDeg{0.0};                     // R = Rz * Ry * Rx, applied before translation
+    double thicknessRatio = 0.5;               // normal semi-axis / smaller in-plane semi-axis, > 0
+
+    // lsystem
+    std::string axiom;                         // non-empty
+    std::vector<std::pair<char, std::string>> rules;  // one rule per symbol
+    double angleDeg = 25.0;
+    int iterations = 3;                        // 0..8
+    double step = 100.0;                       // m, branch step, > 0
+    double radius = 80.0;                      // m, sphere radius at a symbol, > 0
+    double jitter = 0.2;                       // proportional random factor, [0, 1)
+};
+
+struct CityGlow {
+    Vec3 color{1.0, 0.6, 0.3};
+    double strength = 1.0;  // >= 0
+};
+
+struct Layer {
+    double base = 0.0;        // m, cloud base altitude (required)
+    double thickness = 0.0;   // m, > 0 (required)
+    double coverage = 0.6;    // [0, 1]
+    double density = 1.0;     // [0, 1]
+    Vec2 wind{0.0};           // m/s
+    double extent = 20000.0;  // m, > 0
+    unsigned seed = 1;
+    bool nearLod = true;
+    std::optional<CityGlow> cityGlow;
+};
+
+struct Skylight {
+    Vec3 direction{0, 0, 1};  // unit (required in the file)
+    Vec3 color{1.0};
+    double intensity = 1.0;   // >= 0
+};
+
+struct Lightning {
+    Vec3 position{0.0};       // required
+    double intensity = 0.0;   // required, >= 0; lights matter at distance d with I/d^2
+    double start = 0.0;       // s
+    double duration = 0.2;    // s, > 0
+};
+
+struct Object {
+    enum class Type { Box, Sphere };
+    Type type = Type::Box;
+    Vec3 center{0.0};         // required
+    Vec3 size{1.0};           // box: full edge lengths, each > 0 (required for a box)
+    double radius = 1.0;      // sphere: > 0 (required for a sphere)
+    Vec3 rotationDeg{0.0};
+    Vec3 color{0.5};          // linear albedo
+};
+
+struct Keyframe {
+    double t = 0.0;           // s, strictly increasing along the path
+    Vec3 position{0.0};
+    Vec3 lookAt{0.0};
+};
+
+struct Scene {
+    std::string file;         // where it was loaded from ("" if built in code)
+    Camera camera;
+    Sun sun;
+    Sky sky;
+    Medium medium;
+    std::vector<Cloud> clouds;
+    std::vector<Generator> generators;
+    std::vector<Layer> layers;
+    std::optional<Skylight> skylight;
+    std::vector<Lightning> lightning;
+    std::vector<Object> objects;
+    std::vector<Keyframe> path;
+};
+
+// Loads and validates a scene file. Throws SceneError (never renders from a bad scene).
+Scene loadScene(const std::string& file);
+// The same from text already in memory; `file` names it in messages and anchors relative paths.
+Scene parseScene(const std::string& text, const std::string& file);
+
+// Rotation matrix R = Rz(rz) * Ry(ry) * Rx(rx) for angles in degrees about the world axes.
+glm::dmat3 rotationFromDegrees(const Vec3& deg);
+
+// The camera at time t: the scene camera, or the `path` interpolated linearly (clamped at
+// the ends) when the scene has one.
+Camera cameraAt(const Scene& scene, double t);
+
+}  // namespace nephele

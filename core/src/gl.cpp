@@ -1,0 +1,89 @@
+#include "nephele/gl.hpp"
+
+#include <atomic>
+#include <cstdio>
+#include <string>
+
+namespace nephele::gl {
+
+namespace {
+std::atomic<bool> g_checks{NEPHELE_GL_CHECKS_DEFAULT != 0};
+bool g_loaded = false;
+}  // namespace
+
+void load(ProcLoader loader) {
+    if (!loader) throw GlError("gl::load: no getProcAddress function given");
+    detail::loadAllFunctions(loader);
+    g_loaded = false;
+    if (!glGetIntegerv || !glGetString || !glCreateBuffers)
+        throw GlError("gl::load: the driver does not provide OpenGL 4.5 entry points");
+    GLint major = 0, minor = 0;
+    glGetIntegerv(GL_MAJOR_VERSION, &major);
+    glGetIntegerv(GL_MINOR_VERSION, &minor);
+    if (major * 10 + minor < 45) {
+        const char* v = reinterpret_cast<const char*>(glGetString(GL_VERSION));
+        throw GlError("OpenGL 4.5 core is required, the context is " +
+                      std::string(v ? v : "of unknown version") +
+                      " (on Mesa, try --gl osmesa or set MESA_GL_VERSION_OVERRIDE=4.5)");
+    }
+    g_loaded = true;
+}
+
+bool isLoaded() { return g_loaded; }
+
+void setChecks(bool enabled) { g_checks = enabled; }
+bool checksEnabled() { return g_checks; }
+
+const char* errorName(GLenum error) {
+    switch (error) {
+        case GL_NO_ERROR: return "GL_NO_ERROR";
+        case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+        case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+        case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+        case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+        case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+        case GL_STACK_UNDERFLOW: return "GL_STACK_UNDERFLOW";
+        case GL_STACK_OVERFLOW: return "GL_STACK_OVERFLOW";
+        default: return "unknown GL error";
+    }
+}
+
+void checkAlways(const char* what) {
+    GLenum first = glGetError();
+    if (first == GL_NO_ERROR) return;
+    std::string msg = std::string(what) + ": " + errorName(first);
+    // Drain the rest so the next check starts clean (bounded: a lost context repeats forever).
+    for (int i = 0; i < 16; ++i) {
+        GLenum more = glGetError();
+        if (more == GL_NO_ERROR) break;
+        msg += std::string(", ") + errorName(more);
+    }
+    throw GlError(msg);
+}
+
+void check(const char* what) {
+    if (g_checks) checkAlways(what);
+}
+
+namespace kind {
+GLuint Buffer::create() { GLuint id = 0; glCreateBuffers(1, &id); return id; }
+void Buffer::destroy(GLuint id) { glDeleteBuffers(1, &id); }
+GLuint VertexArray::create() { GLuint id = 0; glCreateVertexArrays(1, &id); return id; }
+void VertexArray::destroy(GLuint id) { glDeleteVertexArrays(1, &id); }
+GLuint Texture::create(GLenum target) { GLuint id = 0; glCreateTextures(target, 1, &id); return id; }
+void Texture::destroy(GLuint id) { glDeleteTextures(1, &id); }
+GLuint Renderbuffer::create() { GLuint id = 0; glCreateRenderbuffers(1, &id); return id; }
+void Renderbuffer::destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
+GLuint Framebuffer::create() { GLuint id = 0; glCreateFramebuffers(1, &id); return id; }
+void Framebuffer::destroy(GLuint id) { glDeleteFramebuffers(1, &id); }
+GLuint Sampler::create() { GLuint id = 0; glCreateSamplers(1, &id); return id; }
+void Sampler::destroy(GLuint id) { glDeleteSamplers(1, &id); }
+GLuint Query::create(GLenum target) { GLuint id = 0; glCreateQueries(target, 1, &id); return id; }
+void Query::destroy(GLuint id) { glDeleteQueries(1, &id); }
+GLuint Shader::create(GLenum stage) { return glCreateShader(stage); }
+void Shader::destroy(GLuint id) { glDeleteShader(id); }
+GLuint Program::create() { return glCreateProgram(); }
+void Program::destroy(GLuint id) { glDeleteProgram(id); }
+}  // namespace kind
+
+}  // namespace nephele::gl

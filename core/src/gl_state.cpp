@@ -1,0 +1,205 @@
+#include "nephele/gl_state.hpp"
+
+#include <sstream>
+
+namespace nephele {
+using namespace gl;
+
+namespace {
+constexpr GLenum kTargets[5] = {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE, GL_TEXTURE_BUFFER};
+constexpr GLenum kBindings[5] = {GL_TEXTURE_BINDING_2D, GL_TEXTURE_BINDING_3D, GL_TEXTURE_BINDING_2D_ARRAY,
+                                 GL_TEXTURE_BINDING_RECTANGLE, GL_TEXTURE_BINDING_BUFFER};
+GLint geti(GLenum e) { GLint v = 0; glGetIntegerv(e, &v); return v; }
+void enable(GLenum cap, GLboolean on) { on ? glEnable(cap) : glDisable(cap); }
+}  // namespace
+
+GlStateSnapshot GlStateSnapshot::capture() {
+    GlStateSnapshot s{};
+    s.drawFramebuffer = geti(GL_DRAW_FRAMEBUFFER_BINDING);
+    s.readFramebuffer = geti(GL_READ_FRAMEBUFFER_BINDING);
+    s.renderbuffer = geti(GL_RENDERBUFFER_BINDING);
+    glGetIntegerv(GL_VIEWPORT, s.viewport);
+    glGetIntegerv(GL_SCISSOR_BOX, s.scissorBox);
+    s.blend = glIsEnabled(GL_BLEND);
+    s.depthTest = glIsEnabled(GL_DEPTH_TEST);
+    s.stencilTest = glIsEnabled(GL_STENCIL_TEST);
+    s.cullFace = glIsEnabled(GL_CULL_FACE);
+    s.scissorTest = glIsEnabled(GL_SCISSOR_TEST);
+    s.polygonOffsetFill = glIsEnabled(GL_POLYGON_OFFSET_FILL);
+    s.framebufferSrgb = glIsEnabled(GL_FRAMEBUFFER_SRGB);
+    s.multisample = glIsEnabled(GL_MULTISAMPLE);
+    s.primitiveRestart = glIsEnabled(GL_PRIMITIVE_RESTART);
+    s.rasterizerDiscard = glIsEnabled(GL_RASTERIZER_DISCARD);
+    s.programPointSize = glIsEnabled(GL_PROGRAM_POINT_SIZE);
+    s.depthClamp = glIsEnabled(GL_DEPTH_CLAMP);
+    s.dither = glIsEnabled(GL_DITHER);
+    s.blendEquationRgb = geti(GL_BLEND_EQUATION_RGB);
+    s.blendEquationAlpha = geti(GL_BLEND_EQUATION_ALPHA);
+    s.blendSrcRgb = geti(GL_BLEND_SRC_RGB);
+    s.blendDstRgb = geti(GL_BLEND_DST_RGB);
+    s.blendSrcAlpha = geti(GL_BLEND_SRC_ALPHA);
+    s.blendDstAlpha = geti(GL_BLEND_DST_ALPHA);
+    glGetFloatv(GL_BLEND_COLOR, s.blendColor);
+    glGetBooleanv(GL_COLOR_WRITEMASK, s.colorMask);
+    glGetBooleanv(GL_DEPTH_WRITEMASK, &s.depthMask);
+    s.depthFunc = geti(GL_DEPTH_FUNC);
+    glGetDoublev(GL_DEPTH_RANGE, s.depthRange);
+    s.front = {geti(GL_STENCIL_FUNC), geti(GL_STENCIL_REF), geti(GL_STENCIL_VALUE_MASK), geti(GL_STENCIL_WRITEMASK),
+               geti(GL_STENCIL_FAIL), geti(GL_STENCIL_PASS_DEPTH_FAIL), geti(GL_STENCIL_PASS_DEPTH_PASS)};
+    s.back = {geti(GL_STENCIL_BACK_FUNC), geti(GL_STENCIL_BACK_REF), geti(GL_STENCIL_BACK_VALUE_MASK),
+              geti(GL_STENCIL_BACK_WRITEMASK), geti(GL_STENCIL_BACK_FAIL), geti(GL_STENCIL_BACK_PASS_DEPTH_FAIL),
+              geti(GL_STENCIL_BACK_PASS_DEPTH_PASS)};
+    glGetFloatv(GL_COLOR_CLEAR_VALUE, s.clearColor);
+    glGetDoublev(GL_DEPTH_CLEAR_VALUE, &s.clearDepth);
+    s.clearStencil = geti(GL_STENCIL_CLEAR_VALUE);
+    s.cullFaceMode = geti(GL_CULL_FACE_MODE);
+    s.frontFace = geti(GL_FRONT_FACE);
+    glGetIntegerv(GL_POLYGON_MODE, s.polygonMode);
+    glGetFloatv(GL_POLYGON_OFFSET_FACTOR, &s.polygonOffsetFactor);
+    glGetFloatv(GL_POLYGON_OFFSET_UNITS, &s.polygonOffsetUnits);
+    s.program = geti(GL_CURRENT_PROGRAM);
+    s.vertexArray = geti(GL_VERTEX_ARRAY_BINDING);
+    s.arrayBuffer = geti(GL_ARRAY_BUFFER_BINDING);
+    s.elementArrayBuffer = geti(GL_ELEMENT_ARRAY_BUFFER_BINDING);
+    s.uniformBuffer = geti(GL_UNIFORM_BUFFER_BINDING);
+    s.pixelPackBuffer = geti(GL_PIXEL_PACK_BUFFER_BINDING);
+    s.pixelUnpackBuffer = geti(GL_PIXEL_UNPACK_BUFFER_BINDING);
+    s.drawIndirectBuffer = geti(GL_DRAW_INDIRECT_BUFFER_BINDING);
+    s.activeTexture = geti(GL_ACTIVE_TEXTURE);
+    for (int u = 0; u < kUnits; ++u) {
+        glActiveTexture(GL_TEXTURE0 + u);
+        for (int t = 0; t < 5; ++t) s.textures[u][t] = geti(kBindings[t]);
+        s.samplers[u] = geti(GL_SAMPLER_BINDING);
+    }
+    glActiveTexture(GLenum(s.activeTexture));
+    s.packAlignment = geti(GL_PACK_ALIGNMENT);
+    s.unpackAlignment = geti(GL_UNPACK_ALIGNMENT);
+    return s;
+}
+
+void GlStateSnapshot::restore() const {
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, GLuint(drawFramebuffer));
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(readFramebuffer));
+    glBindRenderbuffer(GL_RENDERBUFFER, GLuint(renderbuffer));
+    glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+    glScissor(scissorBox[0], scissorBox[1], scissorBox[2], scissorBox[3]);
+    enable(GL_BLEND, blend);
+    enable(GL_DEPTH_TEST, depthTest);
+    enable(GL_STENCIL_TEST, stencilTest);
+    enable(GL_CULL_FACE, cullFace);
+    enable(GL_SCISSOR_TEST, scissorTest);
+    enable(GL_POLYGON_OFFSET_FILL, polygonOffsetFill);
+    enable(GL_FRAMEBUFFER_SRGB, framebufferSrgb);
+    enable(GL_MULTISAMPLE, multisample);
+    enable(GL_PRIMITIVE_RESTART, primitiveRestart);
+    enable(GL_RASTERIZER_DISCARD, rasterizerDiscard);
+    enable(GL_PROGRAM_POINT_SIZE, programPointSize);
+    enable(GL_DEPTH_CLAMP, depthClamp);
+    enable(GL_DITHER, dither);
+    glBlendEquationSeparate(GLenum(blendEquationRgb), GLenum(blendEquationAlpha));
+    glBlendFuncSeparate(GLenum(blendSrcRgb), GLenum(blendDstRgb), GLenum(blendSrcAlpha), GLenum(blendDstAlpha));
+    glBlendColor(blendColor[0], blendColor[1], blendColor[2], blendColor[3]);
+    glColorMask(colorMask[0], colorMask[1], colorMask[2], colorMask[3]);
+    glDepthMask(depthMask);
+    glDepthFunc(GLenum(depthFunc));
+    glDepthRange(depthRange[0], depthRange[1]);
+    glStencilFuncSeparate(GL_FRONT, GLenum(front.func), front.ref, GLuint(front.valueMask));
+    glStencilFuncSeparate(GL_BACK, GLenum(back.func), back.ref, GLuint(back.valueMask));
+    glStencilMaskSeparate(GL_FRONT, GLuint(front.writeMask));
+    glStencilMaskSeparate(GL_BACK, GLuint(back.writeMask));
+    glStencilOpSeparate(GL_FRONT, GLenum(front.fail), GLenum(front.depthFail), GLenum(front.pass));
+    glStencilOpSeparate(GL_BACK, GLenum(back.fail), GLenum(back.depthFail), GLenum(back.pass));
+    glClearColor(clearColor[0], clearColor[1], clearColor[2], clearColor[3]);
+    glClearDepth(clearDepth);
+    glClearStencil(clearStencil);
+    glCullFace(GLenum(cullFaceMode));
+    glFrontFace(GLenum(frontFace));
+    glPolygonMode(GL_FRONT_AND_BACK, GLenum(polygonMode[0]));
+    glPolygonOffset(polygonOffsetFactor, polygonOffsetUnits);
+    glUseProgram(GLuint(program));
+    glBindVertexArray(GLuint(vertexArray));  // carries its element buffer
+    glBindBuffer(GL_ARRAY_BUFFER, GLuint(arrayBuffer));
+    glBindBuffer(GL_UNIFORM_BUFFER, GLuint(uniformBuffer));
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, GLuint(pixelPackBuffer));
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, GLuint(pixelUnpackBuffer));
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, GLuint(drawIndirectBuffer));
+    for (int u = 0; u < kUnits; ++u) {
+        glActiveTexture(GL_TEXTURE0 + u);
+        for (int t = 0; t < 5; ++t) glBindTexture(kTargets[t], GLuint(textures[u][t]));
+        glBindSampler(GLuint(u), GLuint(samplers[u]));
+    }
+    glActiveTexture(GLenum(activeTexture));
+    glPixelStorei(GL_PACK_ALIGNMENT, packAlignment);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, unpackAlignment);
+}
+
+std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
+    std::ostringstream out;
+    auto cmp = [&](const char* name, auto a, auto b) {
+        if (a != b) out << name << ": " << +a << " -> " << +b << "\n";
+    };
+    auto cmpN = [&](const char* name, const auto* a, const auto* b, int n) {
+        for (int i = 0; i < n; ++i)
+            if (a[i] != b[i]) out << name << "[" << i << "]: " << +a[i] << " -> " << +b[i] << "\n";
+    };
+    cmp("draw framebuffer", drawFramebuffer, o.drawFramebuffer);
+    cmp("read framebuffer", readFramebuffer, o.readFramebuffer);
+    cmp("renderbuffer", renderbuffer, o.renderbuffer);
+    cmpN("viewport", viewport, o.viewport, 4);
+    cmpN("scissor box", scissorBox, o.scissorBox, 4);
+    cmp("blend", blend, o.blend);
+    cmp("depth test", depthTest, o.depthTest);
+    cmp("stencil test", stencilTest, o.stencilTest);
+    cmp("cull face", cullFace, o.cullFace);
+    cmp("scissor test", scissorTest, o.scissorTest);
+    cmp("polygon offset fill", polygonOffsetFill, o.polygonOffsetFill);
+    cmp("framebuffer sRGB", framebufferSrgb, o.framebufferSrgb);
+    cmp("multisample", multisample, o.multisample);
+    cmp("primitive restart", primitiveRestart, o.primitiveRestart);
+    cmp("rasterizer discard", rasterizerDiscard, o.rasterizerDiscard);
+    cmp("program point size", programPointSize, o.programPointSize);
+    cmp("depth clamp", depthClamp, o.depthClamp);
+    cmp("dither", dither, o.dither);
+    cmp("blend equation rgb", blendEquationRgb, o.blendEquationRgb);
+    cmp("blend equation alpha", blendEquationAlpha, o.blendEquationAlpha);
+    cmp("blend src rgb", blendSrcRgb, o.blendSrcRgb);
+    cmp("blend dst rgb", blendDstRgb, o.blendDstRgb);
+    cmp("blend src alpha", blendSrcAlpha, o.blendSrcAlpha);
+    cmp("blend dst alpha", blendDstAlpha, o.blendDstAlpha);
+    cmpN("blend color", blendColor, o.blendColor, 4);
+    cmpN("color mask", colorMask, o.colorMask, 4);
+    cmp("depth mask", depthMask, o.depthMask);
+    cmp("depth func", depthFunc, o.depthFunc);
+    cmpN("depth range", depthRange, o.depthRange, 2);
+    const GLint* f = &front.func; const GLint* of = &o.front.func;
+    const GLint* b = &back.func; const GLint* ob = &o.back.func;
+    cmpN("stencil front (func ref mask wmask fail zfail pass)", f, of, 7);
+    cmpN("stencil back (func ref mask wmask fail zfail pass)", b, ob, 7);
+    cmpN("clear color", clearColor, o.clearColor, 4);
+    cmp("clear depth", clearDepth, o.clearDepth);
+    cmp("clear stencil", clearStencil, o.clearStencil);
+    cmp("cull face mode", cullFaceMode, o.cullFaceMode);
+    cmp("front face", frontFace, o.frontFace);
+    cmpN("polygon mode", polygonMode, o.polygonMode, 2);
+    cmp("polygon offset factor", polygonOffsetFactor, o.polygonOffsetFactor);
+    cmp("polygon offset units", polygonOffsetUnits, o.polygonOffsetUnits);
+    cmp("program", program, o.program);
+    cmp("vertex array", vertexArray, o.vertexArray);
+    cmp("array buffer", arrayBuffer, o.arrayBuffer);
+    cmp("element array buffer", elementArrayBuffer, o.elementArrayBuffer);
+    cmp("uniform buffer", uniformBuffer, o.uniformBuffer);
+    cmp("pixel pack buffer", pixelPackBuffer, o.pixelPackBuffer);
+    cmp("pixel unpack buffer", pixelUnpackBuffer, o.pixelUnpackBuffer);
+    cmp("draw indirect buffer", drawIndirectBuffer, o.drawIndirectBuffer);
+    cmp("active texture", activeTexture, o.activeTexture);
+    for (int u = 0; u < kUnits; ++u) {
+        cmpN(("texture unit " + std::to_string(u) + " (2D 3D 2DArray Rect Buffer)").c_str(),
+             textures[u].data(), o.textures[u].data(), 5);
+        cmp(("sampler unit " + std::to_string(u)).c_str(), samplers[u], o.samplers[u]);
+    }
+    cmp("pack alignment", packAlignment, o.packAlignment);
+    cmp("unpack alignment", unpackAlignment, o.unpackAlignment);
+    return out.str();
+}
+
+}  // namespace nephele

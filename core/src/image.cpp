@@ -1,0 +1,205 @@
+#include "nephele/image.hpp"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+namespace nephele {
+
+float linearToSrgb(float v) {
+    v = std::clamp(v, 0.0f, 1.0f);
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+float srgbToLinear(float v) {
+    v = std::clamp(v, 0.0f, 1.0f);
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+namespace {
+
+using FilePtr = std::unique_ptr<FILE, int (*)(FILE*)>;
+
+FilePtr openFile(const std::string& path, const char* mode) {
+    FILE* f = std::fopen(path.c_str(), mode);
+    if (!f) throw ImageError(path + ": cannot open: " + std::strerror(errno));
+    return FilePtr(f, &std::fclose);
+}
+
+void checkShape(const Image& image, const std::string& path) {
+    if (image.width <= 0 || image.height <= 0 || image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
+        throw ImageError(path + ": image has no pixels or an inconsistent size");
+}
+
+[[noreturn]] void pngError(png_structp png, png_const_charp message) {
+    auto* where = static_cast<std::string*>(png_get_error_ptr(png));
+    throw ImageError(*where + ": " + message);
+}
+void pngWarning(png_structp, png_const_charp) {}
+
+}  // namespace
+
+void writePng(const std::string& path, const Image& image, Encoding encoding) {
+    checkShape(image, path);
+    static const int kTypes[] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGBA};
+    if (image.channels < 1 || image.channels > 4) throw ImageError(path + ": cannot write " + std::to_string(image.channels) + " channels");
+    const int c = image.channels;
+    const bool hasAlpha = (c == 2 || c == 4);
+    std::vector<png_byte> bytes(image.pixels.size());
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+        const int channel = int(i % c);
+        float v = image.pixels[i];
+        const bool colour = !(hasAlpha && channel == c - 1);
+        if (encoding == Encoding::Srgb && colour) v = linearToSrgb(v);
+        bytes[i] = png_byte(std::lround(std::clamp(std::isfinite(v) ? v : 0.0f, 0.0f, 1.0f) * 255.0f));
+    }
+    FilePtr file = openFile(path, "wb");
+    std::string where = path;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &where, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!info) {
+        png_destroy_write_struct(&png, nullptr);
+        throw ImageError(path + ": libpng could not start");
+    }
+    try {
+        png_init_io(png, file.get());
+        png_set_IHDR(png, info, image.width, image.height, 8, kTypes[c], PNG_INTERLACE_NONE,
+                     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        if (encoding == Encoding::Srgb) png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+        png_write_info(png, info);
+        for (int y = 0; y < image.height; ++y)
+            png_write_row(png, bytes.data() + std::size_t(y) * image.width * c);
+        png_write_end(png, nullptr);
+    } catch (...) {
+        png_destroy_write_struct(&png, &info);
+        throw;
+    }
+    png_destroy_write_struct(&png, &info);
+    if (std::fflush(file.get()) != 0) throw ImageError(path + ": write failed: " + std::strerror(errno));
+}
+
+Image readPng(const std::string& path) {
+    FilePtr file = openFile(path, "rb");
+    std::string where = path;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &where, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!info) {
+        png_destroy_read_struct(&png, nullptr, nullptr);
+        throw ImageError(path + ": libpng could not start");
+    }
+    Image image;
+    try {
+        png_init_io(png, file.get());
+        png_read_info(png, info);
+        png_set_expand(png);
+        png_set_strip_16(png);
+        png_set_packing(png);
+        png_read_update_info(png, info);
+        image = Image(int(png_get_image_width(png, info)), int(png_get_image_height(png, info)),
+                      int(png_get_channels(png, info)));
+        std::vector<png_byte> row(png_get_rowbytes(png, info));
+        for (int y = 0; y < image.height; ++y) {
+            png_read_row(png, row.data(), nullptr);
+            for (int i = 0; i < image.width * image.channels; ++i)
+                image.pixels[std::size_t(y) * image.width * image.channels + i] = row[i] / 255.0f;
+        }
+    } catch (...) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        throw;
+    }
+    png_destroy_read_struct(&png, &info, nullptr);
+    return image;
+}
+
+void writePfm(const std::string& path, const Image& image) {
+    checkShape(image, path);
+    if (image.channels != 1 && image.channels != 3) throw ImageError(path + ": PFM holds 1 or 3 channels");
+    FilePtr file = openFile(path, "wb");
+    // Negative scale = little-endian; rows run bottom to top.
+    std::fprintf(file.get(), "%s\n%d %d\n-1.0\n", image.channels == 3 ? "PF" : "Pf", image.width, image.height);
+    const std::size_t row = std::size_t(image.width) * image.channels;
+    for (int y = image.height - 1; y >= 0; --y)
+        if (std::fwrite(image.pixels.data() + y * row, sizeof(float), row, file.get()) != row)
+            throw ImageError(path + ": write failed: " + std::strerror(errno));
+    if (std::fflush(file.get()) != 0) throw ImageError(path + ": write failed: " + std::strerror(errno));
+}
+
+Image readPfm(const std::string& path) {
+    FilePtr file = openFile(path, "rb");
+    char kind[3] = {};
+    int w = 0, h = 0;
+    double scale = 0;
+    if (std::fscanf(file.get(), "%2s %d %d %lf", kind, &w, &h, &scale) != 4 || std::fgetc(file.get()) == EOF)
+        throw ImageError(path + ": not a PFM file");
+    const int c = std::strcmp(kind, "PF") == 0 ? 3 : std::strcmp(kind, "Pf") == 0 ? 1 : 0;
+    if (c == 0 || w <= 0 || h <= 0 || scale >= 0) throw ImageError(path + ": unsupported PFM header (need little-endian PF or Pf)");
+    Image image(w, h, c);
+    const std::size_t row = std::size_t(w) * c;
+    for (int y = h - 1; y >= 0; --y)
+        if (std::fread(image.pixels.data() + y * row, sizeof(float), row, file.get()) != row)
+            throw ImageError(path + ": truncated PFM data");
+    return image;
+}
+
+Image channels(const Image& image, int first, int count) {
+    if (first < 0 || first + count > image.channels) throw ImageError("channels: out of range");
+    Image out(image.width, image.height, count);
+    for (std::size_t p = 0; p < std::size_t(image.width) * image.height; ++p)
+        for (int c = 0; c < count; ++c) out.pixels[p * count + c] = image.pixels[p * image.channels + first + c];
+    return out;
+}
+
+namespace {
+void checkSame(const Image& a, const Image& b) {
+    if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+        throw ImageError("images differ in size: " + std::to_string(a.width) + "x" + std::to_string(a.height) + "x" +
+                         std::to_string(a.channels) + " vs " + std::to_string(b.width) + "x" +
+                         std::to_string(b.height) + "x" + std::to_string(b.channels));
+}
+}  // namespace
+
+ImageDifference compareImages(const Image& a, const Image& b, double threshold) {
+    checkSame(a, b);
+    ImageDifference d;
+    std::size_t over = 0;
+    const std::size_t n = std::size_t(a.width) * a.height;
+    double sum = 0;
+    for (std::size_t p = 0; p < n; ++p) {
+        bool pixelOver = false;
+        for (int c = 0; c < a.channels; ++c) {
+            const double e = std::fabs(double(a.pixels[p * a.channels + c]) - b.pixels[p * a.channels + c]);
+            d.maxAbs = std::max(d.maxAbs, e);
+            sum += e;
+            pixelOver |= e > threshold;
+        }
+        over += pixelOver;
+    }
+    d.meanAbs = n ? sum / double(n * a.channels) : 0.0;
+    d.fractionOver = n ? double(over) / double(n) : 0.0;
+    return d;
+}
+
+Image differenceImage(const Image& a, const Image& b, float gain) {
+    checkSame(a, b);
+    Image out(a.width, a.height, a.channels);
+    for (std::size_t i = 0; i < a.pixels.size(); ++i) out.pixels[i] = std::fabs(a.pixels[i] - b.pixels[i]) * gain;
+    return out;
+}
+
+double psnr(const Image& a, const Image& b) {
+    checkSame(a, b);
+    double se = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+        const double e = double(a.pixels[i]) - b.pixels[i];
+        se += e * e;
+    }
+    const double mse = se / double(std::max<std::size_t>(a.pixels.size(), 1));
+    return mse <= 0 ? INFINITY : 10.0 * std::log10(1.0 / mse);
+}
+
+}  // namespace nephele

@@ -1,0 +1,175 @@
+#include "nephele/opaque.hpp"
+
+#include "nephele/gl_state.hpp"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <numbers>
+
+namespace nephele {
+using namespace gl;
+
+FrameTarget::FrameTarget(int width, int height) : width_(width), height_(height) {
+    GLint maxSize = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
+    if (width < 1 || height < 1 || width > maxSize || height > maxSize)
+        throw GlError("frame of " + std::to_string(width) + "x" + std::to_string(height) +
+                      " pixels is outside this driver's 1.." + std::to_string(maxSize));
+    color_ = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(color_.id(), 1, GL_RGBA32F, width, height);
+    depth_ = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(depth_.id(), 1, GL_DEPTH24_STENCIL8, width, height);
+    fbo_ = Framebuffer::create();
+    glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
+    glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_STENCIL_ATTACHMENT, depth_.id(), 0);
+    const GLenum status = glCheckNamedFramebufferStatus(fbo_.id(), GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw GlError("frame target: framebuffer incomplete (status 0x" + std::to_string(status) + ")");
+    checkAlways("creating the frame target");
+}
+
+Image FrameTarget::readColor() const {
+    Image bottomUp(width_, height_, 4);
+    GlStateGuard guard;
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glGetTextureImage(color_.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(bottomUp.pixels.size() * sizeof(float)),
+                      bottomUp.pixels.data());
+    checkAlways("reading back the frame");
+    Image image(width_, height_, 4);
+    const std::size_t row = std::size_t(width_) * 4;
+    for (int y = 0; y < height_; ++y)
+        std::copy_n(bottomUp.pixels.data() + std::size_t(height_ - 1 - y) * row, row, image.pixels.data() + y * row);
+    return image;
+}
+
+namespace {
+
+// Interleaved position (3) + normal (3) of a unit cube [-0.5, 0.5]^3, 4 vertices a face.
+void cube(std::vector<float>& v, std::vector<unsigned>& idx) {
+    for (int axis = 0; axis < 3; ++axis)
+        for (int sign = -1; sign <= 1; sign += 2) {
+            const unsigned base = unsigned(v.size() / 6);
+            const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+            for (int k = 0; k < 4; ++k) {
+                float p[3], n[3] = {0, 0, 0};
+                p[axis] = 0.5f * sign;
+                p[u] = (k == 1 || k == 2) ? 0.5f : -0.5f;
+                p[w] = (k >= 2) ? 0.5f : -0.5f;
+                n[axis] = float(sign);
+                v.insert(v.end(), {p[0], p[1], p[2], n[0], n[1], n[2]});
+            }
+            // Counter-clockwise seen from outside.
+            if (sign > 0) idx.insert(idx.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+            else idx.insert(idx.end(), {base, base + 2, base + 1, base, base + 3, base + 2});
+        }
+}
+
+glm::mat4 toFloat(const glm::dmat4& m) { return glm::mat4(m); }
+
+}  // namespace
+
+OpaquePass::Mesh OpaquePass::makeMesh(const std::vector<float>& v, const std::vector<unsigned>& idx) {
+    Mesh m;
+    m.vao = VertexArray::create();
+    m.vertices = Buffer::create();
+    m.indices = Buffer::create();
+    glNamedBufferStorage(m.vertices.id(), GLsizeiptr(v.size() * sizeof(float)), v.data(), 0);
+    glNamedBufferStorage(m.indices.id(), GLsizeiptr(idx.size() * sizeof(unsigned)), idx.data(), 0);
+    glVertexArrayVertexBuffer(m.vao.id(), 0, m.vertices.id(), 0, 6 * sizeof(float));
+    glVertexArrayElementBuffer(m.vao.id(), m.indices.id());
+    for (GLuint a = 0; a < 2; ++a) {
+        glEnableVertexArrayAttrib(m.vao.id(), a);
+        glVertexArrayAttribFormat(m.vao.id(), a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
+        glVertexArrayAttribBinding(m.vao.id(), a, 0);
+    }
+    m.indexCount = GLsizei(idx.size());
+    return m;
+}
+
+OpaquePass::OpaquePass() {
+    sky_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
+    object_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}});
+    sphereProgram_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}},
+                                    "#define SPHERE 1\n");
+    empty_ = VertexArray::create();
+    std::vector<float> v;
+    std::vector<unsigned> idx;
+    cube(v, idx);
+    box_ = makeMesh(v, idx);
+    checkAlways("creating the opaque pass");
+}
+
+void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) const {
+    GlStateGuard guard;
+    const int w = view.camera.width, h = view.camera.height;
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glViewport(0, 0, w, h);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_BLEND);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_TRUE);
+    glStencilMask(0xFF);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glClearColor(0, 0, 0, 0);
+    glClearDepth(1.0);
+    glClearStencil(0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
+
+    // Sky: behind everything, no depth written.
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    sky_.set("forward", glm::vec3(view.forward));
+    sky_.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
+    sky_.set("upScaled", glm::vec3(view.up * view.tanHalfY));
+    sky_.set("zenith", glm::vec3(scene.sky.zenith));
+    sky_.set("horizon", glm::vec3(scene.sky.horizon));
+    sky_.set("ground", glm::vec3(scene.sky.ground));
+    glUseProgram(sky_.id());
+    glBindVertexArray(empty_.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    check("drawing the sky");
+
+    if (scene.objects.empty()) return;
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glEnable(GL_CULL_FACE);
+    glFrontFace(GL_CCW);
+    glBindVertexArray(box_.vao.id());
+    // Camera-relative: the eye is the origin, so float precision holds far from (0,0,0).
+    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
+    const glm::mat4 viewProjection = toFloat(view.projectionMatrix * viewRotation);
+    const glm::vec3 sunRadiance(scene.sun.color * scene.sun.intensity / std::numbers::pi);
+    for (const Program* p : {&object_, &sphereProgram_}) {
+        p->set("viewProjection", viewProjection);
+        p->set("sunDirection", glm::vec3(scene.sun.direction));
+        p->set("sunRadiance", sunRadiance);
+    }
+    for (const Object& o : scene.objects) {
+        const bool sphere = o.type == Object::Type::Sphere;
+        const Program& p = sphere ? sphereProgram_ : object_;
+        const glm::dmat3 r = sphere ? glm::dmat3(1.0) : rotationFromDegrees(o.rotationDeg);
+        const Vec3 size = sphere ? Vec3(2.0 * o.radius) : o.size;
+        glm::dmat4 model = glm::translate(glm::dmat4(1.0), o.center - view.eye) * glm::dmat4(r);
+        model = glm::scale(model, size);
+        p.set("model", toFloat(model));
+        p.set("normalMatrix", glm::mat3(r));
+        p.set("albedo", glm::vec3(o.color));
+        if (sphere) {
+            p.set("sphereCenter", glm::vec3(o.center - view.eye));
+            p.set("sphereRadius", float(o.radius));
+        }
+        // A sphere's box is drawn by its back faces so that it still covers the sphere
+        // when the eye is inside the box.
+        glCullFace(sphere ? GL_FRONT : GL_BACK);
+        glUseProgram(p.id());
+        glDrawElements(GL_TRIANGLES, box_.indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    check("drawing the opaque objects");
+}
+
+}  // namespace nephele

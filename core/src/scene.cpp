@@ -1,0 +1,705 @@
+// Loads and validates `cloudscene` version 1 files (data/scene-format.md).
+//
+// Every value is read through a small typed reader that knows its JSON path, so a fault
+// names the exact place: "scene.json: clouds[2].ellipsoids[5].radii[1]: must be > 0, got -3".
+// Objects are read through Obj, which records the keys asked for and rejects the others.
+#include "nephele/scene.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string_view>
+#include <type_traits>
+#include <unordered_set>
+#include <utility>
+
+namespace nephele {
+
+SceneError::SceneError(std::string file, std::string jsonPath, std::string fault)
+    : std::runtime_error(file + ": " + (jsonPath.empty() ? "" : jsonPath + ": ") + fault),
+      file_(std::move(file)),
+      path_(std::move(jsonPath)),
+      fault_(std::move(fault)) {}
+
+namespace {
+
+using json = nlohmann::json;
+using Path = std::string;  // a JSON path such as "clouds[2].ellipsoids[5].radii[1]"
+
+// A fault at a JSON path; parseScene adds the file name and rethrows it as a SceneError.
+struct Invalid {
+    Path path;
+    std::string fault;
+};
+
+[[noreturn]] void fail(Path path, std::string fault) { throw Invalid{std::move(path), std::move(fault)}; }
+
+Path member(const Path& path, std::string_view key) { return path.empty() ? Path(key) : path + "." + std::string(key); }
+Path element(const Path& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+// Shortest text that reads back as the same double: "-3", "0.1", "100000", "1e+20".
+std::string str(double v) {
+    char buf[400];  // fixed notation of a double below 1e15 fits easily
+    const bool fixed = v == 0 || (std::abs(v) >= 1e-4 && std::abs(v) < 1e15);
+    const auto end = fixed ? std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed).ptr
+                           : std::to_chars(buf, buf + sizeof buf, v).ptr;
+    return std::string(buf, end);
+}
+std::string inQuotes(std::string_view s) { return "'" + std::string(s) + "'"; }
+
+// What was found, for "expected X, got Y".
+std::string describe(const json& j) {
+    if (j.is_number()) return str(j.get<double>());
+    if (j.is_boolean()) return j.get<bool>() ? "true" : "false";
+    if (j.is_string()) return "a string";
+    if (j.is_object()) return "an object";
+    if (j.is_array()) {
+        if (j.empty()) return "an empty array";
+        return "an array of " + std::to_string(j.size()) + (j.size() == 1 ? " element" : " elements");
+    }
+    return j.type_name();  // "null"
+}
+
+// ---------------------------------------------------------------- file access
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+// Reads `file` into *text (or, with text == nullptr, only checks that it can be read).
+// Returns the fault, e.g. "cannot open: No such file or directory"; `label` goes after the verb.
+std::optional<std::string> readFile(const std::string& file, std::string* text, const std::string& label = "") {
+    const std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "rb"));
+    if (!f) return "cannot open" + label + ": " + std::strerror(errno);
+    char buf[1 << 16];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f.get())) > 0 && text) text->append(buf, n);
+    if (std::ferror(f.get())) return "cannot read" + label + ": " + std::strerror(errno);
+    return std::nullopt;
+}
+
+// ---------------------------------------------------------------- JSON text
+
+// Follows the parser's events to know the JSON path of the value being parsed, and
+// rejects duplicate keys (nlohmann would silently keep the last one).
+class PathTracker {
+public:
+    bool operator()(json::parse_event_t event, const json& parsed) {
+        using E = json::parse_event_t;
+        switch (event) {
+        case E::object_start:
+        case E::array_start:
+            stack_.push_back(Frame{event == E::array_start, here(), "", 0, {}});
+            break;
+        case E::key: {
+            Frame& f = stack_.back();
+            f.key = parsed.get<std::string>();
+            if (!f.key.starts_with('_') && !f.keys.insert(f.key).second)
+                fail(here(), "duplicate key " + inQuotes(f.key));
+            break;
+        }
+        case E::object_end:
+        case E::array_end:
+            stack_.pop_back();
+            [[fallthrough]];
+        case E::value:  // one more element of the enclosing array is complete
+            if (!stack_.empty() && stack_.back().array) ++stack_.back().index;
+            break;
+        }
+        return true;  // keep everything
+    }
+
+    // The path of the value being parsed now.
+    Path here() const {
+        if (stack_.empty()) return "";
+        const Frame& f = stack_.back();
+        return f.array ? element(f.path, f.index) : f.key.empty() ? f.path : member(f.path, f.key);
+    }
+
+private:
+    struct Frame {
+        bool array = false;
+        Path path;
+        std::string key;                       // object: the current key
+        size_t index = 0;                      // array: elements completed so far
+        std::unordered_set<std::string> keys;  // object: keys seen so far
+    };
+    std::vector<Frame> stack_;
+};
+
+// nlohmann's "[json.exception.parse_error.101] parse error at line 3, column 5: syntax error
+// while parsing object key - invalid literal; ..." becomes
+// "syntax error at line 3, column 5: invalid literal; ...".
+std::string syntaxFault(const std::string& what) {
+    std::string s = what.substr(what.find("] ") == std::string::npos ? 0 : what.find("] ") + 2);
+    const size_t at = s.find("at line "), colon = s.find(": ", at);
+    if (at == std::string::npos || colon == std::string::npos) return "syntax error: " + s;
+    std::string detail = s.substr(colon + 2);
+    if (const size_t dash = detail.find(" - ");
+        detail.starts_with("syntax error while parsing") && dash != std::string::npos)
+        detail = detail.substr(dash + 3);
+    return "syntax error " + s.substr(at, colon - at) + ": " + detail;
+}
+
+json parseJson(const std::string& text) {
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos) fail("", "the file is empty");
+    PathTracker tracker;
+    try {
+        return json::parse(text, [&](int, json::parse_event_t e, json& v) { return tracker(e, v); });
+    } catch (const json::parse_error& e) {
+        fail("", syntaxFault(e.what()));
+    } catch (const json::out_of_range& e) {  // e.g. 1e400, which overflows a double to inf
+        const std::string what = e.what();
+        fail(tracker.here(), "not a finite number (" + what.substr(what.find("] ") + 2) + ")");
+    }
+}
+
+// ---------------------------------------------------------------- typed readers
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// An interval of accepted numbers; ends are open or closed.
+struct Range {
+    double lo = -kInf, hi = kInf;
+    bool loOpen = false, hiOpen = false;
+
+    bool contains(double v) const { return (loOpen ? v > lo : v >= lo) && (hiOpen ? v < hi : v <= hi); }
+    std::string text() const {
+        if (hi == kInf) return (loOpen ? "> " : ">= ") + str(lo);
+        if (lo == -kInf) return (hiOpen ? "< " : "<= ") + str(hi);
+        return std::string("in ") + (loOpen ? "(" : "[") + str(lo) + ", " + str(hi) + (hiOpen ? ")" : "]");
+    }
+};
+constexpr Range atLeast(double lo) { return {lo, kInf, false, false}; }
+constexpr Range above(double lo) { return {lo, kInf, true, false}; }
+constexpr Range inclusive(double lo, double hi) { return {lo, hi, false, false}; }
+constexpr Range exclusive(double lo, double hi) { return {lo, hi, true, true}; }
+constexpr Range halfOpen(double lo, double hi) { return {lo, hi, false, true}; }  // [lo, hi)
+
+double readNumber(const json& j, const Path& p, Range r = {}) {
+    if (!j.is_number()) fail(p, "expected a number, got " + describe(j));
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) fail(p, "must be finite, got " + str(v));
+    if (!r.contains(v)) fail(p, "must be " + r.text() + ", got " + str(v));
+    return v;
+}
+
+// An integer in lo..hi; a JSON float with an integral value (640.0) is accepted.
+long long readInteger(const json& j, const Path& p, long long lo, long long hi) {
+    if (!j.is_number()) fail(p, "expected an integer, got " + describe(j));
+    const double v = j.get<double>();  // exact for every range used here (|v| < 2^53)
+    if (!std::isfinite(v) || v != std::floor(v)) fail(p, "expected an integer, got " + str(v));
+    if (v < static_cast<double>(lo) || v > static_cast<double>(hi))
+        fail(p, "must be in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + str(v));
+    return static_cast<long long>(v);
+}
+
+template <int N>
+glm::vec<N, double> readVec(const json& j, const Path& p, Range r = {}) {
+    if (!j.is_array() || j.size() != N)
+        fail(p, "expected an array of " + std::to_string(N) + " numbers, got " + describe(j));
+    glm::vec<N, double> v;
+    for (int i = 0; i < N; ++i) v[i] = readNumber(j[i], element(p, i), r);
+    return v;
+}
+
+// v normalised; `zeroFault` if it has no direction.
+Vec3 unit(const Vec3& v, const Path& p, const std::string& zeroFault) {
+    const Vec3 a = glm::abs(v);
+    const double m = std::max({a.x, a.y, a.z});  // scale first: |v|^2 may under- or overflow
+    if (!std::isfinite(m)) fail(p, "gives a direction too long to represent");
+    if (m == 0) fail(p, zeroFault);
+    return glm::normalize(v / m);
+}
+
+// Reader factories: each returns a callable (const json&, const Path&) -> value.
+auto number(Range r = {}) {
+    return [r](const json& j, const Path& p) { return readNumber(j, p, r); };
+}
+auto integer(long long lo, long long hi) {
+    return [lo, hi](const json& j, const Path& p) { return readInteger(j, p, lo, hi); };
+}
+auto seed() { return integer(0, std::numeric_limits<std::uint32_t>::max()); }
+auto vec2() {
+    return [](const json& j, const Path& p) { return readVec<2>(j, p); };
+}
+auto vec3(Range r = {}) {
+    return [r](const json& j, const Path& p) { return readVec<3>(j, p, r); };
+}
+auto color() { return vec3(atLeast(0)); }  // linear RGB, each component >= 0
+auto direction() {                         // non-zero, normalised
+    return [](const json& j, const Path& p) { return unit(readVec<3>(j, p), p, "must not be the zero vector"); };
+}
+auto boolean() {
+    return [](const json& j, const Path& p) {
+        if (!j.is_boolean()) fail(p, "expected true or false, got " + describe(j));
+        return j.get<bool>();
+    };
+}
+auto text() {
+    return [](const json& j, const Path& p) {
+        if (!j.is_string()) fail(p, "expected a string, got " + describe(j));
+        return j.get<std::string>();
+    };
+}
+template <class E>
+using Choices = std::span<const std::pair<std::string_view, E>>;
+template <class E>
+auto choice(Choices<E> choices) {
+    return [choices](const json& j, const Path& p) {
+        std::string names;
+        for (const auto& [name, value] : choices) {
+            if (j.is_string() && j.get<std::string>() == name) return value;
+            names += (names.empty() ? "" : ", ") + inQuotes(name);
+        }
+        fail(p, "must be one of " + names + ", got " + (j.is_string() ? inQuotes(j.get<std::string>()) : describe(j)));
+    };
+}
+template <class E>
+std::string_view nameOf(Choices<E> choices, E value) {
+    return std::find_if(choices.begin(), choices.end(), [&](const auto& c) { return c.second == value; })->first;
+}
+
+// An array read element by element; `read` takes (json, path) or (json, path, index).
+template <class F>
+auto listOf(F read) {
+    return [read](const json& j, const Path& p) {
+        if (!j.is_array()) fail(p, "expected an array, got " + describe(j));
+        auto one = [&](size_t i) {
+            if constexpr (std::is_invocable_v<F, const json&, const Path&, size_t>)
+                return read(j[i], element(p, i), i);
+            else
+                return read(j[i], element(p, i));
+        };
+        std::vector<decltype(one(0))> out;
+        for (size_t i = 0; i < j.size(); ++i) out.push_back(one(i));
+        return out;
+    };
+}
+
+// ---------------------------------------------------------------- objects
+
+// Optimal-string-alignment distance (edits, with transpositions) between two keys.
+size_t editDistance(std::string_view a, std::string_view b) {
+    std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+    for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (size_t k = 0; k <= b.size(); ++k) d[0][k] = k;
+    for (size_t i = 1; i <= a.size(); ++i)
+        for (size_t k = 1; k <= b.size(); ++k) {
+            d[i][k] = std::min({d[i - 1][k] + 1, d[i][k - 1] + 1, d[i - 1][k - 1] + (a[i - 1] != b[k - 1])});
+            if (i > 1 && k > 1 && a[i - 1] == b[k - 2] && a[i - 2] == b[k - 1])
+                d[i][k] = std::min(d[i][k], d[i - 2][k - 2] + 1);
+        }
+    return d[a.size()][b.size()];
+}
+
+// " (did you mean 'fov_y_deg'?)" for a close known key: a few edits away, or (with
+// `subsequences`) the typed key is a subsequence of it ("fovy" -> "fov_y_deg", "dir" -> "direction");
+// underscores and case aside.
+std::string didYouMean(const std::string& key, const std::vector<std::string>& known, bool subsequences = true) {
+    auto squash = [](std::string s) {
+        std::erase(s, '_');
+        for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        return s;
+    };
+    auto subsequence = [](const std::string& s, const std::string& of) {
+        size_t i = 0;
+        for (char c : of) i += i < s.size() && s[i] == c;
+        return i == s.size();
+    };
+    const std::string k = squash(key);
+    const std::string* best = nullptr;
+    size_t bestDistance = 0;
+    for (const std::string& candidate : known) {
+        const std::string c = squash(candidate);
+        const size_t d = editDistance(k, c);
+        const bool close = d <= std::max<size_t>(1, std::max(k.size(), c.size()) / 3) ||
+                           (subsequences && k.size() >= 3 && subsequence(k, c));
+        if (close && (!best || d < bestDistance)) best = &candidate, bestDistance = d;
+    }
+    return best ? " (did you mean " + inQuotes(*best) + "?)" : "";
+}
+
+// Reads one JSON object: remembers every key asked for, and finish() rejects the others
+// (keys that begin with '_' are comments).
+class Obj {
+public:
+    Obj(const json& j, Path path) : j_(j), path_(std::move(path)) {
+        if (!j.is_object()) fail(path_, "expected an object, got " + describe(j));
+    }
+
+    Path at(std::string_view key) const { return member(path_, key); }
+
+    const json* find(const std::string& key) {
+        known_.push_back(key);
+        const auto it = j_.find(key);
+        return it == j_.end() ? nullptr : &*it;
+    }
+    // A required value.
+    template <class R>
+    auto req(const std::string& key, R read) {
+        const json* v = find(key);
+        if (!v) missing({key}, at(key), "required key is missing");
+        return read(*v, at(key));
+    }
+    // An optional value: `out` keeps its default when the key is absent. Returns presence.
+    template <class T, class R>
+    bool opt(const std::string& key, T& out, R read) {
+        const json* v = find(key);
+        if (v) out = static_cast<T>(read(*v, at(key)));
+        return v != nullptr;
+    }
+    // A key that is known but not allowed here, e.g. `radius` on a box.
+    void reject(const std::string& key, const std::string& fault) const {
+        if (j_.contains(key)) fail(at(key), fault);
+    }
+    // Reports missing required `keys`, or rather an unknown key that looks like a typo of one.
+    [[noreturn]] void missing(const std::vector<std::string>& keys, const Path& path, const std::string& fault) const {
+        for (const auto& [key, value] : j_.items())
+            if (const std::string hint = didYouMean(key, keys, false); unknown(key) && !hint.empty())
+                fail(at(key), "unknown key " + inQuotes(key) + hint);
+        fail(path, fault);
+    }
+    void finish() const {
+        for (const auto& [key, value] : j_.items())
+            if (unknown(key)) fail(at(key), "unknown key " + inQuotes(key) + didYouMean(key, known_));
+    }
+
+private:
+    bool unknown(const std::string& key) const {
+        return !key.starts_with('_') && std::find(known_.begin(), known_.end(), key) == known_.end();
+    }
+
+    const json& j_;
+    Path path_;
+    std::vector<std::string> known_;
+};
+
+// ---------------------------------------------------------------- scene sections
+
+Camera readCamera(const json& j, const Path& p) {
+    Obj o(j, p);
+    Camera c;
+    c.position = o.req("position", vec3());
+    const json* lookAt = o.find("look_at");
+    const json* dir = o.find("direction");
+    if (lookAt && dir) fail(p, "has both 'look_at' and 'direction'; give exactly one");
+    if (!lookAt && !dir) o.missing({"look_at", "direction"}, p, "needs 'look_at' or 'direction'");
+    c.direction =
+        lookAt ? unit(readVec<3>(*lookAt, o.at("look_at")) - c.position, o.at("look_at"), "must differ from position")
+               : direction()(*dir, o.at("direction"));
+    const bool hasUp = o.opt("up", c.up, vec3());
+    const Vec3 up = unit(c.up, o.at("up"), "must not be the zero vector");
+    if (glm::length(glm::cross(up, c.direction)) < 1e-6)
+        fail(o.at("up"), hasUp ? "is parallel to the view direction"
+                               : "the default up [0, 0, 1] is parallel to the view direction; give another 'up'");
+    o.opt("fov_y_deg", c.fovYDeg, number(exclusive(1, 179)));
+    o.opt("near", c.nearClip, number(above(0)));  // m
+    o.opt("far", c.farClip, number(above(0)));    // m
+    if (c.nearClip >= c.farClip) fail(o.at("near"), "must be < far (" + str(c.farClip) + "), got " + str(c.nearClip));
+    o.opt("width", c.width, integer(1, 16384));  // pixels
+    o.opt("height", c.height, integer(1, 16384));
+    o.finish();
+    return c;
+}
+
+Sun readSun(const json& j, const Path& p) {
+    Obj o(j, p);
+    Sun s;
+    o.opt("direction", s.direction, direction());
+    o.opt("color", s.color, color());
+    o.opt("intensity", s.intensity, number(atLeast(0)));
+    o.finish();
+    return s;
+}
+
+Sky readSky(const json& j, const Path& p) {
+    Obj o(j, p);
+    Sky s;
+    o.opt("zenith", s.zenith, color());
+    o.opt("horizon", s.horizon, color());
+    o.opt("ground", s.ground, color());
+    o.finish();
+    return s;
+}
+
+Medium readMedium(const json& j, const Path& p) {
+    Obj o(j, p);
+    Medium m;
+    o.opt("extinction", m.extinction, number(atLeast(0)));  // 1/m
+    o.opt("albedo", m.albedo, number(inclusive(0, 1)));
+    o.opt("hg_g", m.hgG, number(exclusive(-1, 1)));
+    o.opt("noise", m.noise, number(atLeast(0)));
+    o.opt("noise_scale", m.noiseScale, number(above(0)));  // m
+    o.finish();
+    return m;
+}
+
+Ellipsoid readEllipsoid(const json& j, const Path& p) {
+    Obj o(j, p);
+    Ellipsoid e;
+    e.center = o.req("center", vec3());
+    e.radii = o.req("radii", vec3(above(0)));  // m
+    o.opt("rotation_deg", e.rotationDeg, vec3());
+    o.opt("density", e.density, number(atLeast(0)));
+    o.finish();
+    return e;
+}
+
+Cloud readCloud(const json& j, const Path& p, size_t index) {
+    Obj o(j, p);
+    Cloud c{"cloud" + std::to_string(index), {}};
+    o.opt("name", c.name, text());
+    c.ellipsoids = o.req("ellipsoids", listOf(readEllipsoid));
+    o.finish();
+    return c;
+}
+
+// L-system rules: {"F": "FF+[+F-F]"}, one-character symbols ('_' keys are comments).
+std::vector<std::pair<char, std::string>> readRules(const json& j, const Path& p) {
+    if (!j.is_object()) fail(p, "expected an object mapping one-character symbols to strings, got " + describe(j));
+    std::vector<std::pair<char, std::string>> rules;
+    for (const auto& [symbol, replacement] : j.items()) {
+        if (symbol.starts_with('_')) continue;
+        if (symbol.size() != 1)
+            fail(member(p, symbol), "a rule's symbol must be one character, got " + inQuotes(symbol));
+        rules.emplace_back(symbol[0], text()(replacement, member(p, symbol)));
+    }
+    return rules;
+}
+
+constexpr std::pair<std::string_view, Generator::Type> kGeneratorTypes[] = {
+    {"cumulus", Generator::Type::Cumulus}, {"mesh", Generator::Type::Mesh}, {"lsystem", Generator::Type::LSystem}};
+// The keys of each generator type besides the common type, name, seed and density.
+const std::vector<std::string>& generatorKeys(Generator::Type type) {
+    static const std::vector<std::string> cumulus{"center",     "count",  "sigma",  "clamp_lo",       "clamp_hi",
+                                                  "max_radius", "aspect", "hollow", "prune_contained"};
+    static const std::vector<std::string> mesh{"path", "position", "scale", "rotation_deg", "thickness_ratio"};
+    static const std::vector<std::string> lsystem{"center",     "axiom", "rules",  "angle_deg",
+                                                  "iterations", "step",  "radius", "jitter"};
+    return type == Generator::Type::Cumulus ? cumulus : type == Generator::Type::Mesh ? mesh : lsystem;
+}
+
+Generator readGenerator(const json& j, const Path& p, size_t index, const std::filesystem::path& sceneDir) {
+    using T = Generator::Type;
+    Obj o(j, p);
+    Generator g;
+    g.type = o.req("type", choice<T>(kGeneratorTypes));
+    const std::string typeName(nameOf<T>(kGeneratorTypes, g.type));
+    const auto& own = generatorKeys(g.type);
+    for (const auto& [_, other] : kGeneratorTypes)
+        for (const std::string& key : generatorKeys(other))
+            if (std::find(own.begin(), own.end(), key) == own.end())
+                o.reject(key, inQuotes(key) + " is not a key of a " + typeName + " generator");
+
+    g.name = typeName + std::to_string(index);
+    o.opt("name", g.name, text());
+    o.opt("seed", g.seed, seed());
+    o.opt("density", g.density, number(atLeast(0)));
+    switch (g.type) {
+    case T::Cumulus:
+        g.center = o.req("center", vec3());
+        o.opt("count", g.count, integer(1, 100000));
+        o.opt("sigma", g.sigma, vec3(above(0)));  // m
+        o.opt("clamp_lo", g.clampLo, vec3());     // in units of sigma
+        o.opt("clamp_hi", g.clampHi, vec3());
+        for (int k = 0; k < 3; ++k)
+            if (!(g.clampLo[k] < g.clampHi[k]))
+                fail(element(o.at("clamp_hi"), k), "must be > clamp_lo[" + std::to_string(k) + "] (" +
+                                                       str(g.clampLo[k]) + "), got " + str(g.clampHi[k]));
+        o.opt("max_radius", g.maxRadius, number(above(0)));  // m
+        o.opt("aspect", g.aspect, vec3(above(0)));
+        o.opt("hollow", g.hollow, boolean());
+        o.opt("prune_contained", g.pruneContained, boolean());
+        break;
+    case T::Mesh:
+        g.path = o.req("path", text());
+        g.resolvedPath = (sceneDir / g.path).string();
+        if (auto fault = readFile(g.resolvedPath, nullptr, " " + inQuotes(g.resolvedPath))) fail(o.at("path"), *fault);
+        o.opt("position", g.position, vec3());  // m
+        o.opt("scale", g.scale, number(above(0)));
+        o.opt("rotation_deg", g.rotationDeg, vec3());
+        o.opt("thickness_ratio", g.thicknessRatio, number(above(0)));
+        break;
+    case T::LSystem:
+        g.center = o.req("center", vec3());
+        g.axiom = o.req("axiom", text());
+        if (g.axiom.empty()) fail(o.at("axiom"), "must not be empty");
+        g.rules = o.req("rules", readRules);
+        o.opt("angle_deg", g.angleDeg, number());
+        o.opt("iterations", g.iterations, integer(0, 8));
+        o.opt("step", g.step, number(above(0)));      // m
+        o.opt("radius", g.radius, number(above(0)));  // m
+        o.opt("jitter", g.jitter, number(halfOpen(0, 1)));
+        break;
+    }
+    o.finish();
+    return g;
+}
+
+CityGlow readCityGlow(const json& j, const Path& p) {
+    Obj o(j, p);
+    CityGlow g;
+    o.opt("color", g.color, color());
+    o.opt("strength", g.strength, number(atLeast(0)));
+    o.finish();
+    return g;
+}
+
+Layer readLayer(const json& j, const Path& p) {
+    Obj o(j, p);
+    Layer l;
+    l.base = o.req("base", number());                    // m
+    l.thickness = o.req("thickness", number(above(0)));  // m
+    o.opt("coverage", l.coverage, number(inclusive(0, 1)));
+    o.opt("density", l.density, number(inclusive(0, 1)));
+    o.opt("wind", l.wind, vec2());                // m/s
+    o.opt("extent", l.extent, number(above(0)));  // m
+    o.opt("seed", l.seed, seed());
+    o.opt("near_lod", l.nearLod, boolean());
+    if (const json* glow = o.find("city_glow")) l.cityGlow = readCityGlow(*glow, o.at("city_glow"));
+    o.finish();
+    return l;
+}
+
+Skylight readSkylight(const json& j, const Path& p) {
+    Obj o(j, p);
+    Skylight s;
+    s.direction = o.req("direction", direction());
+    o.opt("color", s.color, color());
+    o.opt("intensity", s.intensity, number(atLeast(0)));
+    o.finish();
+    return s;
+}
+
+Lightning readLightning(const json& j, const Path& p) {
+    Obj o(j, p);
+    Lightning l;
+    l.position = o.req("position", vec3());
+    l.intensity = o.req("intensity", number(atLeast(0)));
+    o.opt("start", l.start, number());                // s
+    o.opt("duration", l.duration, number(above(0)));  // s
+    o.finish();
+    return l;
+}
+
+constexpr std::pair<std::string_view, Object::Type> kObjectTypes[] = {{"box", Object::Type::Box},
+                                                                      {"sphere", Object::Type::Sphere}};
+
+Object readObject(const json& j, const Path& p) {
+    Obj o(j, p);
+    Object b;
+    b.type = o.req("type", choice<Object::Type>(kObjectTypes));
+    const bool box = b.type == Object::Type::Box;
+    o.reject(box ? "radius" : "size", box ? "'radius' is not a key of a box (it has a 'size')"
+                                          : "'size' is not a key of a sphere (it has a 'radius')");
+    b.center = o.req("center", vec3());
+    if (box)
+        b.size = o.req("size", vec3(above(0)));  // m, full edge lengths
+    else
+        b.radius = o.req("radius", number(above(0)));  // m
+    o.opt("rotation_deg", b.rotationDeg, vec3());
+    o.opt("color", b.color, color());
+    o.finish();
+    return b;
+}
+
+Keyframe readKeyframe(const json& j, const Path& p) {
+    Obj o(j, p);
+    Keyframe k;
+    k.t = o.req("t", number());  // s
+    k.position = o.req("position", vec3());
+    k.lookAt = o.req("look_at", vec3());
+    unit(k.lookAt - k.position, o.at("look_at"), "must differ from position");
+    o.finish();
+    return k;
+}
+
+Scene readScene(const json& j, const std::string& file) {
+    if (!j.is_object()) fail("", "expected a JSON object at the top level, got " + describe(j));
+    Obj o(j, "");
+    if (const long long v =
+            o.req("cloudscene", integer(std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+        v != 1)
+        fail("cloudscene", "unsupported cloudscene version " + std::to_string(v) + "; this Nephele reads version 1");
+    const std::filesystem::path sceneDir = std::filesystem::path(file).parent_path();
+    Scene s;
+    s.file = file;
+    s.camera = o.req("camera", readCamera);
+    o.opt("sun", s.sun, readSun);
+    o.opt("sky", s.sky, readSky);
+    o.opt("medium", s.medium, readMedium);
+    o.opt("clouds", s.clouds, listOf(readCloud));
+    o.opt("generate", s.generators,
+          listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir); }));
+    o.opt("layers", s.layers, listOf(readLayer));
+    if (const json* sky = o.find("skylight")) s.skylight = readSkylight(*sky, o.at("skylight"));
+    o.opt("lightning", s.lightning, listOf(readLightning));
+    o.opt("objects", s.objects, listOf(readObject));
+    o.opt("path", s.path, listOf(readKeyframe));
+    for (size_t i = 1; i < s.path.size(); ++i)
+        if (!(s.path[i].t > s.path[i - 1].t))
+            fail(member(element("path", i), "t"),
+                 "must be > the previous keyframe's t (" + str(s.path[i - 1].t) + "), got " + str(s.path[i].t));
+    o.finish();
+    return s;
+}
+
+}  // namespace
+
+Scene loadScene(const std::string& file) {
+    std::string text;
+    if (auto fault = readFile(file, &text)) throw SceneError(file, "", *fault);
+    return parseScene(text, file);
+}
+
+Scene parseScene(const std::string& text, const std::string& file) {
+    try {
+        return readScene(parseJson(text), file);
+    } catch (const Invalid& e) {
+        throw SceneError(file, e.path, e.fault);
+    }
+}
+
+glm::dmat3 rotationFromDegrees(const Vec3& deg) {
+    const Vec3 r = glm::radians(deg);
+    const double cx = std::cos(r.x), sx = std::sin(r.x);
+    const double cy = std::cos(r.y), sy = std::sin(r.y);
+    const double cz = std::cos(r.z), sz = std::sin(r.z);
+    // glm matrices are given column by column.
+    const glm::dmat3 rx(1, 0, 0, 0, cx, sx, 0, -sx, cx);
+    const glm::dmat3 ry(cy, 0, -sy, 0, 1, 0, sy, 0, cy);
+    const glm::dmat3 rz(cz, sz, 0, -sz, cz, 0, 0, 0, 1);
+    return rz * ry * rx;
+}
+
+Camera cameraAt(const Scene& scene, double t) {
+    Camera cam = scene.camera;
+    const std::vector<Keyframe>& path = scene.path;
+    if (path.empty()) return cam;
+    // The first keyframe after t; t lies between it and the one before (clamped at the ends).
+    const auto next =
+        std::upper_bound(path.begin(), path.end(), t, [](double v, const Keyframe& k) { return v < k.t; });
+    const Keyframe& a = next == path.begin() ? path.front() : *(next - 1);
+    const Keyframe& b = next == path.end() ? path.back() : *next;
+    const double s = b.t > a.t ? std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0) : 0.0;
+    cam.position = glm::mix(a.position, b.position, s);
+    const Vec3 view = glm::mix(a.lookAt, b.lookAt, s) - cam.position;
+    // Where the interpolated look_at meets the position, keep the direction of keyframe a.
+    cam.direction = glm::normalize(glm::length(view) > 0 ? view : a.lookAt - a.position);
+    return cam;
+}
+
+}  // namespace nephele

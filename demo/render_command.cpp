@@ -1,0 +1,126 @@
+#include "render_command.hpp"
+
+#include "output_files.hpp"
+
+#include "nephele/camera.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/opaque.hpp"
+
+#include <cmath>
+#include <iostream>
+
+namespace nephele::cli {
+
+namespace {
+constexpr std::pair<Method, const char*> kMethods[] = {
+    {Method::Auto, "auto"},           {Method::Ellipsoid, "ellipsoid"}, {Method::Layered, "layered"},
+    {Method::Raymarch, "raymarch"},   {Method::Pathtrace, "pathtrace"}, {Method::GardnerExact, "gardner-exact"}};
+constexpr int kMaxSize = 16384;
+}  // namespace
+
+Method parseMethod(const std::string& name) {
+    for (auto [m, n] : kMethods)
+        if (name == n) return m;
+    throw UsageError("--method: unknown method '" + name +
+                     "' (expected auto, ellipsoid, layered, raymarch, pathtrace or gardner-exact)");
+}
+
+const char* methodName(Method m) {
+    for (auto [k, n] : kMethods)
+        if (k == m) return n;
+    return "?";
+}
+
+void applySize(Scene& scene, const RenderOptions& o) {
+    Camera& cam = scene.camera;
+    const double aspect = double(cam.width) / cam.height;
+    auto check = [](const char* what, double v) {
+        if (!(v >= 1 && v <= kMaxSize))
+            throw UsageError(std::string(what) + " gives an image size of " + std::to_string(std::lround(v)) +
+                             " pixels; it must be 1.." + std::to_string(kMaxSize));
+        return int(std::lround(v));
+    };
+    if (o.scale) {
+        if (o.width || o.height) throw UsageError("--scale cannot be combined with --width/--height");
+        if (!(std::isfinite(*o.scale) && *o.scale > 0)) throw UsageError("--scale must be a positive number");
+        cam.width = check("--scale", cam.width * *o.scale);
+        cam.height = check("--scale", cam.height * *o.scale);
+        return;
+    }
+    // One of the two alone keeps the camera's aspect ratio.
+    if (o.width) cam.width = check("--width", *o.width);
+    if (o.height) cam.height = check("--height", *o.height);
+    if (o.width && !o.height) cam.height = check("--width", *o.width / aspect);
+    if (o.height && !o.width) cam.width = check("--height", *o.height * aspect);
+}
+
+Frame renderFrame(const Scene& scene, const RenderOptions& o) {
+    if (o.method != Method::Auto)
+        throw UsageError(std::string("--method ") + methodName(o.method) +
+                         " is not available in this build yet; available: auto");
+    if (!scene.generators.empty())
+        throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
+                         "expand them into ellipsoids yet; remove the `generate` entries to render");
+    std::size_t ellipsoids = 0;
+    for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
+    if (ellipsoids > 0 || !scene.layers.empty())
+        std::cerr << "nephele: note: this build draws the sky and opaque objects only; " << ellipsoids
+                  << " ellipsoid(s) and " << scene.layers.size() << " layer(s) are not drawn yet\n";
+
+    Camera camera = cameraAt(scene, o.time);
+    camera.width = scene.camera.width;
+    camera.height = scene.camera.height;
+    const View view = makeView(camera);
+
+    ContextOptions co;
+    co.backend = o.backend;
+    auto context = Context::create(co);
+    gl::setChecks(true);  // one frame: the check costs nothing next to it
+    FrameTarget target(camera.width, camera.height);
+    OpaquePass opaque;
+    opaque.draw(scene, view, target.framebuffer());
+    const Image rgba = target.readColor();
+    return Frame{channels(rgba, 0, 3), channels(rgba, 3, 1)};
+}
+
+int runRender(const RenderOptions& o) {
+    Scene scene;
+    Frame frame;
+    OutputFiles files;  // written only after the frame rendered, all or nothing
+    files.add(o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); });
+    if (!o.alpha.empty()) files.add(o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); });
+    if (!o.pfm.empty()) files.add(o.pfm, [&](const std::string& p) { writePfm(p, frame.color); });
+    try {
+        if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
+        files.checkPaths();
+        scene = loadScene(o.scene);
+        applySize(scene, o);
+        frame = renderFrame(scene, o);
+    } catch (const SceneError& e) {
+        std::cerr << "nephele: " << e.what() << "\n";
+        return 2;
+    } catch (const UsageError& e) {
+        std::cerr << "nephele: " << e.what() << "\n";
+        return 2;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "nephele: " << e.what() << "\n";
+        return 2;
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: rendering failed: " << e.what() << "\n";
+        return 1;
+    }
+    try {
+        files.commit();
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: writing the output failed: " << e.what() << "\n";
+        return 1;
+    }
+    std::cerr << "nephele: wrote " << o.output;
+    if (!o.alpha.empty()) std::cerr << ", " << o.alpha;
+    if (!o.pfm.empty()) std::cerr << ", " << o.pfm;
+    std::cerr << " (" << scene.camera.width << "x" << scene.camera.height << ", method " << methodName(o.method)
+              << ", " << backendName(o.backend) << ")\n";
+    return 0;
+}
+
+}  // namespace nephele::cli

@@ -1,0 +1,44 @@
+#pragma once
+
+#include "nephele/context.hpp"
+#include "nephele/image.hpp"
+#include "nephele/scene.hpp"
+
+#include <optional>
+#include <string>
+
+namespace nephele::cli {
+
+// Bad input: exit code 2.
+class UsageError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class Method { Auto, Ellipsoid, Layered, Raymarch, Pathtrace, GardnerExact };
+Method parseMethod(const std::string& name);  // throws UsageError
+const char* methodName(Method m);
+
+struct RenderOptions {
+    std::string scene, output, alpha, pfm;
+    Method method = Method::Auto;
+    std::optional<int> width, height;
+    std::optional<double> scale;
+    double time = 0;
+    GlBackend backend = GlBackend::Egl;
+};
+
+struct Frame {
+    Image color;  // RGB linear radiance
+    Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
+};
+
+// Applies --width/--height/--scale to the scene camera (UsageError if out of range).
+void applySize(Scene& scene, const RenderOptions& options);
+// Renders the scene at options.time with options.method. Throws UsageError for what this
+// build cannot render, ContextError / GlError for runtime failures.
+Frame renderFrame(const Scene& scene, const RenderOptions& options);
+// The `render` command: returns the process exit code (0, 1 or 2), messages on stderr.
+int runRender(const RenderOptions& options);
+
+}  // namespace nephele::cli

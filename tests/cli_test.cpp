@@ -1,0 +1,164 @@
+// The `nephele` command line: bad scenes and bad arguments exit 2 with the place of the
+// fault in the message and write no file; a good render writes exactly what was asked.
+#include "nephele/image.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+namespace fs = std::filesystem;
+using namespace nephele;
+
+namespace {
+
+struct CliRun {
+    int code;
+    std::string output;  // stdout and stderr
+};
+
+CliRun run(const std::string& args) {
+    const std::string cmd = std::string(NEPHELE_BINARY) + " " + args + " 2>&1";
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return {-1, "popen failed"};
+    std::string out;
+    std::array<char, 512> buf;
+    while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
+    const int status = pclose(pipe);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+class CliTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() /
+               ("nephele_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+    std::string write(const std::string& name, const std::string& text) const {
+        std::ofstream(path(name)) << text;
+        return path(name);
+    }
+    // Only the files this test wrote itself (scenes) may be in the folder.
+    void expectNoOutputs(const std::vector<std::string>& inputs) const {
+        for (const auto& e : fs::directory_iterator(dir_)) {
+            const std::string n = e.path().filename().string();
+            EXPECT_NE(std::find(inputs.begin(), inputs.end(), n), inputs.end()) << "left behind: " << n;
+        }
+    }
+    fs::path dir_;
+};
+
+const char* kGood = R"({"cloudscene": 1,
+  "camera": {"position": [0, -30, 8], "look_at": [0, 0, 3], "width": 160, "height": 120},
+  "objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 3}]})";
+
+TEST_F(CliTest, NoArgumentsIsUsageError) {
+    EXPECT_EQ(run("").code, 2);
+    EXPECT_EQ(run("render").code, 2);
+    EXPECT_EQ(run("frobnicate").code, 2);
+}
+
+TEST_F(CliTest, HelpAndVersionSucceed) {
+    const CliRun r = run("render --help");
+    EXPECT_EQ(r.code, 0);
+    EXPECT_NE(r.output.find("--method"), std::string::npos);
+    EXPECT_EQ(run("--version").code, 0);
+}
+
+TEST_F(CliTest, MissingSceneFile) {
+    const CliRun r = run("render " + path("nope.json") + " -o " + path("out.png"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find(path("nope.json")), std::string::npos) << r.output;
+    expectNoOutputs({});
+}
+
+TEST_F(CliTest, BadSceneNamesFileAndJsonPath) {
+    const std::string scene = write("bad.json", R"({"cloudscene": 1,
+      "camera": {"position": [0, -1000, 0], "look_at": [0, 0, 0]},
+      "clouds": [{"name": "c", "ellipsoids": [{"center": [0, 0, 0], "radii": [10, -3, 10]}]}]})");
+    const CliRun r = run("render " + scene + " -o " + path("out.png") + " --alpha " + path("a.png"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find(scene + ": clouds[0].ellipsoids[0].radii[1]"), std::string::npos) << r.output;
+    expectNoOutputs({"bad.json"});
+}
+
+TEST_F(CliTest, SyntaxErrorNamesFile) {
+    const std::string scene = write("syntax.json", "{\"cloudscene\": 1,\n  \"camera\": {\n}");
+    const CliRun r = run("render " + scene + " -o " + path("out.png"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find(scene + ": "), std::string::npos) << r.output;
+    expectNoOutputs({"syntax.json"});
+}
+
+TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
+    const std::string scene = write("good.json", kGood);
+    const std::string out = " -o " + path("out.png");
+    for (const std::string& args : {
+             std::string("--method nonsense"), std::string("--method pathtrace"), std::string("--gl vulkan"),
+             std::string("--width 0"), std::string("--width 16385"), std::string("--height -4"),
+             std::string("--scale 0"), std::string("--scale 1000"), std::string("--scale 2 --width 100"),
+             std::string("--width abc"), std::string("--alpha ") + path("out.png"),
+             std::string("--pfm ") + path("missing-folder/x.pfm")}) {
+        const CliRun r = run("render " + scene + out + " " + args);
+        EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
+        EXPECT_FALSE(r.output.empty()) << args;
+    }
+    expectNoOutputs({"good.json"});
+}
+
+TEST_F(CliTest, UnavailableMethodSaysSo) {
+    const CliRun r = run("render " + write("good.json", kGood) + " -o " + path("out.png") + " --method ellipsoid");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("--method ellipsoid is not available in this build"), std::string::npos) << r.output;
+}
+
+TEST_F(CliTest, GenerateIsValidatedThenRefused) {
+    const std::string bad = write("gen_bad.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
+      "generate": [{"type": "cumulus", "center": [0, 500, 0], "axiom": "X"}]})");
+    CliRun r = run("render " + bad + " -o " + path("out.png"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("generate[0].axiom"), std::string::npos) << r.output;
+    const std::string good = write("gen.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
+      "generate": [{"type": "cumulus", "center": [0, 500, 0]}]})");
+    r = run("render " + good + " -o " + path("out.png"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("generate[0]"), std::string::npos) << r.output;
+    expectNoOutputs({"gen_bad.json", "gen.json"});
+}
+
+// Renders (needs a headless GL context).
+TEST_F(CliTest, RenderWritesPngAlphaAndPfmAtTheAskedSize) {
+    const std::string scene = write("good.json", kGood);
+    const CliRun r = run("render " + scene + " -o " + path("out.png") + " --alpha " + path("a.png") + " --pfm " +
+                      path("o.pfm") + " --width 64");
+    ASSERT_EQ(r.code, 0) << r.output;
+    const Image png = readPng(path("out.png"));
+    EXPECT_EQ(png.width, 64);
+    EXPECT_EQ(png.height, 48);  // the camera's 4:3 kept
+    EXPECT_EQ(png.channels, 3);
+    const Image alpha = readPng(path("a.png"));
+    EXPECT_EQ(alpha.channels, 1);
+    EXPECT_EQ(compareImages(alpha, Image(64, 48, 1, 0.0f), 0).maxAbs, 0.0);  // no clouds: opacity 0
+    const Image pfm = readPfm(path("o.pfm"));
+    EXPECT_EQ(pfm.width, 64);
+    // The PNG is the sRGB encoding of the PFM.
+    EXPECT_NEAR(png.at(5, 5, 2), linearToSrgb(pfm.at(5, 5, 2)), 0.5 / 255);
+    expectNoOutputs({"good.json", "out.png", "a.png", "o.pfm"});
+}
+
+TEST_F(CliTest, OSMesaBackendRenders) {
+    const std::string scene = write("good.json", kGood);
+    const CliRun r = run("render " + scene + " -o " + path("out.png") + " --gl osmesa --scale 0.25");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(readPng(path("out.png")).width, 40);
+}
+
+}  // namespace

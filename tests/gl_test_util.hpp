@@ -1,0 +1,71 @@
+// Shared by the *GLTest suites: a headless context per test suite and golden images.
+#pragma once
+
+#include "nephele/context.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/image.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace nephele::test {
+
+// Makes a context of `backend` (checks on) or fails the test with the context's message.
+inline std::unique_ptr<Context> makeContext(GlBackend backend) {
+    ContextOptions o;
+    o.backend = backend;
+    o.visible = false;
+    o.width = 64;
+    o.height = 64;
+    auto ctx = Context::create(o);
+    gl::setChecks(true);
+    return ctx;
+}
+
+// Where tests write actual and diff images for a person to look at.
+inline std::string outputDir() {
+    const std::string dir = std::string(NEPHELE_TEST_OUTPUT);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+struct GoldenTolerance {
+    double pixel;          // per-channel difference (in [0,1] of 8-bit sRGB) that counts a pixel as off
+    double fractionOff;    // largest allowed fraction of pixels that are off
+    double mean;           // largest allowed mean absolute difference over all channels
+};
+
+// Compares an sRGB-encoded rendering with tests/golden/NAME.png. On failure, or when the
+// golden is missing, writes NAME[_TAG]_actual.png and NAME[_TAG]_diff.png to outputDir()
+// and fails; tests/promote_golden.sh NAME [TAG] copies an actual image to golden after a
+// person looked at it. TAG tells apart renderings (e.g. backends) that share one golden.
+inline void expectMatchesGolden(const Image& linearRgb, const std::string& name, const GoldenTolerance& tol,
+                                const std::string& tag = "") {
+    const std::string stem = outputDir() + "/" + name + (tag.empty() ? "" : "_" + tag);
+    const std::string actualPath = stem + "_actual.png";
+    writePng(actualPath, linearRgb, Encoding::Srgb);
+    const Image actual = readPng(actualPath);  // the 8-bit values as stored
+    const std::string goldenPath = std::string(NEPHELE_GOLDEN) + "/" + name + ".png";
+    if (!std::filesystem::exists(goldenPath)) {
+        ADD_FAILURE() << "no golden image " << goldenPath << "; look at " << actualPath
+                      << " and promote it with tests/promote_golden.sh " << name << " " << tag;
+        return;
+    }
+    const Image golden = readPng(goldenPath);
+    ASSERT_EQ(golden.width, actual.width);
+    ASSERT_EQ(golden.height, actual.height);
+    ASSERT_EQ(golden.channels, actual.channels);
+    const ImageDifference d = compareImages(actual, golden, tol.pixel);
+    const bool ok = d.fractionOver <= tol.fractionOff && d.meanAbs <= tol.mean;
+    if (!ok) writePng(stem + "_diff.png", differenceImage(actual, golden, 8.0f), Encoding::Linear);
+    else std::filesystem::remove(actualPath);
+    EXPECT_TRUE(ok) << name << ": " << d.fractionOver * 100 << "% of pixels differ by more than " << tol.pixel * 255
+                    << "/255 (allowed " << tol.fractionOff * 100 << "%), mean difference " << d.meanAbs * 255
+                    << "/255 (allowed " << tol.mean * 255 << "/255), max " << d.maxAbs * 255
+                    << "/255. Actual and diff images: " << outputDir();
+}
+
+}  // namespace nephele::test
