@@ -51,9 +51,9 @@ void expectNear(const Vec3& got, const Vec3& want, double tol = 1e-12) {
 // ---------------------------------------------------------------- files
 
 TEST(SceneLoaderTest, LoadsEverySharedScene) {
-    const std::map<std::string, size_t> ellipsoids{{"cumulus27.json", 27},  {"field1000.json", 1000},
-                                                   {"flythrough.json", 30}, {"near_and_far.json", 70},
-                                                   {"single.json", 1},      {"two_clouds.json", 6}};
+    const std::map<std::string, size_t> ellipsoids{
+        {"cumulus27.json", 27},    {"example.json", 3}, {"field1000.json", 1000}, {"flythrough.json", 30},
+        {"near_and_far.json", 70}, {"single.json", 1},  {"two_clouds.json", 6}};
     size_t loaded = 0;
     for (const auto& entry : std::filesystem::directory_iterator(NEPHELE_SCENES)) {
         if (entry.path().extension() != ".json") continue;

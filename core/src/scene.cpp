@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cerrno>
 #include <charconv>
+#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -630,10 +631,11 @@ Keyframe readKeyframe(const json& j, const Path& p) {
 Scene readScene(const json& j, const std::string& file) {
     if (!j.is_object()) fail("", "expected a JSON object at the top level, got " + describe(j));
     Obj o(j, "");
-    if (const long long v =
-            o.req("cloudscene", integer(std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
-        v != 1)
-        fail("cloudscene", "unsupported cloudscene version " + std::to_string(v) + "; this Nephele reads version 1");
+    constexpr int kVersion = 1;
+    const long long version = o.req("cloudscene", integer(INT_MIN, INT_MAX));
+    if (version != kVersion)
+        fail("cloudscene", "unsupported cloudscene version " + std::to_string(version) +
+                               "; this Nephele reads version " + std::to_string(kVersion));
     const std::filesystem::path sceneDir = std::filesystem::path(file).parent_path();
     Scene s;
     s.file = file;
@@ -645,7 +647,7 @@ Scene readScene(const json& j, const std::string& file) {
     o.opt("generate", s.generators,
           listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir); }));
     o.opt("layers", s.layers, listOf(readLayer));
-    if (const json* sky = o.find("skylight")) s.skylight = readSkylight(*sky, o.at("skylight"));
+    if (const json* light = o.find("skylight")) s.skylight = readSkylight(*light, o.at("skylight"));
     o.opt("lightning", s.lightning, listOf(readLightning));
     o.opt("objects", s.objects, listOf(readObject));
     o.opt("path", s.path, listOf(readKeyframe));
