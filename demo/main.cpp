@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <iostream>
 
 using namespace nephele;
@@ -32,6 +33,21 @@ int main(int argc, char** argv) {
     render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")->capture_default_str();
     render->add_option("--gl", backend, "OpenGL backend: egl (headless) or osmesa")
         ->check(CLI::IsMember({"egl", "osmesa"}))
+        ->capture_default_str();
+
+    int minTile = 8, maxTile = 512;
+    std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction";
+    render->add_option("--min-tile", minTile, "Ellipsoid tiles: smallest size (px, power of two)")->capture_default_str();
+    render->add_option("--max-tile", maxTile, "Ellipsoid tiles: largest size (px, power of two)")->capture_default_str();
+    render->add_option("--atlas", atlas, "Ellipsoid atlas size WxH (default: the image size)");
+    render->add_option("--precision", precision, "Ellipsoid atlas precision: f16 or u8 (the paper's 8 bits)")
+        ->check(CLI::IsMember({"f16", "u8"}))
+        ->capture_default_str();
+    render->add_option("--draws", draws, "instanced, or per-ellipsoid (the paper's one draw per ellipsoid)")
+        ->check(CLI::IsMember({"instanced", "per-ellipsoid"}))
+        ->capture_default_str();
+    render->add_option("--flythrough", flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
+        ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
 
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
@@ -67,6 +83,28 @@ int main(int argc, char** argv) {
     try {
         ro.method = parseMethod(method);
         ro.backend = parseBackend(backend);
+        EllipsoidSettings& es = ro.ellipsoid;
+        auto pow2 = [](const char* what, int v) {
+            if (v < 1 || v > 16384 || (v & (v - 1)) != 0)
+                throw UsageError(std::string(what) + " must be a power of two in 1..16384, got " + std::to_string(v));
+            return v;
+        };
+        es.minTile = pow2("--min-tile", minTile);
+        es.maxTile = pow2("--max-tile", maxTile);
+        if (es.minTile > es.maxTile) throw UsageError("--min-tile must not exceed --max-tile");
+        if (!atlas.empty()) {
+            int w = 0, h = 0;
+            char x = 0, extra = 0;
+            if (std::sscanf(atlas.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 ||
+                h < 1 || w > 16384 || h > 16384)
+                throw UsageError("--atlas must be WxH with sizes in 1..16384, got '" + atlas + "'");
+            if (w < es.minTile || h < es.minTile) throw UsageError("--atlas is smaller than --min-tile");
+            es.atlasWidth = w;
+            es.atlasHeight = h;
+        }
+        es.precision = precision == "u8" ? AtlasPrecision::Unorm8 : AtlasPrecision::Float16;
+        es.instanced = draws == "instanced";
+        es.flyThrough = flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
     } catch (const std::exception& e) {
         std::cerr << "nephele: " << e.what() << "\n";
         return 2;

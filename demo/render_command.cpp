@@ -4,6 +4,7 @@
 
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
 
 #include <cmath>
@@ -55,32 +56,42 @@ void applySize(Scene& scene, const RenderOptions& o) {
 }
 
 Frame renderFrame(const Scene& scene, const RenderOptions& o) {
-    if (o.method != Method::Auto)
+    const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid || o.method == Method::GardnerExact;
+    if (!implemented)
         throw UsageError(std::string("--method ") + methodName(o.method) +
-                         " is not available in this build yet; available: auto");
+                         " is not available in this build yet; available: auto, ellipsoid, gardner-exact");
     if (!scene.generators.empty())
         throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
                          "expand them into ellipsoids yet; remove the `generate` entries to render");
-    std::size_t ellipsoids = 0;
-    for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
-    if (ellipsoids > 0 || !scene.layers.empty())
-        std::cerr << "nephele: note: this build draws the sky and opaque objects only; " << ellipsoids
-                  << " ellipsoid(s) and " << scene.layers.size() << " layer(s) are not drawn yet\n";
+    if (!scene.layers.empty())
+        std::cerr << "nephele: note: this build does not draw far-field layers yet; " << scene.layers.size()
+                  << " layer(s) left out\n";
 
     Camera camera = cameraAt(scene, o.time);
     camera.width = scene.camera.width;
     camera.height = scene.camera.height;
     const View view = makeView(camera);
 
-    ContextOptions co;
-    co.backend = o.backend;
-    auto context = Context::create(co);
-    gl::setChecks(true);  // one frame: the check costs nothing next to it
-    FrameTarget target(camera.width, camera.height);
-    OpaquePass opaque;
-    opaque.draw(scene, view, target.framebuffer());
-    const Image rgba = target.readColor();
-    return Frame{channels(rgba, 0, 3), channels(rgba, 3, 1)};
+    Image rgba;
+    Frame frame;
+    if (o.method == Method::GardnerExact) {
+        const NoiseSettings& ns = o.ellipsoid.noise;
+        rgba = renderGardnerExact(scene, view, makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns);
+    } else {
+        ContextOptions co;
+        co.backend = o.backend;
+        auto context = Context::create(co);
+        gl::setChecks(true);  // one frame: the check costs nothing next to it
+        FrameTarget target(camera.width, camera.height);
+        OpaquePass opaque;
+        opaque.draw(scene, view, target.framebuffer());
+        EllipsoidRenderer clouds(o.ellipsoid);
+        frame.stats = clouds.render(scene, view, target.framebuffer(), !scene.objects.empty());
+        rgba = target.readColor();
+    }
+    frame.color = channels(rgba, 0, 3);
+    frame.alpha = channels(rgba, 3, 1);
+    return frame;
 }
 
 int runRender(const RenderOptions& o) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "nephele/context.hpp"
+#include "nephele/ellipsoid.hpp"
 #include "nephele/image.hpp"
 #include "nephele/scene.hpp"
 
@@ -26,11 +27,13 @@ struct RenderOptions {
     std::optional<double> scale;
     double time = 0;
     GlBackend backend = GlBackend::Egl;
+    EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
 };
 
 struct Frame {
     Image color;  // RGB linear radiance
     Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
+    EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
 };
 
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).

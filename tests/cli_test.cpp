@@ -115,9 +115,9 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
 }
 
 TEST_F(CliTest, UnavailableMethodSaysSo) {
-    const CliRun r = run("render " + write("good.json", kGood) + " -o " + path("out.png") + " --method ellipsoid");
+    const CliRun r = run("render " + write("good.json", kGood) + " -o " + path("out.png") + " --method layered");
     EXPECT_EQ(r.code, 2);
-    EXPECT_NE(r.output.find("--method ellipsoid is not available in this build"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("--method layered is not available in this build"), std::string::npos) << r.output;
 }
 
 TEST_F(CliTest, GenerateIsValidatedThenRefused) {

@@ -74,6 +74,14 @@ GlStateSnapshot GlStateSnapshot::capture() {
     glActiveTexture(GLenum(s.activeTexture));
     s.packAlignment = geti(GL_PACK_ALIGNMENT);
     s.unpackAlignment = geti(GL_UNPACK_ALIGNMENT);
+    for (int i = 0; i < 8; ++i) s.clipDistance[i] = glIsEnabled(GL_CLIP_DISTANCE0 + i);
+    s.shaderStorageBuffer = geti(GL_SHADER_STORAGE_BUFFER_BINDING);
+    for (GLuint i = 0; i < 8; ++i) {
+        Range& r = s.shaderStorage[i];
+        glGetIntegeri_v(GL_SHADER_STORAGE_BUFFER_BINDING, i, &r.buffer);
+        glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_START, i, &r.start);
+        glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_SIZE, i, &r.size);
+    }
     return s;
 }
 
@@ -131,6 +139,13 @@ void GlStateSnapshot::restore() const {
     glActiveTexture(GLenum(activeTexture));
     glPixelStorei(GL_PACK_ALIGNMENT, packAlignment);
     glPixelStorei(GL_UNPACK_ALIGNMENT, unpackAlignment);
+    for (int i = 0; i < 8; ++i) enable(GL_CLIP_DISTANCE0 + i, clipDistance[i]);
+    for (GLuint i = 0; i < 8; ++i) {
+        const Range& r = shaderStorage[i];
+        if (r.buffer != 0 && r.size > 0) glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, GLuint(r.buffer), r.start, r.size);
+        else glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, GLuint(r.buffer));
+    }
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, GLuint(shaderStorageBuffer));
 }
 
 std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
@@ -199,6 +214,14 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     }
     cmp("pack alignment", packAlignment, o.packAlignment);
     cmp("unpack alignment", unpackAlignment, o.unpackAlignment);
+    cmpN("clip distance", clipDistance.data(), o.clipDistance.data(), 8);
+    cmp("shader storage buffer", shaderStorageBuffer, o.shaderStorageBuffer);
+    for (int i = 0; i < 8; ++i) {
+        const std::string n = "shader storage binding " + std::to_string(i) + " (buffer start size)";
+        const GLint64 a[3] = {shaderStorage[i].buffer, shaderStorage[i].start, shaderStorage[i].size};
+        const GLint64 b[3] = {o.shaderStorage[i].buffer, o.shaderStorage[i].start, o.shaderStorage[i].size};
+        cmpN(n.c_str(), a, b, 3);
+    }
     return out.str();
 }
 

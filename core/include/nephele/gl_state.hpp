@@ -8,7 +8,9 @@
 // depth function and range, stencil functions and operations (front and back), clear
 // values, cull face, front face, polygon mode, polygon offset, program, vertex array,
 // array/element/uniform/pixel buffers, active texture unit and the 2D/3D/2D-array/
-// rectangle/buffer textures and samplers of units 0..15, pixel store alignment.
+// rectangle/buffer textures and samplers of units 0..15, pixel store alignment, clip
+// distances 0..7, shader storage buffer bindings 0..7. Blend enables and functions are
+// restored for all draw buffers alike (from draw buffer 0's state).
 #pragma once
 
 #include "nephele/gl.hpp"
@@ -46,6 +48,10 @@ struct GlStateSnapshot {
     std::array<std::array<GLint, 5>, kUnits> textures;  // 2D, 3D, 2D array, rectangle, buffer
     std::array<GLint, kUnits> samplers;
     GLint packAlignment, unpackAlignment;
+    std::array<GLboolean, 8> clipDistance;
+    GLint shaderStorageBuffer;
+    struct Range { GLint buffer; GLint64 start, size; };
+    std::array<Range, 8> shaderStorage;                  // indexed bindings 0..7
 
     static GlStateSnapshot capture();
     void restore() const;

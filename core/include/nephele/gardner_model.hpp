@@ -1,0 +1,20 @@
+// The Gardner ellipsoid model of shaders/gardner_model.glsl, compiled as C++ with glm so
+// that the exact CPU model and the GPU shaders share one source.
+#pragma once
+
+#include <glm/glm.hpp>
+
+namespace nephele::model {
+using glm::clamp;
+using glm::dot;
+using glm::exp;
+using glm::length;
+using glm::max;
+using glm::min;
+using glm::pow;
+using glm::sqrt;
+using glm::vec3;
+#define MODEL_FN inline
+#include "../../../shaders/gardner_model.glsl"
+#undef MODEL_FN
+}  // namespace nephele::model

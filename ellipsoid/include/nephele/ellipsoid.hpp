@@ -1,0 +1,86 @@
+// The Elinas-Stuerzlinger near-cloud compositor (`--method ellipsoid`).
+//
+// Per frame: every visible ellipsoid is projected to a rectangle on the near plane and an
+// off-axis frustum (nephele/projection.hpp); its tile size is the rectangle's pixel size
+// rounded up to a power of two in [minTile, maxTile]; tiles are packed largest first,
+// first fit, into the atlas (nephele/packer.hpp), and those that do not fit go to further
+// passes (one layer of the atlas array each). Per pass:
+//   1. clear the layer's terms to (T2 = D, 0, 0, T1 / D = 0) and its colour to 0;
+//   2. draw the tiles' ellipsoids (one instanced draw per mesh level, the tile's place in
+//      the atlas folded into its projection, clip distances keeping it in its tile):
+//      red = T2 - T2 g by reverse-subtractive blending (g from the projective radial
+//      falloff texture), alpha = I/D - T1/D by subtractive blending (I the noise-textured
+//      ellipsoid), and the lit, noise-modulated colour into a second attachment;
+//   3. the colour-matrix pass: the layer onto itself (texture barrier) through a 4x4
+//      colour matrix that copies red / D into alpha, reverse-subtractive, for all tiles in
+//      one draw: alpha = ((I - T1) - T2 (1 - g)) / D, eq. (2).
+// Then every tile is composited at its screen place, back to front, over the frame, in one
+// instanced draw. Objects inside clouds: see FlyThrough.
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/gardner.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/scene.hpp"
+#include "nephele/shader.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace nephele {
+
+enum class AtlasPrecision { Float16, Unorm8 };
+enum class FlyThrough {
+    Fraction,  // an object inside an ellipsoid is covered by the fraction of the ellipsoid's
+               // optical depth in front of it (beyond the paper; the default)
+    Stencil,   // the paper's section 4.3: per ellipsoid a depth pass of its front faces sets the
+               // stencil where the ellipsoid is in front of the object; the tile is composited there
+};
+
+struct EllipsoidSettings {
+    int minTile = 8;            // px, power of two
+    int maxTile = 512;          // px, power of two
+    int atlasWidth = 0;         // px; 0 = the frame's size (the paper's back buffer)
+    int atlasHeight = 0;
+    AtlasPrecision precision = AtlasPrecision::Float16;
+    bool instanced = true;      // false: the paper's one draw per ellipsoid (the baseline)
+    FlyThrough flyThrough = FlyThrough::Fraction;
+    int tessellation = 0;       // slices of the ellipsoid mesh; 0 = adapted to the tile size
+    int lightVolume = 32;       // per-cloud sun transmittance grid (voxels per side); 0 = no self-shadowing
+    NoiseSettings noise;
+};
+
+struct EllipsoidStats {
+    int ellipsoids = 0;         // in the scene
+    int visible = 0;            // after culling
+    int passes = 0;
+    int drawCalls = 0;          // draws issued by the compositor for this frame
+    double utilisation = 0;     // mean over passes of tile area / atlas area
+    std::int64_t tilePixels = 0;  // sum of tile areas
+    std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
+};
+
+// Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
+class EllipsoidRenderer {
+public:
+    explicit EllipsoidRenderer(const EllipsoidSettings& settings = {});
+    ~EllipsoidRenderer();
+    EllipsoidRenderer(const EllipsoidRenderer&) = delete;
+    EllipsoidRenderer& operator=(const EllipsoidRenderer&) = delete;
+
+    const EllipsoidSettings& settings() const { return settings_; }
+
+    // Draws the scene's ellipsoid clouds over `framebuffer` (width x height, colour
+    // attachment 0 with rgb = radiance and a = cloud opacity, and the opaque objects'
+    // depth in its depth attachment when `opaqueDepth` is true). Blending accumulates the
+    // cloud opacity into alpha ("over").
+    EllipsoidStats render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth);
+
+private:
+    struct Impl;
+    EllipsoidSettings settings_;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nephele

@@ -1,0 +1,82 @@
+// The Gardner ellipsoid model, prepared on the CPU for one frame, and its exact CPU
+// evaluation (`--method gardner-exact`), which the tiled GPU compositor approximates.
+//
+// The model (shaders/gardner_model.glsl, shared by GPU and CPU): each ellipsoid's opacity
+// follows eq. (2) of Elinas & Stuerzlinger with T1, T2, D derived from the medium so that
+// with medium.noise = 0 it is exactly 1 - exp(-tau) of the format's density field; its
+// colour is the sun (attenuated through the whole cloud: a light volume per cloud) and
+// the sky, modulated by the same fBm noise. Ellipsoids are composited back to front by
+// the distance of their centres from the eye.
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/image.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/projection.hpp"
+#include "nephele/scene.hpp"
+
+#include <vector>
+
+namespace nephele {
+
+// The sun's transmittance through one cloud, sampled on a size^3 grid over the cloud's
+// bounding box (texel centres at min + (i + 0.5) / size * extent), for the GPU.
+struct CloudLight {
+    Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world
+    int size = 0;
+    std::vector<float> transmittance;  // x fastest
+};
+
+struct PreparedEllipsoid {
+    int cloud = 0, index = 0;          // where it is in scene.clouds
+    Ellipsoid shape;
+    glm::dmat3 unit{1.0};              // M = diag(1/r) R^T: world offset -> unit sphere
+    glm::dmat3 axes{1.0};              // R diag(r): unit sphere -> world offset
+    double sigma = 0;                  // extinction * density, 1/m
+    double ac = 0;                     // largest opacity (centre ray, or a bound when cut by the near plane)
+    Vec3 noiseOffset{0.0};             // in noise-volume texture coordinates, deterministic per ellipsoid
+    EllipsoidProjection projection;
+};
+
+struct NoiseSettings {
+    int size = 64;      // texels per side of the tileable volume
+    int cells = 8;      // lattice cells per period: one cell is medium.noise_scale metres
+    int octaves = 4;
+    unsigned seed = 7;
+};
+
+struct PreparedClouds {
+    std::vector<PreparedEllipsoid> ellipsoids;  // visible ones, back to front
+    int culled = 0;                             // ellipsoids culled by the projection
+    double noisePeriod = 1;                     // m: medium.noise_scale * cells
+};
+
+// Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
+PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);
+// The per-cloud light volumes (size^3 voxels each); they depend on the clouds and the sun only.
+std::vector<CloudLight> makeCloudLights(const Scene& scene, int size);
+
+// The extinction the sunlight sees inside a cloud, 1/m: clouds scatter strongly forward,
+// so multiply scattered light keeps going; by the similarity relation (van de Hulst) its
+// attenuation is that of sigma_t (1 - albedo g).
+double reducedExtinction(const Medium& medium);
+
+// Exact sun transmittance at a world point through one cloud (no grid), with the
+// reduced extinction.
+double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& point);
+
+// Sky ambient radiance used for cloud colour.
+Vec3 cloudAmbient(const Sky& sky);
+
+// `--method gardner-exact`: the model per pixel in float, exact ray-ellipsoid geometry and
+// falloff, exact light transmittance, no tiles and no 8-bit buffers, over the opaque
+// background (objects inside clouds are covered only by the matter in front of them).
+// RGBA: rgb linear radiance, a = cloud opacity.
+Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
+                         const NoiseSettings& noiseSettings);
+
+// The physics: per pixel 1 - exp(-sum of the ellipsoids' optical depths) along the ray
+// (closed form per ellipsoid), up to the nearest opaque object. Grey image.
+Image exactDensityOpacity(const Scene& scene, const View& view);
+
+}  // namespace nephele

@@ -1,0 +1,57 @@
+// Tile-atlas packer for the per-ellipsoid impostor tiles (Elinas & Stuerzlinger 2000): every cloud
+// ellipsoid is rendered into its own square power-of-two tile of a back-buffer atlas; tiles are
+// placed largest first, first fit, and those that no longer fit spill to further passes (the same
+// atlas is reused pass after pass).
+//
+// Coordinates follow the GL window convention: origin at the bottom-left corner of the atlas, x to
+// the right, y up. A placement's (x, y) is the tile's bottom-left corner; it covers the pixels
+// [x, x + size) x [y, y + size), which is what glViewport(x, y, size, size) selects.
+#pragma once
+
+#include <vector>
+
+namespace nephele {
+
+struct TileRequest {
+    int id;    // caller's handle; must be unique within one packTiles call
+    int size;  // edge length in pixels, a power of two >= 1
+};
+
+struct TilePlacement {
+    int id;
+    int pass;  // 0-based atlas pass the tile is rendered in
+    int x, y;  // bottom-left corner, bottom-left origin (GL convention); multiples of size
+    int size;
+    bool operator==(const TilePlacement&) const = default;
+};
+
+struct PackResult {
+    std::vector<TilePlacement> placements;  // one per request, in placement order (largest first)
+    int passes = 0;                         // number of passes used (0 if no tiles)
+    std::vector<double> utilisation;        // per pass: area of its tiles / area of the atlas, in [0,1]
+    double meanUtilisation() const;         // mean over passes, 0 if none
+};
+
+// Rounds a screen extent in pixels up to a power of two, clamped to [minSize, maxSize] (both
+// powers of two, minSize <= maxSize, else std::invalid_argument). A non-finite (NaN or +-inf) or
+// <= 0 extent gives minSize.
+int tileSizeFor(double pixelExtent, int minSize, int maxSize);
+
+// Packs square power-of-two tiles into an atlasWidth x atlasHeight atlas (any positive sizes).
+//
+// Order: size descending, ties by id ascending, so the result does not depend on the input order.
+// Each tile goes into the first pass (0, 1, ...) that has a free position for it, at the first
+// free position in scan order. Positions are aligned to multiples of the tile size; the scan order
+// is the Morton (Z-order) code of the bottom-left corner, x in the even bits and y in the odd bits:
+// recursively the quadrants bottom-left, bottom-right, top-left, top-right. (For a 4x4 atlas of
+// 1-pixel tiles: (0,0) (1,0) (0,1) (1,1) (2,0) (3,0) (2,1) (3,1) (0,2) ...)
+//
+// Throws std::invalid_argument for a non-positive atlas size, a size that is not a power of two,
+// a tile larger than the atlas in either dimension, or a duplicate id.
+//
+// Cost: O(n + passes * roots * levels), roots being the maximal aligned squares of the atlas no
+// smaller than the smallest tile (a few dozen for common window sizes): a radix sort, then a bump
+// pointer per root per pass, see packer.cpp. 4096 tiles into 1280x720 take about 0.1-0.3 ms.
+PackResult packTiles(std::vector<TileRequest> tiles, int atlasWidth, int atlasHeight);
+
+}  // namespace nephele

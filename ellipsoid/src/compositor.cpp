@@ -1,0 +1,555 @@
+// The tiled GPU compositor (see nephele/ellipsoid.hpp for the pipeline).
+#include "nephele/ellipsoid.hpp"
+
+#include "nephele/gardner_model.hpp"
+#include "nephele/gl_state.hpp"
+#include "nephele/packer.hpp"
+
+#include <glm/gtc/matrix_access.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <numbers>
+
+namespace nephele {
+using namespace gl;
+
+namespace {
+
+// Mirrors `struct Tile` of shaders/tiles.glsl (std430: vec4 and mat4 only).
+struct GpuTile {
+    float centerSigma[4];
+    float axes[3][4];
+    float unit[3][4];
+    float eyeUnitAc[4];
+    float tileViewProj[16];
+    float atlasRect[4];
+    float screenRect[4];
+    float params[4];
+    float noiseOffset[4];
+};
+static_assert(sizeof(GpuTile) == 12 * 16 + 64);
+
+void put(float* out, const Vec3& v, double w = 0) {
+    out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
+}
+
+// A unit sphere scaled to circumscribe itself: its faces lie outside the unit sphere, so
+// its back faces cover the exact silhouette. Counter-clockwise seen from outside.
+struct SphereMesh {
+    VertexArray vao;
+    Buffer vertices, indices;
+    GLsizei indexCount = 0;
+    int slices = 0;
+};
+
+SphereMesh makeSphere(int slices) {
+    const int stacks = std::max(2, slices / 2);
+    const double scale = 1.0 / (std::cos(std::numbers::pi / slices) * std::cos(std::numbers::pi / (2 * stacks)));
+    std::vector<float> v;
+    std::vector<unsigned> idx;
+    for (int i = 0; i <= stacks; ++i) {
+        const double theta = std::numbers::pi * i / stacks;
+        for (int j = 0; j <= slices; ++j) {
+            const double phi = 2 * std::numbers::pi * j / slices;
+            v.insert(v.end(), {float(scale * std::sin(theta) * std::cos(phi)), float(scale * std::sin(theta) * std::sin(phi)),
+                               float(scale * std::cos(theta))});
+        }
+    }
+    for (int i = 0; i < stacks; ++i)
+        for (int j = 0; j < slices; ++j) {
+            const unsigned a = unsigned(i * (slices + 1) + j), b = a + unsigned(slices + 1);
+            idx.insert(idx.end(), {a, b, a + 1, a + 1, b, b + 1});
+        }
+    SphereMesh m;
+    m.slices = slices;
+    m.vao = VertexArray::create();
+    m.vertices = Buffer::create();
+    m.indices = Buffer::create();
+    glNamedBufferStorage(m.vertices.id(), GLsizeiptr(v.size() * sizeof(float)), v.data(), 0);
+    glNamedBufferStorage(m.indices.id(), GLsizeiptr(idx.size() * sizeof(unsigned)), idx.data(), 0);
+    glVertexArrayVertexBuffer(m.vao.id(), 0, m.vertices.id(), 0, 3 * sizeof(float));
+    glVertexArrayElementBuffer(m.vao.id(), m.indices.id());
+    glEnableVertexArrayAttrib(m.vao.id(), 0);
+    glVertexArrayAttribFormat(m.vao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(m.vao.id(), 0, 0);
+    m.indexCount = GLsizei(idx.size());
+    return m;
+}
+
+int floorPow2(int v) {
+    int p = 1;
+    while (p * 2 <= v) p *= 2;
+    return p;
+}
+
+void checkPow2(const char* what, int v) {
+    if (v < 1 || (v & (v - 1)) != 0) throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
+}
+
+// A fingerprint of what the light volumes depend on: the clouds, the medium and the sun.
+std::uint64_t lightKey(const Scene& scene, int size) {
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&](const void* p, std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 1099511628211ull;
+    };
+    mix(&size, sizeof size);
+    mix(&scene.sun.direction, sizeof scene.sun.direction);
+    mix(&scene.medium.extinction, sizeof scene.medium.extinction);
+    for (const Cloud& c : scene.clouds) {
+        const std::size_t n = c.ellipsoids.size();
+        mix(&n, sizeof n);
+        for (const Ellipsoid& e : c.ellipsoids) {
+            mix(&e.center, sizeof e.center);
+            mix(&e.radii, sizeof e.radii);
+            mix(&e.rotationDeg, sizeof e.rotationDeg);
+            mix(&e.density, sizeof e.density);
+        }
+    }
+    return h;
+}
+
+}  // namespace
+
+struct EllipsoidRenderer::Impl {
+    Program tile, colourMatrix, composite, screenDepth;
+    VertexArray empty;
+    std::map<int, SphereMesh> meshes;   // by slices
+    Texture falloff, noise, light;
+    Sampler linearClamp;
+    std::uint64_t lightKeyValue = 0;
+    int lightClouds = 0;
+    Buffer tiles, lightBoxes, order;
+    std::size_t tilesCapacity = 0, orderCapacity = 0, lightBoxCapacity = 0;
+    std::vector<float> lightBoxWorld;   // per cloud: min (xyz, 0), extent (xyz, 0), world
+    // The atlas: one layer per pass.
+    Texture atlasTerms, atlasColor;
+    int atlasW = 0, atlasH = 0, atlasLayers = 0;
+    std::vector<Framebuffer> layerFbos;
+    // Copy of the frame's depth (fraction mode).
+    Texture depthCopy;
+    Framebuffer depthFbo;
+    int depthW = 0, depthH = 0;
+    GLenum depthFormat = 0;
+
+    const SphereMesh& mesh(int slices) {
+        auto it = meshes.find(slices);
+        if (it == meshes.end()) it = meshes.emplace(slices, makeSphere(slices)).first;
+        return it->second;
+    }
+};
+
+EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
+    checkPow2("minTile", s.minTile);
+    checkPow2("maxTile", s.maxTile);
+    if (s.minTile > s.maxTile) throw std::invalid_argument("minTile must not exceed maxTile");
+    if (s.tessellation != 0 && (s.tessellation < 4 || s.tessellation > 256))
+        throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
+    if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
+    Impl& m = *impl_;
+    m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}});
+    m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
+    m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}});
+    m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    m.empty = VertexArray::create();
+
+    // The projective radial falloff texture (the paper's figure 4), F(b) = (1 - b^2)^(5/2).
+    constexpr int kFalloff = 256;
+    std::vector<float> f(kFalloff * kFalloff);
+    for (int y = 0; y < kFalloff; ++y)
+        for (int x = 0; x < kFalloff; ++x) {
+            const double u = (x + 0.5) / kFalloff * 2 - 1, v = (y + 0.5) / kFalloff * 2 - 1;
+            f[y * kFalloff + x] = model::radialProfile(float(u * u + v * v));
+        }
+    m.falloff = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(m.falloff.id(), 1, GL_R32F, kFalloff, kFalloff);
+    glTextureSubImage2D(m.falloff.id(), 0, 0, 0, kFalloff, kFalloff, GL_RED, GL_FLOAT, f.data());
+    glTextureParameteri(m.falloff.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(m.falloff.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(m.falloff.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(m.falloff.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+
+    const NoiseVolume nv = makeNoiseVolume(s.noise.size, s.noise.cells, s.noise.octaves, s.noise.seed);
+    m.noise = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(m.noise.id(), 1, GL_R32F, nv.size, nv.size, nv.size);
+    glTextureSubImage3D(m.noise.id(), 0, 0, 0, 0, nv.size, nv.size, nv.size, GL_RED, GL_FLOAT, nv.texels.data());
+    glTextureParameteri(m.noise.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(m.noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(m.noise.id(), w, GL_REPEAT);
+
+    m.linearClamp = Sampler::create();
+    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+        glSamplerParameteri(m.linearClamp.id(), w, GL_CLAMP_TO_EDGE);
+    checkAlways("creating the ellipsoid compositor");
+}
+
+EllipsoidRenderer::~EllipsoidRenderer() = default;
+
+namespace {
+
+// Grows a dynamic storage buffer to hold `bytes` (contents are replaced each frame).
+void upload(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
+    bytes = std::max<std::size_t>(bytes, 16);
+    if (!buffer || capacity < bytes) {
+        buffer = Buffer::create();
+        capacity = std::max(bytes, capacity * 2);
+        glNamedBufferStorage(buffer.id(), GLsizeiptr(capacity), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    }
+    if (data) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
+}
+
+int meshSlices(const EllipsoidSettings& s, int tileSize) {
+    if (s.tessellation > 0) return s.tessellation;
+    return tileSize <= 32 ? 8 : tileSize <= 128 ? 16 : 32;
+}
+
+}  // namespace
+
+EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
+    Impl& m = *impl_;
+    const EllipsoidSettings& s = settings_;
+    EllipsoidStats stats;
+    for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
+    const PreparedClouds prepared = prepareClouds(scene, view, s.noise);
+    stats.visible = int(prepared.ellipsoids.size());
+    if (prepared.ellipsoids.empty()) return stats;
+
+    const int frameW = view.camera.width, frameH = view.camera.height;
+    const int atlasW = s.atlasWidth > 0 ? s.atlasWidth : frameW;
+    const int atlasH = s.atlasHeight > 0 ? s.atlasHeight : frameH;
+    const int maxTile = std::min(s.maxTile, floorPow2(std::min(atlasW, atlasH)));
+    const int minTile = std::min(s.minTile, maxTile);
+
+    // ---- Tiles: sizes, packing, per-pass order.
+    std::vector<TileRequest> requests;
+    for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
+        const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
+        requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, maxTile)});
+    }
+    const PackResult packed = packTiles(requests, atlasW, atlasH);
+    stats.passes = packed.passes;
+    stats.utilisation = packed.meanUtilisation();
+    std::vector<TilePlacement> placements = packed.placements;
+    // Within a pass tiles never overlap, so any order will do: group them by mesh level.
+    std::stable_sort(placements.begin(), placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
+        return a.pass != b.pass ? a.pass < b.pass : meshSlices(s, a.size) < meshSlices(s, b.size);
+    });
+
+    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
+    std::vector<GpuTile> gpu(placements.size());
+    std::vector<int> slot(prepared.ellipsoids.size());  // prepared index -> GPU tile index
+    for (std::size_t k = 0; k < placements.size(); ++k) {
+        const TilePlacement& tp = placements[k];
+        const PreparedEllipsoid& e = prepared.ellipsoids[tp.id];
+        const EllipsoidProjection& p = e.projection;
+        GpuTile& t = gpu[k];
+        put(t.centerSigma, e.shape.center - view.eye, e.sigma);
+        for (int c = 0; c < 3; ++c) put(t.axes[c], e.axes[c]);
+        for (int r = 0; r < 3; ++r) put(t.unit[r], glm::row(e.unit, r));
+        put(t.eyeUnitAc, e.unit * (view.eye - e.shape.center), e.ac);
+        const glm::mat4 tvp(p.projection * viewRotation);
+        std::memcpy(t.tileViewProj, glm::value_ptr(tvp), sizeof t.tileViewProj);
+        t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
+        t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
+        t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
+        put(t.params, Vec3(p.crossesNear ? 1.0 : 0.0, double(e.cloud), 0.0));
+        put(t.noiseOffset, e.noiseOffset);
+        slot[tp.id] = int(k);
+        stats.tilePixels += std::int64_t(tp.size) * tp.size;
+        stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
+    }
+    // prepared.ellipsoids is back to front: that is the composite order.
+    std::vector<int> order(slot.begin(), slot.end());
+
+    // ---- Resources.
+    upload(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
+    upload(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
+    const int lightSize = s.lightVolume;
+    if (lightSize > 0) {
+        const std::uint64_t key = lightKey(scene, lightSize);
+        if (!m.light || key != m.lightKeyValue) {
+            const std::vector<CloudLight> lights = makeCloudLights(scene, lightSize);
+            m.lightClouds = int(lights.size());
+            GLint max3d = 0;
+            glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
+            if (lightSize * m.lightClouds > max3d)
+                throw GlError("light volumes: " + std::to_string(m.lightClouds) + " clouds x " + std::to_string(lightSize) +
+                              " voxels exceed GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower lightVolume");
+            m.light = Texture::create(GL_TEXTURE_3D);
+            glTextureStorage3D(m.light.id(), 1, GL_R16F, lightSize, lightSize, lightSize * m.lightClouds);
+            for (int c = 0; c < m.lightClouds; ++c)
+                glTextureSubImage3D(m.light.id(), 0, 0, 0, c * lightSize, lightSize, lightSize, lightSize, GL_RED, GL_FLOAT,
+                                    lights[c].transmittance.data());
+            m.lightKeyValue = key;
+            // Boxes are camera-relative, so they are rewritten below every frame.
+            m.lightBoxCapacity = 0;
+            m.lightBoxes = Buffer();
+            std::vector<float> boxes;
+            for (const CloudLight& l : lights) {
+                boxes.insert(boxes.end(), {float(l.boxMin.x), float(l.boxMin.y), float(l.boxMin.z), 0.0f});
+                boxes.insert(boxes.end(), {float(l.boxExtent.x), float(l.boxExtent.y), float(l.boxExtent.z), 0.0f});
+            }
+            m.lightBoxWorld = boxes;
+        }
+        std::vector<float> rel = m.lightBoxWorld;
+        for (std::size_t c = 0; c < rel.size(); c += 8)
+            for (int k = 0; k < 3; ++k) rel[c + k] = float(double(m.lightBoxWorld[c + k]) - view.eye[k]);
+        upload(m.lightBoxes, m.lightBoxCapacity, rel.data(), rel.size() * sizeof(float));
+    } else {
+        upload(m.lightBoxes, m.lightBoxCapacity, nullptr, 16);
+    }
+
+    if (m.atlasW != atlasW || m.atlasH != atlasH || m.atlasLayers < packed.passes) {
+        const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
+        m.atlasLayers = std::max(packed.passes, m.atlasW == atlasW && m.atlasH == atlasH ? m.atlasLayers : 0);
+        m.atlasW = atlasW;
+        m.atlasH = atlasH;
+        m.atlasTerms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        m.atlasColor = Texture::create(GL_TEXTURE_2D_ARRAY);
+        glTextureStorage3D(m.atlasTerms.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
+        glTextureStorage3D(m.atlasColor.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
+        m.layerFbos.clear();
+        for (int l = 0; l < m.atlasLayers; ++l) {
+            Framebuffer fbo = Framebuffer::create();
+            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, m.atlasTerms.id(), 0, l);
+            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT1, m.atlasColor.id(), 0, l);
+            const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+            glNamedFramebufferDrawBuffers(fbo.id(), 2, bufs);
+            if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+                throw GlError("ellipsoid atlas: framebuffer incomplete");
+            m.layerFbos.push_back(std::move(fbo));
+        }
+    }
+
+    GlStateGuard guard;
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.lightBoxes.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glFrontFace(GL_CCW);
+    const glm::vec2 atlasSize(atlasW, atlasH);
+
+    // ---- The tile passes.
+    const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
+    const Program& tp = m.tile;
+    tp.set("atlasSize", atlasSize);
+    tp.set("forward", glm::vec3(view.forward));
+    tp.set("nearClip", float(view.camera.nearClip));
+    tp.set("falloff", 0);
+    tp.set("noiseVolume", 1);
+    tp.set("lightVolume", 2);
+    tp.set("eyeNoise", glm::vec3(glm::fract(view.eye / prepared.noisePeriod)));
+    tp.set("noisePeriod", float(prepared.noisePeriod));
+    tp.set("noiseAmp", float(scene.medium.noise));
+    tp.set("lightSize", lightSize);
+    tp.set("lightClouds", std::max(m.lightClouds, 1));
+    tp.set("sunDirection", glm::vec3(scene.sun.direction));
+    tp.set("sunRadiance", glm::vec3(sunRadiance));
+    tp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
+    tp.set("albedo", float(scene.medium.albedo));
+    tp.set("foldAtlas", s.instanced ? 1 : 0);
+    glBindTextureUnit(0, m.falloff.id());
+    glBindTextureUnit(1, m.noise.id());
+    glBindTextureUnit(2, lightSize > 0 ? m.light.id() : 0);
+    glBindSampler(0, 0);
+    glBindSampler(1, 0);
+    glBindSampler(2, m.linearClamp.id());
+
+    glm::mat4 colourMatrix(0.0f);
+    colourMatrix[0][3] = 1.0f / model::kTranslucence;  // column 0 (red) -> row 3 (alpha)
+    m.colourMatrix.set("colourMatrix", colourMatrix);
+    m.colourMatrix.set("atlasTerms", 3);
+    m.colourMatrix.set("atlasSize", atlasSize);
+    m.colourMatrix.set("onScreen", 0);
+    m.colourMatrix.set("useOrder", 0);
+
+    for (int pass = 0, first = 0; pass < packed.passes; ++pass) {
+        int count = 0;
+        while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
+        glBindFramebuffer(GL_FRAMEBUFFER, m.layerFbos[pass].id());
+        glViewport(0, 0, atlasW, atlasH);
+        glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        // T2 = D in red, T1 / D = 0 in alpha; colour 0.
+        const float terms[4] = {model::kTranslucence, 0.0f, 0.0f, 0.0f}, zero[4] = {0, 0, 0, 0};
+        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, terms);
+        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 1, zero);
+
+        // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
+        for (int c = 0; c < 4; ++c) glEnable(GL_CLIP_DISTANCE0 + c);
+        glEnablei(GL_BLEND, 0);
+        glBlendEquationSeparatei(0, GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
+        glBlendFuncSeparatei(0, GL_ONE, GL_ONE, GL_ONE, GL_ONE);
+        glDisablei(GL_BLEND, 1);
+        glUseProgram(tp.id());
+        for (int k = first; k < first + count;) {
+            const int slices = meshSlices(s, placements[k].size);
+            int n = 0;
+            while (k + n < first + count && meshSlices(s, placements[k + n].size) == slices) ++n;
+            const SphereMesh& mesh = m.mesh(slices);
+            glBindVertexArray(mesh.vao.id());
+            if (s.instanced) {
+                tp.set("instanceBase", k);
+                glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, n);
+                ++stats.drawCalls;
+            } else {
+                for (int i = k; i < k + n; ++i) {  // the paper: a viewport and a draw per ellipsoid
+                    glViewport(placements[i].x, placements[i].y, placements[i].size, placements[i].size);
+                    tp.set("instanceBase", i);
+                    glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, 1);
+                    ++stats.drawCalls;
+                }
+                glViewport(0, 0, atlasW, atlasH);
+            }
+            k += n;
+        }
+        for (int c = 0; c < 4; ++c) glDisable(GL_CLIP_DISTANCE0 + c);
+        glDisable(GL_CULL_FACE);
+        check("ellipsoid tile pass");
+
+        // The colour-matrix copy, all tiles of the pass in one draw.
+        glTextureBarrier();
+        glBindTextureUnit(3, m.atlasTerms.id());
+        glBindSampler(3, 0);
+        glEnablei(GL_BLEND, 0);
+        glBlendEquationSeparatei(0, GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_REVERSE_SUBTRACT);
+        glBlendFuncSeparatei(0, GL_ONE, GL_ONE, GL_ONE, GL_ONE);
+        glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_TRUE);
+        const GLenum one[1] = {GL_COLOR_ATTACHMENT0};
+        glNamedFramebufferDrawBuffers(m.layerFbos[pass].id(), 1, one);
+        glBindVertexArray(m.empty.id());
+        glUseProgram(m.colourMatrix.id());
+        m.colourMatrix.set("instanceBase", first);
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
+        ++stats.drawCalls;
+        const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glNamedFramebufferDrawBuffers(m.layerFbos[pass].id(), 2, both);
+        check("colour-matrix pass");
+        first += count;
+    }
+
+    // ---- Composite, back to front, over the frame.
+    const bool stencil = s.flyThrough == FlyThrough::Stencil && opaqueDepth;
+    const bool fraction = s.flyThrough == FlyThrough::Fraction && opaqueDepth;
+    if (fraction) {
+        // Sample a copy of the depth: the frame's own depth stays attached while we draw.
+        GLint depthBits = 0, stencilBits = 0, type = 0;
+        const GLenum attachment = framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT;
+        glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
+        glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &type);
+        glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_STENCIL : GL_STENCIL_ATTACHMENT,
+                                                   GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE, &stencilBits);
+        const GLenum format = type == GL_FLOAT ? (stencilBits ? GL_DEPTH32F_STENCIL8 : GL_DEPTH_COMPONENT32F)
+                              : depthBits == 16 ? GL_DEPTH_COMPONENT16
+                              : stencilBits     ? GL_DEPTH24_STENCIL8
+                                                : GL_DEPTH_COMPONENT24;
+        if (m.depthW != frameW || m.depthH != frameH || m.depthFormat != format) {
+            m.depthCopy = Texture::create(GL_TEXTURE_2D);
+            glTextureStorage2D(m.depthCopy.id(), 1, format, frameW, frameH);
+            m.depthFbo = Framebuffer::create();
+            glNamedFramebufferTexture(m.depthFbo.id(), stencilBits ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
+                                      m.depthCopy.id(), 0);
+            m.depthW = frameW, m.depthH = frameH, m.depthFormat = format;
+        }
+        glBlitNamedFramebuffer(framebuffer, m.depthFbo.id(), 0, 0, frameW, frameH, 0, 0, frameW, frameH,
+                               GL_DEPTH_BUFFER_BIT, GL_NEAREST);
+        check("copying the frame's depth");
+    }
+
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glViewport(0, 0, frameW, frameH);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glEnablei(GL_BLEND, 0);
+    glBlendEquationSeparatei(0, GL_FUNC_ADD, GL_FUNC_ADD);
+    glBlendFuncSeparatei(0, GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    const Program& cp = m.composite;
+    cp.set("atlasTerms", 3);
+    cp.set("atlasColor", 4);
+    cp.set("sceneDepth", 5);
+    cp.set("atlasSize", atlasSize);
+    cp.set("onScreen", 1);
+    cp.set("useOrder", 1);
+    cp.set("fraction", fraction ? 1 : 0);
+    cp.set("frameSize", glm::vec2(frameW, frameH));
+    cp.set("forward", glm::vec3(view.forward));
+    cp.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
+    cp.set("upScaled", glm::vec3(view.up * view.tanHalfY));
+    cp.set("nearClip", float(view.camera.nearClip));
+    cp.set("farClip", float(view.camera.farClip));
+    glBindTextureUnit(3, m.atlasTerms.id());
+    glBindTextureUnit(4, m.atlasColor.id());
+    glBindTextureUnit(5, fraction ? m.depthCopy.id() : 0);
+    glBindSampler(3, m.linearClamp.id());
+    glBindSampler(4, m.linearClamp.id());
+    glBindSampler(5, 0);
+    glBindVertexArray(m.empty.id());
+    const int n = int(order.size());
+    if (!stencil) {
+        glUseProgram(cp.id());
+        if (s.instanced) {
+            cp.set("instanceBase", 0);
+            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, n);
+            ++stats.drawCalls;
+        } else {
+            for (int k = 0; k < n; ++k) {
+                cp.set("instanceBase", k);
+                glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
+                ++stats.drawCalls;
+            }
+        }
+    } else {
+        // Section 4.3: per ellipsoid, its front faces set the stencil where they are in front
+        // of the opaque depth; the tile is composited there, and the stencil reset.
+        const glm::mat4 viewProjection(view.projectionMatrix * viewRotation);
+        m.screenDepth.set("viewProjection", viewProjection);
+        glEnable(GL_STENCIL_TEST);
+        glStencilMask(0xFF);
+        glClearStencil(0);
+        glClear(GL_STENCIL_BUFFER_BIT);
+        glDepthFunc(GL_LESS);
+        for (int k = 0; k < n; ++k) {
+            // A reference value of its own per ellipsoid, so that no stale stencil is reused.
+            const int ref = k % 255 + 1;
+            if (ref == 1 && k > 0) glClear(GL_STENCIL_BUFFER_BIT);
+            const int t = order[k];
+            const SphereMesh& mesh = m.mesh(meshSlices(s, int(gpu[t].atlasRect[2])));
+            glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+            glEnable(GL_DEPTH_TEST);
+            glEnable(GL_CULL_FACE);
+            glCullFace(GL_BACK);
+            glStencilFunc(GL_ALWAYS, ref, 0xFF);
+            glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
+            glUseProgram(m.screenDepth.id());
+            m.screenDepth.set("instanceBase", t);
+            glBindVertexArray(mesh.vao.id());
+            glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, 1);
+            glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+            glDisable(GL_DEPTH_TEST);
+            glDisable(GL_CULL_FACE);
+            glStencilFunc(GL_EQUAL, ref, 0xFF);
+            glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
+            glUseProgram(cp.id());
+            cp.set("instanceBase", k);
+            glBindVertexArray(m.empty.id());
+            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
+            stats.drawCalls += 2;
+        }
+    }
+    check("compositing the ellipsoid tiles");
+    return stats;
+}
+
+}  // namespace nephele

@@ -1,0 +1,39 @@
+// Compositing (section 3.6): the tile as a textured rectangle at its screen place, "over".
+#define MODEL_FN
+#include "gardner_model.glsl"
+#include "tiles.glsl"
+flat in int tileIndex;
+in vec2 atlasCoord;
+in vec2 ndc;
+uniform sampler2DArray atlasTerms;    // alpha: eq. (2)
+uniform sampler2DArray atlasColor;    // rgb: lit colour
+uniform vec2 atlasSize;
+uniform int fraction;                 // 1: weight by the optical depth in front of the opaque depth
+uniform sampler2D sceneDepth;         // copy of the frame's depth (fraction mode)
+uniform vec2 frameSize;
+uniform vec3 forward, rightScaled, upScaled;
+uniform float nearClip, farClip;
+out vec4 result;
+void main() {
+    Tile t = tiles[tileIndex];
+    // Stay half a texel inside the tile so that filtering never reads a neighbour.
+    vec2 lo = t.atlasRect.xy + 0.5, hi = t.atlasRect.xy + t.atlasRect.z - 0.5;
+    vec3 uv = vec3(clamp(atlasCoord, lo, hi) / atlasSize, t.atlasRect.w);
+    float alpha = clamp(texture(atlasTerms, uv).a, 0.0, 1.0);
+    vec3 color = texture(atlasColor, uv).rgb;
+    if (fraction == 1 && alpha > 0.0) {
+        float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
+        if (z < 1.0) {
+            vec3 d = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
+            float zEye = 2.0 * nearClip * farClip / (farClip + nearClip - (2.0 * z - 1.0) * (farClip - nearClip));
+            float cosF = dot(d, forward);
+            float tObj = zEye / cosF;
+            vec3 o = t.eyeUnitAc.xyz, du = toUnit(t, d);
+            float tStart = t.params.x > 0.5 ? nearClip / cosF : 0.0;
+            float whole = segmentDepth(o, du, tStart, 1e30);
+            float front = segmentDepth(o, du, tStart, tObj);
+            alpha = opacityInFront(alpha, front, whole);
+        }
+    }
+    result = vec4(color, alpha);
+}

@@ -1,0 +1,79 @@
+// Nephele's Gardner ellipsoid model: ONE source compiled as GLSL by the tile and composite
+// shaders and as C++ (with glm) by the exact CPU model, so the two cannot drift apart
+// (core/include/nephele/gardner_model.hpp includes this file). Keep to the common subset:
+// float and vec3 only, every literal with an `f` suffix, functions prefixed MODEL_FN.
+//
+// Conventions. An ellipsoid with centre c, rotation R and radii r has the unit-space map
+// M = diag(1/r) * R^T, x -> M (x - c); its density is density * (1 - q)^2 with q = |M(x-c)|^2.
+// A ray o + t d with unit world direction d (t in metres) is o' + t d' in unit space,
+// o' = M (o - c), d' = M d.
+
+// Antiderivative of (h2 - u^2)^2 in u: h2^2 u - 2/3 h2 u^3 + u^5 / 5.
+MODEL_FN float chordPrimitive(float u, float h2) {
+    float u2 = u * u;
+    return u * (h2 * h2 - u2 * (0.6666667f * h2 - 0.2f * u2));
+}
+
+// Integral of (1 - q)^2 dt over t in [tMin, tMax] for one ellipsoid, in metres: the
+// ellipsoid's optical depth divided by (extinction * density). Exact and closed form:
+// with u the unit-space distance from the ray's closest approach to the centre and
+// b^2 = 1 - h2 the squared impact parameter, q = b^2 + u^2 and the integrand is (h2 - u^2)^2.
+// Numerically stable far from the ellipsoid (no difference of large polynomials in t).
+MODEL_FN float segmentDepth(vec3 oUnit, vec3 dUnit, float tMin, float tMax) {
+    float len = length(dUnit);             // |M d|: unit-space length per metre
+    vec3 dn = dUnit / len;
+    float tc = -dot(oUnit, dn);            // closest approach, unit-space arc length
+    vec3 perp = oUnit + tc * dn;
+    float h2 = 1.0f - dot(perp, perp);
+    if (h2 <= 0.0f || tMax <= tMin) return 0.0f;
+    float h = sqrt(h2);
+    float u0 = clamp(tMin * len - tc, -h, h);
+    float u1 = clamp(tMax * len - tc, -h, h);
+    return (chordPrimitive(u1, h2) - chordPrimitive(u0, h2)) / len;
+}
+
+// The whole chord: 16/15 (1 - b^2)^(5/2) / |M d|, with radial profile F(b) = (1 - b^2)^(5/2)
+// (the projective radial-falloff texture holds F).
+MODEL_FN float radialProfile(float b2) {
+    float h2 = max(1.0f - b2, 0.0f);
+    return h2 * h2 * sqrt(h2);
+}
+const float kChordScale = 1.0666667f;  // 16/15
+
+// ---- Eq. (2) of Elinas & Stuerzlinger with the constants derived from the medium:
+//   alpha = ((I - T1) - T2 (1 - g)) / D,   D = kTranslucence, T1 = 0, T2 = D,
+//   I / D = Ac (1 + noise * n)                  (the noise-textured ellipsoid)
+//   g     = 1 - Ac (1 + noise) (1 - gExact)     (the falloff, from the radial texture)
+// where Ac is the ellipsoid's largest opacity (along its centre ray), gExact = A / Ac the
+// exact opacity A = 1 - exp(-tau) normalised to 1 at the centre, n the fBm noise in [-1, 1]
+// and noise = medium.noise. With noise 0, alpha = A exactly: the opacity of the format's
+// density field. With noise, the centre gets Ac (1 + noise n) and the rim stays
+// transparent (Gardner's thresholding).
+const float kTranslucence = 0.5f;  // D
+
+MODEL_FN float termIOverD(float ac, float noiseAmp, float n) { return ac * (1.0f + noiseAmp * n); }
+MODEL_FN float termG(float ac, float noiseAmp, float gExact) { return 1.0f - ac * (1.0f + noiseAmp) * (1.0f - gExact); }
+// What the blending and the colour-matrix pass compute from the two terms (before clamping).
+MODEL_FN float gardnerAlpha(float iOverD, float g) { return iOverD - kTranslucence * (1.0f - g) / kTranslucence; }
+
+// An opaque object inside an ellipsoid is covered only by the matter in front of it: the
+// ellipsoid's opacity alpha, scaled in optical depth by the fraction front / whole.
+MODEL_FN float opacityInFront(float alpha, float front, float whole) {
+    if (front <= 0.0f || whole <= 0.0f) return 0.0f;
+    return 1.0f - pow(max(1.0f - alpha, 1e-7f), min(front / whole, 1.0f));
+}
+
+// Opacity of optical depth tau.
+MODEL_FN float opacityOf(float tau) { return 1.0f - exp(-tau); }
+
+// ---- Colour (section 3.5): the ellipsoid lit by the sun and the sky, modulated by noise.
+// sunRadiance = sun.color * sun.intensity / pi; sunTransmittance: exp(-optical depth to the
+// sun) at the shading point, through every ellipsoid of the cloud (self-shadowing);
+// cosSun: the ellipsoid normal at the ray's entry point against the sun direction;
+// ambient: the sky's radiance averaged over the upper hemisphere's view of the cloud.
+MODEL_FN vec3 cloudColor(vec3 sunRadiance, float sunTransmittance, float cosSun, vec3 ambient, float albedo,
+                         float noiseAmp, float n) {
+    float wrap = 0.35f + 0.65f * (0.5f + 0.5f * cosSun);  // forward-scattering clouds glow past the terminator
+    vec3 lit = albedo * (sunRadiance * (sunTransmittance * wrap) + ambient);
+    return lit * (1.0f + 0.5f * noiseAmp * n);
+}

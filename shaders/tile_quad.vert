@@ -1,0 +1,19 @@
+// One tile per instance as a quad: in the atlas (colour matrix, floor) or on the screen (composite).
+#include "tiles.glsl"
+uniform int instanceBase;
+uniform vec2 atlasSize;            // px
+uniform int onScreen;              // 0: the tile's atlas rectangle; 1: its screen rectangle
+layout(std430, binding = 2) readonly buffer Order { int order[]; };  // composite order (back to front)
+uniform int useOrder;
+flat out int tileIndex;
+out vec2 atlasCoord;               // px in the atlas
+out vec2 ndc;                      // screen NDC (onScreen)
+void main() {
+    int k = instanceBase + gl_InstanceID;
+    tileIndex = useOrder == 1 ? order[k] : k;
+    Tile t = tiles[tileIndex];
+    vec2 corner = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
+    atlasCoord = t.atlasRect.xy + corner * t.atlasRect.z;
+    ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);
+    gl_Position = vec4(onScreen == 1 ? ndc : atlasCoord / atlasSize * 2.0 - 1.0, 0.0, 1.0);
+}

@@ -1,0 +1,21 @@
+// Per-ellipsoid data of one frame, shared by the compositor's shaders (std430; filled by
+// ellipsoid/src/compositor.cpp, struct GpuTile). Positions are camera-relative (eye at 0).
+struct Tile {
+    vec4 centerSigma;   // xyz: centre - eye (m); w: extinction * density (1/m)
+    vec4 axes0;         // columns of R diag(r): unit sphere -> world offset (m)
+    vec4 axes1;
+    vec4 axes2;
+    vec4 unit0;         // rows of M = diag(1/r) R^T: world offset -> unit sphere
+    vec4 unit1;
+    vec4 unit2;
+    vec4 eyeUnitAc;     // xyz: M (eye - c); w: Ac, the largest opacity
+    mat4 tileViewProj;  // camera-relative world -> tile clip space ([-1,1]^2 = the tile)
+    vec4 atlasRect;     // x, y, size (px) in the atlas; w: layer (pass)
+    vec4 screenRect;    // NDC x0, y0, x1, y1 on the frame
+    vec4 params;        // x: 1 if cut by the near plane (or the eye inside); y: cloud index; z, w: unused
+    vec4 noiseOffset;   // xyz: offset in noise texture coordinates
+};
+layout(std430, binding = 0) readonly buffer Tiles { Tile tiles[]; };
+
+mat3 tileAxes(Tile t) { return mat3(t.axes0.xyz, t.axes1.xyz, t.axes2.xyz); }
+vec3 toUnit(Tile t, vec3 v) { return vec3(dot(t.unit0.xyz, v), dot(t.unit1.xyz, v), dot(t.unit2.xyz, v)); }
