@@ -1,4 +1,5 @@
 // The `nephele` command-line tool.
+#include "bench_command.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
@@ -50,6 +51,19 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
 
+    BenchOptions bo;
+    std::string benchGl = "egl";
+    CLI::App* bench = app.add_subcommand("bench", "Time the ellipsoid compositor against its floor and baseline");
+    bench->add_option("--out-dir", bo.outDir, "Folder for the CSV, the markdown table and the chart")->capture_default_str();
+    bench->add_option("--readme", bo.readme, "Also replace the generated bench section of this README");
+    bench->add_option("--counts", bo.counts, "Ellipsoid counts")->capture_default_str();
+    bench->add_option("--frames", bo.frames, "Measured frames per point (median)")->check(CLI::Range(1, 1000))->capture_default_str();
+    bench->add_option("--width", bo.width, "Frame width")->check(CLI::Range(16, 16384))->capture_default_str();
+    bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
+    bench->add_flag("!--no-accuracy", bo.accuracy, "Skip the accuracy figures on the shared scenes");
+    bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
+    bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
+
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
     info->add_option("--gl", backend, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
 
@@ -64,6 +78,16 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         app.exit(e);
         return 2;
+    }
+
+    if (*bench) {
+        for (int c : bo.counts)
+            if (c < 1 || c > 1000000) {
+                std::cerr << "nephele: --counts: " << c << " is out of range 1..1000000\n";
+                return 2;
+            }
+        bo.backend = parseBackend(benchGl);
+        return runBench(bo);
     }
 
     if (*info) {

@@ -3,10 +3,12 @@
 #include "gardner_model.glsl"
 #include "tiles.glsl"
 flat in int tileIndex;
+flat in vec4 atlasRect;
 in vec2 atlasCoord;
 in vec2 ndc;
-uniform sampler2DArray atlasTerms;    // alpha: eq. (2)
-uniform sampler2DArray atlasColor;    // rgb: lit colour
+uniform sampler2DArray atlasTerms;    // green: sunLight, blue: noise modulation / 2, alpha: eq. (2)
+uniform vec3 sunRadiance, ambient;
+uniform float albedo;
 uniform vec2 atlasSize;
 uniform int fraction;                 // 1: weight by the optical depth in front of the opaque depth
 uniform sampler2D sceneDepth;         // copy of the frame's depth (fraction mode)
@@ -15,15 +17,16 @@ uniform vec3 forward, rightScaled, upScaled;
 uniform float nearClip, farClip;
 out vec4 result;
 void main() {
-    Tile t = tiles[tileIndex];
     // Stay half a texel inside the tile so that filtering never reads a neighbour.
-    vec2 lo = t.atlasRect.xy + 0.5, hi = t.atlasRect.xy + t.atlasRect.z - 0.5;
-    vec3 uv = vec3(clamp(atlasCoord, lo, hi) / atlasSize, t.atlasRect.w);
-    float alpha = clamp(texture(atlasTerms, uv).a, 0.0, 1.0);
-    vec3 color = texture(atlasColor, uv).rgb;
+    vec2 lo = atlasRect.xy + 0.5, hi = atlasRect.xy + atlasRect.z - 0.5;
+    vec3 uv = vec3(clamp(atlasCoord, lo, hi) / atlasSize, atlasRect.w);
+    vec4 terms = texture(atlasTerms, uv);
+    float alpha = clamp(terms.a, 0.0, 1.0);
+    vec3 color = cloudColor(sunRadiance, terms.g, ambient, albedo, 2.0 * terms.b);
     if (fraction == 1 && alpha > 0.0) {
         float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
         if (z < 1.0) {
+            Tile t = tiles[tileIndex];
             vec3 d = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
             float zEye = 2.0 * nearClip * farClip / (farClip + nearClip - (2.0 * z - 1.0) * (farClip - nearClip));
             float cosF = dot(d, forward);

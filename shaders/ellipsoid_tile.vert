@@ -1,13 +1,44 @@
 // The ellipsoid pass: one ellipsoid per instance, drawn by its back faces (a circumscribed
 // mesh, so that it covers the exact silhouette even with the eye inside), in its tile.
+// What varies slowly over the ellipse is evaluated per vertex, as the paper's Gouraud-lit,
+// texture-mapped ellipsoids are: the shading point, its sun light (from the cloud's light
+// volume) and its noise coordinates, and the 1/|M d| scale of the chord. What shapes the
+// ellipse is per pixel: the projective falloff coordinates are linear in the vertex
+// position and divided per fragment, as OpenGL's projective texturing does.
+#define MODEL_FN
+#include "gardner_model.glsl"
 #include "tiles.glsl"
 layout(location = 0) in vec3 position;   // on the circumscribed unit-sphere mesh
 uniform int instanceBase;                // first tile of this draw
 uniform vec2 atlasSize;                  // px
 uniform int foldAtlas;                   // 1: the tile's place is folded into the projection (instanced)
                                          // 0: the caller set the viewport to the tile (one draw per ellipsoid)
+uniform float nearClip;                  // m
+uniform vec3 forward;                    // unit view direction
+uniform vec3 eyeNoise;                   // fract(eye / noisePeriod)
+uniform float noisePeriod;               // m
+uniform sampler3D lightVolume;           // per-cloud sun transmittance, clouds stacked along z
+uniform int lightSize;                   // voxels per side; 0 = no self-shadowing
+uniform int lightClouds;
+layout(std430, binding = 1) readonly buffer LightBoxes { vec4 lightBoxes[]; };  // per cloud: minRel, extent
+uniform vec3 sunDirection;
 flat out int tileIndex;
-out vec3 relPosition;                    // camera-relative world position
+out vec3 relPosition;                    // camera-relative world position (the ray)
+out vec4 projCoord;                      // projective falloff coordinates (x, y, -, w)
+out float invLen;                        // 1 / |M d|: metres of ray per unit of unit space
+out vec3 noiseCoord;                     // shading point in noise texture coordinates
+out float light;                         // sunLight() at the shading point
+flat out vec4 instance;                  // Ac, sigma (1/m), L^2 = |M (eye - c)|^2, 1 if cut by the near plane
+
+float sunTransmittance(int cloud, vec3 p) {
+    if (lightSize == 0) return 1.0;
+    vec3 uvw = (p - lightBoxes[2 * cloud].xyz) / lightBoxes[2 * cloud + 1].xyz;
+    float n = float(lightSize);
+    uvw = clamp(uvw, 0.5 / n, 1.0 - 0.5 / n);
+    uvw.z = (float(cloud) + uvw.z) / float(lightClouds);
+    return textureLod(lightVolume, uvw, 0.0).r;
+}
+
 void main() {
     tileIndex = instanceBase + gl_InstanceID;
     Tile t = tiles[tileIndex];
@@ -23,6 +54,39 @@ void main() {
         vec2 offset = (2.0 * t.atlasRect.xy + t.atlasRect.z) / atlasSize - 1.0;
         clip.xy = clip.xy * scale + offset * clip.w;
     }
-    relPosition = world;
     gl_Position = clip;
+    relPosition = world;
+    instance = vec4(t.eyeUnitAc.w, t.centerSigma.w, dot(t.eyeUnitAc.xyz, t.eyeUnitAc.xyz), t.params.x);
+
+    // The ray through this vertex, in unit space: o + s du.
+    vec3 o = t.eyeUnitAc.xyz;
+    vec3 d = normalize(world);
+    vec3 du = toUnit(t, d);
+    float len = length(du);
+    invLen = 1.0 / len;
+    // Projective coordinates: where the ray meets the plane through the centre facing the
+    // eye, p = o + s du with p.c = 0, in homogeneous form (linear in the vertex position).
+    vec3 c = -normalize(o);
+    vec3 e1 = normalize(cross(c, abs(c.z) < 0.9 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0)));
+    vec3 e2 = cross(c, e1);
+    float w = dot(du, c);
+    vec3 ph = o * w - du * dot(o, c);
+    projCoord = vec4(dot(ph, e1), dot(ph, e2), 0.0, w);
+
+    // The shading point: the ray's closest approach to the centre, within its chord.
+    vec3 dn = du / len;
+    float tc = -dot(o, dn);
+    vec3 perp = o + tc * dn;
+    float h = sqrt(max(1.0 - dot(perp, perp), 0.0));
+    float tStart = t.params.x > 0.5 ? nearClip / max(dot(d, forward), 1e-6) : 0.0;
+    float tIn = (tc - h) / len, tOut = (tc + h) / len;
+    float tShade = clamp(tc / len, max(tIn, tStart), max(tOut, tStart));
+    vec3 shade = tShade * d;
+    noiseCoord = shade / noisePeriod + eyeNoise + t.noiseOffset.xyz;
+    vec3 normal = -d;
+    if (tIn > tStart) {
+        vec3 pu = o + tIn * du;  // entry point, unit space: the world normal is M^T pu
+        normal = normalize(t.unit0.xyz * pu.x + t.unit1.xyz * pu.y + t.unit2.xyz * pu.z);
+    }
+    light = sunLight(sunTransmittance(int(t.params.y), shade), dot(normal, sunDirection));
 }

@@ -66,14 +66,19 @@ MODEL_FN float opacityInFront(float alpha, float front, float whole) {
 // Opacity of optical depth tau.
 MODEL_FN float opacityOf(float tau) { return 1.0f - exp(-tau); }
 
-// ---- Colour (section 3.5): the ellipsoid lit by the sun and the sky, modulated by noise.
-// sunRadiance = sun.color * sun.intensity / pi; sunTransmittance: exp(-optical depth to the
-// sun) at the shading point, through every ellipsoid of the cloud (self-shadowing);
-// cosSun: the ellipsoid normal at the ray's entry point against the sun direction;
-// ambient: the sky's radiance averaged over the upper hemisphere's view of the cloud.
-MODEL_FN vec3 cloudColor(vec3 sunRadiance, float sunTransmittance, float cosSun, vec3 ambient, float albedo,
-                         float noiseAmp, float n) {
+// ---- Colour (section 3.5): the ellipsoid lit by the sun and the sky, modulated by noise:
+//   colour = albedo * (sunRadiance * sunLight + ambient) * noiseModulation
+// sunRadiance = sun.color * sun.intensity / pi; ambient: the sky's radiance (cloudAmbient).
+// The two scalars are what the atlas stores (green and blue), so that one attachment
+// carries eq. (2) and the colour.
+// sunTransmittance: exp(-optical depth to the sun) at the shading point, through every
+// ellipsoid of the cloud (self-shadowing); cosSun: the ellipsoid normal at the ray's entry
+// point against the sun direction.
+MODEL_FN float sunLight(float sunTransmittance, float cosSun) {
     float wrap = 0.35f + 0.65f * (0.5f + 0.5f * cosSun);  // forward-scattering clouds glow past the terminator
-    vec3 lit = albedo * (sunRadiance * (sunTransmittance * wrap) + ambient);
-    return lit * (1.0f + 0.5f * noiseAmp * n);
+    return sunTransmittance * wrap;
+}
+MODEL_FN float noiseModulation(float noiseAmp, float n) { return 1.0f + 0.5f * noiseAmp * n; }
+MODEL_FN vec3 cloudColor(vec3 sunRadiance, float light, vec3 ambient, float albedo, float modulation) {
+    return albedo * (sunRadiance * light + ambient) * modulation;
 }

@@ -8,10 +8,12 @@ uniform int useOrder;
 flat out int tileIndex;
 out vec2 atlasCoord;               // px in the atlas
 out vec2 ndc;                      // screen NDC (onScreen)
+flat out vec4 atlasRect;           // the tile's x, y, size (px) and layer
 void main() {
     int k = instanceBase + gl_InstanceID;
     tileIndex = useOrder == 1 ? order[k] : k;
     Tile t = tiles[tileIndex];
+    atlasRect = t.atlasRect;
     vec2 corner = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
     atlasCoord = t.atlasRect.xy + corner * t.atlasRect.z;
     ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);

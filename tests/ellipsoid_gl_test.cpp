@@ -80,12 +80,13 @@ protected:
 
 // The tiled GPU path against the exact CPU evaluation of the same model. What separates
 // them: each ellipsoid resampled from its power-of-two tile onto its screen rectangle
-// (bilinear), the radial falloff from a 256^2 texture instead of the closed form, the
+// (bilinear), the radial falloff from a 256^2 texture instead of the closed form, the sun
+// light and the noise coordinates per vertex (interpolated) instead of per pixel, the
 // sun's transmittance from a 32^3 light volume instead of exact, and half floats in the
-// atlas. Measured on llvmpipe: 49 to 58 dB. 40 dB leaves room for drivers that filter
-// with fewer bits (8-bit filter weights cost about 10 dB), and still fails if a term of
-// eq. (2), the colour, the order or the fly-through is wrong (each of those costs 20 dB
-// or more: an object wrongly covered by cloud gave 29.6 dB on example.json).
+// atlas. Measured on llvmpipe: 37 to 47 dB. 33 dB leaves room for drivers that filter
+// with fewer bits, and still fails if a term of eq. (2), the colour, the order or the
+// fly-through is wrong (an object wrongly covered by cloud gave 29.6 dB on example.json;
+// a wrong term costs more).
 TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
     for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"}) {
         const Scene scene = sharedScene(name);
@@ -93,8 +94,8 @@ TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
         const Image exact = clamped(renderExact(scene));
         const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
         std::printf("[ figure ] %-16s GPU vs gardner-exact PSNR %.1f dB\n", name, db);
-        EXPECT_GT(db, 40.0) << name;
-        if (db <= 40.0) {
+        EXPECT_GT(db, 33.0) << name;
+        if (db <= 33.0) {
             save(std::string("ellipsoid_gpu_") + name, gpu);
             save(std::string("ellipsoid_exact_") + name, exact);
         }
@@ -248,7 +249,7 @@ TEST_F(EllipsoidGLTest, CameraInsideACloudSeesFog) {
     for (float v : alpha.pixels) mean += v;
     mean /= double(alpha.pixels.size());
     EXPECT_GT(mean, 0.9) << "inside the cloud the view must be filled with cloud";
-    EXPECT_GT(psnr(channels(gpu, 0, 3), channels(exact, 0, 3)), 40.0);
+    EXPECT_GT(psnr(channels(gpu, 0, 3), channels(exact, 0, 3)), 33.0);
 }
 
 TEST_F(EllipsoidGLTest, EllipsoidsBehindTheEyeCostNothing) {

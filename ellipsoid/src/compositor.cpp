@@ -115,8 +115,20 @@ std::uint64_t lightKey(const Scene& scene, int size) {
 
 }  // namespace
 
+struct FramePlan {
+    PreparedClouds prepared;
+    PackResult packed;
+    std::vector<TilePlacement> placements;  // by pass, then mesh level
+    std::vector<GpuTile> gpu;               // parallel to placements
+    std::vector<int> order;                 // GPU tile indices, back to front
+    int atlasW = 0, atlasH = 0;
+    EllipsoidStats stats;
+};
+
 struct EllipsoidRenderer::Impl {
-    Program tile, colourMatrix, composite, screenDepth;
+    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view);
+
+    Program tile, colourMatrix, composite, screenDepth, floor;
     VertexArray empty;
     std::map<int, SphereMesh> meshes;   // by slices
     Texture falloff, noise, light;
@@ -127,7 +139,7 @@ struct EllipsoidRenderer::Impl {
     std::size_t tilesCapacity = 0, orderCapacity = 0, lightBoxCapacity = 0;
     std::vector<float> lightBoxWorld;   // per cloud: min (xyz, 0), extent (xyz, 0), world
     // The atlas: one layer per pass.
-    Texture atlasTerms, atlasColor;
+    Texture atlasTerms;  // rgba: T2 (1 - g), sunLight, modulation / 2, eq. (2)
     int atlasW = 0, atlasH = 0, atlasLayers = 0;
     std::vector<Framebuffer> layerFbos;
     // Copy of the frame's depth (fraction mode).
@@ -211,14 +223,17 @@ int meshSlices(const EllipsoidSettings& s, int tileSize) {
 
 }  // namespace
 
-EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
-    Impl& m = *impl_;
-    const EllipsoidSettings& s = settings_;
-    EllipsoidStats stats;
+// Everything before the first draw: projection, culling, tile sizes, packing, the GPU
+// tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
+FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view) {
+    Impl& m = *this;
+    FramePlan out;
+    EllipsoidStats& stats = out.stats;
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
-    const PreparedClouds prepared = prepareClouds(scene, view, s.noise);
+    out.prepared = prepareClouds(scene, view, s.noise);
+    const PreparedClouds& prepared = out.prepared;
     stats.visible = int(prepared.ellipsoids.size());
-    if (prepared.ellipsoids.empty()) return stats;
+    if (prepared.ellipsoids.empty()) return out;
 
     const int frameW = view.camera.width, frameH = view.camera.height;
     const int atlasW = s.atlasWidth > 0 ? s.atlasWidth : frameW;
@@ -232,17 +247,20 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
         requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, maxTile)});
     }
-    const PackResult packed = packTiles(requests, atlasW, atlasH);
+    out.packed = packTiles(requests, atlasW, atlasH);
+    const PackResult& packed = out.packed;
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
-    std::vector<TilePlacement> placements = packed.placements;
+    std::vector<TilePlacement>& placements = out.placements;
+    placements = packed.placements;
     // Within a pass tiles never overlap, so any order will do: group them by mesh level.
     std::stable_sort(placements.begin(), placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
         return a.pass != b.pass ? a.pass < b.pass : meshSlices(s, a.size) < meshSlices(s, b.size);
     });
 
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
-    std::vector<GpuTile> gpu(placements.size());
+    std::vector<GpuTile>& gpu = out.gpu;
+    gpu.resize(placements.size());
     std::vector<int> slot(prepared.ellipsoids.size());  // prepared index -> GPU tile index
     for (std::size_t k = 0; k < placements.size(); ++k) {
         const TilePlacement& tp = placements[k];
@@ -265,7 +283,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
     }
     // prepared.ellipsoids is back to front: that is the composite order.
-    std::vector<int> order(slot.begin(), slot.end());
+    out.order = slot;
+    const std::vector<int>& order = out.order;
 
     // ---- Resources.
     upload(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
@@ -311,22 +330,36 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         m.atlasW = atlasW;
         m.atlasH = atlasH;
         m.atlasTerms = Texture::create(GL_TEXTURE_2D_ARRAY);
-        m.atlasColor = Texture::create(GL_TEXTURE_2D_ARRAY);
         glTextureStorage3D(m.atlasTerms.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
-        glTextureStorage3D(m.atlasColor.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
         m.layerFbos.clear();
         for (int l = 0; l < m.atlasLayers; ++l) {
             Framebuffer fbo = Framebuffer::create();
             glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, m.atlasTerms.id(), 0, l);
-            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT1, m.atlasColor.id(), 0, l);
-            const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-            glNamedFramebufferDrawBuffers(fbo.id(), 2, bufs);
             if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
                 throw GlError("ellipsoid atlas: framebuffer incomplete");
             m.layerFbos.push_back(std::move(fbo));
         }
     }
+    out.atlasW = atlasW;
+    out.atlasH = atlasH;
+    return out;
+}
 
+EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
+    Impl& m = *impl_;
+    const EllipsoidSettings& s = settings_;
+    const FramePlan plan = m.plan(s, scene, view);
+    EllipsoidStats stats = plan.stats;
+    if (plan.order.empty()) return stats;
+    const PreparedClouds& prepared = plan.prepared;
+    const PackResult& packed = plan.packed;
+    const std::vector<TilePlacement>& placements = plan.placements;
+    const std::vector<GpuTile>& gpu = plan.gpu;
+    const std::vector<int>& order = plan.order;
+    const int atlasW = plan.atlasW, atlasH = plan.atlasH;
+    const int frameW = view.camera.width, frameH = view.camera.height;
+    const int lightSize = s.lightVolume;
+    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     GlStateGuard guard;
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.lightBoxes.id());
@@ -356,9 +389,6 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     tp.set("lightSize", lightSize);
     tp.set("lightClouds", std::max(m.lightClouds, 1));
     tp.set("sunDirection", glm::vec3(scene.sun.direction));
-    tp.set("sunRadiance", glm::vec3(sunRadiance));
-    tp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
-    tp.set("albedo", float(scene.medium.albedo));
     tp.set("foldAtlas", s.instanced ? 1 : 0);
     glBindTextureUnit(0, m.falloff.id());
     glBindTextureUnit(1, m.noise.id());
@@ -381,19 +411,17 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glBindFramebuffer(GL_FRAMEBUFFER, m.layerFbos[pass].id());
         glViewport(0, 0, atlasW, atlasH);
         glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-        // T2 = D in red, T1 / D = 0 in alpha; colour 0.
-        const float terms[4] = {model::kTranslucence, 0.0f, 0.0f, 0.0f}, zero[4] = {0, 0, 0, 0};
+        // T2 = D in red, T1 / D = 0 in alpha; 1 in green and blue (colour, subtracted from).
+        const float terms[4] = {model::kTranslucence, 1.0f, 1.0f, 0.0f};
         glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, terms);
-        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 1, zero);
 
         // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
         glEnable(GL_CULL_FACE);
         glCullFace(GL_FRONT);
         for (int c = 0; c < 4; ++c) glEnable(GL_CLIP_DISTANCE0 + c);
-        glEnablei(GL_BLEND, 0);
-        glBlendEquationSeparatei(0, GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
-        glBlendFuncSeparatei(0, GL_ONE, GL_ONE, GL_ONE, GL_ONE);
-        glDisablei(GL_BLEND, 1);
+        glEnable(GL_BLEND);
+        glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
+        glBlendFunc(GL_ONE, GL_ONE);
         glUseProgram(tp.id());
         for (int k = first; k < first + count;) {
             const int slices = meshSlices(s, placements[k].size);
@@ -424,19 +452,13 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glTextureBarrier();
         glBindTextureUnit(3, m.atlasTerms.id());
         glBindSampler(3, 0);
-        glEnablei(GL_BLEND, 0);
-        glBlendEquationSeparatei(0, GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_REVERSE_SUBTRACT);
-        glBlendFuncSeparatei(0, GL_ONE, GL_ONE, GL_ONE, GL_ONE);
+        glBlendEquation(GL_FUNC_REVERSE_SUBTRACT);
         glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_TRUE);
-        const GLenum one[1] = {GL_COLOR_ATTACHMENT0};
-        glNamedFramebufferDrawBuffers(m.layerFbos[pass].id(), 1, one);
         glBindVertexArray(m.empty.id());
         glUseProgram(m.colourMatrix.id());
         m.colourMatrix.set("instanceBase", first);
         glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
         ++stats.drawCalls;
-        const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-        glNamedFramebufferDrawBuffers(m.layerFbos[pass].id(), 2, both);
         check("colour-matrix pass");
         first += count;
     }
@@ -472,12 +494,14 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, frameW, frameH);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    glEnablei(GL_BLEND, 0);
-    glBlendEquationSeparatei(0, GL_FUNC_ADD, GL_FUNC_ADD);
-    glBlendFuncSeparatei(0, GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     const Program& cp = m.composite;
     cp.set("atlasTerms", 3);
-    cp.set("atlasColor", 4);
+    cp.set("sunRadiance", glm::vec3(sunRadiance));
+    cp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
+    cp.set("albedo", float(scene.medium.albedo));
     cp.set("sceneDepth", 5);
     cp.set("atlasSize", atlasSize);
     cp.set("onScreen", 1);
@@ -490,10 +514,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("nearClip", float(view.camera.nearClip));
     cp.set("farClip", float(view.camera.farClip));
     glBindTextureUnit(3, m.atlasTerms.id());
-    glBindTextureUnit(4, m.atlasColor.id());
     glBindTextureUnit(5, fraction ? m.depthCopy.id() : 0);
     glBindSampler(3, m.linearClamp.id());
-    glBindSampler(4, m.linearClamp.id());
     glBindSampler(5, 0);
     glBindVertexArray(m.empty.id());
     const int n = int(order.size());
@@ -549,6 +571,53 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         }
     }
     check("compositing the ellipsoid tiles");
+    return stats;
+}
+
+EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
+    Impl& m = *impl_;
+    const FramePlan plan = m.plan(settings_, scene, view);
+    EllipsoidStats stats = plan.stats;
+    if (plan.order.empty()) return stats;
+    if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});
+    GlStateGuard guard;
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_CULL_FACE);
+    glDepthMask(GL_FALSE);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE);
+    glBindVertexArray(m.empty.id());
+    glUseProgram(m.floor.id());
+    const Program& f = m.floor;
+    f.set("atlasSize", glm::vec2(plan.atlasW, plan.atlasH));
+    f.set("atlasTerms", 3);
+    f.set("useOrder", 0);
+    glBindTextureUnit(3, m.atlasTerms.id());
+    glBindSampler(3, m.linearClamp.id());
+    for (int pass = 0, first = 0; pass < plan.packed.passes; ++pass) {
+        int count = 0;
+        while (first + count < int(plan.placements.size()) && plan.placements[first + count].pass == pass) ++count;
+        glBindFramebuffer(GL_FRAMEBUFFER, m.layerFbos[pass].id());
+        glViewport(0, 0, plan.atlasW, plan.atlasH);
+        const float zero[4] = {0, 0, 0, 0};
+        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, zero);
+        f.set("onScreen", 0);
+        f.set("instanceBase", first);
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
+        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        glViewport(0, 0, view.camera.width, view.camera.height);
+        f.set("onScreen", 1);
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
+        stats.drawCalls += 2;
+        first += count;
+    }
+    check("floor passes");
     return stats;
 }
 

@@ -171,10 +171,10 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 if (alpha <= 0) continue;
                 Vec3 normal = -d;
                 if (tIn > tStart) normal = glm::normalize(glm::transpose(p.unit) * Vec3(o + tIn * len * dn));
-                const glm::vec3 c = model::cloudColor(
-                    glm::vec3(sunRadiance),
-                    float(sunTransmittance(scene, scene.clouds[p.cloud], shadePoint)),
-                    float(glm::dot(normal, scene.sun.direction)), glm::vec3(ambient), float(scene.medium.albedo), amp, n);
+                const float light = model::sunLight(float(sunTransmittance(scene, scene.clouds[p.cloud], shadePoint)),
+                                                    float(glm::dot(normal, scene.sun.direction)));
+                const glm::vec3 c = model::cloudColor(glm::vec3(sunRadiance), light, glm::vec3(ambient),
+                                                      float(scene.medium.albedo), model::noiseModulation(amp, n));
                 color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
                 alphaSum = alpha + alphaSum * (1.0 - alpha);
             }

@@ -77,6 +77,11 @@ public:
     // cloud opacity into alpha ("over").
     EllipsoidStats render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth);
 
+    // The bench's floor for the same frame: the same tiles, passes and CPU work, but only
+    // the unavoidable pixel work: each tile's pixels blended once per pass, and each tile's
+    // screen rectangle composited once as a plain textured quad; one draw each per pass.
+    EllipsoidStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer);
+
 private:
     struct Impl;
     EllipsoidSettings settings_;
