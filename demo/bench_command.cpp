@@ -15,6 +15,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <random>
 #include <sstream>
@@ -60,7 +61,7 @@ using Clock = std::chrono::steady_clock;
 
 struct Row {
     int count = 0;
-    double ms = 0, baselineMs = 0, floorMs = 0;
+    double ms = 0, baselineMs = 0, floorMs = 0, fusedMs = 0;
     EllipsoidStats stats, baselineStats;
 };
 
@@ -100,52 +101,64 @@ Scene benchScene(int count, int width, int height) {
 
 namespace {
 
-// Median wall time of `frames` frames (after two warm-up frames), each finished with glFinish.
-template <class Draw>
-double timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene, const View& view,
-                  Draw&& draw) {
-    std::vector<double> ms;
-    for (int i = 0; i < frames + 2; ++i) {
-        opaque.draw(scene, view, target.framebuffer());
-        gl::glFinish();
-        const auto t0 = Clock::now();
-        draw();
-        gl::glFinish();
-        const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-        if (i >= 2) ms.push_back(elapsed);
-    }
-    return median(ms);
+// Median wall times of `frames` frames per method (after two warm-up rounds), each finished
+// with glFinish. The methods take turns frame by frame, so that a busy machine slows them
+// alike and their ratios hold.
+std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
+                               const View& view, const std::vector<std::function<void()>>& methods) {
+    std::vector<std::vector<double>> ms(methods.size());
+    for (int i = 0; i < frames + 2; ++i)
+        for (std::size_t m = 0; m < methods.size(); ++m) {
+            opaque.draw(scene, view, target.framebuffer());
+            gl::glFinish();
+            const auto t0 = Clock::now();
+            methods[m]();
+            gl::glFinish();
+            const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+            if (i >= 2) ms[m].push_back(elapsed);
+        }
+    std::vector<double> out;
+    for (auto& v : ms) out.push_back(median(v));
+    return out;
 }
 
 struct Accuracy {
-    std::string scene;
+    std::string what;
     double psnr = 0, iou = -1, mae = -1;
 };
+
+Image gpuFrame(const Scene& scene, const EllipsoidSettings& settings) {
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    EllipsoidRenderer(settings).render(scene, view, target.framebuffer(), !scene.objects.empty());
+    Image img = target.readColor();
+    for (float& v : img.pixels) v = std::clamp(v, 0.0f, 1.0f);
+    return img;
+}
 
 std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
     std::vector<Accuracy> out;
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    auto exactFrame = [&](const Scene& scene) {
+        Image img = renderGardnerExact(scene, makeView(scene.camera), noise, ns);
+        for (float& v : img.pixels) v = std::clamp(v, 0.0f, 1.0f);
+        return img;
+    };
+    auto against = [&](const std::string& what, const Scene& scene, const EllipsoidSettings& settings) {
+        Accuracy a;
+        a.what = what;
+        a.psnr = psnr(channels(gpuFrame(scene, settings), 0, 3), channels(exactFrame(scene), 0, 3));
+        return a;
+    };
     for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"}) {
         Scene scene = loadScene(o.scenesDir + "/" + name);
-        const View view = makeView(scene.camera);
-        auto gpuFrame = [&](const Scene& sc) {
-            FrameTarget target(sc.camera.width, sc.camera.height);
-            OpaquePass().draw(sc, view, target.framebuffer());
-            EllipsoidRenderer(EllipsoidSettings{}).render(sc, view, target.framebuffer(), !sc.objects.empty());
-            Image img = target.readColor();
-            for (float& v : img.pixels) v = std::clamp(v, 0.0f, 1.0f);
-            return img;
-        };
-        Accuracy a;
-        a.scene = name;
-        Image exact = renderGardnerExact(scene, view, noise, ns);
-        for (float& v : exact.pixels) v = std::clamp(v, 0.0f, 1.0f);
-        a.psnr = psnr(channels(gpuFrame(scene), 0, 3), channels(exact, 0, 3));
-        if (a.scene != "flythrough.json" && a.scene != "example.json") {
+        Accuracy a = against(name, scene, {});
+        if (scene.objects.empty()) {
             scene.medium.noise = 0;
-            const Image alpha = channels(gpuFrame(scene), 3, 1);
-            const Image physics = exactDensityOpacity(scene, view);
+            const Image alpha = channels(gpuFrame(scene, {}), 3, 1);
+            const Image physics = exactDensityOpacity(scene, makeView(scene.camera));
             int inter = 0, uni = 0;
             double sum = 0;
             for (std::size_t i = 0; i < alpha.pixels.size(); ++i) {
@@ -158,8 +171,16 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
             a.mae = sum / double(alpha.pixels.size());
         }
         out.push_back(a);
-        std::cerr << "bench: accuracy " << name << " done\n";
     }
+    EllipsoidSettings u8;
+    u8.precision = AtlasPrecision::Unorm8;
+    out.push_back(against("cumulus27.json, 8-bit atlas", loadScene(o.scenesDir + "/cumulus27.json"), u8));
+    const Scene probe = loadScene(o.scenesDir + "/box_in_thin_cloud.json");
+    EllipsoidSettings stencil;
+    stencil.flyThrough = FlyThrough::Stencil;
+    out.push_back(against("box_in_thin_cloud.json, fly-through: fraction", probe, {}));
+    out.push_back(against("box_in_thin_cloud.json, fly-through: stencil (paper)", probe, stencil));
+    std::cerr << "bench: accuracy done\n";
     return out;
 }
 
@@ -193,22 +214,25 @@ int runBench(const BenchOptions& o) {
         gl::setChecks(false);  // timing: no glGetError round trips
         FrameTarget target(o.width, o.height);
         OpaquePass opaque;
-        EllipsoidSettings instancedSettings, baselineSettings;
+        EllipsoidSettings instancedSettings, baselineSettings, fusedSettings;
         baselineSettings.instanced = false;
-        EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings);
+        fusedSettings.colourMatrixPass = false;
+        EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings), fused(fusedSettings);
         for (int count : o.counts) {
             const Scene scene = benchScene(count, o.width, o.height);
             const View view = makeView(scene.camera);
             Row r;
             r.count = count;
-            r.ms = timeFrames(o.frames, target, opaque, scene, view,
-                              [&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); });
-            r.floorMs = timeFrames(o.frames, target, opaque, scene, view,
-                                   [&] { instanced.renderFloor(scene, view, target.framebuffer()); });
-            r.baselineMs = timeFrames(o.frames, target, opaque, scene, view,
-                                      [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); });
+            const std::vector<double> ms = timeFrames(
+                o.frames, target, opaque, scene, view,
+                {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
+                 [&] { instanced.renderFloor(scene, view, target.framebuffer()); },
+                 [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
+                 [&] { fused.render(scene, view, target.framebuffer(), false); }});
+            r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.fusedMs = ms[3];
             std::cerr << "bench: " << count << " ellipsoids: " << fmt("%.1f", r.ms) << " ms, floor "
-                      << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms\n";
+                      << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms, fused "
+                      << fmt("%.1f", r.fusedMs) << " ms\n";
             rows.push_back(r);
         }
         gl::setChecks(true);
@@ -224,35 +248,38 @@ int runBench(const BenchOptions& o) {
     const std::string machine = cpu + ", " + std::to_string(std::thread::hardware_concurrency()) + " cores; " + renderer;
 
     std::ostringstream csv;
-    csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,baseline_draw_calls,"
-           "passes,utilisation,tile_pixels,screen_pixels\n";
+    csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,fused_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,"
+           "baseline_draw_calls,passes,utilisation,tile_pixels,screen_pixels\n";
     for (const Row& r : rows)
         csv << r.count << "," << r.stats.visible << "," << fmt("%.3f", r.ms) << "," << fmt("%.3f", r.floorMs) << ","
-            << fmt("%.3f", r.baselineMs) << "," << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.baselineMs / r.ms)
+            << fmt("%.3f", r.baselineMs) << "," << fmt("%.3f", r.fusedMs) << "," << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.baselineMs / r.ms)
             << "," << r.stats.drawCalls << "," << r.baselineStats.drawCalls << "," << r.stats.passes << ","
             << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << "," << r.stats.screenPixels << "\n";
 
     std::ostringstream md;
     md << "Measured by `nephele bench` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", median of " << o.frames << " frames (wall time to glFinish; the sky is drawn before the clock starts). "
+       << ", median of " << o.frames << " frames (wall time to glFinish; the sky is drawn before the clock starts; the "
+          "methods take turns frame by frame). "
        << "The floor is the same tiles' unavoidable pixel work alone (each tile's pixels blended once per pass, each "
           "tile's screen rectangle composited once, one draw each per pass); the baseline is the paper's one draw per "
-          "ellipsoid.\n\n";
-    md << "| ellipsoids | ms/frame | floor ms | baseline ms | × floor | speed-up vs baseline | draws | baseline draws | "
-          "passes | atlas use |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          "ellipsoid (same shaders, a viewport and a draw per tile and per composite); fused applies the colour "
+          "matrix in the composite instead of its own pass (same image).\n\n";
+    md << "| ellipsoids | ms/frame | floor ms | baseline ms | fused ms | × floor | fused × floor | speed-up vs baseline "
+          "| draws | baseline draws | passes | atlas use |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
         md << "| " << r.count << " | " << fmt("%.1f", r.ms) << " | " << fmt("%.1f", r.floorMs) << " | "
-           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.2f", r.ms / r.floorMs) << " | "
+           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.1f", r.fusedMs) << " | " << fmt("%.2f", r.ms / r.floorMs)
+           << " | " << fmt("%.2f", r.fusedMs / r.floorMs) << " | "
            << fmt("%.1f", r.baselineMs / r.ms) << " | " << r.stats.drawCalls << " | " << r.baselineStats.drawCalls
            << " | " << r.stats.passes << " | " << fmt("%.0f%%", 100 * r.stats.utilisation) << " |\n";
     md << "\n![ms per frame against ellipsoid count](docs/ellipsoid_bench.png)\n";
     if (!accuracy.empty()) {
         md << "\nAccuracy on the shared scenes at their own size, same run: the GPU compositor against "
-              "`--method gardner-exact` (PSNR of linear RGB clamped to [0, 1]), and with `medium.noise: 0` its "
-              "opacity (`--alpha`) against the exact opacity of the format's density field.\n\n"
-              "| scene | GPU vs exact PSNR | opacity IoU(α>0.5) | opacity MAE |\n|---|---:|---:|---:|\n";
+              "`--method gardner-exact` (PSNR of linear RGB clamped to [0, 1]), and for scenes without objects, with "
+              "`medium.noise: 0`, its opacity (`--alpha`) against the exact opacity of the format's density field.\n\n"
+              "| scene, setting | GPU vs exact PSNR | opacity IoU(α>0.5) | opacity MAE |\n|---|---:|---:|---:|\n";
         for (const Accuracy& a : accuracy)
-            md << "| " << a.scene << " | " << fmt("%.1f dB", a.psnr) << " | "
+            md << "| " << a.what << " | " << fmt("%.1f dB", a.psnr) << " | "
                << (a.iou < 0 ? std::string("—") : fmt("%.3f", a.iou)) << " | "
                << (a.mae < 0 ? std::string("—") : fmt("%.4f", a.mae)) << " |\n";
     }

@@ -26,6 +26,8 @@ int main(int argc, char** argv) {
     render->add_option("-o,--output", ro.output, "Output PNG (sRGB, 8-bit)")->required();
     render->add_option("--alpha", ro.alpha, "Also write the cloud opacity as an 8-bit grey PNG");
     render->add_option("--pfm", ro.pfm, "Also write linear float RGB as PFM");
+    render->add_option("--density-alpha", ro.densityAlpha,
+                       "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against");
     render->add_option("--method", method, "auto|ellipsoid|layered|raymarch|pathtrace|gardner-exact")
         ->capture_default_str();
     auto* w = render->add_option("--width", width, "Image width in pixels (overrides the camera)");
@@ -46,6 +48,10 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     render->add_option("--draws", draws, "instanced, or per-ellipsoid (the paper's one draw per ellipsoid)")
         ->check(CLI::IsMember({"instanced", "per-ellipsoid"}))
+        ->capture_default_str();
+    std::string colourMatrix = "pass";
+    render->add_option("--colour-matrix", colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
+        ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
     render->add_option("--flythrough", flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
@@ -128,6 +134,7 @@ int main(int argc, char** argv) {
         }
         es.precision = precision == "u8" ? AtlasPrecision::Unorm8 : AtlasPrecision::Float16;
         es.instanced = draws == "instanced";
+        es.colourMatrixPass = colourMatrix == "pass";
         es.flyThrough = flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
     } catch (const std::exception& e) {
         std::cerr << "nephele: " << e.what() << "\n";

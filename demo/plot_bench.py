@@ -20,6 +20,7 @@ def main():
     fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
     for key, label, style in [("ms", "compositor (instanced)", "o-"),
                               ("baseline_ms", "baseline: one draw per ellipsoid", "s--"),
+                              ("fused_ms", "compositor, colour matrix fused into the composite", "d-"),
                               ("floor_ms", "floor: pixel work alone", "^:")]:
         ax.plot(n, [float(r[key]) for r in rows], style, label=label)
     ax.set_xscale("log", base=2)

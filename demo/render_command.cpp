@@ -89,6 +89,7 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
         frame.stats = clouds.render(scene, view, target.framebuffer(), !scene.objects.empty());
         rgba = target.readColor();
     }
+    if (!o.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);
     frame.color = channels(rgba, 0, 3);
     frame.alpha = channels(rgba, 3, 1);
     return frame;
@@ -101,6 +102,8 @@ int runRender(const RenderOptions& o) {
     files.add(o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); });
     if (!o.alpha.empty()) files.add(o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); });
     if (!o.pfm.empty()) files.add(o.pfm, [&](const std::string& p) { writePfm(p, frame.color); });
+    if (!o.densityAlpha.empty())
+        files.add(o.densityAlpha, [&](const std::string& p) { writePng(p, frame.densityAlpha, Encoding::Linear); });
     try {
         if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
         files.checkPaths();
@@ -129,8 +132,14 @@ int runRender(const RenderOptions& o) {
     std::cerr << "nephele: wrote " << o.output;
     if (!o.alpha.empty()) std::cerr << ", " << o.alpha;
     if (!o.pfm.empty()) std::cerr << ", " << o.pfm;
+    if (!o.densityAlpha.empty()) std::cerr << ", " << o.densityAlpha;
     std::cerr << " (" << scene.camera.width << "x" << scene.camera.height << ", method " << methodName(o.method)
-              << ", " << backendName(o.backend) << ")\n";
+              << (o.method == Method::GardnerExact ? "" : std::string(", ") + backendName(o.backend)) << ")\n";
+    const EllipsoidStats& st = frame.stats;
+    if (st.ellipsoids > 0 && o.method != Method::GardnerExact)
+        std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
+                  << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
+                  << " draw calls\n";
     return 0;
 }
 

@@ -21,7 +21,7 @@ Method parseMethod(const std::string& name);  // throws UsageError
 const char* methodName(Method m);
 
 struct RenderOptions {
-    std::string scene, output, alpha, pfm;
+    std::string scene, output, alpha, pfm, densityAlpha;
     Method method = Method::Auto;
     std::optional<int> width, height;
     std::optional<double> scale;
@@ -34,6 +34,7 @@ struct Frame {
     Image color;  // RGB linear radiance
     Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
     EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
+    Image densityAlpha;    // the exact opacity of the density field, when asked for
 };
 
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).

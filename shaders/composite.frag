@@ -7,6 +7,7 @@ flat in vec4 atlasRect;
 in vec2 atlasCoord;
 in vec2 ndc;
 uniform sampler2DArray atlasTerms;    // green: sunLight, blue: noise modulation / 2, alpha: eq. (2)
+uniform mat4 colourMatrix;            // zero when the colour-matrix pass already ran; else red / D -> alpha
 uniform vec3 sunRadiance, ambient;
 uniform float albedo;
 uniform vec2 atlasSize;
@@ -21,7 +22,7 @@ void main() {
     vec2 lo = atlasRect.xy + 0.5, hi = atlasRect.xy + atlasRect.z - 0.5;
     vec3 uv = vec3(clamp(atlasCoord, lo, hi) / atlasSize, atlasRect.w);
     vec4 terms = texture(atlasTerms, uv);
-    float alpha = clamp(terms.a, 0.0, 1.0);
+    float alpha = clamp(terms.a - (colourMatrix * terms).a, 0.0, 1.0);
     vec3 color = cloudColor(sunRadiance, terms.g, ambient, albedo, 2.0 * terms.b);
     if (fraction == 1 && alpha > 0.0) {
         float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;

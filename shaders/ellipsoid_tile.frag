@@ -9,8 +9,11 @@
 #include "gardner_model.glsl"
 #include "tiles.glsl"
 flat in int tileIndex;
+#ifdef CUT
 in vec3 relPosition;
-in vec4 projCoord;
+#else
+in vec3 projCoord;
+#endif
 in float invLen;
 in vec3 noiseCoord;
 in float light;
@@ -24,21 +27,20 @@ uniform float noiseAmp;                // medium.noise
 
 void main() {
     float ac = instance.x;
-    float depth;
-    if (instance.w > 0.5) {
-        // Cut by the near plane, or the eye inside: the exact chord beyond the near plane.
-        Tile t = tiles[tileIndex];
-        vec3 d = normalize(relPosition);
-        depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), nearClip / dot(d, forward), 1e30);
-    } else {
-        // The plane point at radius rho lies on the ray with impact parameter
-        // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):
-        // the texture is read at radius b, in the direction of the plane point.
-        vec2 st = projCoord.xy / projCoord.w;
-        float l2 = instance.z;
-        st *= sqrt(l2 / (l2 + dot(st, st)));
-        depth = kChordScale * texture(falloff, st * 0.5 + 0.5).r * invLen;
-    }
+#ifdef CUT
+    // Cut by the near plane, or the eye inside: the exact chord beyond the near plane.
+    Tile t = tiles[tileIndex];
+    vec3 d = normalize(relPosition);
+    float depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), nearClip / dot(d, forward), 1e30);
+#else
+    // The plane point at radius rho lies on the ray with impact parameter
+    // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):
+    // the texture is read at radius b, in the direction of the plane point.
+    vec2 st = projCoord.xy / projCoord.z;
+    float l2 = instance.z;
+    st *= sqrt(l2 / (l2 + dot(st, st)));
+    float depth = kChordScale * texture(falloff, st * 0.5 + 0.5).r * invLen;
+#endif
     if (depth <= 0.0) {
         // Outside the silhouette (the circumscribed mesh is larger): n = -1 makes eq. (2)
         // non-positive whatever Ac is, and saves the noise lookup.

@@ -5,6 +5,8 @@
 // volume) and its noise coordinates, and the 1/|M d| scale of the chord. What shapes the
 // ellipse is per pixel: the projective falloff coordinates are linear in the vertex
 // position and divided per fragment, as OpenGL's projective texturing does.
+// CUT (a second program): ellipsoids cut by the near plane, or around the eye, whose
+// opacity is the exact chord beyond the near plane per pixel; they need the ray instead.
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
@@ -17,14 +19,17 @@ uniform float nearClip;                  // m
 uniform vec3 forward;                    // unit view direction
 uniform vec3 eyeNoise;                   // fract(eye / noisePeriod)
 uniform float noisePeriod;               // m
-uniform sampler3D lightVolume;           // per-cloud sun transmittance, clouds stacked along z
-uniform int lightSize;                   // voxels per side; 0 = no self-shadowing
-uniform int lightClouds;
+uniform sampler3D lightVolume;           // per-cloud sun transmittance, one slot of a grid per cloud
+uniform int lightSize;                   // voxels per side of a slot; 0 = no self-shadowing
+uniform vec3 lightGrid;                  // slots along x, y, z; cloud c is at (c % gx, c / gx % gy, c / (gx gy))
 layout(std430, binding = 1) readonly buffer LightBoxes { vec4 lightBoxes[]; };  // per cloud: minRel, extent
 uniform vec3 sunDirection;
 flat out int tileIndex;
+#ifdef CUT
 out vec3 relPosition;                    // camera-relative world position (the ray)
-out vec4 projCoord;                      // projective falloff coordinates (x, y, -, w)
+#else
+out vec3 projCoord;                      // projective falloff coordinates (x, y, w)
+#endif
 out float invLen;                        // 1 / |M d|: metres of ray per unit of unit space
 out vec3 noiseCoord;                     // shading point in noise texture coordinates
 out float light;                         // sunLight() at the shading point
@@ -35,7 +40,9 @@ float sunTransmittance(int cloud, vec3 p) {
     vec3 uvw = (p - lightBoxes[2 * cloud].xyz) / lightBoxes[2 * cloud + 1].xyz;
     float n = float(lightSize);
     uvw = clamp(uvw, 0.5 / n, 1.0 - 0.5 / n);
-    uvw.z = (float(cloud) + uvw.z) / float(lightClouds);
+    int gx = int(lightGrid.x), gy = int(lightGrid.y);
+    vec3 slot = vec3(cloud % gx, (cloud / gx) % gy, cloud / (gx * gy));
+    uvw = (slot + uvw) / lightGrid;
     return textureLod(lightVolume, uvw, 0.0).r;
 }
 
@@ -55,7 +62,9 @@ void main() {
         clip.xy = clip.xy * scale + offset * clip.w;
     }
     gl_Position = clip;
+#ifdef CUT
     relPosition = world;
+#endif
     instance = vec4(t.eyeUnitAc.w, t.centerSigma.w, dot(t.eyeUnitAc.xyz, t.eyeUnitAc.xyz), t.params.x);
 
     // The ray through this vertex, in unit space: o + s du.
@@ -66,12 +75,14 @@ void main() {
     invLen = 1.0 / len;
     // Projective coordinates: where the ray meets the plane through the centre facing the
     // eye, p = o + s du with p.c = 0, in homogeneous form (linear in the vertex position).
+#ifndef CUT
     vec3 c = -normalize(o);
     vec3 e1 = normalize(cross(c, abs(c.z) < 0.9 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0)));
     vec3 e2 = cross(c, e1);
     float w = dot(du, c);
     vec3 ph = o * w - du * dot(o, c);
-    projCoord = vec4(dot(ph, e1), dot(ph, e2), 0.0, w);
+    projCoord = vec3(dot(ph, e1), dot(ph, e2), w);
+#endif
 
     // The shading point: the ray's closest approach to the centre, within its chord.
     vec3 dn = du / len;

@@ -128,13 +128,14 @@ struct FramePlan {
 struct EllipsoidRenderer::Impl {
     FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view);
 
-    Program tile, colourMatrix, composite, screenDepth, floor;
+    Program tile, tileCut, colourMatrix, composite, screenDepth, floor;
     VertexArray empty;
     std::map<int, SphereMesh> meshes;   // by slices
     Texture falloff, noise, light;
     Sampler linearClamp;
     std::uint64_t lightKeyValue = 0;
     int lightClouds = 0;
+    glm::ivec3 lightGrid{1, 1, 1};      // slots of the clouds' light volumes in the 3D texture
     Buffer tiles, lightBoxes, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0, lightBoxCapacity = 0;
     std::vector<float> lightBoxWorld;   // per cloud: min (xyz, 0), extent (xyz, 0), world
@@ -164,6 +165,8 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
     Impl& m = *impl_;
     m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}});
+    m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                               "#define CUT 1\n");
     m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}});
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
@@ -221,6 +224,12 @@ int meshSlices(const EllipsoidSettings& s, int tileSize) {
     return tileSize <= 32 ? 8 : tileSize <= 128 ? 16 : 32;
 }
 
+// Tiles of one pass are drawn in groups, one instanced draw each: by program (cut by the
+// near plane: + 1000) and mesh level (slices).
+int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize) {
+    return (e.projection.crossesNear ? 1000 : 0) + meshSlices(s, tileSize);
+}
+
 }  // namespace
 
 // Everything before the first draw: projection, culling, tile sizes, packing, the GPU
@@ -253,9 +262,11 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     stats.utilisation = packed.meanUtilisation();
     std::vector<TilePlacement>& placements = out.placements;
     placements = packed.placements;
-    // Within a pass tiles never overlap, so any order will do: group them by mesh level.
+    // Within a pass tiles never overlap, so any order will do: group them by program
+    // (cut by the near plane or not) and mesh level, one instanced draw per group.
+    auto group = [&](const TilePlacement& p) { return drawGroup(s, prepared.ellipsoids[p.id], p.size); };
     std::stable_sort(placements.begin(), placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
-        return a.pass != b.pass ? a.pass < b.pass : meshSlices(s, a.size) < meshSlices(s, b.size);
+        return a.pass != b.pass ? a.pass < b.pass : group(a) < group(b);
     });
 
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
@@ -295,15 +306,23 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         if (!m.light || key != m.lightKeyValue) {
             const std::vector<CloudLight> lights = makeCloudLights(scene, lightSize);
             m.lightClouds = int(lights.size());
+            // The clouds' volumes side by side in one 3D texture: a grid of gx * gy * gz slots.
             GLint max3d = 0;
             glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
-            if (lightSize * m.lightClouds > max3d)
-                throw GlError("light volumes: " + std::to_string(m.lightClouds) + " clouds x " + std::to_string(lightSize) +
-                              " voxels exceed GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower lightVolume");
+            const int perAxis = std::max(1, int(max3d) / lightSize);
+            const int clouds = std::max(m.lightClouds, 1);
+            const int gx = std::min(perAxis, int(std::ceil(std::sqrt(double(clouds)))));
+            const int gy = std::min(perAxis, (clouds + gx - 1) / gx);
+            const int gz = (clouds + gx * gy - 1) / (gx * gy);
+            if (gz > perAxis)
+                throw GlError("light volumes: " + std::to_string(clouds) + " clouds of " + std::to_string(lightSize) +
+                              "^3 voxels do not fit GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower lightVolume");
+            m.lightGrid = glm::ivec3(gx, gy, gz);
             m.light = Texture::create(GL_TEXTURE_3D);
-            glTextureStorage3D(m.light.id(), 1, GL_R16F, lightSize, lightSize, lightSize * m.lightClouds);
+            glTextureStorage3D(m.light.id(), 1, GL_R16F, gx * lightSize, gy * lightSize, gz * lightSize);
             for (int c = 0; c < m.lightClouds; ++c)
-                glTextureSubImage3D(m.light.id(), 0, 0, 0, c * lightSize, lightSize, lightSize, lightSize, GL_RED, GL_FLOAT,
+                glTextureSubImage3D(m.light.id(), 0, (c % gx) * lightSize, (c / gx % gy) * lightSize,
+                                    (c / (gx * gy)) * lightSize, lightSize, lightSize, lightSize, GL_RED, GL_FLOAT,
                                     lights[c].transmittance.data());
             m.lightKeyValue = key;
             // Boxes are camera-relative, so they are rewritten below every frame.
@@ -376,20 +395,21 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
 
     // ---- The tile passes.
     const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
-    const Program& tp = m.tile;
-    tp.set("atlasSize", atlasSize);
-    tp.set("forward", glm::vec3(view.forward));
-    tp.set("nearClip", float(view.camera.nearClip));
-    tp.set("falloff", 0);
-    tp.set("noiseVolume", 1);
-    tp.set("lightVolume", 2);
-    tp.set("eyeNoise", glm::vec3(glm::fract(view.eye / prepared.noisePeriod)));
-    tp.set("noisePeriod", float(prepared.noisePeriod));
-    tp.set("noiseAmp", float(scene.medium.noise));
-    tp.set("lightSize", lightSize);
-    tp.set("lightClouds", std::max(m.lightClouds, 1));
-    tp.set("sunDirection", glm::vec3(scene.sun.direction));
-    tp.set("foldAtlas", s.instanced ? 1 : 0);
+    for (const Program* tp : {&m.tile, &m.tileCut}) {
+        tp->set("atlasSize", atlasSize);
+        tp->set("forward", glm::vec3(view.forward));
+        tp->set("nearClip", float(view.camera.nearClip));
+        tp->set("falloff", 0);
+        tp->set("noiseVolume", 1);
+        tp->set("lightVolume", 2);
+        tp->set("eyeNoise", glm::vec3(glm::fract(view.eye / prepared.noisePeriod)));
+        tp->set("noisePeriod", float(prepared.noisePeriod));
+        tp->set("noiseAmp", float(scene.medium.noise));
+        tp->set("lightSize", lightSize);
+        tp->set("lightGrid", glm::vec3(m.lightGrid));
+        tp->set("sunDirection", glm::vec3(scene.sun.direction));
+        tp->set("foldAtlas", s.instanced ? 1 : 0);
+    }
     glBindTextureUnit(0, m.falloff.id());
     glBindTextureUnit(1, m.noise.id());
     glBindTextureUnit(2, lightSize > 0 ? m.light.id() : 0);
@@ -422,12 +442,14 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glEnable(GL_BLEND);
         glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
         glBlendFunc(GL_ONE, GL_ONE);
-        glUseProgram(tp.id());
+        auto group = [&](const TilePlacement& p) { return drawGroup(s, prepared.ellipsoids[p.id], p.size); };
         for (int k = first; k < first + count;) {
-            const int slices = meshSlices(s, placements[k].size);
+            const int key = group(placements[k]);
             int n = 0;
-            while (k + n < first + count && meshSlices(s, placements[k + n].size) == slices) ++n;
-            const SphereMesh& mesh = m.mesh(slices);
+            while (k + n < first + count && group(placements[k + n]) == key) ++n;
+            const Program& tp = key >= 1000 ? m.tileCut : m.tile;
+            glUseProgram(tp.id());
+            const SphereMesh& mesh = m.mesh(key % 1000);
             glBindVertexArray(mesh.vao.id());
             if (s.instanced) {
                 tp.set("instanceBase", k);
@@ -448,7 +470,11 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glDisable(GL_CULL_FACE);
         check("ellipsoid tile pass");
 
-        // The colour-matrix copy, all tiles of the pass in one draw.
+        // The colour-matrix copy, all tiles of the pass in one draw (or, fused, in the composite).
+        if (!s.colourMatrixPass) {
+            first += count;
+            continue;
+        }
         glTextureBarrier();
         glBindTextureUnit(3, m.atlasTerms.id());
         glBindSampler(3, 0);
@@ -507,6 +533,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("onScreen", 1);
     cp.set("useOrder", 1);
     cp.set("fraction", fraction ? 1 : 0);
+    cp.set("colourMatrix", s.colourMatrixPass ? glm::mat4(0.0f) : colourMatrix);
     cp.set("frameSize", glm::vec2(frameW, frameH));
     cp.set("forward", glm::vec3(view.forward));
     cp.set("rightScaled", glm::vec3(view.right * view.tanHalfX));

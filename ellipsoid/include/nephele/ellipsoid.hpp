@@ -48,6 +48,8 @@ struct EllipsoidSettings {
     FlyThrough flyThrough = FlyThrough::Fraction;
     int tessellation = 0;       // slices of the ellipsoid mesh; 0 = adapted to the tile size
     int lightVolume = 32;       // per-cloud sun transmittance grid (voxels per side); 0 = no self-shadowing
+    bool colourMatrixPass = true;  // false: the composite applies the colour matrix as it reads the
+                                   // atlas (exact too: filtering is linear), one pass less per tile
     NoiseSettings noise;
 };
 

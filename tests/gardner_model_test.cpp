@@ -1,0 +1,109 @@
+// The shared Gardner model (shaders/gardner_model.glsl compiled as C++) against numerical
+// integration of the format's density field, and the exact CPU renderer's bookkeeping.
+#include "nephele/gardner.hpp"
+#include "nephele/gardner_model.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+using namespace nephele;
+
+namespace {
+
+// Midpoint rule of density (1 - q)^2 along the ray over [t0, t1], in double.
+double integrate(const Ellipsoid& e, const Vec3& o, const Vec3& d, double t0, double t1, int steps = 200000) {
+    const glm::dmat3 m = ellipsoidToUnit(e);
+    double sum = 0;
+    const double dt = (t1 - t0) / steps;
+    for (int i = 0; i < steps; ++i) {
+        const Vec3 p = m * (o + (t0 + (i + 0.5) * dt) * d - e.center);
+        const double q = glm::dot(p, p);
+        if (q < 1) sum += (1 - q) * (1 - q);
+    }
+    return sum * dt;
+}
+
+TEST(GardnerModelTest, SegmentDepthMatchesNumericalIntegration) {
+    std::mt19937 rng(3);
+    auto u = [&](double lo, double hi) { return lo + (hi - lo) * double(rng() >> 5) * 0x1.0p-27; };
+    for (int k = 0; k < 40; ++k) {
+        Ellipsoid e;
+        e.center = {u(-500, 500), u(-500, 500), u(1000, 2000)};
+        e.radii = {u(50, 400), u(50, 400), u(50, 300)};
+        e.rotationDeg = {u(0, 360), u(0, 360), u(0, 360)};
+        // Rays from outside through the ellipsoid, and from inside it.
+        const bool inside = k % 4 == 0;
+        const Vec3 target = e.center + Vec3(u(-0.5, 0.5), u(-0.5, 0.5), u(-0.5, 0.5)) * e.radii;
+        const Vec3 origin = inside ? e.center + rotationFromDegrees(e.rotationDeg) * (0.3 * e.radii)
+                                   : target - glm::normalize(Vec3(u(-1, 1), u(-1, 1), u(-1, 1))) * u(1000, 3000);
+        const Vec3 d = glm::normalize(target - origin);
+        const double t1 = glm::length(target - origin) + 1500;
+        const glm::dmat3 m = ellipsoidToUnit(e);
+        const glm::vec3 o(m * (origin - e.center)), du(m * d);
+        for (double cut : {0.0, 0.4}) {  // the whole ray, and from part way along it
+            const double t0 = cut * glm::length(target - origin);
+            const double exact = integrate(e, origin, d, t0, t1);
+            const double model = model::segmentDepth(o, du, float(t0), float(t1));
+            EXPECT_NEAR(model, exact, 1e-3 * std::max(1.0, exact)) << "case " << k << " cut " << cut;
+        }
+    }
+}
+
+TEST(GardnerModelTest, WholeChordIsSixteenFifteenthsOfTheRadialProfile) {
+    Ellipsoid e;
+    e.radii = {200, 100, 50};
+    const glm::dmat3 m = ellipsoidToUnit(e);
+    for (double b : {0.0, 0.3, 0.7, 0.95}) {
+        const Vec3 origin(-5000, b * 100, 0), d(1, 0, 0);  // along x, impact parameter b
+        const glm::vec3 o(m * origin), du(m * d);
+        const double expected = model::kChordScale * model::radialProfile(float(b * b)) / glm::length(du);
+        EXPECT_NEAR(model::segmentDepth(o, du, 0.0f, 1e30f), expected, 1e-4 * 200) << b;
+        EXPECT_NEAR(model::kChordScale * std::pow(1 - b * b, 2.5) * 200, expected, 1e-3);
+    }
+    // A miss has no depth.
+    EXPECT_EQ(model::segmentDepth(glm::vec3(m * Vec3(-5000, 120, 0)), glm::vec3(m * Vec3(1, 0, 0)), 0.0f, 1e30f), 0.0f);
+}
+
+TEST(GardnerModelTest, WithoutNoiseEquationTwoIsTheExactOpacity) {
+    for (float ac : {0.05f, 0.4f, 0.99f})
+        for (float g : {0.0f, 0.3f, 1.0f}) {
+            const float alpha = model::gardnerAlpha(model::termIOverD(ac, 0.0f, 0.7f), model::termG(ac, 0.0f, g));
+            EXPECT_NEAR(alpha, ac * g, 1e-6);
+        }
+    // With noise the rim (g = 0) stays transparent whatever the noise says.
+    for (float n : {-1.0f, 0.0f, 1.0f})
+        EXPECT_LE(model::gardnerAlpha(model::termIOverD(0.8f, 0.3f, n), model::termG(0.8f, 0.3f, 0.0f)), 1e-6f);
+}
+
+TEST(GardnerModelTest, OpacityInFrontScalesOpticalDepth) {
+    EXPECT_EQ(model::opacityInFront(0.8f, 0.0f, 2.0f), 0.0f);
+    EXPECT_NEAR(model::opacityInFront(0.8f, 2.0f, 2.0f), 0.8f, 1e-6);
+    // Half the optical depth: 1 - sqrt(1 - alpha).
+    EXPECT_NEAR(model::opacityInFront(0.75f, 1.0f, 2.0f), 0.5f, 1e-6);
+    // An opaque ellipsoid half in front still lets nothing through the front half.
+    EXPECT_GT(model::opacityInFront(1.0f, 1.0f, 2.0f), 0.999f);
+}
+
+TEST(GardnerModelTest, ExactDensityOpacityOfOneEllipsoid) {
+    Scene s;
+    s.camera.position = {0, -2000, 0};
+    s.camera.direction = {0, 1, 0};
+    s.camera.width = 9;
+    s.camera.height = 9;
+    s.camera.fovYDeg = 20;
+    Ellipsoid e;
+    e.radii = {300, 200, 250};
+    e.density = 0.5;
+    s.clouds.push_back({"c", {e}});
+    const View v = makeView(s.camera);
+    const Image img = exactDensityOpacity(s, v);
+    // The centre pixel looks straight through the centre: tau = ext * density * 16/15 * r_y.
+    const double tau = s.medium.extinction * 0.5 * 16.0 / 15.0 * 200.0;
+    EXPECT_NEAR(img.at(4, 4, 0), 1 - std::exp(-tau), 1e-4);
+    const Vec3 corner = v.rayDirection(0.5, 0.5);
+    EXPECT_NEAR(img.at(0, 0, 0), 1 - std::exp(-s.medium.extinction * 0.5 * integrate(e, v.eye, corner, 0, 4000)), 1e-4);
+}
+
+}  // namespace
