@@ -106,6 +106,10 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
              std::string("--width 0"), std::string("--width 16385"), std::string("--height -4"),
              std::string("--scale 0"), std::string("--scale 1000"), std::string("--scale 2 --width 100"),
              std::string("--width abc"), std::string("--alpha ") + path("out.png"),
+             std::string("--min-tile 3"), std::string("--max-tile 0"), std::string("--min-tile 64 --max-tile 32"),
+             std::string("--atlas 100"), std::string("--atlas 0x10"), std::string("--atlas 64x64x"),
+             std::string("--precision f32"), std::string("--draws some"), std::string("--flythrough sideways"),
+             std::string("--colour-matrix maybe"), std::string("--density-alpha ") + path("out.png"),
              std::string("--pfm ") + path("missing-folder/x.pfm")}) {
         const CliRun r = run("render " + scene + out + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
@@ -152,6 +156,32 @@ TEST_F(CliTest, RenderWritesPngAlphaAndPfmAtTheAskedSize) {
     // The PNG is the sRGB encoding of the PFM.
     EXPECT_NEAR(png.at(5, 5, 2), linearToSrgb(pfm.at(5, 5, 2)), 0.5 / 255);
     expectNoOutputs({"good.json", "out.png", "a.png", "o.pfm"});
+}
+
+TEST_F(CliTest, EllipsoidsRenderWithOpacityAndStats) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/single.json";
+    const CliRun r = run("render " + scene + " --method ellipsoid --scale 0.25 -o " + path("c.png") + " --alpha " +
+                         path("a.png") + " --density-alpha " + path("d.png") + " --atlas 64x64 --max-tile 64");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("1 of 1 visible, 1 pass(es)"), std::string::npos) << r.output;
+    const Image alpha = readPng(path("a.png")), density = readPng(path("d.png"));
+    // The cloud is opaque in its middle and absent in the corners, in both.
+    EXPECT_GT(alpha.at(80, 60, 0), 0.9f);
+    EXPECT_EQ(alpha.at(2, 2, 0), 0.0f);
+    EXPECT_GT(density.at(80, 60, 0), 0.9f);
+}
+
+TEST_F(CliTest, GardnerExactNeedsNoGl) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/two_clouds.json";
+    const CliRun r = run("render " + scene + " --method gardner-exact --width 80 -o " + path("c.png") + " --gl osmesa");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(readPng(path("c.png")).width, 80);
+}
+
+TEST_F(CliTest, BenchRejectsBadArguments) {
+    EXPECT_EQ(run("bench --counts 0 --out-dir " + path("b")).code, 2);
+    EXPECT_EQ(run("bench --frames 0 --out-dir " + path("b")).code, 2);
+    EXPECT_EQ(run("bench --readme " + path("missing.md") + " --out-dir " + path("b") + " --counts 1 --frames 1 --no-accuracy").code, 2);
 }
 
 TEST_F(CliTest, OSMesaBackendRenders) {
