@@ -1,5 +1,6 @@
 // The `nephele` command-line tool.
 #include "bench_command.hpp"
+#include "flythrough_command.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
@@ -12,50 +13,102 @@
 using namespace nephele;
 using namespace nephele::cli;
 
+namespace {
+
+// The options `render` and `flythrough` share, as typed on the command line.
+struct SceneArgs {
+    std::string scene, method = "auto", backend = "egl";
+    int width = 0, height = 0;
+    double scale = 0;
+    int minTile = 8, maxTile = 512;
+    std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "pass";
+    CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
+};
+
+void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
+    cmd->add_option("scene", a.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required();
+    cmd->add_option("--method", a.method, "auto|ellipsoid|layered|raymarch|pathtrace|gardner-exact")->capture_default_str();
+    a.widthOpt = cmd->add_option("--width", a.width, "Image width in pixels (overrides the camera)");
+    a.heightOpt = cmd->add_option("--height", a.height, "Image height in pixels (overrides the camera)");
+    a.scaleOpt = cmd->add_option("--scale", a.scale, "Scale the camera's image size")->excludes(a.widthOpt)->excludes(a.heightOpt);
+    cmd->add_option("--gl", a.backend, "OpenGL backend: egl (headless) or osmesa")
+        ->check(CLI::IsMember({"egl", "osmesa"}))
+        ->capture_default_str();
+    cmd->add_option("--min-tile", a.minTile, "Ellipsoid tiles: smallest size (px, power of two)")->capture_default_str();
+    cmd->add_option("--max-tile", a.maxTile, "Ellipsoid tiles: largest size (px, power of two)")->capture_default_str();
+    cmd->add_option("--atlas", a.atlas, "Ellipsoid atlas size WxH (default: the image size)");
+    cmd->add_option("--precision", a.precision, "Ellipsoid atlas precision: f16 or u8 (the paper's 8 bits)")
+        ->check(CLI::IsMember({"f16", "u8"}))
+        ->capture_default_str();
+    cmd->add_option("--draws", a.draws, "instanced, or per-ellipsoid (the paper's one draw per ellipsoid)")
+        ->check(CLI::IsMember({"instanced", "per-ellipsoid"}))
+        ->capture_default_str();
+    cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
+        ->check(CLI::IsMember({"pass", "fused"}))
+        ->capture_default_str();
+    cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
+        ->check(CLI::IsMember({"fraction", "stencil"}))
+        ->capture_default_str();
+}
+
+// Throws UsageError for values the parser could not judge alone.
+void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
+    ro.scene = a.scene;
+    ro.method = parseMethod(a.method);
+    ro.backend = parseBackend(a.backend);
+    if (a.widthOpt->count()) ro.width = a.width;
+    if (a.heightOpt->count()) ro.height = a.height;
+    if (a.scaleOpt->count()) ro.scale = a.scale;
+    EllipsoidSettings& es = ro.ellipsoid;
+    auto pow2 = [](const char* what, int v) {
+        if (v < 1 || v > 16384 || (v & (v - 1)) != 0)
+            throw UsageError(std::string(what) + " must be a power of two in 1..16384, got " + std::to_string(v));
+        return v;
+    };
+    es.minTile = pow2("--min-tile", a.minTile);
+    es.maxTile = pow2("--max-tile", a.maxTile);
+    if (es.minTile > es.maxTile) throw UsageError("--min-tile must not exceed --max-tile");
+    if (!a.atlas.empty()) {
+        int w = 0, h = 0;
+        char x = 0, extra = 0;
+        if (std::sscanf(a.atlas.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 ||
+            h < 1 || w > 16384 || h > 16384)
+            throw UsageError("--atlas must be WxH with sizes in 1..16384, got '" + a.atlas + "'");
+        if (w < es.minTile || h < es.minTile) throw UsageError("--atlas is smaller than --min-tile");
+        es.atlasWidth = w;
+        es.atlasHeight = h;
+    }
+    es.precision = a.precision == "u8" ? AtlasPrecision::Unorm8 : AtlasPrecision::Float16;
+    es.instanced = a.draws == "instanced";
+    es.colourMatrixPass = a.colourMatrix == "pass";
+    es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
     CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
     app.set_version_flag("--version", "nephele 0.1.0");
     app.require_subcommand(1);
 
     RenderOptions ro;
-    std::string method = "auto", backend = "egl";
-    int width = 0, height = 0;
-    double scale = 0;
+    SceneArgs renderArgs;
     CLI::App* render = app.add_subcommand("render", "Render a scene to a PNG (headless)");
-    render->add_option("scene", ro.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required();
+    addSceneOptions(render, renderArgs);
     render->add_option("-o,--output", ro.output, "Output PNG (sRGB, 8-bit)")->required();
     render->add_option("--alpha", ro.alpha, "Also write the cloud opacity as an 8-bit grey PNG");
     render->add_option("--pfm", ro.pfm, "Also write linear float RGB as PFM");
     render->add_option("--density-alpha", ro.densityAlpha,
                        "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against");
-    render->add_option("--method", method, "auto|ellipsoid|layered|raymarch|pathtrace|gardner-exact")
-        ->capture_default_str();
-    auto* w = render->add_option("--width", width, "Image width in pixels (overrides the camera)");
-    auto* h = render->add_option("--height", height, "Image height in pixels (overrides the camera)");
-    render->add_option("--scale", scale, "Scale the camera's image size")->excludes(w)->excludes(h);
     render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")->capture_default_str();
-    render->add_option("--gl", backend, "OpenGL backend: egl (headless) or osmesa")
-        ->check(CLI::IsMember({"egl", "osmesa"}))
-        ->capture_default_str();
 
-    int minTile = 8, maxTile = 512;
-    std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction";
-    render->add_option("--min-tile", minTile, "Ellipsoid tiles: smallest size (px, power of two)")->capture_default_str();
-    render->add_option("--max-tile", maxTile, "Ellipsoid tiles: largest size (px, power of two)")->capture_default_str();
-    render->add_option("--atlas", atlas, "Ellipsoid atlas size WxH (default: the image size)");
-    render->add_option("--precision", precision, "Ellipsoid atlas precision: f16 or u8 (the paper's 8 bits)")
-        ->check(CLI::IsMember({"f16", "u8"}))
-        ->capture_default_str();
-    render->add_option("--draws", draws, "instanced, or per-ellipsoid (the paper's one draw per ellipsoid)")
-        ->check(CLI::IsMember({"instanced", "per-ellipsoid"}))
-        ->capture_default_str();
-    std::string colourMatrix = "pass";
-    render->add_option("--colour-matrix", colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
-        ->check(CLI::IsMember({"pass", "fused"}))
-        ->capture_default_str();
-    render->add_option("--flythrough", flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
-        ->check(CLI::IsMember({"fraction", "stencil"}))
-        ->capture_default_str();
+    FlythroughOptions fo;
+    SceneArgs flyArgs;
+    CLI::App* fly = app.add_subcommand("flythrough", "Render the scene's camera path to numbered PNG frames");
+    addSceneOptions(fly, flyArgs);
+    fly->add_option("--out-dir", fo.outDir, "Folder for the frames and flythrough.json (new or empty)")->required();
+    fly->add_option("--fps", fo.fps, "Frames per second of scene time")->capture_default_str();
+    fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index");
 
     BenchOptions bo;
     std::string benchGl = "egl";
@@ -70,8 +123,9 @@ int main(int argc, char** argv) {
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
+    std::string infoGl = "egl";
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
-    info->add_option("--gl", backend, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
+    info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
 
     try {
         app.parse(argc, argv);
@@ -86,20 +140,10 @@ int main(int argc, char** argv) {
         return 2;
     }
 
-    if (*bench) {
-        for (int c : bo.counts)
-            if (c < 1 || c > 1000000) {
-                std::cerr << "nephele: --counts: " << c << " is out of range 1..1000000\n";
-                return 2;
-            }
-        bo.backend = parseBackend(benchGl);
-        return runBench(bo);
-    }
-
     if (*info) {
         try {
             ContextOptions co;
-            co.backend = parseBackend(backend);
+            co.backend = parseBackend(infoGl);
             co.visible = false;
             auto ctx = Context::create(co);
             std::cout << backendName(co.backend) << ": " << ctx->description() << "\n";
@@ -109,39 +153,22 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
-
+    if (*bench) {
+        for (int c : bo.counts)
+            if (c < 1 || c > 1000000) {
+                std::cerr << "nephele: --counts: " << c << " is out of range 1..1000000\n";
+                return 2;
+            }
+        bo.backend = parseBackend(benchGl);
+        return runBench(bo);
+    }
     try {
-        ro.method = parseMethod(method);
-        ro.backend = parseBackend(backend);
-        EllipsoidSettings& es = ro.ellipsoid;
-        auto pow2 = [](const char* what, int v) {
-            if (v < 1 || v > 16384 || (v & (v - 1)) != 0)
-                throw UsageError(std::string(what) + " must be a power of two in 1..16384, got " + std::to_string(v));
-            return v;
-        };
-        es.minTile = pow2("--min-tile", minTile);
-        es.maxTile = pow2("--max-tile", maxTile);
-        if (es.minTile > es.maxTile) throw UsageError("--min-tile must not exceed --max-tile");
-        if (!atlas.empty()) {
-            int w = 0, h = 0;
-            char x = 0, extra = 0;
-            if (std::sscanf(atlas.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 ||
-                h < 1 || w > 16384 || h > 16384)
-                throw UsageError("--atlas must be WxH with sizes in 1..16384, got '" + atlas + "'");
-            if (w < es.minTile || h < es.minTile) throw UsageError("--atlas is smaller than --min-tile");
-            es.atlasWidth = w;
-            es.atlasHeight = h;
-        }
-        es.precision = precision == "u8" ? AtlasPrecision::Unorm8 : AtlasPrecision::Float16;
-        es.instanced = draws == "instanced";
-        es.colourMatrixPass = colourMatrix == "pass";
-        es.flyThrough = flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
+        if (*fly) applySceneArgs(flyArgs, fo.render);
+        else applySceneArgs(renderArgs, ro);
     } catch (const std::exception& e) {
         std::cerr << "nephele: " << e.what() << "\n";
         return 2;
     }
-    if (render->count("--width")) ro.width = width;
-    if (render->count("--height")) ro.height = height;
-    if (render->count("--scale")) ro.scale = scale;
+    if (*fly) return runFlythrough(fo);
     return runRender(ro);
 }

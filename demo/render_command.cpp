@@ -55,7 +55,7 @@ void applySize(Scene& scene, const RenderOptions& o) {
     if (o.height && !o.width) cam.width = check("--height", *o.height * aspect);
 }
 
-Frame renderFrame(const Scene& scene, const RenderOptions& o) {
+void checkRenderable(const Scene& scene, const RenderOptions& o) {
     const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid || o.method == Method::GardnerExact;
     if (!implemented)
         throw UsageError(std::string("--method ") + methodName(o.method) +
@@ -63,36 +63,53 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
     if (!scene.generators.empty())
         throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
                          "expand them into ellipsoids yet; remove the `generate` entries to render");
-    if (!scene.layers.empty())
-        std::cerr << "nephele: note: this build does not draw far-field layers yet; " << scene.layers.size()
-                  << " layer(s) left out\n";
+}
 
-    Camera camera = cameraAt(scene, o.time);
+FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
+    if (o.method == Method::GardnerExact) {
+        const NoiseSettings& ns = o.ellipsoid.noise;
+        noise_ = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+        return;
+    }
+    ContextOptions co;
+    co.backend = o.backend;
+    context_ = Context::create(co);
+    gl::setChecks(true);  // a frame costs far more than the checks
+    opaque_ = std::make_unique<OpaquePass>();
+    clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
+}
+
+FrameRenderer::~FrameRenderer() = default;
+
+Frame FrameRenderer::render(const Scene& scene, double time) {
+    Camera camera = cameraAt(scene, time);
     camera.width = scene.camera.width;
     camera.height = scene.camera.height;
     const View view = makeView(camera);
-
     Image rgba;
     Frame frame;
-    if (o.method == Method::GardnerExact) {
-        const NoiseSettings& ns = o.ellipsoid.noise;
-        rgba = renderGardnerExact(scene, view, makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns);
+    if (options_.method == Method::GardnerExact) {
+        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise);
     } else {
-        ContextOptions co;
-        co.backend = o.backend;
-        auto context = Context::create(co);
-        gl::setChecks(true);  // one frame: the check costs nothing next to it
-        FrameTarget target(camera.width, camera.height);
-        OpaquePass opaque;
-        opaque.draw(scene, view, target.framebuffer());
-        EllipsoidRenderer clouds(o.ellipsoid);
-        frame.stats = clouds.render(scene, view, target.framebuffer(), !scene.objects.empty());
-        rgba = target.readColor();
+        context_->makeCurrent();
+        if (!target_ || target_->width() != camera.width || target_->height() != camera.height)
+            target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
+        opaque_->draw(scene, view, target_->framebuffer());
+        frame.stats = clouds_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
+        rgba = target_->readColor();
     }
-    if (!o.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);
+    if (!options_.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);
     frame.color = channels(rgba, 0, 3);
     frame.alpha = channels(rgba, 3, 1);
     return frame;
+}
+
+Frame renderFrame(const Scene& scene, const RenderOptions& o) {
+    checkRenderable(scene, o);
+    if (!scene.layers.empty())
+        std::cerr << "nephele: note: this build does not draw far-field layers yet; " << scene.layers.size()
+                  << " layer(s) left out\n";
+    return FrameRenderer(o).render(scene, o.time);
 }
 
 int runRender(const RenderOptions& o) {

@@ -2,9 +2,12 @@
 
 #include "nephele/context.hpp"
 #include "nephele/ellipsoid.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/opaque.hpp"
 #include "nephele/image.hpp"
 #include "nephele/scene.hpp"
 
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -36,6 +39,27 @@ struct Frame {
     EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
     Image densityAlpha;    // the exact opacity of the density field, when asked for
 };
+
+// Renders frames with one method, keeping the GL context and renderers between frames
+// (fly-throughs). Throws ContextError / GlError for runtime failures.
+class FrameRenderer {
+public:
+    explicit FrameRenderer(const RenderOptions& options);
+    ~FrameRenderer();
+    // The scene at `time` (camera from its path when it has one), at the scene camera's size.
+    Frame render(const Scene& scene, double time);
+
+private:
+    RenderOptions options_;
+    std::unique_ptr<Context> context_;
+    std::unique_ptr<FrameTarget> target_;
+    std::unique_ptr<OpaquePass> opaque_;
+    std::unique_ptr<EllipsoidRenderer> clouds_;
+    NoiseVolume noise_;
+};
+
+// UsageError when the method or the scene needs what this build cannot render yet.
+void checkRenderable(const Scene& scene, const RenderOptions& options);
 
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).
 void applySize(Scene& scene, const RenderOptions& options);

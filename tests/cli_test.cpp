@@ -184,6 +184,27 @@ TEST_F(CliTest, BenchRejectsBadArguments) {
     EXPECT_EQ(run("bench --readme " + path("missing.md") + " --out-dir " + path("b") + " --counts 1 --frames 1 --no-accuracy").code, 2);
 }
 
+TEST_F(CliTest, FlythroughWritesFramesSummaryAndFlickerIndex) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/flythrough.json";  // path from t = 0 to 20 s
+    CliRun r = run("flythrough " + scene + " --out-dir " + path("ref") + " --fps 0.25 --width 48");
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (int k = 0; k < 6; ++k) EXPECT_TRUE(fs::exists(path("ref/frame_000" + std::to_string(k) + ".png"))) << k;
+    EXPECT_FALSE(fs::exists(path("ref/frame_0006.png")));
+    EXPECT_NE(r.output.find("\"mean_change\":"), std::string::npos) << r.output;
+    // Against itself as the reference: the flicker index is 0.
+    r = run("flythrough " + scene + " --out-dir " + path("again") + " --fps 0.25 --width 48 --reference-dir " + path("ref"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("\"flicker_index\":0.0"), std::string::npos) << r.output;
+    // A reference of another size is refused; so is a non-empty out-dir and a scene without a path.
+    EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("other") + " --fps 0.25 --width 64 --reference-dir " +
+                  path("ref")).code, 2);
+    EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("ref") + " --fps 0.25 --width 48").code, 2);
+    EXPECT_EQ(run("flythrough " + std::string(NEPHELE_SCENES) + "/single.json --out-dir " + path("np")).code, 2);
+    EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("f0") + " --fps 0").code, 2);
+    EXPECT_FALSE(fs::exists(path("other")));
+    EXPECT_FALSE(fs::exists(path("np")));
+}
+
 TEST_F(CliTest, OSMesaBackendRenders) {
     const std::string scene = write("good.json", kGood);
     const CliRun r = run("render " + scene + " -o " + path("out.png") + " --gl osmesa --scale 0.25");

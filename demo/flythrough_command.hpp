@@ -1,0 +1,25 @@
+#pragma once
+
+#include "render_command.hpp"
+
+#include <string>
+
+namespace nephele::cli {
+
+struct FlythroughOptions {
+    RenderOptions render;       // scene, method, size, backend, compositor settings (output fields unused)
+    std::string outDir;         // must not exist yet, or be empty
+    double fps = 10;            // frames per second of scene time
+    std::string referenceDir;   // a reference run's out-dir: also report the flicker index
+};
+
+// Mean frame-to-frame change of a sequence: the mean over consecutive pairs of the mean
+// absolute difference of linear RGB clamped to [0, 1].
+double meanFrameChange(const std::vector<Image>& frames);
+
+// `nephele flythrough`: renders the scene's `path` to OUT-DIR/frame_NNNN.png and writes
+// OUT-DIR/flythrough.json with the mean frame-to-frame change (and, with a reference run,
+// the flicker index: this method's mean change minus the reference's). Returns the exit code.
+int runFlythrough(const FlythroughOptions& options);
+
+}  // namespace nephele::cli
