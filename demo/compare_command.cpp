@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -29,19 +30,21 @@ bool isPng(const std::string& path) {
 }
 
 Image read(const std::string& path) {
+    Image img;
     try {
-        return isPng(path) ? readPng(path) : readPfm(path);
+        img = isPng(path) ? readPng(path) : readPfm(path);
     } catch (const ImageError& e) {
         throw UsageError(e.what());  // ImageError messages start with the path
     }
+    if (!std::all_of(img.pixels.begin(), img.pixels.end(), [](float v) { return std::isfinite(v); }))
+        throw UsageError(path + ": has NaN or infinite values");
+    return img;
 }
 
 Loaded loadColor(const std::string& path) {
     const bool png = isPng(path);
     const Image img = read(path);
     const int c = img.channels, colour = c >= 3 ? 3 : 1;  // grey (+alpha) PNGs and grey PFMs are grey colour
-    if (!std::all_of(img.pixels.begin(), img.pixels.end(), [](float v) { return std::isfinite(v); }))
-        throw UsageError(path + ": has NaN or infinite values");
     Loaded out{Image(img.width, img.height, 3), std::nullopt};
     if (c == 2 || c == 4) out.alpha = channels(img, c - 1, 1);  // PNG alpha is stored linear
     for (std::size_t p = 0; p < std::size_t(img.width) * img.height; ++p)
@@ -54,8 +57,6 @@ Loaded loadColor(const std::string& path) {
 
 Image loadAlpha(const std::string& path) {
     Image img = read(path);
-    if (!std::all_of(img.pixels.begin(), img.pixels.end(), [](float v) { return std::isfinite(v); }))
-        throw UsageError(path + ": has NaN or infinite values");
     if (img.channels != 1)
         throw UsageError(path + ": an alpha file must be grey (1 channel), this one has " + std::to_string(img.channels));
     return img;
@@ -88,9 +89,6 @@ int runCompare(const CompareOptions& o) {
     } catch (const UsageError& e) {
         std::cerr << "nephele: " << e.what() << "\n";
         return 2;
-    } catch (const ImageError& e) {  // compareRenders: the files were checked, so unexpected
-        std::cerr << "nephele: compare failed: " << e.what() << "\n";
-        return 1;
     } catch (const std::exception& e) {
         std::cerr << "nephele: compare failed: " << e.what() << "\n";
         return 1;

@@ -167,6 +167,9 @@ TEST(MetricsTest, MismatchesThrow) {
     EXPECT_THROW(compareRenders(a, a, &wrongAlpha, &alpha), ImageError);
     EXPECT_THROW(compareRenders(a, a, &alpha, &a), ImageError);  // alpha must be grey
     EXPECT_THROW(compareRenders(Image(), Image()), ImageError);
+    Image nan = a;
+    nan.at(3, 4, 1) = std::nanf("");
+    EXPECT_THROW(compareRenders(a, nan), ImageError);
 }
 
 }  // namespace

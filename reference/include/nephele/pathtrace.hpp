@@ -1,0 +1,54 @@
+// The physically based reference: a spectral-free (RGB) volumetric path tracer of the
+// format's density field (shared/scene-format.md), against which the fast methods are charted.
+//
+// What it renders, exactly as the format defines it:
+// - cloud matter: sigma_t(x) = medium.extinction * sum_i density_i (1 - q_i)^2 (1/m), with
+//   medium.noise > 0 multiplied by max(0, 1 + noise * n(x)), n(x) = noise->sample(x / P),
+//   P = medium.noise_scale * NoiseSettings{}.cells (m; the project's tileable fBm volume,
+//   anchored to the world); sigma_s = albedo * sigma_t; Henyey-Greenstein phase (hg_g);
+// - the sun, a directional light of irradiance sun.color * sun.intensity, sampled at every
+//   scattering vertex (next-event estimation) through the clouds and the objects;
+// - the sky: a path that leaves the medium sees skyRadiance() (ground colour below the horizon);
+// - opaque objects: Lambert under the sun only, shadowed by clouds and other objects, and no
+//   sky or indirect light (the format's rule); paths end at objects.
+// Only scene.clouds are rendered: `generate` entries must be expanded beforehand; layers,
+// skylight and lightning are not part of this reference.
+//
+// One ray per sample through each pixel centre (as the fast methods sample), clipped to the
+// camera's near/far planes as the GPU clips. Free flights by delta tracking under a
+// piecewise-constant majorant, sun transmittance in closed form when medium.noise == 0 (ratio
+// tracking otherwise), no Russian roulette.
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/image.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/scene.hpp"
+
+#include <string>
+
+namespace nephele {
+
+struct PathTraceSettings {
+    int spp = 64;         // samples per pixel, >= 1
+    int maxBounces = 32;  // scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only
+    unsigned seed = 1;    // same seed, scene and settings -> bit-identical image, whatever the thread count
+    bool progress = false;  // a progress bar on stderr
+};
+
+// RGBA: rgb linear radiance, a = cloud opacity along the primary ray (1 - transmittance of
+// cloud matter between the near plane and the first opaque surface or the far plane; exact
+// closed form when medium.noise == 0, the mean of ratio-tracking estimates otherwise).
+// `noise` may be null only when scene.medium.noise == 0. Throws std::invalid_argument on bad
+// settings.
+Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise);
+
+// The same, cached under cacheDir (created if missing): the file name is a hash of every
+// input that affects the image (the view's camera, sun, sky, medium, clouds, objects, the
+// noise volume when medium.noise > 0, spp, maxBounces, seed and a version constant), and the
+// file holds the whole key, so a hash collision is a miss. Files are written atomically
+// (temporary name, then rename); an unreadable or mismatching file is recomputed.
+Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
+                             const NoiseVolume* noise, const std::string& cacheDir);
+
+}  // namespace nephele
