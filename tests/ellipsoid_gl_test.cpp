@@ -164,6 +164,7 @@ TEST_F(EllipsoidGLTest, SeveralPassesGiveTheSameImageAsOne) {
     small.atlasWidth = 64;  // forces the 27 tiles into several passes
     small.atlasHeight = 64;
     small.maxTile = 64;
+    small.maxPasses = 64;
     EllipsoidSettings sameTiles = small;
     sameTiles.atlasWidth = 1024;
     sameTiles.atlasHeight = 1024;
@@ -176,6 +177,18 @@ TEST_F(EllipsoidGLTest, SeveralPassesGiveTheSameImageAsOne) {
     const ImageDifference d = compareImages(many.rgba, single.rgba, 1e-3);
     EXPECT_LE(d.maxAbs, 1e-3) << "passes " << many.stats.passes;
     EXPECT_GT(psnr(clamped(one.rgba), clamped(single.rgba)), 30.0);  // max tile 64 vs 512: resampling only
+}
+
+TEST_F(EllipsoidGLTest, PassesStayWithinTheirBudget) {
+    const Scene scene = sharedScene("field1000.json", 320);
+    EllipsoidSettings s;
+    s.maxPasses = 2;
+    const Gpu g = renderGpu(scene, s);
+    EXPECT_LE(g.stats.passes, 2);
+    EXPECT_LT(g.stats.maxTile, s.maxTile);
+    EllipsoidSettings roomy;
+    roomy.maxPasses = 100;
+    EXPECT_GT(renderGpu(scene, roomy).stats.passes, 2);  // so the budget did something
 }
 
 TEST_F(EllipsoidGLTest, OneDrawPerEllipsoidBaselineGivesTheSameImage) {

@@ -163,6 +163,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.tessellation != 0 && (s.tessellation < 4 || s.tessellation > 256))
         throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
+    if (s.maxPasses < 1) throw std::invalid_argument("maxPasses must be at least 1");
     Impl& m = *impl_;
     m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}});
     m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
@@ -251,12 +252,18 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     const int minTile = std::min(s.minTile, maxTile);
 
     // ---- Tiles: sizes, packing, per-pass order.
-    std::vector<TileRequest> requests;
-    for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
-        const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
-        requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, maxTile)});
+    // Each pass keeps an atlas layer until the composite: past maxPasses, the largest tiles
+    // are halved (and the packing redone) so that memory stays bounded.
+    for (int limit = maxTile;; limit /= 2) {
+        std::vector<TileRequest> requests;
+        for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
+            const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
+            requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, limit)});
+        }
+        out.packed = packTiles(requests, atlasW, atlasH);
+        stats.maxTile = limit;
+        if (out.packed.passes <= s.maxPasses || limit <= minTile) break;
     }
-    out.packed = packTiles(requests, atlasW, atlasH);
     const PackResult& packed = out.packed;
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();

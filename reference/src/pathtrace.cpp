@@ -1,0 +1,503 @@
+// The path-traced reference (see nephele/pathtrace.hpp for what it renders).
+//
+// Per ray: a BVH over the ellipsoids' world boxes yields the chords the ray crosses; each
+// chord is cut into kPieces pieces whose extinction bound is exact for the smooth field
+// (the largest (1-q)^2 on the piece, times the noise factor's bound); overlapping pieces sum
+// into a piecewise-constant majorant (tracking.hpp) under which delta tracking samples free
+// flights and ratio tracking estimates transmittance.
+#include "nephele/pathtrace.hpp"
+
+#include "tracking.hpp"
+
+#include "nephele/gardner.hpp"
+#include "nephele/gardner_model.hpp"
+#include "nephele/opaque.hpp"
+#include "nephele/parallel.hpp"
+#include "nephele/projection.hpp"
+
+#include <atomic>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <thread>
+
+namespace nephele {
+
+namespace detail {
+namespace {
+std::atomic<std::uint64_t> imagesComputed{0};
+}
+std::uint64_t pathTracedImagesComputed() { return imagesComputed.load(); }
+}  // namespace detail
+
+namespace {
+
+using detail::MajorantPiece;
+using detail::MajorantSegment;
+using detail::Pcg32;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kPieces = 4;           // majorant pieces per chord
+constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
+constexpr std::uint32_t kVersion = 1;  // bump when the estimator changes: invalidates caches
+
+// One ellipsoid of matter.
+struct Shape {
+    glm::dmat3 unit{1.0};  // M = diag(1/r) R^T: world offset -> unit sphere
+    Vec3 center{0.0};      // m
+    double sigma = 0;      // extinction * density, 1/m
+    Vec3 lo{0.0}, hi{0.0};  // m, world bounding box
+};
+
+struct Node {
+    Vec3 lo{0.0}, hi{0.0};
+    int first = 0, count = 0;  // a leaf: shapes [first, first + count); else children at index+1 and `second`
+    int second = 0;
+};
+
+// A ray's chord through one ellipsoid. In unit space the ray is at arc length u = t*len - tc
+// from its closest approach to the centre, at squared distance q = b2 + u^2.
+struct Crossing {
+    double tIn, tOut;  // m, the chord clipped to the ray's interval
+    double len;        // |M d|: unit-space length per metre
+    double tc;         // unit-space arc length of the closest approach
+    double b2;         // squared impact parameter, < 1
+    int shape;
+};
+
+// A ray prepared for tracking: its chords (by tIn) and its majorant.
+struct RayData {
+    std::vector<Crossing> cross;
+    std::vector<MajorantPiece> pieces;
+    std::vector<std::pair<double, double>> events;
+    std::vector<MajorantSegment> segs;
+};
+
+// Per-thread scratch.
+struct Workspace {
+    RayData primary, secondary, shadow;
+};
+
+double hgPhase(double cosTheta, double g) {  // 1/sr; cosTheta between propagation directions
+    const double d = 1 + g * g - 2 * g * cosTheta;
+    return (1 - g * g) / (4 * std::numbers::pi * d * std::sqrt(d));
+}
+
+// A direction about `w` with the HG distribution of the angle to w (exact inversion).
+Vec3 sampleHg(const Vec3& w, double g, Pcg32& rng) {
+    const double xi = rng.uniform(), phi = 2 * std::numbers::pi * rng.uniform();
+    double c;
+    if (std::fabs(g) < 1e-4) {
+        c = 1 - 2 * xi;
+    } else {
+        const double s = (1 - g * g) / (1 - g + 2 * g * xi);
+        c = std::clamp((1 + g * g - s * s) / (2 * g), -1.0, 1.0);
+    }
+    const double sn = std::sqrt(std::max(0.0, 1 - c * c));
+    // Orthonormal basis about w (Duff et al. 2017).
+    const double sign = std::copysign(1.0, w.z), a = -1 / (sign + w.z), b = w.x * w.y * a;
+    const Vec3 u(1 + sign * w.x * w.x * a, sign * b, -sign * w.x), v(b, sign + w.y * w.y * a, -w.y);
+    return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
+}
+
+class World {
+public:
+    World(const Scene& scene, const NoiseVolume* noise) : scene_(scene), noise_(noise) {
+        const Medium& m = scene.medium;
+        amp_ = m.noise;
+        period_ = m.noiseScale * NoiseSettings{}.cells;  // m: one period of the noise volume
+        if (amp_ > 0) {
+            if (!noise_ || noise_->texels.empty())
+                throw std::invalid_argument("renderPathTraced: medium.noise > 0 needs a noise volume");
+            double maxAbs = 0;
+            for (float v : noise_->texels) maxAbs = std::max(maxAbs, double(std::fabs(v)));
+            noiseBound_ = 1 + amp_ * maxAbs;  // max(0, 1 + amp n) <= this (trilinear stays within the texels' range)
+        }
+        for (const Cloud& cloud : scene.clouds)
+            for (const Ellipsoid& e : cloud.ellipsoids) {
+                if (!(e.density > 0) || !(m.extinction > 0)) continue;
+                Shape s;
+                s.unit = ellipsoidToUnit(e);
+                s.center = e.center;
+                s.sigma = m.extinction * e.density;
+                const glm::dmat3 axes = rotationFromDegrees(e.rotationDeg) *
+                                        glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+                Vec3 half;  // half extent of the exact world box
+                for (int i = 0; i < 3; ++i) half[i] = glm::length(Vec3(axes[0][i], axes[1][i], axes[2][i])) * (1 + 1e-9);
+                s.lo = e.center - half;
+                s.hi = e.center + half;
+                shapes_.push_back(s);
+            }
+        if (!shapes_.empty()) build(0, int(shapes_.size()));
+        sunE_ = scene.sun.color * scene.sun.intensity;
+    }
+
+    const Scene& scene() const { return scene_; }
+    bool noisy() const { return amp_ > 0; }
+
+    // The chords of the ray o + t d (unit d) within [t0, t1], sorted by entry.
+    void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
+        r.cross.clear();
+        if (shapes_.empty() || !(t1 > t0)) return;
+        const Vec3 inv(1 / (d.x != 0 ? d.x : 1e-300), 1 / (d.y != 0 ? d.y : 1e-300), 1 / (d.z != 0 ? d.z : 1e-300));
+        int stack[64], top = 0;
+        stack[top++] = 0;
+        while (top) {
+            const int index = stack[--top];
+            const Node& n = nodes_[index];
+            const Vec3 a = (n.lo - o) * inv, b = (n.hi - o) * inv;  // slab test
+            const Vec3 lo = glm::min(a, b), hi = glm::max(a, b);
+            if (std::max({lo.x, lo.y, lo.z, t0}) > std::min({hi.x, hi.y, hi.z, t1})) continue;
+            if (n.count == 0) {
+                stack[top++] = n.second;
+                stack[top++] = index + 1;
+            } else {
+                for (int i = n.first; i < n.first + n.count; ++i) chord(o, d, t0, t1, i, r.cross);
+            }
+        }
+        std::sort(r.cross.begin(), r.cross.end(), [](const Crossing& a, const Crossing& b) {
+            return a.tIn < b.tIn || (a.tIn == b.tIn && a.shape < b.shape);
+        });
+    }
+
+    // collect() and the ray's majorant.
+    void prepare(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
+        collect(o, d, t0, t1, r);
+        r.pieces.clear();
+        for (const Crossing& c : r.cross) {
+            const double bound = shapes_[c.shape].sigma * noiseBound_;
+            for (int k = 0; k < kPieces; ++k) {
+                const double p0 = c.tIn + (c.tOut - c.tIn) * k / kPieces;
+                const double p1 = k + 1 == kPieces ? c.tOut : c.tIn + (c.tOut - c.tIn) * (k + 1) / kPieces;
+                const double u0 = p0 * c.len - c.tc, u1 = p1 * c.len - c.tc;  // the piece in unit arc length
+                const double uMin = (u0 <= 0 && u1 >= 0) ? 0 : std::min(std::fabs(u0), std::fabs(u1));
+                const double h = std::max(0.0, 1 - c.b2 - uMin * uMin);     // 1 - smallest q
+                r.pieces.push_back({p0, p1, bound * h * h});
+            }
+        }
+        detail::buildMajorant(r.pieces, r.events, r.segs);
+    }
+
+    // Extinction (1/m) at o + t d, from the ray's chords.
+    double sigmaAt(const Vec3& o, const Vec3& d, double t, const RayData& r) const {
+        double s = 0;
+        for (const Crossing& c : r.cross) {
+            if (c.tIn > t) break;
+            if (t > c.tOut) continue;
+            const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
+            if (h > 0) s += shapes_[c.shape].sigma * h * h;
+        }
+        if (s > 0 && amp_ > 0) s *= std::max(0.0, 1 + amp_ * noise_->sample(glm::vec3((o + t * d) / period_)));
+        return s;
+    }
+
+    double deltaTrack(const Vec3& o, const Vec3& d, const RayData& r, Pcg32& rng) const {
+        return detail::deltaTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, rng);
+    }
+
+    // Cloud transmittance over [t0, t1] of a ray prepared in r: closed form (model::segmentDepth,
+    // as exactDensityOpacity) without noise, ratio tracking with it.
+    double transmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
+        if (amp_ > 0) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
+        double tau = 0;
+        for (const Crossing& c : r.cross) {
+            const Shape& s = shapes_[c.shape];
+            tau += s.sigma * model::segmentDepth(glm::vec3(s.unit * (o - s.center)), glm::vec3(s.unit * d), float(t0),
+                                                 float(std::min(t1, 1e30)));
+        }
+        return std::exp(-tau);
+    }
+
+    // Fraction of the sun's irradiance reaching x: cloud transmittance, 0 behind an object.
+    // tMinObjects (m): how far from x an object may block (> 0 on surfaces, against self-shadowing).
+    double sunTransmittance(const Vec3& x, double tMinObjects, RayData& r, Pcg32& rng) const {
+        const Vec3& l = scene_.sun.direction;
+        if (intersectObjects(scene_, x, l, tMinObjects, kInf)) return 0;
+        if (amp_ > 0) prepare(x, l, 0, kInf, r);
+        else collect(x, l, 0, kInf, r);  // the closed form needs only the chords
+        return transmittance(x, l, 0, kInf, r, &rng);
+    }
+
+    // Radiance leaving an object hit at x: Lambert under the sun, shadowed.
+    Vec3 surfaceRadiance(const Vec3& x, const SurfaceHit& hit, RayData& r, Pcg32& rng) const {
+        const Vec3 lambert = lambertRadiance(scene_.sun, hit.albedo, hit.normal);
+        if (lambert == Vec3(0.0)) return lambert;
+        const double eps = 1e-7 * (1 + glm::length(x));  // m, past the surface's round-off
+        return lambert * sunTransmittance(x, eps, r, rng);
+    }
+
+    // One path's radiance estimate for the camera ray (eye, d) already prepared in ws.primary.
+    Vec3 trace(const Vec3& eye, const Vec3& d0, const std::optional<SurfaceHit>& primaryHit, int maxBounces,
+               Pcg32& rng, Workspace& ws) const {
+        const Medium& m = scene_.medium;
+        Vec3 radiance(0.0), beta(1.0), o = eye, d = d0;
+        const RayData* ray = &ws.primary;
+        std::optional<SurfaceHit> hit = primaryHit;
+        for (int vertex = 0;; ++vertex) {
+            const double t = deltaTrack(o, d, *ray, rng);
+            if (t == detail::kNoCollision) {  // the path leaves the medium: an object, or the sky
+                radiance += beta * (hit ? surfaceRadiance(o + hit->distance * d, *hit, ws.shadow, rng)
+                                        : skyRadiance(scene_.sky, d));
+                return radiance;
+            }
+            const Vec3 x = o + t * d;
+            beta *= m.albedo;  // sigma_s / sigma_t
+            if (sunE_ != Vec3(0.0))  // next-event estimation: sun irradiance * phase * transmittance
+                radiance += beta * sunE_ * (hgPhase(glm::dot(d, scene_.sun.direction), m.hgG) *
+                                            sunTransmittance(x, 0, ws.shadow, rng));
+            if (vertex >= maxBounces || beta == Vec3(0.0)) return radiance;
+            d = sampleHg(d, m.hgG, rng);
+            o = x;
+            hit = intersectObjects(scene_, o, d, 0, kInf);
+            prepare(o, d, 0, hit ? hit->distance : kInf, ws.secondary);
+            ray = &ws.secondary;
+        }
+    }
+
+private:
+    void chord(const Vec3& o, const Vec3& d, double t0, double t1, int i, std::vector<Crossing>& out) const {
+        const Shape& s = shapes_[i];
+        const Vec3 ou = s.unit * (o - s.center), du = s.unit * d;
+        const double len = glm::length(du);
+        const Vec3 dn = du / len;
+        const double tc = -glm::dot(ou, dn);
+        const Vec3 perp = ou + tc * dn;
+        const double b2 = glm::dot(perp, perp);
+        if (b2 >= 1) return;
+        const double h = std::sqrt(1 - b2);
+        const double tIn = std::max(t0, (tc - h) / len), tOut = std::min(t1, (tc + h) / len);
+        if (tOut > tIn) out.push_back({tIn, tOut, len, tc, b2, i});
+    }
+
+    // Median split on the longest axis of the centres' box.
+    int build(int first, int count) {
+        const int index = int(nodes_.size());
+        nodes_.emplace_back();
+        Vec3 lo(kInf), hi(-kInf), clo(kInf), chi(-kInf);
+        for (int i = first; i < first + count; ++i) {
+            lo = glm::min(lo, shapes_[i].lo);
+            hi = glm::max(hi, shapes_[i].hi);
+            const Vec3 c = 0.5 * (shapes_[i].lo + shapes_[i].hi);
+            clo = glm::min(clo, c);
+            chi = glm::max(chi, c);
+        }
+        nodes_[index].lo = lo;
+        nodes_[index].hi = hi;
+        if (count <= kLeafSize) {
+            nodes_[index].first = first;
+            nodes_[index].count = count;
+            return index;
+        }
+        const Vec3 ext = chi - clo;
+        const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
+        const int half = count / 2;
+        std::nth_element(shapes_.begin() + first, shapes_.begin() + first + half, shapes_.begin() + first + count,
+                         [axis](const Shape& a, const Shape& b) { return a.lo[axis] + a.hi[axis] < b.lo[axis] + b.hi[axis]; });
+        build(first, half);
+        const int second = build(first + half, count - half);
+        nodes_[index].second = second;
+        return index;
+    }
+
+    const Scene& scene_;
+    const NoiseVolume* noise_;
+    double amp_ = 0, period_ = 1, noiseBound_ = 1;
+    Vec3 sunE_{0.0};  // sun irradiance, colour * intensity
+    std::vector<Shape> shapes_;
+    std::vector<Node> nodes_;
+};
+
+// A text progress bar on stderr, updated as rows finish.
+class Progress {
+public:
+    Progress(bool on, int total) : on_(on), total_(total) { draw(0); }
+    void rowDone() {
+        if (!on_) return;
+        const int done = ++done_;
+        const int percent = int(100LL * done / total_);
+        std::lock_guard lock(mutex_);
+        if (percent != shown_) draw(percent);
+        if (done == total_) std::fputc('\n', stderr);
+    }
+
+private:
+    void draw(int percent) {
+        if (!on_) return;
+        shown_ = percent;
+        char bar[41];
+        for (int i = 0; i < 40; ++i) bar[i] = i < percent * 40 / 100 ? '#' : '.';
+        bar[40] = 0;
+        std::fprintf(stderr, "\rpathtrace [%s] %3d%%", bar, percent);
+        std::fflush(stderr);
+    }
+    bool on_;
+    int total_, shown_ = -1;
+    std::atomic<int> done_{0};
+    std::mutex mutex_;
+};
+
+}  // namespace
+
+Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+    if (s.spp < 1) throw std::invalid_argument("renderPathTraced: spp must be >= 1");
+    if (s.maxBounces < 0) throw std::invalid_argument("renderPathTraced: maxBounces must be >= 0");
+    const World world(scene, noise);
+    const int width = view.camera.width, height = view.camera.height;
+    Image image(width, height, 4);
+    Progress progress(s.progress, height);
+    parallelFor(height, [&](int y) {
+        Workspace ws;
+        for (int x = 0; x < width; ++x) {
+            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+            // The GPU clips at the near/far planes, at distance near / cos(angle to forward).
+            const double c = glm::dot(d, view.forward);
+            const double tNear = view.camera.nearClip / c, tFar = view.camera.farClip / c;
+            const std::optional<SurfaceHit> hit = intersectObjects(scene, view.eye, d, tNear, tFar);
+            const double tEnd = hit ? hit->distance : tFar;
+            world.prepare(view.eye, d, tNear, tEnd, ws.primary);  // shared by every sample of the pixel
+            const std::uint64_t pixel = std::uint64_t(y) * width + x;
+            Vec3 sum(0.0);
+            double transmittance = 0;
+            for (int k = 0; k < s.spp; ++k) {
+                Pcg32 rng = detail::sampleRng(s.seed, pixel, std::uint64_t(k));
+                sum += world.trace(view.eye, d, hit, s.maxBounces, rng, ws);
+                if (world.noisy()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
+            }
+            transmittance = world.noisy() ? transmittance / s.spp
+                                          : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
+            for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(sum[k] / s.spp);
+            image.at(x, y, 3) = float(1 - transmittance);
+        }
+        progress.rowDone();
+    });
+    ++detail::imagesComputed;
+    return image;
+}
+
+// ---- The cache.
+namespace {
+
+// The cache key: every input that affects the image, as raw bytes in a fixed order.
+class Key {
+public:
+    void add(const void* p, std::size_t n) { bytes_.append(static_cast<const char*>(p), n); }
+    void num(double v) { add(&v, sizeof v); }
+    void num(std::int64_t v) { add(&v, sizeof v); }
+    void vec(const Vec3& v) { num(v.x), num(v.y), num(v.z); }
+    void tag(const char* t) { add(t, std::strlen(t) + 1); }
+    const std::string& bytes() const { return bytes_; }
+
+private:
+    std::string bytes_;
+};
+
+std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001B3ull;
+    return h;
+}
+
+std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+    Key k;
+    k.tag("nephele-pathtrace");
+    k.num(std::int64_t(kVersion));
+    const Camera& c = view.camera;
+    k.tag("camera");
+    k.vec(c.position), k.vec(c.direction), k.vec(c.up), k.num(c.fovYDeg), k.num(c.nearClip), k.num(c.farClip);
+    k.num(std::int64_t(c.width)), k.num(std::int64_t(c.height));
+    k.tag("sun");
+    k.vec(sc.sun.direction), k.vec(sc.sun.color), k.num(sc.sun.intensity);
+    k.tag("sky");
+    k.vec(sc.sky.zenith), k.vec(sc.sky.horizon), k.vec(sc.sky.ground);
+    const Medium& m = sc.medium;
+    k.tag("medium");
+    k.num(m.extinction), k.num(m.albedo), k.num(m.hgG), k.num(m.noise), k.num(m.noiseScale);
+    if (m.noise > 0 && noise) {  // the noise field only matters when it is used
+        k.num(std::int64_t(noise->size));
+        k.num(std::int64_t(fnv1a(noise->texels.data(), noise->texels.size() * sizeof(float), 0xCBF29CE484222325ull)));
+    }
+    k.tag("clouds");
+    for (const Cloud& cl : sc.clouds) {
+        k.num(std::int64_t(cl.ellipsoids.size()));
+        for (const Ellipsoid& e : cl.ellipsoids) k.vec(e.center), k.vec(e.radii), k.vec(e.rotationDeg), k.num(e.density);
+    }
+    k.tag("objects");
+    for (const Object& o : sc.objects) {
+        k.num(std::int64_t(o.type)), k.vec(o.center), k.vec(o.rotationDeg), k.vec(o.color);
+        if (o.type == Object::Type::Box) k.vec(o.size); else k.num(o.radius);
+    }
+    k.tag("settings");
+    k.num(std::int64_t(s.spp)), k.num(std::int64_t(s.maxBounces)), k.num(std::int64_t(s.seed));
+    return k.bytes();
+}
+
+constexpr char kMagic[8] = {'N', 'E', 'P', 'H', 'P', 'T', '1', '\n'};
+
+// File: magic, key length (u64), key, width, height, channels (i32), floats.
+std::optional<Image> readCache(const std::filesystem::path& file, const std::string& key) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return std::nullopt;
+    char magic[8];
+    std::uint64_t keyLength = 0;
+    if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) return std::nullopt;
+    if (!in.read(reinterpret_cast<char*>(&keyLength), sizeof keyLength) || keyLength != key.size()) return std::nullopt;
+    std::string stored(keyLength, '\0');
+    if (!in.read(stored.data(), std::streamsize(keyLength)) || stored != key) return std::nullopt;
+    std::int32_t dims[3];
+    if (!in.read(reinterpret_cast<char*>(dims), sizeof dims)) return std::nullopt;
+    if (dims[0] < 1 || dims[1] < 1 || dims[2] != 4 || dims[0] > 16384 || dims[1] > 16384) return std::nullopt;
+    Image image(dims[0], dims[1], dims[2]);
+    if (!in.read(reinterpret_cast<char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float))))
+        return std::nullopt;
+    if (in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+    return image;
+}
+
+void writeCache(const std::filesystem::path& file, const std::string& key, const Image& image) {
+    // A name unique to this process and thread, renamed into place when complete.
+    const std::size_t tid = std::hash<std::thread::id>{}(std::this_thread::get_id());
+    const std::filesystem::path temp =
+        file.string() + ".tmp" + std::to_string(detail::mix64(tid ^ std::uint64_t(std::time(nullptr))) & 0xFFFFFFFF);
+    {
+        std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+        const std::uint64_t keyLength = key.size();
+        const std::int32_t dims[3] = {image.width, image.height, image.channels};
+        out.write(kMagic, 8);
+        out.write(reinterpret_cast<const char*>(&keyLength), sizeof keyLength);
+        out.write(key.data(), std::streamsize(key.size()));
+        out.write(reinterpret_cast<const char*>(dims), sizeof dims);
+        out.write(reinterpret_cast<const char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float)));
+        out.close();
+        if (!out) {
+            std::error_code ec;
+            std::filesystem::remove(temp, ec);
+            throw std::runtime_error("renderPathTracedCached: cannot write " + temp.string());
+        }
+    }
+    std::filesystem::rename(temp, file);
+}
+
+}  // namespace
+
+Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
+                             const NoiseVolume* noise, const std::string& cacheDir) {
+    const std::string key = cacheKey(scene, view, s, noise);
+    char name[64];
+    std::snprintf(name, sizeof name, "pathtrace-%016llx%016llx.bin",
+                  static_cast<unsigned long long>(fnv1a(key.data(), key.size(), 0xCBF29CE484222325ull)),
+                  static_cast<unsigned long long>(fnv1a(key.data(), key.size(), 0x84222325CBF29CE4ull)));
+    const std::filesystem::path file = std::filesystem::path(cacheDir) / name;
+    if (auto cached = readCache(file, key)) return *cached;
+    Image image = renderPathTraced(scene, view, s, noise);
+    std::filesystem::create_directories(cacheDir);
+    writeCache(file, key, image);
+    return image;
+}
+
+}  // namespace nephele

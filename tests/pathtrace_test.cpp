@@ -1,0 +1,398 @@
+// The path-traced reference: its trackers against analytic transmittance, its opacity against
+// the closed form of the format's field, energy conservation (white furnace), single
+// scattering against quadrature, Monte Carlo convergence, determinism, objects in and under
+// clouds, the noise path and the cache. Small images throughout (the file runs in seconds).
+#include "nephele/pathtrace.hpp"
+
+#include "../reference/src/tracking.hpp"
+
+#include "nephele/gardner_model.hpp"
+#include "nephele/opaque.hpp"
+#include "nephele/projection.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <span>
+#include <numbers>
+#include <unistd.h>
+
+using namespace nephele;
+using detail::MajorantPiece;
+using detail::MajorantSegment;
+
+namespace {
+
+// One rotated ellipsoid (about 400 x 300 x 240 m) 700 m in front of the camera, no noise.
+Scene cloudScene(int width, int height) {
+    Scene s;
+    s.camera.position = {0, -700, 0};
+    s.camera.direction = {0, 1, 0};
+    s.camera.fovYDeg = 40;
+    s.camera.width = width;
+    s.camera.height = height;
+    s.medium.noise = 0;
+    s.medium.extinction = 0.02;
+    Ellipsoid e;
+    e.radii = {200, 150, 120};
+    e.rotationDeg = {10, 20, 30};
+    s.clouds.push_back({"one", {e}});
+    return s;
+}
+
+// Optical depth of the field along o + t d over [t0, t1], closed form per ellipsoid.
+double opticalDepth(const Scene& s, const Vec3& o, const Vec3& d, double t0, double t1) {
+    double tau = 0;
+    for (const Cloud& c : s.clouds)
+        for (const Ellipsoid& e : c.ellipsoids) {
+            const glm::dmat3 m = ellipsoidToUnit(e);
+            tau += s.medium.extinction * e.density *
+                   model::segmentDepth(glm::vec3(m * (o - e.center)), glm::vec3(m * d), float(t0), float(std::min(t1, 1e30)));
+        }
+    return tau;
+}
+
+// The cloud opacity of pixel (x, y) as the format defines it, up to the first object.
+double exactAlpha(const Scene& s, const View& v, int x, int y) {
+    const Vec3 d = v.rayDirection(x + 0.5, y + 0.5);
+    const double c = glm::dot(d, v.forward);
+    double t0 = v.camera.nearClip / c, t1 = v.camera.farClip / c;
+    if (auto hit = intersectObjects(s, v.eye, d, t0, t1)) t1 = hit->distance;
+    return 1 - std::exp(-opticalDepth(s, v.eye, d, t0, t1));
+}
+
+double rmse(const Image& a, const Image& b) {  // over rgb
+    double sum = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int k = 0; k < 3; ++k) sum += std::pow(double(a.at(x, y, k)) - b.at(x, y, k), 2);
+    return std::sqrt(sum / (3.0 * a.width * a.height));
+}
+
+struct MeanAndError {
+    double mean = 0, error = 0;  // sample mean and its standard error
+};
+template <class F>
+MeanAndError meanOf(int n, F&& sample) {
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < n; ++i) {
+        const double v = sample(i);
+        sum += v;
+        sum2 += v * v;
+    }
+    const double mean = sum / n, var = std::max(0.0, (sum2 - n * mean * mean) / (n - 1));
+    return {mean, std::sqrt(var / n)};
+}
+
+double seconds(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Delta tracking (fraction of flights without a collision) and ratio tracking (mean estimate)
+// against the exact transmittance, within 3 standard errors each.
+void checkTrackers(const char* what, std::span<const MajorantSegment> segs, const std::function<double(double)>& sigma,
+                   double exact) {
+    const int n = 200000;
+    detail::Pcg32 rng(12345, 678);
+    const MeanAndError delta =
+        meanOf(n, [&](int) { return detail::deltaTrack(segs, sigma, rng) == detail::kNoCollision ? 1.0 : 0.0; });
+    const MeanAndError ratio = meanOf(n, [&](int) { return detail::ratioTrack(segs, sigma, rng); });
+    std::printf("[ figure ] %s: exact T %.5f, delta %.5f +- %.5f, ratio %.5f +- %.5f\n", what, exact, delta.mean,
+                delta.error, ratio.mean, ratio.error);
+    EXPECT_NEAR(delta.mean, exact, 3 * delta.error) << what;
+    EXPECT_NEAR(ratio.mean, exact, 3 * ratio.error) << what;
+}
+
+}  // namespace
+
+TEST(PathTraceTest, MajorantSumsOverlappingPieces) {
+    const std::vector<MajorantPiece> pieces{{0, 4, 0.5}, {3, 9, 0.45}, {12, 13, 0.1}, {13, 14, 0.1}, {20, 21, 0}};
+    std::vector<std::pair<double, double>> events;
+    std::vector<MajorantSegment> segs;
+    detail::buildMajorant(pieces, events, segs);
+    ASSERT_EQ(segs.size(), 4u);  // [0,3] [3,4] [4,9] [12,14]: equal neighbours merge, empty pieces vanish
+    const double expected[4][3] = {{0, 3, 0.5}, {3, 4, 0.95}, {4, 9, 0.45}, {12, 14, 0.1}};
+    for (int i = 0; i < 4; ++i) {
+        EXPECT_DOUBLE_EQ(segs[i].t0, expected[i][0]);
+        EXPECT_DOUBLE_EQ(segs[i].t1, expected[i][1]);
+        EXPECT_NEAR(segs[i].majorant, expected[i][2], 1e-9);
+        EXPECT_GE(segs[i].majorant, expected[i][2]);
+    }
+}
+
+TEST(PathTraceTest, TrackersMatchAHomogeneousSlab) {
+    // sigma = 0.3 / m over [2, 7] m under an uneven majorant with null collisions around it.
+    std::vector<std::pair<double, double>> events;
+    std::vector<MajorantSegment> segs;
+    const std::vector<MajorantPiece> pieces{{0, 4, 0.5}, {3, 9, 0.45}};
+    detail::buildMajorant(pieces, events, segs);
+    checkTrackers("slab", segs, [](double t) { return t >= 2 && t <= 7 ? 0.3 : 0.0; }, std::exp(-0.3 * 5));
+}
+
+TEST(PathTraceTest, TrackersMatchAHomogeneousSphere) {
+    // A ray along x at impact parameter 0.8 m through a sphere of radius 2 m centred 10 m ahead.
+    const double sigma = 0.7, b = 0.8, r = 2;
+    auto inside = [=](double t) { return (t - 10) * (t - 10) + b * b < r * r ? sigma : 0.0; };
+    const double exact = std::exp(-sigma * 2 * std::sqrt(r * r - b * b));
+    const std::vector<MajorantSegment> tight{{8, 12, sigma}}, loose{{5, 9, 1.5}, {9, 14, 0.9}};
+    checkTrackers("sphere, tight majorant", tight, inside, exact);
+    checkTrackers("sphere, loose majorant", loose, inside, exact);
+}
+
+TEST(PathTraceTest, AlphaIsTheClosedFormOfTheField) {
+    Scene scene = cloudScene(32, 24);
+    Object box;  // partly inside the cloud: its pixels see only the matter in front of it
+    box.center = {30, -110, 10};
+    box.size = {60, 60, 60};
+    box.rotationDeg = {0, 0, 25};
+    scene.objects.push_back(box);
+    const View view = makeView(scene.camera);
+    const Image image = renderPathTraced(scene, view, {.spp = 1, .maxBounces = 0}, nullptr);
+    double worst = 0, largest = 0;
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) {
+            const double expected = exactAlpha(scene, view, x, y);
+            worst = std::max(worst, std::fabs(image.at(x, y, 3) - expected));
+            largest = std::max(largest, expected);
+        }
+    std::printf("[ figure ] alpha against closed form: max |diff| %.2e (largest alpha %.3f)\n", worst, largest);
+    EXPECT_LT(worst, 1e-6);  // float segmentDepth on both sides; only the float cast of alpha differs
+    EXPECT_GT(largest, 0.8);
+}
+
+TEST(PathTraceTest, WhiteFurnaceConservesEnergy) {
+    // Albedo 1 under a uniform white sky and no sun: every path must come back with radiance 1.
+    // Each path's estimate is exactly 1 unless maxBounces truncates it (set out of reach here), so
+    // the estimator has zero variance and "a few standard errors" is float round-off.
+    Scene scene = cloudScene(24, 18);
+    scene.medium.albedo = 1;
+    scene.medium.extinction = 0.05;  // optical depth about 8 through the centre
+    scene.sky = {Vec3(1.0), Vec3(1.0), Vec3(1.0)};
+    scene.sun.intensity = 0;
+    const View view = makeView(scene.camera);
+    const NoiseVolume volume = makeNoiseVolume(16, 4, 2, 3);
+    for (double noise : {0.0, 0.5}) {
+        scene.medium.noise = noise;
+        const Image image = renderPathTraced(scene, view, {.spp = 8, .maxBounces = 1000000}, &volume);
+        double sum = 0, worst = 0, alpha = 0;
+        for (int y = 0; y < image.height; ++y)
+            for (int x = 0; x < image.width; ++x) {
+                for (int k = 0; k < 3; ++k) {
+                    sum += image.at(x, y, k);
+                    worst = std::max(worst, std::fabs(image.at(x, y, k) - 1.0));
+                }
+                alpha = std::max(alpha, double(image.at(x, y, 3)));
+            }
+        const double mean = sum / (3.0 * image.width * image.height);
+        std::printf("[ figure ] white furnace (noise %.1f): mean radiance %.6f, max |L - 1| %.2e, max alpha %.3f\n",
+                    noise, mean, worst, alpha);
+        EXPECT_NEAR(mean, 1.0, 0.01);
+        EXPECT_LT(worst, 1e-5);
+        EXPECT_GT(alpha, 0.99);  // the cloud really is dense where it is seen
+    }
+}
+
+TEST(PathTraceTest, SingleScatteringMatchesQuadrature) {
+    // One pixel looking through a sphere of matter, lit by the sun only (black sky), one
+    // scattering event: L = integral of T_view sigma_s p(theta) E T_sun dt.
+    Scene scene = cloudScene(1, 1);
+    scene.clouds[0].ellipsoids[0].radii = {120, 100, 90};
+    scene.medium.extinction = 0.01;
+    scene.medium.albedo = 0.9;
+    scene.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
+    scene.sun.direction = glm::normalize(Vec3(0.2, 0.6, 0.5));
+    scene.sun.intensity = 3;
+    const View view = makeView(scene.camera);
+    const Vec3 eye = view.eye, d = view.rayDirection(0.5, 0.5), l = scene.sun.direction;
+    const Ellipsoid& e = scene.clouds[0].ellipsoids[0];
+    const glm::dmat3 m = ellipsoidToUnit(e);
+    const double g = scene.medium.hgG, cosTheta = glm::dot(d, l);
+    const double phase = (1 - g * g) / (4 * std::numbers::pi * std::pow(1 + g * g - 2 * g * cosTheta, 1.5));
+    double expected = 0;
+    const int steps = 20000;
+    const double t0 = 500, t1 = 900, dt = (t1 - t0) / steps;
+    for (int i = 0; i < steps; ++i) {
+        const double t = t0 + (i + 0.5) * dt;
+        const Vec3 p = m * (eye + t * d - e.center);
+        const double q = glm::dot(p, p);
+        if (q >= 1) continue;
+        const double sigmaS = scene.medium.albedo * scene.medium.extinction * (1 - q) * (1 - q);
+        expected += std::exp(-opticalDepth(scene, eye, d, view.camera.nearClip, t)) * sigmaS * phase *
+                    scene.sun.intensity * std::exp(-opticalDepth(scene, eye + t * d, l, 0, 1e30)) * dt;
+    }
+    const MeanAndError rendered = meanOf(16, [&](int k) {
+        return double(renderPathTraced(scene, view, {.spp = 2000, .maxBounces = 0, .seed = unsigned(k + 1)}, nullptr).at(0, 0, 1));
+    });
+    std::printf("[ figure ] single scattering: quadrature %.6f, path traced %.6f +- %.6f\n", expected, rendered.mean,
+                rendered.error);
+    EXPECT_GT(expected, 0.01);
+    EXPECT_NEAR(rendered.mean, expected, 3 * rendered.error);
+}
+
+TEST(PathTraceTest, ErrorFallsAsOneOverSqrtSpp) {
+    const Scene scene = cloudScene(24, 18);
+    const View view = makeView(scene.camera);
+    auto start = std::chrono::steady_clock::now();
+    const Image reference = renderPathTraced(scene, view, {.spp = 512, .seed = 101}, nullptr);
+    const double referenceSeconds = seconds(start);
+    const double e16 = rmse(renderPathTraced(scene, view, {.spp = 16, .seed = 7}, nullptr), reference);
+    const double e64 = rmse(renderPathTraced(scene, view, {.spp = 64, .seed = 8}, nullptr), reference);
+    // The reference's own noise adds 1/512 to both variances: the expected ratio is about 1.92.
+    std::printf("[ figure ] convergence: RMSE 16 spp %.5f, 64 spp %.5f, ratio %.3f (ideal 2); 512 spp reference %.2f s\n",
+                e16, e64, e16 / e64, referenceSeconds);
+    EXPECT_GT(e16 / e64, 1.6);
+    EXPECT_LT(e16 / e64, 2.5);
+}
+
+TEST(PathTraceTest, SameSeedSameImage) {
+    const Scene scene = cloudScene(16, 12);
+    const View view = makeView(scene.camera);
+    const Image a = renderPathTraced(scene, view, {.spp = 4, .seed = 5}, nullptr);
+    const Image b = renderPathTraced(scene, view, {.spp = 4, .seed = 5}, nullptr);
+    const Image c = renderPathTraced(scene, view, {.spp = 4, .seed = 6}, nullptr);
+    EXPECT_TRUE(a.pixels == b.pixels);
+    EXPECT_FALSE(a.pixels == c.pixels);
+}
+
+TEST(PathTraceTest, ObjectInsideACloudIsSeenThroughTheMatterInFront) {
+    // A purely absorbing cloud (albedo 0) under a black sky: the box's centre pixel is
+    // lambert * T_sun with probability T_view (no collision before the box), else 0.
+    Scene scene = cloudScene(9, 9);
+    scene.clouds[0].ellipsoids[0].rotationDeg = Vec3(0.0);
+    scene.medium.albedo = 0;
+    scene.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
+    scene.sun.direction = glm::normalize(Vec3(0.3, -0.8, 0.5));
+    Object box;
+    box.center = {0, 0, 0};
+    box.size = {40, 40, 40};
+    box.color = {0.8, 0.6, 0.4};
+    scene.objects.push_back(box);
+    const View view = makeView(scene.camera);
+    const int spp = 4000;
+    const Image image = renderPathTraced(scene, view, {.spp = spp}, nullptr);
+    const Vec3 d = view.rayDirection(4.5, 4.5), hitPoint = view.eye + 680.0 * d;  // the face y = -20
+    const double tView = std::exp(-opticalDepth(scene, view.eye, d, view.camera.nearClip, 680.0));
+    const double tSun = std::exp(-opticalDepth(scene, hitPoint, scene.sun.direction, 0, 1e30));
+    const Vec3 lambert = lambertRadiance(scene.sun, box.color, Vec3(0, -1, 0));
+    const double expected = lambert.r * tSun * tView, error = lambert.r * tSun * std::sqrt(tView * (1 - tView) / spp);
+    std::printf("[ figure ] box inside a cloud: radiance %.5f, expected %.5f +- %.5f; alpha %.5f, closed form %.5f\n",
+                image.at(4, 4, 0), expected, error, image.at(4, 4, 3), 1 - tView);
+    EXPECT_NEAR(image.at(4, 4, 0), expected, 3 * error);
+    EXPECT_NEAR(image.at(4, 4, 3), 1 - tView, 1e-6);
+    EXPECT_GT(1 - tView, 0.1);
+    scene.objects.clear();  // without the box the ray crosses the whole cloud
+    const Image open = renderPathTraced(scene, view, {.spp = 1}, nullptr);
+    EXPECT_GT(open.at(4, 4, 3), image.at(4, 4, 3) + 0.05);
+}
+
+TEST(PathTraceTest, CloudShadowsAnObject) {
+    // A box lit from above, a cloud between it and the sun, a camera that sees the box's top
+    // face without looking through the cloud: the face's radiance is lambert * T_sun exactly.
+    Scene scene;
+    scene.camera.position = {0, -300, 150};
+    scene.camera.direction = glm::normalize(Vec3(0, 300, -140));
+    scene.camera.width = scene.camera.height = 9;
+    scene.medium.noise = 0;
+    scene.sun.direction = glm::normalize(Vec3(0.1, 0.2, 1));
+    Object box;
+    box.size = {100, 100, 20};
+    scene.objects.push_back(box);
+    const View view = makeView(scene.camera);
+    const Image bare = renderPathTraced(scene, view, {.spp = 4}, nullptr);
+    Ellipsoid e;
+    e.center = {40, 80, 400};
+    e.radii = {150, 150, 80};
+    scene.clouds.push_back({"shade", {e}});
+    const Image shaded = renderPathTraced(scene, view, {.spp = 4}, nullptr);
+    const Vec3 top = view.eye + (140.0 / std::fabs(view.rayDirection(4.5, 4.5).z)) * view.rayDirection(4.5, 4.5);
+    const double tSun = std::exp(-opticalDepth(scene, top, scene.sun.direction, 0, 1e30));
+    const double lambert = lambertRadiance(scene.sun, box.color, Vec3(0, 0, 1)).r;
+    std::printf("[ figure ] cloud shadow: lit face %.5f without the cloud, %.5f under it (expected %.5f, T_sun %.4f)\n",
+                bare.at(4, 4, 0), shaded.at(4, 4, 0), lambert * tSun, tSun);
+    EXPECT_NEAR(bare.at(4, 4, 0), lambert, 1e-6);
+    EXPECT_NEAR(shaded.at(4, 4, 0), lambert * tSun, 1e-5);
+    EXPECT_LT(tSun, 0.5);
+    EXPECT_EQ(shaded.at(4, 4, 3), 0.0f);  // the camera does not look through the cloud
+}
+
+TEST(PathTraceTest, NoisePathIsUnbiasedOnAConstantVolume) {
+    // A noise volume of constant 0.5 with amplitude 0.6 scales the field by exactly 1.3: the
+    // tracking estimates (alpha by ratio tracking, radiance by delta and ratio tracking) must
+    // agree with the noise-free closed form at 1.3 x the extinction.
+    Scene noisy = cloudScene(1, 1);
+    noisy.medium.noise = 0.6;
+    NoiseVolume constant;
+    constant.size = 2;
+    constant.texels.assign(8, 0.5f);
+    Scene smooth = noisy;
+    smooth.medium.noise = 0;
+    smooth.medium.extinction *= 1.3;
+    const View view = makeView(noisy.camera);
+    const double alpha = exactAlpha(smooth, view, 0, 0);
+    auto render = [&](const Scene& s, int k) { return renderPathTraced(s, view, {.spp = 256, .seed = unsigned(k + 1)}, &constant); };
+    const MeanAndError a = meanOf(16, [&](int k) { return double(render(noisy, k).at(0, 0, 3)); });
+    const MeanAndError ln = meanOf(16, [&](int k) { return double(render(noisy, k).at(0, 0, 2)); });
+    const MeanAndError ls = meanOf(16, [&](int k) { return double(render(smooth, k + 100).at(0, 0, 2)); });
+    const double both = std::hypot(ln.error, ls.error);
+    std::printf("[ figure ] constant noise: alpha %.5f +- %.5f (closed form %.5f); blue %.5f +- %.5f vs smooth %.5f +- %.5f\n",
+                a.mean, a.error, alpha, ln.mean, ln.error, ls.mean, ls.error);
+    EXPECT_NEAR(a.mean, alpha, 3 * a.error + 1e-6);
+    EXPECT_NEAR(ln.mean, ls.mean, 3 * both);
+    EXPECT_THROW(renderPathTraced(noisy, view, {}, nullptr), std::invalid_argument);  // noise needs a volume
+}
+
+TEST(PathTraceTest, CacheHitsAndMisses) {
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("nephele_pathtrace_cache_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    Scene scene = cloudScene(12, 9);
+    scene.objects.push_back(Object{});
+    const PathTraceSettings settings{.spp = 2};
+    const std::uint64_t before = detail::pathTracedImagesComputed();
+    const Image first = renderPathTracedCached(scene, makeView(scene.camera), settings, nullptr, dir.string());
+    EXPECT_EQ(detail::pathTracedImagesComputed(), before + 1);
+    const auto start = std::chrono::steady_clock::now();
+    PathTraceSettings quiet = settings;
+    quiet.progress = true;  // not part of the key
+    const Image second = renderPathTracedCached(scene, makeView(scene.camera), quiet, nullptr, dir.string());
+    std::printf("[ figure ] cache hit in %.2f ms\n", 1e3 * seconds(start));
+    EXPECT_EQ(detail::pathTracedImagesComputed(), before + 1);  // not recomputed
+    EXPECT_TRUE(first.pixels == second.pixels);
+    // Every change below must miss (and compute) once.
+    const std::vector<std::pair<const char*, std::function<void(Scene&, PathTraceSettings&)>>> changes{
+        {"spp", [](Scene&, PathTraceSettings& s) { s.spp = 3; }},
+        {"maxBounces", [](Scene&, PathTraceSettings& s) { s.maxBounces = 5; }},
+        {"seed", [](Scene&, PathTraceSettings& s) { s.seed = 9; }},
+        {"camera", [](Scene& c, PathTraceSettings&) { c.camera.fovYDeg = 41; }},
+        {"sun", [](Scene& c, PathTraceSettings&) { c.sun.intensity = 2.5; }},
+        {"sky", [](Scene& c, PathTraceSettings&) { c.sky.ground.g = 0.2; }},
+        {"medium", [](Scene& c, PathTraceSettings&) { c.medium.hgG = 0.8; }},
+        {"ellipsoid", [](Scene& c, PathTraceSettings&) { c.clouds[0].ellipsoids[0].radii.y = 151; }},
+        {"object", [](Scene& c, PathTraceSettings&) { c.objects[0].color.b = 0.9; }},
+    };
+    std::uint64_t expected = before + 1;
+    for (const auto& [what, change] : changes) {
+        Scene s = scene;
+        PathTraceSettings p = settings;
+        change(s, p);
+        renderPathTracedCached(s, makeView(s.camera), p, nullptr, dir.string());
+        EXPECT_EQ(detail::pathTracedImagesComputed(), ++expected) << what << " did not miss the cache";
+    }
+    // A corrupt file is recomputed, not trusted.
+    for (const auto& f : std::filesystem::directory_iterator(dir)) std::filesystem::resize_file(f.path(), 40);
+    const Image again = renderPathTracedCached(scene, makeView(scene.camera), settings, nullptr, dir.string());
+    EXPECT_EQ(detail::pathTracedImagesComputed(), ++expected);
+    EXPECT_TRUE(again.pixels == first.pixels);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(PathTraceTest, RejectsBadSettings) {
+    const Scene scene = cloudScene(4, 3);
+    const View view = makeView(scene.camera);
+    EXPECT_THROW(renderPathTraced(scene, view, {.spp = 0}, nullptr), std::invalid_argument);
+    EXPECT_THROW(renderPathTraced(scene, view, {.maxBounces = -1}, nullptr), std::invalid_argument);
+}
