@@ -1,5 +1,6 @@
 // The `nephele` command-line tool.
 #include "bench_command.hpp"
+#include "compare_command.hpp"
 #include "flythrough_command.hpp"
 #include "render_command.hpp"
 
@@ -123,6 +124,13 @@ int main(int argc, char** argv) {
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
+    CompareOptions co;
+    CLI::App* compare = app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
+    compare->add_option("a", co.a, "Image A (.png sRGB or .pfm linear)")->required();
+    compare->add_option("b", co.b, "Image B, the reference")->required();
+    compare->add_option("--alpha-a", co.alphaA, "A's cloud opacity (grey .png or .pfm)");
+    compare->add_option("--alpha-b", co.alphaB, "B's cloud opacity (grey .png or .pfm)");
+
     std::string infoGl = "egl";
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
     info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
@@ -153,6 +161,7 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
+    if (*compare) return runCompare(co);
     if (*bench) {
         for (int c : bo.counts)
             if (c < 1 || c > 1000000) {

@@ -205,6 +205,20 @@ TEST_F(CliTest, FlythroughWritesFramesSummaryAndFlickerIndex) {
     EXPECT_FALSE(fs::exists(path("np")));
 }
 
+TEST_F(CliTest, CompareTwoRenders) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/single.json";
+    ASSERT_EQ(run("render " + scene + " --width 64 -o " + path("a.png") + " --alpha " + path("aa.png") + " --pfm " + path("a.pfm")).code, 0);
+    ASSERT_EQ(run("render " + scene + " --width 64 --method gardner-exact -o " + path("b.png") + " --alpha " + path("ba.png") + " --pfm " + path("b.pfm")).code, 0);
+    CliRun r = run("compare " + path("a.pfm") + " " + path("b.pfm") + " --alpha-a " + path("aa.png") + " --alpha-b " + path("ba.png"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* key : {"\"exposure\":", "\"rmse\":", "\"psnr\":", "\"ssim\":", "\"alpha_mae\":", "\"alpha_iou\":"})
+        EXPECT_NE(r.output.find(key), std::string::npos) << key << " in " << r.output;
+    r = run("compare " + path("a.png") + " " + path("a.png"));
+    EXPECT_NE(r.output.find("\"rmse\":0"), std::string::npos) << r.output;
+    EXPECT_EQ(run("compare " + path("a.png") + " " + path("nope.png")).code, 2);
+    EXPECT_EQ(run("compare " + path("a.png")).code, 2);
+}
+
 TEST_F(CliTest, OSMesaBackendRenders) {
     const std::string scene = write("good.json", kGood);
     const CliRun r = run("render " + scene + " -o " + path("out.png") + " --gl osmesa --scale 0.25");
