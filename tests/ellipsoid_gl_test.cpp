@@ -164,7 +164,6 @@ TEST_F(EllipsoidGLTest, SeveralPassesGiveTheSameImageAsOne) {
     small.atlasWidth = 64;  // forces the 27 tiles into several passes
     small.atlasHeight = 64;
     small.maxTile = 64;
-    small.maxPasses = 64;
     EllipsoidSettings sameTiles = small;
     sameTiles.atlasWidth = 1024;
     sameTiles.atlasHeight = 1024;
@@ -182,12 +181,11 @@ TEST_F(EllipsoidGLTest, SeveralPassesGiveTheSameImageAsOne) {
 TEST_F(EllipsoidGLTest, PassesStayWithinTheirBudget) {
     const Scene scene = sharedScene("field1000.json", 320);
     EllipsoidSettings s;
-    s.maxPasses = 2;
+    s.atlasMegabytes = 1;  // 320x180 half floats: 0.44 MB a layer, so at most 2 passes
     const Gpu g = renderGpu(scene, s);
     EXPECT_LE(g.stats.passes, 2);
     EXPECT_LT(g.stats.maxTile, s.maxTile);
     EllipsoidSettings roomy;
-    roomy.maxPasses = 100;
     EXPECT_GT(renderGpu(scene, roomy).stats.passes, 2);  // so the budget did something
 }
 

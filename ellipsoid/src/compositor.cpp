@@ -163,7 +163,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.tessellation != 0 && (s.tessellation < 4 || s.tessellation > 256))
         throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
-    if (s.maxPasses < 1) throw std::invalid_argument("maxPasses must be at least 1");
+    if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
     Impl& m = *impl_;
     m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}});
     m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
@@ -252,8 +252,10 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     const int minTile = std::min(s.minTile, maxTile);
 
     // ---- Tiles: sizes, packing, per-pass order.
-    // Each pass keeps an atlas layer until the composite: past maxPasses, the largest tiles
-    // are halved (and the packing redone) so that memory stays bounded.
+    // Each pass keeps an atlas layer until the composite: past the memory budget, the
+    // largest tiles are halved (and the packing redone) so that memory stays bounded.
+    const double layerBytes = double(atlasW) * atlasH * (s.precision == AtlasPrecision::Float16 ? 8 : 4);
+    const int maxPasses = std::max(1, int(s.atlasMegabytes * 1048576.0 / layerBytes));
     for (int limit = maxTile;; limit /= 2) {
         std::vector<TileRequest> requests;
         for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
@@ -262,7 +264,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         }
         out.packed = packTiles(requests, atlasW, atlasH);
         stats.maxTile = limit;
-        if (out.packed.passes <= s.maxPasses || limit <= minTile) break;
+        if (out.packed.passes <= maxPasses || limit <= minTile) break;
     }
     const PackResult& packed = out.packed;
     stats.passes = packed.passes;

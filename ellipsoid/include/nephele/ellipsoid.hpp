@@ -47,8 +47,8 @@ struct EllipsoidSettings {
     bool instanced = true;      // false: the paper's one draw per ellipsoid (the baseline)
     FlyThrough flyThrough = FlyThrough::Fraction;
     int tessellation = 0;       // slices of the ellipsoid mesh; 0 = adapted to the tile size
-    int maxPasses = 8;          // atlas layers kept per frame (memory: passes x atlas x 8 bytes); past it
-                                // the largest tiles are halved until the tiles fit (or reach minTile)
+    int atlasMegabytes = 256;   // memory for the atlas layers (one per pass, 8 bytes a pixel at f16); when
+                                // the passes need more, the largest tiles are halved until they fit
     int lightVolume = 32;       // per-cloud sun transmittance grid (voxels per side); 0 = no self-shadowing
     bool colourMatrixPass = true;  // false: the composite applies the colour matrix as it reads the
                                    // atlas (exact too: filtering is linear), one pass less per tile
@@ -59,7 +59,7 @@ struct EllipsoidStats {
     int ellipsoids = 0;         // in the scene
     int visible = 0;            // after culling
     int passes = 0;
-    int maxTile = 0;            // the largest tile size used (below settings.maxTile when maxPasses bound)
+    int maxTile = 0;            // the largest tile size used (below settings.maxTile when memory bound)
     int drawCalls = 0;          // draws issued by the compositor for this frame
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
