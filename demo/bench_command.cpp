@@ -6,6 +6,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/metrics.hpp"
 #include "nephele/opaque.hpp"
 
 #include <algorithm>
@@ -157,18 +158,12 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
         Accuracy a = against(name, scene, {});
         if (scene.objects.empty()) {
             scene.medium.noise = 0;
-            const Image alpha = channels(gpuFrame(scene, {}), 3, 1);
+            const Image gpu = gpuFrame(scene, {});
+            const Image alpha = channels(gpu, 3, 1);
             const Image physics = exactDensityOpacity(scene, makeView(scene.camera));
-            int inter = 0, uni = 0;
-            double sum = 0;
-            for (std::size_t i = 0; i < alpha.pixels.size(); ++i) {
-                const bool x = alpha.pixels[i] > 0.5f, y = physics.pixels[i] > 0.5f;
-                inter += x && y;
-                uni += x || y;
-                sum += std::fabs(alpha.pixels[i] - physics.pixels[i]);
-            }
-            a.iou = uni ? double(inter) / uni : 1.0;
-            a.mae = sum / double(alpha.pixels.size());
+            const RenderComparison c = compareRenders(channels(gpu, 0, 3), channels(gpu, 0, 3), &alpha, &physics);
+            a.iou = c.alphaIou;
+            a.mae = c.alphaMae;
         }
         out.push_back(a);
     }

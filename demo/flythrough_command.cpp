@@ -50,15 +50,8 @@ int runFlythrough(const FlythroughOptions& o) {
             if (reference.is_discarded() || !reference.contains("mean_change"))
                 throw UsageError("--reference-dir: '" + o.referenceDir + "/flythrough.json' is not a fly-through summary");
         }
-    } catch (const SceneError& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
-    } catch (const UsageError& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
     } catch (const std::exception& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
+        return reportError(e, "preparing the fly-through");
     }
 
     const double t0 = scene.path.front().t, t1 = scene.path.back().t;

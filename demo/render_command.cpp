@@ -55,6 +55,13 @@ void applySize(Scene& scene, const RenderOptions& o) {
     if (o.height && !o.width) cam.width = check("--height", *o.height * aspect);
 }
 
+int reportError(const std::exception& e, const std::string& doing) {
+    const bool badInput = dynamic_cast<const SceneError*>(&e) || dynamic_cast<const UsageError*>(&e) ||
+                          dynamic_cast<const std::invalid_argument*>(&e);
+    std::cerr << "nephele: " << (badInput ? "" : doing + " failed: ") << e.what() << "\n";
+    return badInput ? 2 : 1;
+}
+
 void checkRenderable(const Scene& scene, const RenderOptions& o) {
     const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid || o.method == Method::GardnerExact;
     if (!implemented)
@@ -127,18 +134,8 @@ int runRender(const RenderOptions& o) {
         scene = loadScene(o.scene);
         applySize(scene, o);
         frame = renderFrame(scene, o);
-    } catch (const SceneError& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
-    } catch (const UsageError& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
     } catch (const std::exception& e) {
-        std::cerr << "nephele: rendering failed: " << e.what() << "\n";
-        return 1;
+        return reportError(e, "rendering");
     }
     try {
         files.commit();

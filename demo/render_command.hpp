@@ -40,6 +40,10 @@ struct Frame {
     Image densityAlpha;    // the exact opacity of the density field, when asked for
 };
 
+// Prints the error on stderr and returns the exit code: 2 for bad input (SceneError,
+// UsageError, std::invalid_argument), else 1, with "DOING failed: " before the message.
+int reportError(const std::exception& e, const std::string& doing);
+
 // Renders frames with one method, keeping the GL context and renderers between frames
 // (fly-throughs). Throws ContextError / GlError for runtime failures.
 class FrameRenderer {
