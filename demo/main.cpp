@@ -24,6 +24,7 @@ struct SceneArgs {
     int minTile = 8, maxTile = 512;
     std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "pass";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
+    RaymarchSettings raymarch;
 };
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
@@ -47,6 +48,12 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
         ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
+    cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
+    cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
+        ->capture_default_str();
+    cmd->add_option("--light-grid", a.raymarch.lightGrid, "Ray-marcher: voxels per side of each cloud's light grid")
+        ->capture_default_str();
+    cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
@@ -83,6 +90,8 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.instanced = a.draws == "instanced";
     es.colourMatrixPass = a.colourMatrix == "pass";
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
+    ro.raymarch = a.raymarch;
+    validate(ro.raymarch);  // std::invalid_argument -> exit 2
 }
 
 }  // namespace

@@ -63,10 +63,11 @@ int reportError(const std::exception& e, const std::string& doing) {
 }
 
 void checkRenderable(const Scene& scene, const RenderOptions& o) {
-    const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid || o.method == Method::GardnerExact;
+    const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid ||
+                             o.method == Method::GardnerExact || o.method == Method::Raymarch;
     if (!implemented)
         throw UsageError(std::string("--method ") + methodName(o.method) +
-                         " is not available in this build yet; available: auto, ellipsoid, gardner-exact");
+                         " is not available in this build yet; available: auto, ellipsoid, raymarch, gardner-exact");
     if (!scene.generators.empty())
         throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
                          "expand them into ellipsoids yet; remove the `generate` entries to render");
@@ -83,7 +84,8 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     context_ = Context::create(co);
     gl::setChecks(true);  // a frame costs far more than the checks
     opaque_ = std::make_unique<OpaquePass>();
-    clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
+    if (o.method == Method::Raymarch) raymarch_ = std::make_unique<RaymarchRenderer>(o.raymarch);
+    else clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
 }
 
 FrameRenderer::~FrameRenderer() = default;
@@ -102,7 +104,8 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
         if (!target_ || target_->width() != camera.width || target_->height() != camera.height)
             target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
         opaque_->draw(scene, view, target_->framebuffer());
-        frame.stats = clouds_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
+        if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
+        else frame.stats = clouds_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
         rgba = target_->readColor();
     }
     if (!options_.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);

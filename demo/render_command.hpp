@@ -4,6 +4,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/raymarch.hpp"
 #include "nephele/image.hpp"
 #include "nephele/scene.hpp"
 
@@ -31,6 +32,7 @@ struct RenderOptions {
     double time = 0;
     GlBackend backend = GlBackend::Egl;
     EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
+    RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves
 };
 
 struct Frame {
@@ -59,6 +61,7 @@ private:
     std::unique_ptr<FrameTarget> target_;
     std::unique_ptr<OpaquePass> opaque_;
     std::unique_ptr<EllipsoidRenderer> clouds_;
+    std::unique_ptr<RaymarchRenderer> raymarch_;
     NoiseVolume noise_;
 };
 

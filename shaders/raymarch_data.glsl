@@ -1,0 +1,25 @@
+// The ray-marcher's per-frame data (std430; filled by volume/src/raymarch.cpp, structs
+// GpuEllipsoid and GpuCloud). Positions are camera-relative (eye at 0), lengths in metres.
+#ifndef MAX_CANDIDATES
+#define MAX_CANDIDATES 32   // ellipsoids of one cloud held per gather (more: gathered again)
+#endif
+#ifndef MAX_CLOUD_HITS
+#define MAX_CLOUD_HITS 8    // clouds sorted per batch (more: further batches)
+#endif
+
+struct RmEllipsoid {
+    vec4 eyeUnitSigma;  // xyz: M (eye - c), the eye in the unit sphere's space; w: extinction * density (1/m)
+    vec4 unit0;         // rows of M = diag(1/r) R^T: world offset -> unit sphere
+    vec4 unit1;
+    vec4 unit2;
+};
+struct RmCloud {
+    vec4 boxMin;        // xyz: the cloud's box (raymarchCloudBox), camera-relative
+    vec4 boxMax;
+    vec4 lightMin;      // xyz: the light grid's box minimum, camera-relative
+    vec4 lightScale;    // xyz: 1 / the light grid's box extent (1/m)
+    vec4 lightSlot;     // xyz: the grid's first texel in the light texture
+    ivec4 range;        // x: first ellipsoid, y: count
+};
+layout(std430, binding = 0) readonly buffer RmEllipsoids { RmEllipsoid ellipsoids[]; };
+layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };

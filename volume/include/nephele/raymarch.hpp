@@ -1,0 +1,142 @@
+// The volumetric ray-marcher (`--method raymarch`) after Jiménez de Parga & Gómez Palomo
+// 2018, "Efficient Algorithms for Real-Time GPU Volumetric Cloud Rendering with Enhanced
+// Geometry" (shared/papers/jimenez-de-parga-2018-volumetric-spheroids.txt).
+//
+// Per pixel, in one fragment-shader pass over a full-screen triangle (shaders/raymarch.frag):
+//   1. the ray against every cloud's bounding box (Smits' slab test, section 3.4; boxes in
+//      a storage buffer); the clouds hit are taken front to back;
+//   2. per cloud, the candidates (Algorithm 1, getCandidates): the ellipsoids the ray meets,
+//      intersected in each one's unit space, with entry and exit distances, kept sorted by
+//      entry with insertion sort (sortCandidates);
+//   3. the sorted candidates are marched front to back with the no-duplicate-tracing rule of
+//      Algorithm 2: the march position never goes back, so overlaps are marched once and
+//      the gaps between candidates are skipped; the density at a sample is the sum over the
+//      candidates that contain it. The march stops when the transmittance falls below 1e-4.
+//   4. the step is the paper's distance-dependent LOD (Algorithm 1, line 50):
+//      step * (1 + distance / lodDistance), distance = the sample's distance from the eye.
+//
+// The density (per ellipsoid i, p its unit-space position, q = |p|^2):
+//   noise == 0: exactly the format's field, density_i * (1 - q)^2 for q < 1 — the quantity
+//               exactDensityOpacity() and the path-traced reference integrate;
+//   noise  > 0: the paper's pseudo-spheroid, eq. (2): the fBm modulates the effective radius,
+//               r_eff = r * ((1 - kappa) + 2 kappa fbm(x)), kappa = medium.noise, fbm in [0, 1].
+//               With the project's fBm volume n(x) in [-1, 1] (fbm = (1 + n) / 2) this is
+//               r_eff = r * (1 + kappa n(x)), and the density is the format's profile over the
+//               modulated radius: density_i * (1 - q / (1 + kappa n)^2)^2 where q < (1 + kappa n)^2.
+//               The paper's own profile exp(-|x - c| / r_eff) is a ceiling that its uniform-noise
+//               density must stay under; we keep the format's (1 - q)^2 in its place so that
+//               kappa -> 0 gives back the exact field. n(x) is sampled from a tileable
+//               makeNoiseVolume(64, 8, octaves) texture anchored to the world, one lattice cell
+//               per medium.noise_scale metres (the same field as NoiseVolume::sample on the CPU,
+//               with the reference's anchoring x / (noise_scale * 8)). Candidates are the
+//               ellipsoids inflated by (1 + kappa), the largest radius the noise can reach.
+//
+// Lighting (Algorithm 3 with Henyey-Greenstein): along the eye ray, per unit length,
+//   in-scattered radiance = sigma_s(x) * (E_sun * HG(cos theta, hg_g) * T_sun(x) + ambient),
+// E_sun = sun.color * sun.intensity, ambient = cloudAmbient(scene.sky), cos theta = d . sun
+// (d the eye ray's direction), sigma_s = albedo * sigma_t. A sample's segment of length dl
+// adds T * (1 - exp(-sigma_t dl)) * albedo * (E_sun HG T_sun + ambient) (Algorithm 3, line 14,
+// with the exact exp instead of the first two Maclaurin terms) and multiplies T by
+// exp(-sigma_t dl). T_sun is read (trilinear) from a per-cloud lightGrid^3 voxel grid over the
+// cloud's box, precomputed on the CPU (the paper's illumination pass) and cached: recomputed
+// only when the clouds, the sun direction, the medium or the settings it depends on change.
+// The grid holds the sun's transmittance with the reduced extinction of the similarity
+// relation, extinction * (1 - albedo hg_g) (reducedExtinction(), as the ellipsoid compositor
+// does), which stands for the forward multiple scattering the paper's C(l) term approximates:
+//   noise == 0: closed form per ellipsoid (makeCloudLights(), the compositor's own grids);
+//   noise  > 0: marched towards the sun through the pseudo-spheroids with the no-duplicate
+//               tracing of Algorithm 2, with a fixed step `step`.
+// Opaque objects: with opaqueDepth the march ends at the opaque surface (a copy of the
+// frame's depth), so an object inside a cloud is covered only by the matter in front of it.
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/gardner.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/scene.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace nephele {
+
+struct RaymarchSettings {
+    double step = 25;          // m, base step along the ray, > 0
+    double lodDistance = 4000; // m: the step grows as step * (1 + distance / lodDistance) (the paper's
+                               // distance-dependent LOD); 0 = fixed step
+    int lightGrid = 32;        // voxels per side of each cloud's precomputed sun-transmittance grid, 2..128
+    int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
+    int maxSteps = 2048;       // per pixel, a safety cap, >= 1
+};
+
+struct RaymarchStats {
+    int ellipsoids = 0, clouds = 0;  // in the scene
+    double lightPrecomputeMs = 0;    // CPU time of the sun-transmittance grids in this call; 0 when the
+                                     // cached grids were reused
+};
+
+// ---- The CPU side (the paper's host code), also what the tests check the GPU against.
+
+// The noise the marcher samples: the project's tileable fBm volume (64^3, 8 lattice cells per
+// period, seed 7, as NoiseSettings{}) with settings.octaves octaves.
+NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings);
+// The noise period in metres: medium.noise_scale * cells; n(x) = noise.sample(x / period).
+double raymarchNoisePeriod(const Medium& medium, const NoiseSettings& noise);
+
+// The box that holds every point of `cloud` the marcher can see: the ellipsoids' exact
+// axis-aligned boxes, inflated by (1 + medium.noise) for the pseudo-spheroids. False for a
+// cloud without ellipsoids.
+bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& hi);
+
+// The extinction the marcher integrates at world point x, 1/m: medium.extinction times the
+// sum over the cloud's ellipsoids of density_i (1 - q_i / s^2)^2 where q_i < s^2, with
+// s = 1 + medium.noise * n(x) (s = 1, the format's field exactly, when medium.noise == 0;
+// `noise` may then be null).
+double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& x, const NoiseVolume* noise,
+                          double noisePeriod);
+
+// The illumination pass: per cloud, the sun's transmittance with reducedExtinction() on a
+// settings.lightGrid^3 grid over raymarchCloudBox (texel centres at min + (i + 0.5) / size * extent).
+// medium.noise == 0: the closed form per ellipsoid (makeCloudLights). medium.noise > 0: marched
+// towards the sun with the no-duplicate tracing of Algorithm 2 (step settings.step), through the
+// field of raymarchExtinction; `noise` must then be the volume of raymarchNoiseSettings.
+std::vector<CloudLight> makeRaymarchLights(const Scene& scene, const RaymarchSettings& settings,
+                                           const NoiseVolume* noise);
+
+// The optical depth / extinction (density x metres) along o + l dir, l in [0, infinity), through
+// the pseudo-spheroids of `cloud`, marched with Algorithm 2's no-duplicate tracing at step
+// `step`: the sorted candidates' union is marched once, overlaps and gaps are not. Stops early
+// once the depth exceeds `stopDepth`.
+double marchDensityNdt(const Medium& medium, const Cloud& cloud, const Vec3& o, const Vec3& dir, double step,
+                       const NoiseVolume* noise, double noisePeriod, double stopDepth = 1e300);
+
+// ---- The GPU renderer.
+// Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
+// Throws std::invalid_argument naming the setting that is out of range.
+void validate(const RaymarchSettings& settings);
+
+class RaymarchRenderer {
+public:
+    // Throws std::invalid_argument on settings out of range.
+    explicit RaymarchRenderer(const RaymarchSettings& settings = {});
+    ~RaymarchRenderer();
+    RaymarchRenderer(const RaymarchRenderer&) = delete;
+    RaymarchRenderer& operator=(const RaymarchRenderer&) = delete;
+
+    const RaymarchSettings& settings() const { return settings_; }
+
+    // Same contract as EllipsoidRenderer::render: draws the scene's clouds "over" `framebuffer`
+    // (width x height of view.camera; colour attachment 0 with rgb = linear radiance and
+    // a = cloud opacity, accumulated: a' = a_cloud + (1 - a_cloud) a). With `opaqueDepth` the
+    // rays end at the depth in the framebuffer's depth attachment (read from a copy).
+    // Pixels whose rays meet no cloud matter are left untouched.
+    RaymarchStats render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth);
+
+private:
+    struct Impl;
+    RaymarchSettings settings_;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nephele

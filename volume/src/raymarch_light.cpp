@@ -1,0 +1,172 @@
+// The ray-marcher's host side: the pseudo-spheroid density on the CPU, the no-duplicate
+// tracing of Algorithm 2, and the illumination pass that fills the per-cloud light grids.
+#include "nephele/raymarch.hpp"
+
+#include "nephele/parallel.hpp"
+#include "nephele/projection.hpp"
+
+#include <glm/gtc/matrix_access.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace nephele {
+
+namespace {
+
+// One ellipsoid in the form the march needs: world offset -> unit sphere.
+struct UnitEllipsoid {
+    glm::dmat3 unit;   // M = diag(1/r) R^T
+    Vec3 center;       // m, world
+    double density;    // the format's density scale
+};
+
+std::vector<UnitEllipsoid> prepare(const Cloud& cloud) {
+    std::vector<UnitEllipsoid> out;
+    for (const Ellipsoid& e : cloud.ellipsoids)
+        if (e.density > 0) out.push_back({ellipsoidToUnit(e), e.center, e.density});
+    return out;
+}
+
+// 1 / s^2 at x, s = 1 + kappa n(x) the pseudo-spheroid's radius scale (eq. 2 as read in raymarch.hpp).
+double inverseScale2(double kappa, const Vec3& x, const NoiseVolume* noise, double period) {
+    if (kappa <= 0 || !noise) return 1.0;
+    const double s = 1.0 + kappa * noise->sample(glm::vec3(x / period));
+    return 1.0 / std::max(s * s, 1e-12);
+}
+
+// A candidate of the march (Algorithm 1's list entry): the ray meets the ellipsoid (inflated
+// to the largest pseudo-spheroid) over [in, out]; q(l) = a (l - lc)^2 + qmin in unit space.
+struct Candidate {
+    double in, out, a, lc, qmin, density;
+};
+
+// Candidates along o + l dir, l >= 0, sorted by entry with insertion sort (Algorithm 1).
+std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3& o, const Vec3& dir) {
+    const double r2 = (1 + kappa) * (1 + kappa);
+    std::vector<Candidate> list;
+    for (const UnitEllipsoid& e : ells) {
+        const Vec3 ou = e.unit * (o - e.center), du = e.unit * dir;
+        const double a = glm::dot(du, du);
+        const double lc = -glm::dot(ou, du) / a;
+        const Vec3 perp = ou + lc * du;
+        const double qmin = glm::dot(perp, perp);
+        if (qmin >= r2) continue;
+        const double h = std::sqrt((r2 - qmin) / a);
+        const double in = std::max(lc - h, 0.0), out = lc + h;
+        if (out <= in) continue;
+        list.push_back({in, out, a, lc, qmin, e.density});
+        for (std::size_t h2 = list.size() - 1; h2 > 0 && list[h2].in < list[h2 - 1].in; --h2) std::swap(list[h2], list[h2 - 1]);
+    }
+    return list;
+}
+
+// Sum of the active candidates' densities at l (candidates sorted by entry).
+double densityAlong(const std::vector<Candidate>& list, double l, double invS2) {
+    double sum = 0;
+    for (const Candidate& c : list) {
+        if (c.in > l) break;
+        if (l >= c.out) continue;
+        const double d = l - c.lc;
+        const double q = (c.a * d * d + c.qmin) * invS2;
+        if (q < 1) sum += c.density * (1 - q) * (1 - q);
+    }
+    return sum;
+}
+
+double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3& o, const Vec3& dir, double step,
+                const NoiseVolume* noise, double period, double stopDepth) {
+    const std::vector<Candidate> list = candidates(ells, kappa, o, dir);
+    if (list.empty()) return 0;
+    // Algorithm 2: lambda only moves forward; a candidate already passed is skipped, a gap
+    // before the next candidate is jumped over.
+    double lambda = list[0].in, depth = 0;
+    for (const Candidate& c : list) {
+        if (lambda > c.out) continue;
+        if (lambda < c.in) lambda = c.in;
+        while (lambda < c.out) {
+            const double end = std::min(lambda + step, c.out), mid = 0.5 * (lambda + end);
+            depth += densityAlong(list, mid, inverseScale2(kappa, o + mid * dir, noise, period)) * (end - lambda);
+            lambda = end;
+            if (depth > stopDepth) return depth;
+        }
+    }
+    return depth;
+}
+
+}  // namespace
+
+NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings) {
+    NoiseSettings n;
+    n.octaves = settings.octaves;
+    return n;
+}
+
+double raymarchNoisePeriod(const Medium& medium, const NoiseSettings& noise) { return medium.noiseScale * noise.cells; }
+
+bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& hi) {
+    lo = Vec3(INFINITY);
+    hi = Vec3(-INFINITY);
+    const double inflate = 1 + std::max(medium.noise, 0.0);
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        // Half extents of R diag(r): the lengths of its rows.
+        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+        const Vec3 half = inflate * Vec3(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        lo = glm::min(lo, e.center - half);
+        hi = glm::max(hi, e.center + half);
+    }
+    return !cloud.ellipsoids.empty();
+}
+
+double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& x, const NoiseVolume* noise,
+                          double noisePeriod) {
+    const double invS2 = inverseScale2(medium.noise, x, noise, noisePeriod);
+    double sum = 0;
+    for (const UnitEllipsoid& e : prepare(cloud)) {
+        const Vec3 p = e.unit * (x - e.center);
+        const double q = glm::dot(p, p) * invS2;
+        if (q < 1) sum += e.density * (1 - q) * (1 - q);
+    }
+    return medium.extinction * sum;
+}
+
+double marchDensityNdt(const Medium& medium, const Cloud& cloud, const Vec3& o, const Vec3& dir, double step,
+                       const NoiseVolume* noise, double noisePeriod, double stopDepth) {
+    return marchNdt(prepare(cloud), std::max(medium.noise, 0.0), o, glm::normalize(dir), step, noise, noisePeriod,
+                    stopDepth);
+}
+
+std::vector<CloudLight> makeRaymarchLights(const Scene& scene, const RaymarchSettings& settings, const NoiseVolume* noise) {
+    const Medium& medium = scene.medium;
+    if (medium.noise <= 0) return makeCloudLights(scene, settings.lightGrid);
+    if (!noise) throw std::invalid_argument("makeRaymarchLights: medium.noise > 0 needs the noise volume");
+    const double period = raymarchNoisePeriod(medium, raymarchNoiseSettings(settings));
+    const double ext = reducedExtinction(medium);
+    // Past this optical depth the stored transmittance (half float) is 0 anyway.
+    const double stopDepth = ext > 0 ? 20.0 / ext : 1e300;
+    const int size = settings.lightGrid;
+    std::vector<CloudLight> lights;
+    for (const Cloud& cloud : scene.clouds) {
+        CloudLight light;
+        light.size = size;
+        Vec3 lo, hi;
+        if (!raymarchCloudBox(cloud, medium, lo, hi)) lo = hi = Vec3(0.0);
+        light.boxMin = lo;
+        light.boxExtent = glm::max(hi - lo, Vec3(1e-3));
+        light.transmittance.assign(std::size_t(size) * size * size, 1.0f);
+        const std::vector<UnitEllipsoid> ells = prepare(cloud);
+        parallelFor(size, [&](int z) {
+            for (int y = 0; y < size; ++y)
+                for (int x = 0; x < size; ++x) {
+                    const Vec3 p = light.boxMin + (Vec3(x, y, z) + 0.5) / double(size) * light.boxExtent;
+                    const double depth = marchNdt(ells, medium.noise, p, scene.sun.direction, settings.step, noise, period,
+                                                  stopDepth);
+                    light.transmittance[(std::size_t(z) * size + y) * size + x] = float(std::exp(-ext * depth));
+                }
+        });
+        lights.push_back(std::move(light));
+    }
+    return lights;
+}
+
+}  // namespace nephele
