@@ -183,6 +183,27 @@ TEST_F(EllipsoidGLTest, OneDrawPerEllipsoidBaselineGivesTheSameImage) {
     EXPECT_GE(b.stats.drawCalls, 2 * a.stats.visible);  // one per ellipsoid, twice
 }
 
+// The light volumes are cached across frames; whatever they depend on must refresh them
+// (hg_g enters through the reduced extinction).
+TEST_F(EllipsoidGLTest, CachedLightFollowsTheMediumAndTheSun) {
+    Scene scene = sharedScene("cumulus27.json");
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    EllipsoidRenderer reused;
+    auto frame = [&](EllipsoidRenderer& r) {
+        OpaquePass().draw(scene, view, target.framebuffer());
+        r.render(scene, view, target.framebuffer(), false);
+        return target.readColor();
+    };
+    const Image first = frame(reused);
+    scene.medium.hgG = 0.2;
+    scene.sun.direction = glm::normalize(Vec3(0.8, 0.1, 0.3));
+    const Image again = frame(reused);
+    EllipsoidRenderer fresh;
+    EXPECT_EQ(compareImages(again, frame(fresh), 0).maxAbs, 0.0);
+    EXPECT_GT(compareImages(first, again, 0).maxAbs, 0.05);
+}
+
 TEST_F(EllipsoidGLTest, FusedColourMatrixGivesTheSameImage) {
     const Scene scene = sharedScene("cumulus27.json");
     EllipsoidSettings fused;

@@ -2,6 +2,8 @@
 #include "nephele/ellipsoid.hpp"
 
 #include "nephele/gardner_model.hpp"
+#include "nephele/fingerprint.hpp"
+#include "nephele/frame_depth.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/packer.hpp"
 
@@ -91,26 +93,10 @@ void checkPow2(const char* what, int v) {
     if (v < 1 || (v & (v - 1)) != 0) throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
 }
 
-// A fingerprint of what the light volumes depend on: the clouds, the medium and the sun.
+// A fingerprint of what the light volumes depend on: the clouds, the medium (extinction,
+// and albedo and g through the reduced extinction) and the sun.
 std::uint64_t lightKey(const Scene& scene, int size) {
-    std::uint64_t h = 1469598103934665603ull;
-    auto mix = [&](const void* p, std::size_t n) {
-        for (std::size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 1099511628211ull;
-    };
-    mix(&size, sizeof size);
-    mix(&scene.sun.direction, sizeof scene.sun.direction);
-    mix(&scene.medium.extinction, sizeof scene.medium.extinction);
-    for (const Cloud& c : scene.clouds) {
-        const std::size_t n = c.ellipsoids.size();
-        mix(&n, sizeof n);
-        for (const Ellipsoid& e : c.ellipsoids) {
-            mix(&e.center, sizeof e.center);
-            mix(&e.radii, sizeof e.radii);
-            mix(&e.rotationDeg, sizeof e.rotationDeg);
-            mix(&e.density, sizeof e.density);
-        }
-    }
-    return h;
+    return Fingerprint().add(size).add(scene.sun.direction).addMedium(scene.medium).addClouds(scene.clouds).value();
 }
 
 }  // namespace
@@ -143,11 +129,7 @@ struct EllipsoidRenderer::Impl {
     Texture atlasTerms;  // rgba: T2 (1 - g), sunLight, modulation / 2, eq. (2)
     int atlasW = 0, atlasH = 0, atlasLayers = 0;
     std::vector<Framebuffer> layerFbos;
-    // Copy of the frame's depth (fraction mode).
-    Texture depthCopy;
-    Framebuffer depthFbo;
-    int depthW = 0, depthH = 0;
-    GLenum depthFormat = 0;
+    FrameDepth depth;  // copy of the frame's depth (fraction mode)
 
     const SphereMesh& mesh(int slices) {
         auto it = meshes.find(slices);
@@ -501,30 +483,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     // ---- Composite, back to front, over the frame.
     const bool stencil = s.flyThrough == FlyThrough::Stencil && opaqueDepth;
     const bool fraction = s.flyThrough == FlyThrough::Fraction && opaqueDepth;
-    if (fraction) {
-        // Sample a copy of the depth: the frame's own depth stays attached while we draw.
-        GLint depthBits = 0, stencilBits = 0, type = 0;
-        const GLenum attachment = framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT;
-        glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
-        glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &type);
-        glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_STENCIL : GL_STENCIL_ATTACHMENT,
-                                                   GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE, &stencilBits);
-        const GLenum format = type == GL_FLOAT ? (stencilBits ? GL_DEPTH32F_STENCIL8 : GL_DEPTH_COMPONENT32F)
-                              : depthBits == 16 ? GL_DEPTH_COMPONENT16
-                              : stencilBits     ? GL_DEPTH24_STENCIL8
-                                                : GL_DEPTH_COMPONENT24;
-        if (m.depthW != frameW || m.depthH != frameH || m.depthFormat != format) {
-            m.depthCopy = Texture::create(GL_TEXTURE_2D);
-            glTextureStorage2D(m.depthCopy.id(), 1, format, frameW, frameH);
-            m.depthFbo = Framebuffer::create();
-            glNamedFramebufferTexture(m.depthFbo.id(), stencilBits ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
-                                      m.depthCopy.id(), 0);
-            m.depthW = frameW, m.depthH = frameH, m.depthFormat = format;
-        }
-        glBlitNamedFramebuffer(framebuffer, m.depthFbo.id(), 0, 0, frameW, frameH, 0, 0, frameW, frameH,
-                               GL_DEPTH_BUFFER_BIT, GL_NEAREST);
-        check("copying the frame's depth");
-    }
+    if (fraction) m.depth.copy(framebuffer, frameW, frameH);
 
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, frameW, frameH);
@@ -550,7 +509,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("nearClip", float(view.camera.nearClip));
     cp.set("farClip", float(view.camera.farClip));
     glBindTextureUnit(3, m.atlasTerms.id());
-    glBindTextureUnit(5, fraction ? m.depthCopy.id() : 0);
+    glBindTextureUnit(5, fraction ? m.depth.texture() : 0);
     glBindSampler(3, m.linearClamp.id());
     glBindSampler(5, 0);
     glBindVertexArray(m.empty.id());

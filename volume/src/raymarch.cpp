@@ -1,6 +1,8 @@
 // The GPU ray-marcher (see nephele/raymarch.hpp for the method).
 #include "nephele/raymarch.hpp"
 
+#include "nephele/fingerprint.hpp"
+#include "nephele/frame_depth.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/projection.hpp"
 #include "nephele/shader.hpp"
@@ -52,29 +54,14 @@ void upload(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t
 // the medium and the settings the illumination pass uses (grid size, and with noise the
 // octaves and the light march's step).
 std::uint64_t lightKey(const Scene& scene, const RaymarchSettings& s) {
-    std::uint64_t h = 1469598103934665603ull;
-    auto mix = [&](const void* p, std::size_t n) {
-        for (std::size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 1099511628211ull;
-    };
-    mix(&s.lightGrid, sizeof s.lightGrid);
-    mix(&s.octaves, sizeof s.octaves);
-    mix(&s.step, sizeof s.step);
-    mix(&scene.sun.direction, sizeof scene.sun.direction);
-    const Medium& m = scene.medium;
-    for (double v : {m.extinction, m.albedo, m.hgG, m.noise, m.noiseScale}) mix(&v, sizeof v);
-    const std::size_t clouds = scene.clouds.size();
-    mix(&clouds, sizeof clouds);
-    for (const Cloud& c : scene.clouds) {
-        const std::size_t n = c.ellipsoids.size();
-        mix(&n, sizeof n);
-        for (const Ellipsoid& e : c.ellipsoids) {
-            mix(&e.center, sizeof e.center);
-            mix(&e.radii, sizeof e.radii);
-            mix(&e.rotationDeg, sizeof e.rotationDeg);
-            mix(&e.density, sizeof e.density);
-        }
-    }
-    return h;
+    return Fingerprint()
+        .add(s.lightGrid)
+        .add(s.octaves)
+        .add(s.step)
+        .add(scene.sun.direction)
+        .addMedium(scene.medium)
+        .addClouds(scene.clouds)
+        .value();
 }
 
 }  // namespace
@@ -94,14 +81,10 @@ struct RaymarchRenderer::Impl {
     Sampler linearClamp;
     Buffer ellipsoids, clouds;
     std::size_t ellipsoidCapacity = 0, cloudCapacity = 0;
-    Texture depthCopy;
-    Framebuffer depthFbo;
-    int depthW = 0, depthH = 0;
-    GLenum depthFormat = 0;
+    FrameDepth depth;  // copy of the frame's depth (objects inside clouds)
 
     void ensureNoise(const RaymarchSettings& s);
     void updateLight(const Scene& scene, const RaymarchSettings& s, RaymarchStats& stats);
-    void copyDepth(GLuint framebuffer, int width, int height);
 };
 
 void validate(const RaymarchSettings& s) {
@@ -175,30 +158,6 @@ void RaymarchRenderer::Impl::updateLight(const Scene& scene, const RaymarchSetti
     check("uploading the raymarch light grids");
 }
 
-// Sample a copy of the depth: the frame's own depth stays attached while we draw.
-void RaymarchRenderer::Impl::copyDepth(GLuint framebuffer, int width, int height) {
-    GLint depthBits = 0, stencilBits = 0, type = 0;
-    const GLenum attachment = framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT;
-    glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
-    glGetNamedFramebufferAttachmentParameteriv(framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &type);
-    glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_STENCIL : GL_STENCIL_ATTACHMENT,
-                                               GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE, &stencilBits);
-    const GLenum format = type == GL_FLOAT ? (stencilBits ? GL_DEPTH32F_STENCIL8 : GL_DEPTH_COMPONENT32F)
-                          : depthBits == 16 ? GL_DEPTH_COMPONENT16
-                          : stencilBits     ? GL_DEPTH24_STENCIL8
-                                            : GL_DEPTH_COMPONENT24;
-    if (depthW != width || depthH != height || depthFormat != format) {
-        depthCopy = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(depthCopy.id(), 1, format, width, height);
-        depthFbo = Framebuffer::create();
-        glNamedFramebufferTexture(depthFbo.id(), stencilBits ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
-                                  depthCopy.id(), 0);
-        depthW = width, depthH = height, depthFormat = format;
-    }
-    glBlitNamedFramebuffer(framebuffer, depthFbo.id(), 0, 0, width, height, 0, 0, width, height, GL_DEPTH_BUFFER_BIT,
-                           GL_NEAREST);
-    check("copying the frame's depth");
-}
 
 RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
     Impl& m = *impl_;
@@ -247,7 +206,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
 
     const int width = view.camera.width, height = view.camera.height;
     GlStateGuard guard;
-    if (opaqueDepth) m.copyDepth(framebuffer, width, height);
+    if (opaqueDepth) m.depth.copy(framebuffer, width, height);
 
     const Program& p = m.march;
     p.set("forward", glm::vec3(view.forward));
@@ -279,7 +238,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.clouds.id());
     glBindTextureUnit(0, kappa > 0 ? m.noise.id() : 0);
     glBindTextureUnit(1, m.light.id());
-    glBindTextureUnit(2, opaqueDepth ? m.depthCopy.id() : 0);
+    glBindTextureUnit(2, opaqueDepth ? m.depth.texture() : 0);
     glBindSampler(0, 0);
     glBindSampler(1, m.linearClamp.id());
     glBindSampler(2, 0);
