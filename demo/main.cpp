@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 
 using namespace nephele;
@@ -25,6 +26,9 @@ struct SceneArgs {
     std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "pass";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
     RaymarchSettings raymarch;
+    PathTraceSettings pathtrace;
+    std::string cache;
+    bool noCache = false;
 };
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
@@ -54,6 +58,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--light-grid", a.raymarch.lightGrid, "Ray-marcher: voxels per side of each cloud's light grid")
         ->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
+    cmd->add_option("--spp", a.pathtrace.spp, "Path tracer: samples per pixel")->check(CLI::Range(1, 1 << 20))->capture_default_str();
+    cmd->add_option("--bounces", a.pathtrace.maxBounces, "Path tracer: scattering events per path")->check(CLI::Range(0, 10000))->capture_default_str();
+    cmd->add_option("--seed", a.pathtrace.seed, "Path tracer: random seed")->capture_default_str();
+    cmd->add_option("--cache", a.cache, "Path tracer: cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
+    cmd->add_flag("--no-cache", a.noCache, "Path tracer: do not read or write the cache");
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
@@ -91,6 +100,12 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.colourMatrixPass = a.colourMatrix == "pass";
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
     ro.raymarch = a.raymarch;
+    ro.pathtrace = a.pathtrace;
+    if (!a.noCache) {
+        const char* env = std::getenv("NEPHELE_CACHE");
+        const char* home = std::getenv("HOME");
+        ro.cacheDir = !a.cache.empty() ? a.cache : env && *env ? env : home ? std::string(home) + "/.cache/nephele" : "";
+    }
     validate(ro.raymarch);  // std::invalid_argument -> exit 2
 }
 

@@ -7,6 +7,8 @@
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
 
+#include <unistd.h>
+
 #include <cmath>
 #include <iostream>
 
@@ -63,18 +65,16 @@ int reportError(const std::exception& e, const std::string& doing) {
 }
 
 void checkRenderable(const Scene& scene, const RenderOptions& o) {
-    const bool implemented = o.method == Method::Auto || o.method == Method::Ellipsoid ||
-                             o.method == Method::GardnerExact || o.method == Method::Raymarch;
-    if (!implemented)
-        throw UsageError(std::string("--method ") + methodName(o.method) +
-                         " is not available in this build yet; available: auto, ellipsoid, raymarch, gardner-exact");
+    if (o.method == Method::Layered)
+        throw UsageError("--method layered is not available in this build yet; available: auto, ellipsoid, "
+                         "raymarch, pathtrace, gardner-exact");
     if (!scene.generators.empty())
         throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
                          "expand them into ellipsoids yet; remove the `generate` entries to render");
 }
 
 FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
-    if (o.method == Method::GardnerExact) {
+    if (o.method == Method::GardnerExact || o.method == Method::Pathtrace) {  // CPU: no GL context
         const NoiseSettings& ns = o.ellipsoid.noise;
         noise_ = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
         return;
@@ -99,6 +99,11 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
     Frame frame;
     if (options_.method == Method::GardnerExact) {
         rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise);
+    } else if (options_.method == Method::Pathtrace) {
+        PathTraceSettings ps = options_.pathtrace;
+        ps.progress = ::isatty(2) != 0;
+        rgba = options_.cacheDir.empty() ? renderPathTraced(scene, view, ps, &noise_)
+                                         : renderPathTracedCached(scene, view, ps, &noise_, options_.cacheDir);
     } else {
         context_->makeCurrent();
         if (!target_ || target_->width() != camera.width || target_->height() != camera.height)
@@ -151,9 +156,11 @@ int runRender(const RenderOptions& o) {
     if (!o.pfm.empty()) std::cerr << ", " << o.pfm;
     if (!o.densityAlpha.empty()) std::cerr << ", " << o.densityAlpha;
     std::cerr << " (" << scene.camera.width << "x" << scene.camera.height << ", method " << methodName(o.method)
-              << (o.method == Method::GardnerExact ? "" : std::string(", ") + backendName(o.backend)) << ")\n";
+              << (o.method == Method::GardnerExact || o.method == Method::Pathtrace ? ""
+                                                                                : std::string(", ") + backendName(o.backend))
+              << ")\n";
     const EllipsoidStats& st = frame.stats;
-    if (st.ellipsoids > 0 && o.method != Method::GardnerExact)
+    if (st.ellipsoids > 0)
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
                   << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
                   << " draw calls\n";

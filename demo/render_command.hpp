@@ -4,6 +4,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/pathtrace.hpp"
 #include "nephele/raymarch.hpp"
 #include "nephele/image.hpp"
 #include "nephele/scene.hpp"
@@ -33,6 +34,8 @@ struct RenderOptions {
     GlBackend backend = GlBackend::Egl;
     EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
     RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves
+    PathTraceSettings pathtrace;  // --spp, --bounces, --seed
+    std::string cacheDir;         // path-traced references are cached here ("" = no cache)
 };
 
 struct Frame {

@@ -102,7 +102,7 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
     const std::string scene = write("good.json", kGood);
     const std::string out = " -o " + path("out.png");
     for (const std::string& args : {
-             std::string("--method nonsense"), std::string("--method pathtrace"), std::string("--gl vulkan"),
+             std::string("--method nonsense"), std::string("--method layered"), std::string("--spp 0"), std::string("--gl vulkan"),
              std::string("--width 0"), std::string("--width 16385"), std::string("--height -4"),
              std::string("--scale 0"), std::string("--scale 1000"), std::string("--scale 2 --width 100"),
              std::string("--width abc"), std::string("--alpha ") + path("out.png"),
