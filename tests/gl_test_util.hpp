@@ -3,10 +3,13 @@
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/camera.hpp"
 #include "nephele/image.hpp"
+#include "nephele/opaque.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -23,6 +26,36 @@ inline std::unique_ptr<Context> makeContext(GlBackend backend) {
     auto ctx = Context::create(o);
     gl::setChecks(true);
     return ctx;
+}
+
+// A host's window: draws the scene's sky and objects, then `clouds(view, 0)`, into the
+// default framebuffer of a hidden GLFW window the camera's size (needs a DISPLAY: the suite
+// runs under xvfb-run) and reads it back as RGBA, top row first.
+template <class DrawClouds>
+Image renderInWindow(const Scene& scene, DrawClouds&& clouds) {
+    ContextOptions o;
+    o.backend = GlBackend::Glfw;
+    o.visible = false;
+    o.width = scene.camera.width;
+    o.height = scene.camera.height;
+    auto window = Context::create(o);
+    gl::setChecks(true);
+    GLint viewport[4];
+    gl::glGetIntegerv(GL_VIEWPORT, viewport);
+    const int w = viewport[2], h = viewport[3];
+    EXPECT_EQ(w, scene.camera.width);
+    EXPECT_EQ(h, scene.camera.height);
+    const View view = makeView(scene.camera);
+    OpaquePass().draw(scene, view, 0);
+    clouds(view, GLuint(0));
+    std::vector<float> bottomUp(std::size_t(w) * h * 4);
+    gl::glReadBuffer(GL_BACK);
+    gl::glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, bottomUp.data());
+    Image image(w, h, 4);
+    for (int y = 0; y < h; ++y)
+        std::copy_n(bottomUp.data() + std::size_t(h - 1 - y) * w * 4, std::size_t(w) * 4,
+                    image.pixels.data() + std::size_t(y) * w * 4);
+    return image;
 }
 
 // Where tests write actual and diff images for a person to look at.

@@ -435,35 +435,15 @@ TEST(RaymarchWindowGLTest, DrawsIntoAWindowsDefaultFramebuffer) {
         auto egl = test::makeContext(GlBackend::Egl);
         offscreen = render(scene).rgba;
     }
-    ContextOptions o;
-    o.backend = GlBackend::Glfw;
-    o.visible = false;
-    o.width = scene.camera.width;
-    o.height = scene.camera.height;
-    auto window = Context::create(o);
-    gl::setChecks(true);
-    GLint viewport[4];
-    glGetIntegerv(GL_VIEWPORT, viewport);
-    const int w = viewport[2], h = viewport[3];
-    ASSERT_EQ(w, scene.camera.width);
-    ASSERT_EQ(h, scene.camera.height);
-    const View view = makeView(scene.camera);
-    OpaquePass().draw(scene, view, 0);
-    RaymarchRenderer clouds;
-    clouds.render(scene, view, 0, true);
-    std::vector<float> rgba(std::size_t(w) * h * 4);
-    glReadBuffer(GL_BACK);
-    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
+    const Image window = test::renderInWindow(scene, [&](const View& view, GLuint fb) {
+        RaymarchRenderer().render(scene, view, fb, true);
+    });
     // The window's buffer is 8-bit: the sky and the clouds over it each round to 1/255
     // (measured 1.6/255 at most). Without the depth (the box covered by the whole chord) the
     // box's pixels change by up to 6.5/255.
-    double worst = 0;
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 3; ++c) {
-                const float a = rgba[(std::size_t(h - 1 - y) * w + x) * 4 + c];
-                worst = std::max(worst, double(std::fabs(a - std::clamp(offscreen.at(x, y, c), 0.0f, 1.0f))));
-            }
+    Image reference = offscreen;
+    for (float& v : reference.pixels) v = std::clamp(v, 0.0f, 1.0f);
+    const double worst = compareImages(channels(window, 0, 3), channels(reference, 0, 3), 0).maxAbs;
     std::printf("[ figure ] window vs off-screen frame: max difference %.1f/255\n", worst * 255);
     EXPECT_LT(worst, 3.0 / 255);
 }
