@@ -17,18 +17,9 @@
 
 using namespace nephele;
 using namespace nephele::gl;
+using nephele::test::sharedScene;
 
 namespace {
-
-// The shared scenes at 160x120 (a quarter of 640x480): enough pixels per ellipsoid to
-// measure, small enough for CI on llvmpipe.
-Scene sharedScene(const std::string& name, int width = 160) {
-    Scene s = loadScene(std::string(NEPHELE_SCENES) + "/" + name);
-    const double aspect = double(s.camera.width) / s.camera.height;
-    s.camera.width = width;
-    s.camera.height = int(std::lround(width / aspect));
-    return s;
-}
 
 struct Gpu {
     Image rgba;

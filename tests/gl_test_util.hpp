@@ -10,11 +10,22 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
 
 namespace nephele::test {
+
+// A scene of data/scenes at `width` pixels wide (its aspect kept; 160x120 for the 4:3
+// scenes): enough pixels per ellipsoid to measure, small enough for CI on llvmpipe.
+inline Scene sharedScene(const std::string& name, int width = 160) {
+    Scene s = loadScene(std::string(NEPHELE_SCENES) + "/" + name);
+    const double aspect = double(s.camera.width) / s.camera.height;
+    s.camera.width = width;
+    s.camera.height = int(std::lround(width / aspect));
+    return s;
+}
 
 // Makes a context of `backend` (checks on) or fails the test with the context's message.
 inline std::unique_ptr<Context> makeContext(GlBackend backend) {

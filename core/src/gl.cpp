@@ -86,4 +86,12 @@ GLuint Program::create() { return glCreateProgram(); }
 void Program::destroy(GLuint id) { glDeleteProgram(id); }
 }  // namespace kind
 
+Sampler linearSampler(GLenum wrap) {
+    Sampler s = Sampler::create();
+    glSamplerParameteri(s.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glSamplerParameteri(s.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glSamplerParameteri(s.id(), w, GLint(wrap));
+    return s;
+}
+
 }  // namespace nephele::gl

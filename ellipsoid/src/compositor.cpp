@@ -179,11 +179,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     glTextureParameteri(m.noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(m.noise.id(), w, GL_REPEAT);
 
-    m.linearClamp = Sampler::create();
-    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-        glSamplerParameteri(m.linearClamp.id(), w, GL_CLAMP_TO_EDGE);
+    m.linearClamp = linearSampler(GL_CLAMP_TO_EDGE);
     checkAlways("creating the ellipsoid compositor");
 }
 

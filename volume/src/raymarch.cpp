@@ -101,11 +101,7 @@ RaymarchRenderer::RaymarchRenderer(const RaymarchSettings& s) : settings_(s), im
     Impl& m = *impl_;
     m.march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}});
     m.empty = VertexArray::create();
-    m.linearClamp = Sampler::create();
-    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glSamplerParameteri(m.linearClamp.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-        glSamplerParameteri(m.linearClamp.id(), w, GL_CLAMP_TO_EDGE);
+    m.linearClamp = linearSampler(GL_CLAMP_TO_EDGE);
     checkAlways("creating the ray-marcher");
 }
 

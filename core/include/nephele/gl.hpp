@@ -95,4 +95,7 @@ using Query = Handle<kind::Query>;
 using ShaderObject = Handle<kind::Shader>;
 using ProgramObject = Handle<kind::Program>;
 
+// A sampler with linear filtering and the same wrap mode on s, t and r.
+Sampler linearSampler(GLenum wrap);
+
 }  // namespace nephele::gl
