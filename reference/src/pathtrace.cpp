@@ -18,12 +18,13 @@
 #include <atomic>
 #include <cstdio>
 #include <cstring>
-#include <ctime>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <numbers>
 #include <optional>
+#include <random>
 #include <stdexcept>
 #include <thread>
 
@@ -79,7 +80,7 @@ struct RayData {
     std::vector<MajorantSegment> segs;
 };
 
-// Per-thread scratch.
+// Scratch space of one row of pixels (one thread at a time), reused from pixel to pixel.
 struct Workspace {
     RayData primary, secondary, shadow;
 };
@@ -117,7 +118,9 @@ public:
                 throw std::invalid_argument("renderPathTraced: medium.noise > 0 needs a noise volume");
             double maxAbs = 0;
             for (float v : noise_->texels) maxAbs = std::max(maxAbs, double(std::fabs(v)));
-            noiseBound_ = 1 + amp_ * maxAbs;  // max(0, 1 + amp n) <= this (trilinear stays within the texels' range)
+            // max(0, 1 + amp n) <= this: trilinear filtering stays within the texels' range (the
+            // slack covers its float round-off).
+            noiseBound_ = 1 + amp_ * maxAbs * (1 + 1e-5);
         }
         for (const Cloud& cloud : scene.clouds)
             for (const Ellipsoid& e : cloud.ellipsoids) {
@@ -460,27 +463,26 @@ std::optional<Image> readCache(const std::filesystem::path& file, const std::str
 }
 
 void writeCache(const std::filesystem::path& file, const std::string& key, const Image& image) {
-    // A name unique to this process and thread, renamed into place when complete.
-    const std::size_t tid = std::hash<std::thread::id>{}(std::this_thread::get_id());
-    const std::filesystem::path temp =
-        file.string() + ".tmp" + std::to_string(detail::mix64(tid ^ std::uint64_t(std::time(nullptr))) & 0xFFFFFFFF);
-    {
-        std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-        const std::uint64_t keyLength = key.size();
-        const std::int32_t dims[3] = {image.width, image.height, image.channels};
-        out.write(kMagic, 8);
-        out.write(reinterpret_cast<const char*>(&keyLength), sizeof keyLength);
-        out.write(key.data(), std::streamsize(key.size()));
-        out.write(reinterpret_cast<const char*>(dims), sizeof dims);
-        out.write(reinterpret_cast<const char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float)));
-        out.close();
-        if (!out) {
-            std::error_code ec;
-            std::filesystem::remove(temp, ec);
-            throw std::runtime_error("renderPathTracedCached: cannot write " + temp.string());
-        }
+    // A name unique to this process and thread, renamed into place only when complete.
+    const std::uint64_t unique = detail::mix64(std::random_device{}() ^
+                                               std::hash<std::thread::id>{}(std::this_thread::get_id()) ^
+                                               std::uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
+    const std::filesystem::path temp = file.string() + ".tmp" + std::to_string(unique & 0xFFFFFFFFFFull);
+    const std::uint64_t keyLength = key.size();
+    const std::int32_t dims[3] = {image.width, image.height, image.channels};
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    out.write(kMagic, 8);
+    out.write(reinterpret_cast<const char*>(&keyLength), sizeof keyLength);
+    out.write(key.data(), std::streamsize(key.size()));
+    out.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    out.write(reinterpret_cast<const char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float)));
+    out.close();
+    std::error_code ec;
+    if (out) std::filesystem::rename(temp, file, ec);
+    if (!out || ec) {  // the image is still good: say so and go on without caching it
+        std::filesystem::remove(temp, ec);
+        std::fprintf(stderr, "renderPathTracedCached: warning: could not write %s\n", file.string().c_str());
     }
-    std::filesystem::rename(temp, file);
 }
 
 }  // namespace
@@ -495,7 +497,8 @@ Image renderPathTracedCached(const Scene& scene, const View& view, const PathTra
     const std::filesystem::path file = std::filesystem::path(cacheDir) / name;
     if (auto cached = readCache(file, key)) return *cached;
     Image image = renderPathTraced(scene, view, s, noise);
-    std::filesystem::create_directories(cacheDir);
+    std::error_code ec;
+    std::filesystem::create_directories(cacheDir, ec);
     writeCache(file, key, image);
     return image;
 }
