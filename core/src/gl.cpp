@@ -1,5 +1,6 @@
 #include "nephele/gl.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <string>
@@ -85,6 +86,34 @@ void Shader::destroy(GLuint id) { glDeleteShader(id); }
 GLuint Program::create() { return glCreateProgram(); }
 void Program::destroy(GLuint id) { glDeleteProgram(id); }
 }  // namespace kind
+
+IndexedMesh makeIndexedMesh(const std::vector<float>& v, const std::vector<unsigned>& idx, int attributes) {
+    IndexedMesh m;
+    m.vao = VertexArray::create();
+    m.vertices = Buffer::create();
+    m.indices = Buffer::create();
+    glNamedBufferStorage(m.vertices.id(), GLsizeiptr(v.size() * sizeof(float)), v.data(), 0);
+    glNamedBufferStorage(m.indices.id(), GLsizeiptr(idx.size() * sizeof(unsigned)), idx.data(), 0);
+    glVertexArrayVertexBuffer(m.vao.id(), 0, m.vertices.id(), 0, GLsizei(attributes * 3 * sizeof(float)));
+    glVertexArrayElementBuffer(m.vao.id(), m.indices.id());
+    for (GLuint a = 0; a < GLuint(attributes); ++a) {
+        glEnableVertexArrayAttrib(m.vao.id(), a);
+        glVertexArrayAttribFormat(m.vao.id(), a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
+        glVertexArrayAttribBinding(m.vao.id(), a, 0);
+    }
+    m.indexCount = GLsizei(idx.size());
+    return m;
+}
+
+void uploadDynamic(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
+    bytes = std::max<std::size_t>(bytes, 16);
+    if (!buffer || capacity < bytes) {
+        buffer = Buffer::create();
+        capacity = std::max(bytes, capacity * 2);
+        glNamedBufferStorage(buffer.id(), GLsizeiptr(capacity), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    }
+    if (data) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
+}
 
 Sampler linearSampler(GLenum wrap) {
     Sampler s = Sampler::create();

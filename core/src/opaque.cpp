@@ -70,24 +70,6 @@ glm::mat4 toFloat(const glm::dmat4& m) { return glm::mat4(m); }
 
 }  // namespace
 
-OpaquePass::Mesh OpaquePass::makeMesh(const std::vector<float>& v, const std::vector<unsigned>& idx) {
-    Mesh m;
-    m.vao = VertexArray::create();
-    m.vertices = Buffer::create();
-    m.indices = Buffer::create();
-    glNamedBufferStorage(m.vertices.id(), GLsizeiptr(v.size() * sizeof(float)), v.data(), 0);
-    glNamedBufferStorage(m.indices.id(), GLsizeiptr(idx.size() * sizeof(unsigned)), idx.data(), 0);
-    glVertexArrayVertexBuffer(m.vao.id(), 0, m.vertices.id(), 0, 6 * sizeof(float));
-    glVertexArrayElementBuffer(m.vao.id(), m.indices.id());
-    for (GLuint a = 0; a < 2; ++a) {
-        glEnableVertexArrayAttrib(m.vao.id(), a);
-        glVertexArrayAttribFormat(m.vao.id(), a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
-        glVertexArrayAttribBinding(m.vao.id(), a, 0);
-    }
-    m.indexCount = GLsizei(idx.size());
-    return m;
-}
-
 OpaquePass::OpaquePass() {
     sky_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
     object_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}});
@@ -97,7 +79,7 @@ OpaquePass::OpaquePass() {
     std::vector<float> v;
     std::vector<unsigned> idx;
     cube(v, idx);
-    box_ = makeMesh(v, idx);
+    box_ = makeIndexedMesh(v, idx, 2);  // position, normal
     checkAlways("creating the opaque pass");
 }
 

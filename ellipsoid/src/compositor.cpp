@@ -42,14 +42,7 @@ void put(float* out, const Vec3& v, double w = 0) {
 
 // A unit sphere scaled to circumscribe itself: its faces lie outside the unit sphere, so
 // its back faces cover the exact silhouette. Counter-clockwise seen from outside.
-struct SphereMesh {
-    VertexArray vao;
-    Buffer vertices, indices;
-    GLsizei indexCount = 0;
-    int slices = 0;
-};
-
-SphereMesh makeSphere(int slices) {
+IndexedMesh makeSphere(int slices) {
     const int stacks = std::max(2, slices / 2);
     const double scale = 1.0 / (std::cos(std::numbers::pi / slices) * std::cos(std::numbers::pi / (2 * stacks)));
     std::vector<float> v;
@@ -67,20 +60,7 @@ SphereMesh makeSphere(int slices) {
             const unsigned a = unsigned(i * (slices + 1) + j), b = a + unsigned(slices + 1);
             idx.insert(idx.end(), {a, b, a + 1, a + 1, b, b + 1});
         }
-    SphereMesh m;
-    m.slices = slices;
-    m.vao = VertexArray::create();
-    m.vertices = Buffer::create();
-    m.indices = Buffer::create();
-    glNamedBufferStorage(m.vertices.id(), GLsizeiptr(v.size() * sizeof(float)), v.data(), 0);
-    glNamedBufferStorage(m.indices.id(), GLsizeiptr(idx.size() * sizeof(unsigned)), idx.data(), 0);
-    glVertexArrayVertexBuffer(m.vao.id(), 0, m.vertices.id(), 0, 3 * sizeof(float));
-    glVertexArrayElementBuffer(m.vao.id(), m.indices.id());
-    glEnableVertexArrayAttrib(m.vao.id(), 0);
-    glVertexArrayAttribFormat(m.vao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(m.vao.id(), 0, 0);
-    m.indexCount = GLsizei(idx.size());
-    return m;
+    return makeIndexedMesh(v, idx, 1);
 }
 
 int floorPow2(int v) {
@@ -116,7 +96,7 @@ struct EllipsoidRenderer::Impl {
 
     Program tile, tileCut, colourMatrix, composite, screenDepth, floor;
     VertexArray empty;
-    std::map<int, SphereMesh> meshes;   // by slices
+    std::map<int, IndexedMesh> meshes;   // by slices
     Texture falloff, noise, light;
     Sampler linearClamp;
     std::uint64_t lightKeyValue = 0;
@@ -131,7 +111,7 @@ struct EllipsoidRenderer::Impl {
     std::vector<Framebuffer> layerFbos;
     FrameDepth depth;  // copy of the frame's depth (fraction mode)
 
-    const SphereMesh& mesh(int slices) {
+    const IndexedMesh& mesh(int slices) {
         auto it = meshes.find(slices);
         if (it == meshes.end()) it = meshes.emplace(slices, makeSphere(slices)).first;
         return it->second;
@@ -187,16 +167,6 @@ EllipsoidRenderer::~EllipsoidRenderer() = default;
 
 namespace {
 
-// Grows a dynamic storage buffer to hold `bytes` (contents are replaced each frame).
-void upload(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
-    bytes = std::max<std::size_t>(bytes, 16);
-    if (!buffer || capacity < bytes) {
-        buffer = Buffer::create();
-        capacity = std::max(bytes, capacity * 2);
-        glNamedBufferStorage(buffer.id(), GLsizeiptr(capacity), nullptr, GL_DYNAMIC_STORAGE_BIT);
-    }
-    if (data) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
-}
 
 int meshSlices(const EllipsoidSettings& s, int tileSize) {
     if (s.tessellation > 0) return s.tessellation;
@@ -285,8 +255,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     const std::vector<int>& order = out.order;
 
     // ---- Resources.
-    upload(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
-    upload(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
+    uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
+    uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
     const int lightSize = s.lightVolume;
     if (lightSize > 0) {
         const std::uint64_t key = lightKey(scene, lightSize);
@@ -325,9 +295,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         std::vector<float> rel = m.lightBoxWorld;
         for (std::size_t c = 0; c < rel.size(); c += 8)
             for (int k = 0; k < 3; ++k) rel[c + k] = float(double(m.lightBoxWorld[c + k]) - view.eye[k]);
-        upload(m.lightBoxes, m.lightBoxCapacity, rel.data(), rel.size() * sizeof(float));
+        uploadDynamic(m.lightBoxes, m.lightBoxCapacity, rel.data(), rel.size() * sizeof(float));
     } else {
-        upload(m.lightBoxes, m.lightBoxCapacity, nullptr, 16);
+        uploadDynamic(m.lightBoxes, m.lightBoxCapacity, nullptr, 16);
     }
 
     if (m.atlasW != atlasW || m.atlasH != atlasH || m.atlasLayers < packed.passes) {
@@ -436,7 +406,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
             while (k + n < first + count && group(placements[k + n]) == key) ++n;
             const Program& tp = key >= 1000 ? m.tileCut : m.tile;
             glUseProgram(tp.id());
-            const SphereMesh& mesh = m.mesh(key % 1000);
+            const IndexedMesh& mesh = m.mesh(key % 1000);
             glBindVertexArray(mesh.vao.id());
             if (s.instanced) {
                 tp.set("instanceBase", k);
@@ -538,7 +508,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
             const int ref = k % 255 + 1;
             if (ref == 1 && k > 0) glClear(GL_STENCIL_BUFFER_BIT);
             const int t = order[k];
-            const SphereMesh& mesh = m.mesh(meshSlices(s, int(gpu[t].atlasRect[2])));
+            const IndexedMesh& mesh = m.mesh(meshSlices(s, int(gpu[t].atlasRect[2])));
             glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
             glEnable(GL_DEPTH_TEST);
             glEnable(GL_CULL_FACE);

@@ -39,16 +39,6 @@ void put(float* out, const Vec3& v, double w = 0) {
     out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
 }
 
-// Grows a dynamic storage buffer to hold `bytes` and fills it.
-void upload(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
-    bytes = std::max<std::size_t>(bytes, 16);
-    if (!buffer || capacity < bytes) {
-        buffer = Buffer::create();
-        capacity = std::max(bytes, capacity * 2);
-        glNamedBufferStorage(buffer.id(), GLsizeiptr(capacity), nullptr, GL_DYNAMIC_STORAGE_BIT);
-    }
-    if (data) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
-}
 
 // A fingerprint of everything the light grids depend on: the clouds, the sun's direction,
 // the medium and the settings the illumination pass uses (grid size, and with noise the
@@ -197,8 +187,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
         if (g.range[1] > 0) clouds.push_back(g);
     }
     if (clouds.empty()) return stats;
-    upload(m.ellipsoids, m.ellipsoidCapacity, ells.data(), ells.size() * sizeof(GpuEllipsoid));
-    upload(m.clouds, m.cloudCapacity, clouds.data(), clouds.size() * sizeof(GpuCloud));
+    uploadDynamic(m.ellipsoids, m.ellipsoidCapacity, ells.data(), ells.size() * sizeof(GpuEllipsoid));
+    uploadDynamic(m.clouds, m.cloudCapacity, clouds.data(), clouds.size() * sizeof(GpuCloud));
 
     const int width = view.camera.width, height = view.camera.height;
     GlStateGuard guard;

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace nephele::gl {
 
@@ -94,6 +95,19 @@ using Sampler = Handle<kind::Sampler>;
 using Query = Handle<kind::Query>;
 using ShaderObject = Handle<kind::Shader>;
 using ProgramObject = Handle<kind::Program>;
+
+// Indexed triangles with `attributes` interleaved vec3 attributes per vertex (locations
+// 0, 1, ...: e.g. position, normal), in immutable buffers.
+struct IndexedMesh {
+    VertexArray vao;
+    Buffer vertices, indices;
+    GLsizei indexCount = 0;
+};
+IndexedMesh makeIndexedMesh(const std::vector<float>& interleaved, const std::vector<unsigned>& indices, int attributes);
+
+// Storage that is rewritten every frame: grows `buffer` (doubling, never shrinking) to hold
+// `bytes` and copies `data` in (nothing when data is null).
+void uploadDynamic(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes);
 
 // A sampler with linear filtering and the same wrap mode on s, t and r.
 Sampler linearSampler(GLenum wrap);

@@ -43,15 +43,9 @@ public:
     void draw(const Scene& scene, const View& view, GLuint framebuffer) const;
 
 private:
-    struct Mesh {
-        gl::VertexArray vao;
-        gl::Buffer vertices, indices;
-        GLsizei indexCount = 0;
-    };
-    static Mesh makeMesh(const std::vector<float>& interleaved, const std::vector<unsigned>& indices);
     Program sky_, object_, sphereProgram_;
     gl::VertexArray empty_;
-    Mesh box_;
+    gl::IndexedMesh box_;
 };
 
 // ---- CPU reference: the same formulas, per ray, in double precision.
