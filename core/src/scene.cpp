@@ -5,6 +5,8 @@
 // Objects are read through Obj, which records the keys asked for and rejects the others.
 #include "nephele/scene.hpp"
 
+#include "nephele/generate.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -669,7 +671,9 @@ Scene loadScene(const std::string& file) {
 
 Scene parseScene(const std::string& text, const std::string& file) {
     try {
-        return readScene(parseJson(text), file);
+        Scene scene = readScene(parseJson(text), file);
+        expandGenerators(scene);  // design.md: generate entries expanded to ellipsoids on load
+        return scene;
     } catch (const Invalid& e) {
         throw SceneError(file, e.path, e.fault);
     }

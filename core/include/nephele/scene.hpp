@@ -112,6 +112,17 @@ struct Generator {
     double jitter = 0.2;                       // proportional random factor, [0, 1)
 };
 
+// What expanding one generator did (nephele/generate.hpp). kept = placed - prunedHollow -
+// prunedContained - degenerate = the ellipsoids of its cloud.
+struct GenerateStats {
+    std::string name;         // the generator's (and its cloud's) name
+    int placed = 0;           // cumulus: count; mesh: triangles read; lsystem: spheres placed (F)
+    int prunedHollow = 0;     // cumulus: dropped in the hollow core
+    int prunedContained = 0;  // cumulus: dropped as inside another ellipsoid
+    int degenerate = 0;       // mesh: triangles without area, skipped
+    int kept = 0;             // ellipsoids in the cloud
+};
+
 struct CityGlow {
     Vec3 color{1.0, 0.6, 0.3};
     double strength = 1.0;  // >= 0
@@ -165,7 +176,8 @@ struct Scene {
     Sky sky;
     Medium medium;
     std::vector<Cloud> clouds;
-    std::vector<Generator> generators;
+    std::vector<Generator> generators;  // as loaded; expanded into `clouds` by loadScene
+    std::vector<GenerateStats> generated;  // generated[i]: expansion of generators[i] (generate.hpp)
     std::vector<Layer> layers;
     std::optional<Skylight> skylight;
     std::vector<Lightning> lightning;
