@@ -1,4 +1,8 @@
 // Compositing (section 3.6): the tile as a textured rectangle at its screen place, "over".
+// Variants by #define (llvmpipe runs both sides of every branch, so what a frame does not
+// need is compiled out rather than skipped at run time):
+//   FUSED     the colour-matrix copy is applied here as the atlas is read (no pass of its own)
+//   FRACTION  objects inside clouds: weight by the optical depth in front of the opaque depth
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
@@ -7,24 +11,31 @@ flat in vec4 atlasRect;
 in vec2 atlasCoord;
 in vec2 ndc;
 uniform sampler2DArray atlasTerms;    // green: sunLight, blue: noise modulation / 2, alpha: eq. (2)
-uniform mat4 colourMatrix;            // zero when the colour-matrix pass already ran; else red / D -> alpha
+#ifdef FUSED
+uniform mat4 colourMatrix;            // red / D -> alpha (what the colour-matrix pass would subtract)
+#endif
 uniform vec3 sunRadiance, ambient;
 uniform float albedo;
 uniform vec2 atlasSize;
-uniform int fraction;                 // 1: weight by the optical depth in front of the opaque depth
-uniform sampler2D sceneDepth;         // copy of the frame's depth (fraction mode)
-uniform vec2 frameSize;
+#ifdef FRACTION
+uniform sampler2D sceneDepth;         // copy of the frame's depth
 uniform vec3 forward, rightScaled, upScaled;
-uniform float nearClip, farClip;
+uniform float nearClip, farClip;      // m
+#endif
 out vec4 result;
 void main() {
     // Stay half a texel inside the tile so that filtering never reads a neighbour.
     vec2 lo = atlasRect.xy + 0.5, hi = atlasRect.xy + atlasRect.z - 0.5;
     vec3 uv = vec3(clamp(atlasCoord, lo, hi) / atlasSize, atlasRect.w);
     vec4 terms = texture(atlasTerms, uv);
+#ifdef FUSED
     float alpha = clamp(terms.a - (colourMatrix * terms).a, 0.0, 1.0);
+#else
+    float alpha = clamp(terms.a, 0.0, 1.0);
+#endif
     vec3 color = cloudColor(sunRadiance, terms.g, ambient, albedo, 2.0 * terms.b);
-    if (fraction == 1 && alpha > 0.0) {
+#ifdef FRACTION
+    if (alpha > 0.0) {
         float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
         if (z < 1.0) {
             Tile t = tiles[tileIndex];
@@ -39,5 +50,6 @@ void main() {
             alpha = opacityInFront(alpha, front, whole);
         }
     }
+#endif
     result = vec4(color, alpha);
 }

@@ -21,7 +21,9 @@ flat in vec4 instance;                 // Ac, sigma, L^2, cut (per ellipsoid: no
 out vec4 terms;
 uniform vec3 forward;                  // unit view direction
 uniform float nearClip;                // m
+#ifdef FALLOFF_TEXTURE
 uniform sampler2D falloff;             // projective radial falloff: F(b) = (1 - b^2)^(5/2) over [-1,1]^2
+#endif
 uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
 
@@ -35,11 +37,18 @@ void main() {
 #else
     // The plane point at radius rho lies on the ray with impact parameter
     // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):
-    // the texture is read at radius b, in the direction of the plane point.
+    // the texture is read at radius b, in the direction of the plane point. FALLOFF_TEXTURE:
+    // from the paper's projective radial texture (256^2, bilinear); else F(b) in closed form,
+    // the same function without the texture's resampling, and cheaper on llvmpipe, where a
+    // texture lookup costs more than the few multiplications.
     vec2 st = projCoord.xy / projCoord.z;
     float l2 = instance.z;
     st *= sqrt(l2 / (l2 + dot(st, st)));
+#ifdef FALLOFF_TEXTURE
     float depth = kChordScale * texture(falloff, st * 0.5 + 0.5).r * invLen;
+#else
+    float depth = kChordScale * radialProfile(dot(st, st)) * invLen;  // the texture's F in closed form
+#endif
 #endif
     if (depth <= 0.0) {
         // Outside the silhouette (the circumscribed mesh is larger): n = -1 makes eq. (2)

@@ -14,6 +14,9 @@ struct Tile {
     vec4 screenRect;    // NDC x0, y0, x1, y1 on the frame
     vec4 params;        // x: 1 if cut by the near plane (or the eye inside); y: cloud index; z, w: unused
     vec4 noiseOffset;   // xyz: offset in noise texture coordinates
+    vec4 rayCentre;     // xyz: camera-relative direction through the tile's centre (unnormalised, m)
+    vec4 rayX;          // xyz: its change per unit of tile clip x (tile clip space [-1,1]^2)
+    vec4 rayY;          // xyz: its change per unit of tile clip y
 };
 layout(std430, binding = 0) readonly buffer Tiles { Tile tiles[]; };
 

@@ -33,8 +33,11 @@ struct GpuTile {
     float screenRect[4];
     float params[4];
     float noiseOffset[4];
+    float rayCentre[4];
+    float rayX[4];
+    float rayY[4];
 };
-static_assert(sizeof(GpuTile) == 12 * 16 + 64);
+static_assert(sizeof(GpuTile) == 15 * 16 + 64);
 
 void put(float* out, const Vec3& v, double w = 0) {
     out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
@@ -94,7 +97,7 @@ struct FramePlan {
 struct EllipsoidRenderer::Impl {
     FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view);
 
-    Program tile, tileCut, colourMatrix, composite, screenDepth, floor;
+    Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
     Texture falloff, noise, light;
@@ -127,11 +130,23 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
     if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
     Impl& m = *impl_;
-    m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}});
-    m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                               "#define CUT 1\n");
+    // Only the programs these settings use (llvmpipe compiles each in tens of milliseconds).
+    if (s.geometry == TileGeometry::Mesh) {
+        const std::string falloffTexture = s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "";
+        m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                                falloffTexture);
+        m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                                   falloffTexture + "#define CUT 1\n");
+    } else {
+        m.tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}});
+        m.tileRayCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+                                      "#define CUT 1\n");
+    }
     m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
-    m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}});
+    const std::string fused = s.colourMatrixPass ? "" : "#define FUSED 1\n";
+    m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
+    m.compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                         fused + "#define FRACTION 1\n");
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     m.empty = VertexArray::create();
 
@@ -174,9 +189,9 @@ int meshSlices(const EllipsoidSettings& s, int tileSize) {
 }
 
 // Tiles of one pass are drawn in groups, one instanced draw each: by program (cut by the
-// near plane: + 1000) and mesh level (slices).
+// near plane: + 1000) and, for meshes, mesh level (slices).
 int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize) {
-    return (e.projection.crossesNear ? 1000 : 0) + meshSlices(s, tileSize);
+    return (e.projection.crossesNear ? 1000 : 0) + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
 }
 
 }  // namespace
@@ -239,8 +254,19 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         for (int c = 0; c < 3; ++c) put(t.axes[c], e.axes[c]);
         for (int r = 0; r < 3; ++r) put(t.unit[r], glm::row(e.unit, r));
         put(t.eyeUnitAc, e.unit * (view.eye - e.shape.center), e.ac);
-        const glm::mat4 tvp(p.projection * viewRotation);
+        const glm::dmat4 tileViewProj = p.projection * viewRotation;
+        const glm::mat4 tvp(tileViewProj);
         std::memcpy(t.tileViewProj, glm::value_ptr(tvp), sizeof t.tileViewProj);
+        // The ray through tile clip (x, y): its point on the near plane, affine in x and y.
+        const glm::dmat4 inv = glm::inverse(tileViewProj);
+        auto nearPoint = [&](double x, double y) {
+            const glm::dvec4 h = inv * glm::dvec4(x, y, -1.0, 1.0);
+            return Vec3(h) / h.w;
+        };
+        const Vec3 rc = nearPoint(0, 0);
+        put(t.rayCentre, rc);
+        put(t.rayX, nearPoint(1, 0) - rc);
+        put(t.rayY, nearPoint(0, 1) - rc);
         t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
         t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
         t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
@@ -352,7 +378,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
 
     // ---- The tile passes.
     const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
-    for (const Program* tp : {&m.tile, &m.tileCut}) {
+    for (const Program* tp : {&m.tile, &m.tileCut, &m.tileRay, &m.tileRayCut}) {
+        if (!*tp) continue;  // not used by these settings
         tp->set("atlasSize", atlasSize);
         tp->set("forward", glm::vec3(view.forward));
         tp->set("nearClip", float(view.camera.nearClip));
@@ -393,9 +420,11 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, terms);
 
         // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
-        glEnable(GL_CULL_FACE);
-        glCullFace(GL_FRONT);
-        for (int c = 0; c < 4; ++c) glEnable(GL_CLIP_DISTANCE0 + c);
+        const bool polygon = s.geometry == TileGeometry::Polygon;
+        if (!polygon) {
+            glEnable(GL_CULL_FACE);  // the mesh's back faces
+            glCullFace(GL_FRONT);
+        }
         glEnable(GL_BLEND);
         glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
         glBlendFunc(GL_ONE, GL_ONE);
@@ -404,20 +433,27 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
             const int key = group(placements[k]);
             int n = 0;
             while (k + n < first + count && group(placements[k + n]) == key) ++n;
-            const Program& tp = key >= 1000 ? m.tileCut : m.tile;
+            const bool cut = key >= 1000;
+            const Program& tp = polygon ? (cut ? m.tileRayCut : m.tileRay) : (cut ? m.tileCut : m.tile);
             glUseProgram(tp.id());
-            const IndexedMesh& mesh = m.mesh(key % 1000);
-            glBindVertexArray(mesh.vao.id());
+            const IndexedMesh* mesh = polygon ? nullptr : &m.mesh(key % 1000);
+            glBindVertexArray(polygon ? m.empty.id() : mesh->vao.id());
+            // Clip distances keep the geometry in its tile (the polygon's whole-tile quad needs none).
+            const bool clip = !(polygon && cut);
+            for (int c = 0; c < 4; ++c) clip ? glEnable(GL_CLIP_DISTANCE0 + c) : glDisable(GL_CLIP_DISTANCE0 + c);
+            auto draw = [&](int instances) {
+                if (polygon) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
+                else glDrawElementsInstanced(GL_TRIANGLES, mesh->indexCount, GL_UNSIGNED_INT, nullptr, instances);
+                ++stats.drawCalls;
+            };
             if (s.instanced) {
                 tp.set("instanceBase", k);
-                glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, n);
-                ++stats.drawCalls;
+                draw(n);
             } else {
                 for (int i = k; i < k + n; ++i) {  // the paper: a viewport and a draw per ellipsoid
                     glViewport(placements[i].x, placements[i].y, placements[i].size, placements[i].size);
                     tp.set("instanceBase", i);
-                    glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, 1);
-                    ++stats.drawCalls;
+                    draw(1);
                 }
                 glViewport(0, 0, atlasW, atlasH);
             }
@@ -457,7 +493,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    const Program& cp = m.composite;
+    const Program& cp = fraction ? m.compositeFraction : m.composite;
     cp.set("atlasTerms", 3);
     cp.set("sunRadiance", glm::vec3(sunRadiance));
     cp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
@@ -466,9 +502,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("atlasSize", atlasSize);
     cp.set("onScreen", 1);
     cp.set("useOrder", 1);
-    cp.set("fraction", fraction ? 1 : 0);
-    cp.set("colourMatrix", s.colourMatrixPass ? glm::mat4(0.0f) : colourMatrix);
-    cp.set("frameSize", glm::vec2(frameW, frameH));
+    cp.set("colourMatrix", colourMatrix);
     cp.set("forward", glm::vec3(view.forward));
     cp.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
     cp.set("upScaled", glm::vec3(view.up * view.tanHalfY));
