@@ -3,6 +3,8 @@
 // the method; the CPU twin of the density and of the no-duplicate tracing is
 // volume/src/raymarch_light.cpp. Positions are camera-relative (eye at 0), lengths in metres.
 #include "raymarch_data.glsl"
+#define RM_FN
+#include "raymarch_model.glsl"
 
 in vec2 ndc;
 out vec4 result;
@@ -19,29 +21,26 @@ uniform float kappa;                          // medium.noise: the pseudo-sphero
 uniform sampler3D noiseVolume;                // tileable fBm in [-1, 1], GL_REPEAT
 uniform vec3 eyeNoise;                        // fract(eye / noisePeriod): the eye in noise coordinates
 uniform float invNoisePeriod;                 // 1/m
-uniform sampler3D lightVolume;                // the clouds' sun-transmittance grids, one slot each
+uniform sampler3D lightVolume;                // the clouds' light grids, one slot each: optical depth (sigma_t m)
+                                              // to the sun, straight up and straight down (rgb)
 uniform float lightSize;                      // voxels per side of a grid
 uniform vec3 invLightTexels;                  // 1 / the light texture's size in texels
 uniform vec3 sunDirection;                    // unit, towards the sun
 uniform vec3 sunIrradiance;                   // sun.color * sun.intensity
-uniform vec3 ambient;                         // cloudAmbient(sky)
+uniform vec3 skyUpper;                        // the sky's mean radiance over the upper hemisphere
+uniform vec3 ground;                          // sky.ground
+uniform float reduction;                      // 1 - albedo hg_g: the similarity-reduced extinction's factor
 uniform float hgG, albedo;
 
 const float kPi = 3.14159265;
 const float kTransmittanceCut = 1e-4;  // early exit (the paper: 1e-6; below 1e-4 nothing shows)
 const float kFar = 1e30;
 
-// Henyey-Greenstein, per steradian; cosTheta between the light's travel and the scattered ray.
-float henyeyGreenstein(float cosTheta, float g) {
-    float g2 = g * g;
-    return (1.0 - g2) / (4.0 * kPi * pow(max(1.0 + g2 - 2.0 * g * cosTheta, 1e-6), 1.5));
-}
-
 // ---- The march state of this pixel.
 vec3 dir;           // unit world direction of the ray
 float transmittance = 1.0;
 vec3 radiance = vec3(0.0);
-vec3 sunTerm;       // E_sun * HG(cos theta)
+float cosSun;       // d . sun
 int steps = 0;
 bool finished() { return transmittance < kTransmittanceCut || steps >= maxSteps; }
 
@@ -133,11 +132,12 @@ void shade(RmCloud c, float l0, float l1) {
     float sigma = extinctionAt(mid);
     if (sigma <= 0.0) return;
     float dT = exp(-sigma * (l1 - l0));
-    // Precomputed light: the sun's transmittance at the sample, trilinear in the cloud's grid.
+    // Precomputed light: optical depths to the sun, up and down, trilinear in the cloud's grid.
     vec3 u = (dir * mid - c.lightMin.xyz) * c.lightScale.xyz;
     vec3 texel = clamp(u * lightSize, vec3(0.5), vec3(lightSize - 0.5)) + c.lightSlot.xyz;
-    float sunT = textureLod(lightVolume, texel * invLightTexels, 0.0).r;
-    radiance += transmittance * (1.0 - dT) * albedo * (sunTerm * sunT + ambient);
+    vec3 tau = textureLod(lightVolume, texel * invLightTexels, 0.0).rgb;
+    vec3 inScatter = rmInScatter(sunIrradiance, skyUpper, ground, cosSun, hgG, reduction, tau.x, tau.y, tau.z);
+    radiance += transmittance * (1.0 - dT) * albedo * inScatter;
     transmittance *= dT;
 }
 
@@ -195,7 +195,7 @@ void main() {
             tEnd = min(tEnd, zEye / cosF);
         }
     }
-    sunTerm = sunIrradiance * henyeyGreenstein(dot(dir, sunDirection), hgG);
+    cosSun = dot(dir, sunDirection);
     // No component of dir exactly 0 in the slab test (0 * inf would be NaN).
     vec3 invDir = 1.0 / vec3(abs(dir.x) < 1e-20 ? 1e-20 : dir.x, abs(dir.y) < 1e-20 ? 1e-20 : dir.y,
                              abs(dir.z) < 1e-20 ? 1e-20 : dir.z);

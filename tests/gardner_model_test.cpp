@@ -1,11 +1,16 @@
 // The shared Gardner model (shaders/gardner_model.glsl compiled as C++) against numerical
-// integration of the format's density field, and the exact CPU renderer's bookkeeping.
+// integration of the format's density field, and the exact CPU renderer's bookkeeping; the
+// colour terms (diffuse reflectance, environment ambient); and the ray-marcher's shared light
+// model (shaders/raymarch_model.glsl, header-only, so no GL and no nephele_volume needed).
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
+
+#include "../volume/include/nephele/raymarch_model.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <random>
 
 using namespace nephele;
@@ -107,3 +112,94 @@ TEST(GardnerModelTest, ExactDensityOpacityOfOneEllipsoid) {
 }
 
 }  // namespace
+
+TEST(GardnerModelTest, DiffuseReflectanceOfASemiInfiniteCloud) {
+    // No absorption: every photon comes back out of a semi-infinite medium, whatever g.
+    EXPECT_NEAR(model::diffuseReflectance(1.0f, 0.85f), 1.0f, 1e-6f);
+    EXPECT_NEAR(model::diffuseReflectance(1.0f, 0.0f), 1.0f, 1e-6f);
+    // The format's default medium: s = sqrt(0.01 / 0.1585) = 0.25118, (1 - s)(1 - 0.139 s) / (1 + 1.17 s)
+    // = 0.72268 / 1.29388 = 0.55853 (by hand, in double; float round-off is far below 1e-4).
+    EXPECT_NEAR(model::diffuseReflectance(0.99f, 0.85f), 0.55853f, 1e-4f);
+    // Forward scattering carries light deeper, where more of it is absorbed: less comes back.
+    EXPECT_LT(model::diffuseReflectance(0.99f, 0.85f), model::diffuseReflectance(0.99f, 0.0f));
+    // More absorption, less reflected; black matter reflects nothing.
+    EXPECT_LT(model::diffuseReflectance(0.9f, 0.85f), model::diffuseReflectance(0.99f, 0.85f));
+    EXPECT_NEAR(model::diffuseReflectance(0.0f, 0.85f), 0.0f, 1e-6f);
+}
+
+TEST(GardnerModelTest, AmbientIsTheMeanOfTheEnvironmentOverTheSphere) {
+    Sky sky;
+    // Midpoint quadrature over mu = d.z of the format's sky (uniform in mu is uniform in solid angle).
+    const int n = 100000;
+    Vec3 sum(0.0);
+    for (int i = 0; i < n; ++i) {
+        const double mu = -1 + (i + 0.5) * 2.0 / n;
+        sum += mu < 0 ? sky.ground : sky.horizon + (sky.zenith - sky.horizon) * mu;
+    }
+    const Vec3 mean = sum / double(n), ambient = cloudAmbient(sky);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(ambient[k], mean[k], 1e-6) << k;
+    // A uniform environment is seen as it is (the furnace limit of a non-absorbing cloud).
+    sky.zenith = sky.horizon = sky.ground = Vec3(0.3, 0.4, 0.5);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(cloudAmbient(sky)[k], 0.3 + 0.1 * k, 1e-12);
+}
+
+TEST(GardnerModelTest, LightVolumeHoldsReflectanceTimesTransmittance) {
+    Scene scene;
+    Ellipsoid e;
+    e.radii = {300, 200, 150};
+    scene.clouds.push_back({"c", {e}});
+    const Cloud& cloud = scene.clouds[0];
+    const double r = model::diffuseReflectance(float(scene.medium.albedo), float(scene.medium.hgG)) / scene.medium.albedo;
+    // Sunward of the cloud nothing shadows: the volume holds R / albedo, which the model's
+    // albedo factor turns into R.
+    EXPECT_NEAR(cloudSunLight(scene, cloud, 1000.0 * scene.sun.direction), r, 1e-6);
+    // At the centre: R / albedo times the reduced-extinction transmittance.
+    EXPECT_NEAR(cloudSunLight(scene, cloud, Vec3(0.0)), r * sunTransmittance(scene, cloud, Vec3(0.0)), 1e-9);
+    EXPECT_LT(sunTransmittance(scene, cloud, Vec3(0.0)), 0.9);
+    // The grid stores the same values at its texel centres.
+    const CloudLight grid = makeCloudLights(scene, 4)[0];
+    const Vec3 p = grid.boxMin + (Vec3(1, 2, 3) + 0.5) / 4.0 * grid.boxExtent;
+    EXPECT_NEAR(grid.transmittance[(3 * 4 + 2) * 4 + 1], cloudSunLight(scene, cloud, p), 1e-6);
+}
+
+TEST(RaymarchModelTest, PhaseFunctionIsNormalised) {
+    // HG integrates to 1 over the sphere (midpoint rule in cos theta; 2 pi from the azimuth).
+    for (float g : {0.0f, 0.5f, 0.85f}) {
+        const int n = 200000;
+        double sum = 0;
+        for (int i = 0; i < n; ++i) sum += rmodel::rmHenyeyGreenstein(float(-1 + (i + 0.5) * 2.0 / n), g);
+        EXPECT_NEAR(sum * 2.0 / n * 2 * std::numbers::pi, 1.0, 2e-3) << g;  // float HG, sharp peak at 0.85
+    }
+}
+
+TEST(RaymarchModelTest, OctavesAddMultipleScatteringToSingleScattering) {
+    const float g = 0.85f;
+    // Outside the cloud (no optical depth) the sum is sum_k b^k HG(c^k g): more than single
+    // scattering, and sideways far more (HG with g = 0.85 sends little at 90 degrees).
+    const float single90 = rmodel::rmHenyeyGreenstein(0.0f, g), octaves90 = rmodel::rmSunPhase(0.0f, g, 0.0f);
+    EXPECT_GT(octaves90, 2 * single90);
+    float expected = 0, w = 1, gk = g;
+    for (int k = 0; k < rmodel::kRmOctaves; ++k, w *= rmodel::kRmOctaveContribution, gk *= rmodel::kRmOctaveEccentricity)
+        expected += w * rmodel::rmHenyeyGreenstein(0.3f, gk);
+    EXPECT_NEAR(rmodel::rmSunPhase(0.3f, g, 0.0f), expected, 1e-6f);
+    // Deep inside, the first octave has died out and the later, less attenuated ones remain.
+    const float tau = 20.0f;
+    EXPECT_LT(rmodel::rmHenyeyGreenstein(0.3f, g) * std::exp(-tau), 1e-8f);
+    EXPECT_GT(rmodel::rmSunPhase(0.3f, g, tau), 1e-3f);
+    // More depth, less light.
+    EXPECT_LT(rmodel::rmSunPhase(0.3f, g, 5.0f), rmodel::rmSunPhase(0.3f, g, 1.0f));
+}
+
+TEST(RaymarchModelTest, EnvironmentTermKeepsTheFurnaceAndLeansToTheNearerSide) {
+    const glm::vec3 sky(0.3f, 0.4f, 0.6f), ground(0.1f, 0.1f, 0.1f), none(0.0f);
+    // A uniform environment is returned as it is, wherever the point is.
+    for (float up : {0.0f, 3.0f}) {
+        const glm::vec3 l = rmodel::rmInScatter(none, sky, sky, 0.0f, 0.85f, 0.16f, 5.0f, up, 10.0f - up);
+        EXPECT_NEAR(l.z, sky.z, 1e-6f);
+    }
+    // Near the top (no matter above) the sky weighs more; near the bottom the ground.
+    const float top = rmodel::rmSkyWeight(0.0f, 30.0f), bottom = rmodel::rmSkyWeight(30.0f, 0.0f);
+    EXPECT_NEAR(top, 0.75f, 1e-6f);
+    EXPECT_NEAR(bottom, 0.25f, 1e-6f);
+    EXPECT_NEAR(rmodel::rmSkyWeight(2.0f, 2.0f), 0.5f, 1e-6f);
+}

@@ -156,4 +156,21 @@ NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed) {
     return volume;
 }
 
+namespace {
+std::uint64_t splitmix64(std::uint64_t x) {
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+}  // namespace
+
+glm::dvec3 ellipsoidNoiseOffset(std::size_t cloud, std::size_t index, unsigned seed) {
+    // SplitMix64 of (cloud, index, seed), three draws of 53 bits each in [0, 1).
+    std::uint64_t h = splitmix64((std::uint64_t(cloud) << 32) ^ std::uint64_t(index) ^ (std::uint64_t(seed) << 48));
+    glm::dvec3 offset;
+    for (int k = 0; k < 3; ++k) offset[k] = double((h = splitmix64(h)) >> 11) * 0x1.0p-53;
+    return offset;
+}
+
 }  // namespace nephele

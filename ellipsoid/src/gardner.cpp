@@ -16,15 +16,6 @@ namespace nephele {
 
 namespace {
 
-std::uint64_t splitmix(std::uint64_t x) {
-    x += 0x9E3779B97F4A7C15ull;
-    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-    return x ^ (x >> 31);
-}
-
-double unitHash(std::uint64_t& state) { return double((state = splitmix(state)) >> 11) * 0x1.0p-53; }
-
 // Optical depth / extinction from `from` towards the sun (to infinity) through a cloud.
 double depthToSun(const Cloud& cloud, const Vec3& from, const Vec3& sunDir) {
     double sum = 0;
@@ -50,13 +41,11 @@ CloudLight makeLight(const Scene& scene, const Cloud& cloud, int size) {
     light.boxMin = lo;
     light.boxExtent = glm::max(hi - lo, Vec3(1e-3));
     light.transmittance.assign(std::size_t(size) * size * size, 1.0f);
-    const double ext = reducedExtinction(scene.medium);
     parallelFor(size, [&](int z) {
         for (int y = 0; y < size; ++y)
             for (int x = 0; x < size; ++x) {
                 const Vec3 p = light.boxMin + (Vec3(x, y, z) + 0.5) / double(size) * light.boxExtent;
-                light.transmittance[(std::size_t(z) * size + y) * size + x] =
-                    float(std::exp(-ext * depthToSun(cloud, p, scene.sun.direction)));
+                light.transmittance[(std::size_t(z) * size + y) * size + x] = float(cloudSunLight(scene, cloud, p));
             }
     });
     return light;
@@ -70,7 +59,19 @@ double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& poin
     return std::exp(-reducedExtinction(scene.medium) * depthToSun(cloud, point, scene.sun.direction));
 }
 
-Vec3 cloudAmbient(const Sky& sky) { return 0.5 * (sky.zenith + sky.horizon); }
+double cloudSunLight(const Scene& scene, const Cloud& cloud, const Vec3& point) {
+    const Medium& m = scene.medium;
+    const double reflectance = model::diffuseReflectance(float(m.albedo), float(m.hgG));
+    return reflectance / std::max(m.albedo, 1e-6) * sunTransmittance(scene, cloud, point);
+}
+
+Vec3 environmentMean(const Sky& sky) {
+    // Over the upper hemisphere the format's sky is horizon + (zenith - horizon) d.z, whose
+    // mean over solid angle is (zenith + horizon) / 2 (the mean of d.z is 1/2); below, ground.
+    return 0.5 * (0.5 * (sky.zenith + sky.horizon)) + 0.5 * sky.ground;
+}
+
+Vec3 cloudAmbient(const Sky& sky) { return environmentMean(sky); }
 
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise) {
     PreparedClouds out;
@@ -99,8 +100,7 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
                 const Vec3 dc = glm::normalize(e.center - view.eye);
                 p.ac = model::opacityOf(float(p.sigma * model::kChordScale / glm::length(p.unit * dc)));
             }
-            std::uint64_t h = splitmix((std::uint64_t(c) << 32) ^ std::uint64_t(i) ^ (std::uint64_t(noise.seed) << 48));
-            p.noiseOffset = Vec3(unitHash(h), unitHash(h), unitHash(h));
+            p.noiseOffset = ellipsoidNoiseOffset(std::size_t(c), std::size_t(i), noise.seed);
             out.ellipsoids.push_back(p);
         }
     }
@@ -137,6 +137,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     const float amp = float(scene.medium.noise);
     const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
+    // As the compositor's composite pass sets it (ellipsoid/src/compositor.cpp); see cloudAmbient.
     const Vec3 ambient = cloudAmbient(scene.sky);
     Image image(view.camera.width, view.camera.height, 4);
     parallelFor(image.height, [&](int y) {
@@ -171,7 +172,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 if (alpha <= 0) continue;
                 Vec3 normal = -d;
                 if (tIn > tStart) normal = glm::normalize(glm::transpose(p.unit) * Vec3(o + tIn * len * dn));
-                const float light = model::sunLight(float(sunTransmittance(scene, scene.clouds[p.cloud], shadePoint)),
+                const float light = model::sunLight(float(cloudSunLight(scene, scene.clouds[p.cloud], shadePoint)),
                                                     float(glm::dot(normal, scene.sun.direction)));
                 const glm::vec3 c = model::cloudColor(glm::vec3(sunRadiance), light, glm::vec3(ambient),
                                                       float(scene.medium.albedo), model::noiseModulation(amp, n));

@@ -46,7 +46,9 @@ using detail::Pcg32;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kPieces = 4;           // majorant pieces per chord
 constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
-constexpr std::uint32_t kVersion = 1;  // bump when the estimator changes: invalidates caches
+// Bump when the estimator or the field changes: invalidates caches. 2: the noise is read per
+// ellipsoid at x / period + ellipsoidNoiseOffset(cloud, index, seed), as the compositor reads it.
+constexpr std::uint32_t kVersion = 2;
 
 // One ellipsoid of matter.
 struct Shape {
@@ -54,6 +56,7 @@ struct Shape {
     Vec3 center{0.0};      // m
     double sigma = 0;      // extinction * density, 1/m
     Vec3 lo{0.0}, hi{0.0};  // m, world bounding box
+    glm::vec3 noiseOffset{0.0f};  // noise-volume texture coordinates (periods): ellipsoidNoiseOffset()
 };
 
 struct Node {
@@ -122,10 +125,13 @@ public:
             // slack covers its float round-off).
             noiseBound_ = 1 + amp_ * maxAbs * (1 + 1e-5);
         }
-        for (const Cloud& cloud : scene.clouds)
-            for (const Ellipsoid& e : cloud.ellipsoids) {
+        const unsigned noiseSeed = NoiseSettings{}.seed;  // the compositor's default offsets
+        for (std::size_t ci = 0; ci < scene.clouds.size(); ++ci)
+            for (std::size_t ei = 0; ei < scene.clouds[ci].ellipsoids.size(); ++ei) {
+                const Ellipsoid& e = scene.clouds[ci].ellipsoids[ei];
                 if (!(e.density > 0) || !(m.extinction > 0)) continue;
                 Shape s;
+                s.noiseOffset = glm::vec3(ellipsoidNoiseOffset(ci, ei, noiseSeed));
                 s.unit = ellipsoidToUnit(e);
                 s.center = e.center;
                 s.sigma = m.extinction * e.density;
@@ -187,16 +193,22 @@ public:
         detail::buildMajorant(r.pieces, r.events, r.segs);
     }
 
-    // Extinction (1/m) at o + t d, from the ray's chords.
+    // Extinction (1/m) at o + t d, from the ray's chords: per ellipsoid sigma_i (1 - q)^2, with
+    // noise times max(0, 1 + amp n(x / period + offset_i)) (bounded by noiseBound_).
     double sigmaAt(const Vec3& o, const Vec3& d, double t, const RayData& r) const {
         double s = 0;
+        glm::vec3 uvw(0.0f);
+        if (amp_ > 0) uvw = glm::vec3((o + t * d) / period_);
         for (const Crossing& c : r.cross) {
             if (c.tIn > t) break;
             if (t > c.tOut) continue;
             const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
-            if (h > 0) s += shapes_[c.shape].sigma * h * h;
+            if (h <= 0) continue;
+            const Shape& shape = shapes_[c.shape];
+            double f = shape.sigma * h * h;
+            if (amp_ > 0) f *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
+            s += f;
         }
-        if (s > 0 && amp_ > 0) s *= std::max(0.0, 1 + amp_ * noise_->sample(glm::vec3((o + t * d) / period_)));
         return s;
     }
 

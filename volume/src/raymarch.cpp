@@ -134,10 +134,10 @@ void RaymarchRenderer::Impl::updateLight(const Scene& scene, const RaymarchSetti
                       "^3 voxels do not fit GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower lightGrid");
     lightSlots = glm::ivec3(gx, gy, gz);
     light = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(light.id(), 1, GL_R16F, gx * size, gy * size, gz * size);
+    glTextureStorage3D(light.id(), 1, GL_RGB16F, gx * size, gy * size, gz * size);
     for (int c = 0; c < int(grids.size()); ++c)
         glTextureSubImage3D(light.id(), 0, (c % gx) * size, (c / gx % gy) * size, (c / (gx * gy)) * size, size, size, size,
-                            GL_RED, GL_FLOAT, grids[c].transmittance.data());
+                            GL_RGB, GL_FLOAT, grids[c].transmittance.data());
     for (CloudLight& g : grids) g.transmittance.clear();  // only the boxes are kept
     lights = std::move(grids);
     lightKeyValue = key;
@@ -216,7 +216,9 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     p.set("invLightTexels", glm::vec3(1.0 / (glm::dvec3(m.lightSlots) * double(size))));
     p.set("sunDirection", glm::vec3(scene.sun.direction));
     p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    p.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
+    p.set("skyUpper", glm::vec3(0.5 * (scene.sky.zenith + scene.sky.horizon)));
+    p.set("ground", glm::vec3(scene.sky.ground));
+    p.set("reduction", float(1 - medium.albedo * medium.hgG));
     p.set("hgG", float(medium.hgG));
     p.set("albedo", float(medium.albedo));
 

@@ -13,6 +13,7 @@
 
 #include <glm/glm.hpp>
 
+#include <cstddef>
 #include <vector>
 
 namespace nephele {
@@ -47,5 +48,13 @@ struct NoiseVolume {
 // texel 0 are neighbours like any others, and the texture tiles seamlessly.
 // Throws std::invalid_argument if size < 2, cells < 1 or octaves < 1.
 NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed);
+
+// Where ellipsoid `index` of cloud `cloud` reads the noise volume: every method that adds the
+// project's noise to an ellipsoid (the compositor, gardner-exact, the path-traced reference)
+// evaluates n(x / period + offset) for that ellipsoid, so that neighbouring ellipsoids do not
+// repeat one pattern and all methods see the same field. The offset is in noise-volume
+// texture coordinates (periods), each component in [0, 1); a pure hash of (cloud, index,
+// seed), identical on every platform.
+glm::dvec3 ellipsoidNoiseOffset(std::size_t cloud, std::size_t index, unsigned seed);
 
 }  // namespace nephele

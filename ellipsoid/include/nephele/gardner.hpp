@@ -24,7 +24,8 @@ namespace nephele {
 struct CloudLight {
     Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world
     int size = 0;
-    std::vector<float> transmittance;  // x fastest
+    int channels = 1;                  // values per voxel (the ray-marcher's grids hold 3, see raymarch.hpp)
+    std::vector<float> transmittance;  // x fastest, `channels` values per voxel
 };
 
 struct PreparedEllipsoid {
@@ -65,7 +66,20 @@ double reducedExtinction(const Medium& medium);
 // reduced extinction.
 double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& point);
 
-// Sky ambient radiance used for cloud colour.
+// What the light volume holds at a world point (see shaders/gardner_model.glsl, "Colour"):
+// R / albedo times sunTransmittance(), R = model::diffuseReflectance(albedo, hg_g), so that
+// the model's albedo factor turns it into the cloud's diffuse reflectance of the sunlight.
+double cloudSunLight(const Scene& scene, const Cloud& cloud, const Vec3& point);
+
+// Mean radiance of the environment over the whole sphere of directions: the format's sky over
+// the upper hemisphere ((zenith + horizon) / 2 there), the ground colour over the lower one.
+Vec3 environmentMean(const Sky& sky);
+
+// The ambient term of the Gardner colour: environmentMean(sky). Skylight enters a cloud from
+// every side and, the cloud absorbing little (albedo ~0.99 over a few scattering events),
+// leaves it nearly as bright: the cloud shows about the mean of what surrounds it (the path
+// tracer shows 0.9-1.0 of it on the shared scenes, against 1 for the half-sum of zenith and
+// horizon used before, which ignored the dark ground below and made the clouds blue).
 Vec3 cloudAmbient(const Sky& sky);
 
 // `--method gardner-exact`: the model per pixel in float, exact ray-ellipsoid geometry and

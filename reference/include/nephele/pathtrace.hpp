@@ -2,10 +2,13 @@
 // format's density field (shared/scene-format.md), against which the fast methods are charted.
 //
 // What it renders, exactly as the format defines it:
-// - cloud matter: sigma_t(x) = medium.extinction * sum_i density_i (1 - q_i)^2 (1/m), with
-//   medium.noise > 0 multiplied by max(0, 1 + noise * n(x)), n(x) = noise->sample(x / P),
+// - cloud matter: sigma_t(x) = medium.extinction * sum_i rho_i(x) (1/m), per ellipsoid i
+//   (cloud c, index k in it) rho_i(x) = density_i (1 - q_i)^2, with medium.noise > 0
+//   rho_i(x) * max(0, 1 + noise * n(x / P + o_i)), n(uvw) = noise->sample(uvw),
 //   P = medium.noise_scale * NoiseSettings{}.cells (m; the project's tileable fBm volume,
-//   anchored to the world); sigma_s = albedo * sigma_t; Henyey-Greenstein phase (hg_g);
+//   anchored to the world), o_i = ellipsoidNoiseOffset(c, k, NoiseSettings{}.seed): the
+//   same noise coordinates as the compositor and gardner-exact read for that ellipsoid;
+//   sigma_s = albedo * sigma_t; Henyey-Greenstein phase (hg_g);
 // - the sun, a directional light of irradiance sun.color * sun.intensity, sampled at every
 //   scattering vertex (next-event estimation) through the clouds and the objects;
 // - the sky: a path that leaves the medium sees skyRadiance() (ground colour below the horizon);
