@@ -1,0 +1,237 @@
+// The layered LOD sky (`--method layered`) after Wang, Ji & Zhang 2011, "Using instance for
+// large scale volumetric clouds rendering in real-time" (shared/papers/wang-ji-zhang-2011-*).
+//
+// 1. Lighting precomputation (CPU, all cores; precomputeLighting()): a tileable cloud volume
+//    of one layer (x, y tile `tilePeriod` metres, z the layer's thickness) is lit by a sun at
+//    the zenith with multiple forward scattering, eqs. (5)-(7), the recurrence
+//    I_k = g_{k-1} + T_{k-1} I_{k-1}, g_j = a tau_j F(0) gamma / 4pi I_j (6), F the
+//    Cornette-Shanks phase function (10). The result is stored as the paper stores it:
+//    RGBA8, rgb = n / 2 + 0.5 with n a vector whose length is the intensity I and whose
+//    direction is that of grad I (towards where the light comes from; the zenith where I is
+//    flat), alpha = the volume's density A in [0, 1]. At run time lit = max(n . l, 0) for any
+//    sun direction l, so the sun can move without recomputing. The eye-scattering recurrence
+//    (8) E_k = S_k + T_k E_{k-1} is evaluated towards the sun through every column to give
+//    I_e0, the peak of the run-time eye scattering (17).
+//    Where the paper has free constants the scene's medium is used: tau_j = extinction *
+//    A * dz (1/m, m), a = albedo, the Cornette-Shanks asymmetry f = hg_g, and gamma, the
+//    forward cone of eq. (4), is a cone of `forwardConeDeg` half-angle.
+//    Saved to / loaded from a binary file (LightingVolume::save/load) and cached by a hash
+//    of its parameters (lightingCached()).
+// 2. Geometry: LOD1 = N instanced annuli at H_i = base + i thickness / (N - 1) (12), the eye
+//    at the centre, from lod0Radius out to the layer's extent; LOD0 = billboards, vertical
+//    slices facing the horizontal view direction every `lod0Spacing` m across the disc of
+//    radius lod0Radius, width and height by eq. (13). Two instanced draws per scene layer,
+//    whatever N is. Inside the LOD0 disc both represent the same volume: a fragment's optical
+//    depth is shared between them by the ray's elevation (layers for steep rays, billboards
+//    for grazing ones), so the sum is the volume's once.
+// 3. Appearance: a 2D modulation texture (fBm from the layer's seed; red = the threshold r,
+//    histogram-equalised so that the covered fraction follows C, green = where cities glow)
+//    gives the density D * max(A - (r + 1 - C), 0), eq. (16). Beyond the paper, a fragment's
+//    opacity is 1 - exp(-extinction * density * path), path = the length of the eye ray in
+//    the slab the layer stands for (thickness / N / |d.z|), so that grazing rays see
+//    more matter, as they do in a volume. Colour (premultiplied, alpha = opacity, "over"):
+//      albedo * (E_sun / pi * lit_sun + E_sky / pi * lit_sky + ambient (0.5 + 0.5 z))
+//      + E_sun * I_e (17) + glow (20) + albedo / pi * sum I_l / d^2 (21)
+//    with E = colour * intensity, z the height fraction in the layer, ambient the compositor's
+//    sky ambient. Wind moves the 2D and 3D texture coordinates by t * wind (18).
+//    Eq. (17)'s angular term max(0, (cos - cos phi) / (1 - cos phi)) goes through a smoothstep
+//    (the linear term draws the cone's rim as a visible ring).
+//    Textures are mipmapped (the 3D one GL_LINEAR_MIPMAP_NEAREST, fewer fetches on llvmpipe),
+//    so far away the GPU thresholds filtered A and r; the CPU twins below sample level 0.
+// 4. Shadows (19): sunTransmittance() on the CPU (not yet wired into the object shader).
+// 5. The hand-off to the near field: see nearFade() and layerModulation().
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/scene.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace nephele {
+
+// ---------------------------------------------------------------------------------------
+// Phase function and the scattering recurrences (pure functions, unit-tested)
+
+// Cornette-Shanks phase function, eq. (10): F(theta) with the paper's normalisation
+// (1/4pi integral over the sphere of F = 1). cosTheta in [-1, 1], f asymmetry in (-1, 1).
+double cornetteShanks(double cosTheta, double f);
+
+// Multiple forward scattering along the light, eqs. (5)-(7): particles k = 1..n with optical
+// depths taus[k-1] (>= 0), I_1 = i0, I_k = g_{k-1} + T_{k-1} I_{k-1} with T = exp(-tau) and
+// g_j = forward * tau_j * I_j, forward = albedo * F(0) * gamma / 4pi (eq. 6). Returns I_k for
+// every particle (the light incident on it) and, in *exit, the light leaving the last one.
+std::vector<double> forwardScatter(const std::vector<double>& taus, double forward, double i0 = 1.0,
+                                   double* exit = nullptr);
+// Eye scattering, eq. (8): E_k = S_k + T_k E_{k-1}, E_0 = 0, S_k = albedo tau_k F(theta) I_k / 4pi
+// (phase = F(theta), the phase function at the angle between the view and the light).
+// Returns E_n, the light leaving the last particle towards the eye (relative to the I's unit).
+double eyeScatter(const std::vector<double>& taus, const std::vector<double>& incident, double albedo,
+                  double phase);
+// The forward-scattering coefficient albedo * F(0) * gamma / 4pi for a cone of half-angle
+// coneDeg (degrees, > 0), clamped to albedo (energy: no more than is scattered).
+double forwardCoefficient(double albedo, double f, double coneDeg);
+
+// Vectors n (|n| <= 1 per component) stored in 8 bits as n' = n / 2 + 0.5.
+std::uint8_t encodeComponent(double n);
+double decodeComponent(std::uint8_t byte);
+
+// ---------------------------------------------------------------------------------------
+// The lighting volume
+
+struct LightingSettings {
+    int width = 256, height = 256, depth = 32;  // texels (the paper's 256 x 256 x 32), >= 2 each
+    double tilePeriod = 8000;     // m, horizontal period of the 3D texture (the paper: 16000 units)
+    double forwardConeDeg = 10;   // degrees, half-angle of gamma in eq. (4)/(6), (0, 90]
+    int octaves = 4;              // fBm octaves of the volume's density, 1..8
+    int cells = 8;                // fBm lattice cells per tile period, >= 1
+    unsigned seed = 1;            // of the volume's density (not the layer's modulation seed)
+};
+
+// What the volume depends on (besides LightingSettings): the medium and the layer's thickness.
+struct LightingParameters {
+    double extinction = 0.04;  // 1/m at density 1 (medium.extinction)
+    double albedo = 0.99;      // medium.albedo
+    double csG = 0.85;         // Cornette-Shanks f (medium.hg_g)
+    double thickness = 600;    // m, layer thickness
+    bool operator==(const LightingParameters&) const = default;
+};
+
+class LightingFileError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct LightingVolume {
+    LightingSettings settings;
+    LightingParameters parameters;
+    double eyeScatterPeak = 0;   // I_e0 of eq. (17): radiance per unit sun irradiance and per unit
+                                 // opacity looking at the sun through the layer, from eq. (8)
+    double eyeScatterCosPhi = 1; // cos(phi) of eq. (17): where F falls to 10% of F(0)
+    double precomputeMs = 0;     // CPU time it took (0 when loaded)
+    std::vector<std::uint8_t> texels;  // RGBA8, x fastest, then y, then z (z = 0 the layer's bottom)
+
+    // The decoded vector n (length = intensity) and density A at texel (i, j, k).
+    glm::dvec3 vectorAt(int i, int j, int k) const;
+    double densityAt(int i, int j, int k) const;
+    // GL_LINEAR sampling of the alpha channel (A) with repeat in x, y and clamp in z, at
+    // texture coordinates (u, v) and z in [0, 1] (height fraction in the layer).
+    double sampleDensity(double u, double v, double z) const;
+
+    // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels.
+    void save(const std::string& path) const;
+    // Throws LightingFileError naming the file and what is wrong (bad magic, version, a size
+    // or a parameter that differs from `expected`, truncated data).
+    static LightingVolume load(const std::string& path, const LightingSettings& expectedSettings,
+                               const LightingParameters& expectedParameters);
+};
+
+// The density A of the volume at texel centres: an fBm cloud field shaped by a vertical
+// profile (0 at the bottom and the top of the layer, 1 inside), tileable in x and y.
+// Then the light. Throws std::invalid_argument for bad settings.
+LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
+// The same through a cache folder (created if missing): loaded when a file of the same
+// parameters is there, else computed and saved (a failed save only warns on stderr).
+// cacheDir "" = no cache.
+LightingVolume lightingCached(const LightingSettings& settings, const LightingParameters& parameters,
+                              const std::string& cacheDir);
+LightingParameters lightingParameters(const Medium& medium, const Layer& layer);
+
+// ---------------------------------------------------------------------------------------
+// The 2D modulation texture and the CPU twins of the shader
+
+struct ModulationSettings {
+    int size = 512;               // texels per side, >= 8
+    double period = 30000;        // m, tile period of the 2D texture (the paper: 400000 units)
+    int octaves = 5;              // fBm octaves, 1..8
+    int cells = 6;                // fBm lattice cells per period, >= 1
+    double maxThreshold = 0.8;    // r spans [0, maxThreshold]: with C = 1 only points where A < r are empty
+    double glowPeriod = 12000;    // m, feature size of the city map in the green channel
+};
+
+struct ModulationTexture {
+    int size = 0;
+    std::vector<float> texels;  // RG: r = threshold in [0, maxThreshold], g = city map in [0, 1]
+    // GL_LINEAR + GL_REPEAT sampling (no mipmaps) at texture coordinate uv, channel c.
+    float sample(double u, double v, int c) const;
+};
+// Deterministic from `seed` (the layer's seed).
+ModulationTexture makeModulation(const ModulationSettings& settings, unsigned seed);
+
+struct LayeredSettings {
+    int layers = 8;               // N, annuli per scene layer (LOD1), >= 2; 8 keeps grazing-view gaps < 2% (layered_gl_test)
+    double lod0Radius = 1500;     // m, radius of the billboard disc (LOD0); 0 = no billboards
+    double lod0Spacing = 100;     // m, p_s of eq. (13): distance between billboard slices, > 0
+    double extentFade = 0.1;      // fraction of the extent over which the layer fades out at its rim
+    double nearRadius = 0;        // m: within this horizontal distance from the eye the layer adds nothing
+    double blendBand = 0;         // m: across [nearRadius, nearRadius + blendBand] it fades in (smoothstep)
+    double eyeScatterHeight = 1;  // f_e of eq. (17)
+    double glowHeight = 1;        // f_c of eq. (20)
+    int segments = 96;            // angular segments of the annulus mesh, >= 8
+    LightingSettings lighting;
+    ModulationSettings modulation;
+    std::string cacheDir;         // lighting volumes are cached here ("" = not cached)
+};
+// Throws std::invalid_argument naming the setting.
+void validate(const LayeredSettings& settings);
+
+// The near-LOD hook. Weight in [0, 1] of the layer at horizontal distance `horizontal` (m)
+// from the eye: 0 within nearRadius, smoothstep across the blend band, 1 beyond (the shader
+// multiplies every fragment's optical depth by it).
+double nearFade(const LayeredSettings& settings, double horizontal);
+// The layer's modulation at world (x, y) (m) and time t (s): eq. (16) with the 3D texture's
+// alpha at its peak (1), i.e. D * max(C - r, 0), with r read as the shader reads it (wind
+// included). > 0 where the layer has cloud; the near LOD spawns ellipsoid clouds there.
+double layerModulation(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
+                       double x, double y, double t);
+// The shader's density at a world point inside the layer: D * max(A - (r + 1 - C), 0), eq. (16),
+// A from the lighting volume at that point. 0 outside [base, base + thickness].
+double layerDensity(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
+                    const LightingVolume& light, const Vec3& point, double t);
+// Cloud shadows, eq. (19): the sun's transmittance through the layer at a world point below
+// it, S = 1 - D max(T_S - (r + 1 - C), 0) with T_S = 1 (the column's peak alpha) and r read
+// where the ray towards the sun crosses the layer's middle. 1 at or above the layer's middle
+// or with the sun at or below the horizon.
+double sunTransmittance(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
+                        const Vec3& sunDirection, const Vec3& point, double t);
+
+// ---------------------------------------------------------------------------------------
+// The renderer
+
+struct LayeredStats {
+    int sceneLayers = 0;     // layers in the scene
+    int drawCalls = 0;       // draws issued this frame
+    int instances = 0;       // annuli + billboards drawn
+    double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded)
+};
+
+// Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
+class LayeredRenderer {
+public:
+    explicit LayeredRenderer(LayeredSettings settings = {});
+    ~LayeredRenderer();
+    LayeredRenderer(const LayeredRenderer&) = delete;
+    LayeredRenderer& operator=(const LayeredRenderer&) = delete;
+    const LayeredSettings& settings() const { return settings_; }
+
+    // Draws the scene's layers over `framebuffer` (colour attachment 0: rgb = radiance, a =
+    // cloud opacity; with a depth buffer holding the opaque objects, which are depth-tested),
+    // premultiplied "over". timeSeconds drives wind and lightning.
+    LayeredStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
+
+    // The lighting volume and modulation texture used for scene layer `index` at the last
+    // render (nullptr before).
+    const LightingVolume* lighting(int index) const;
+    const ModulationTexture* modulation(int index) const;
+
+private:
+    struct Impl;
+    LayeredSettings settings_;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nephele

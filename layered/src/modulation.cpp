@@ -1,0 +1,112 @@
+// The 2D modulation texture (Wang et al. section 5) and the CPU twins of the shader's
+// density, the near-LOD hook and the cloud shadows (19).
+#include "nephele/layered.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/parallel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace nephele {
+
+namespace {
+double smoothstep(double e0, double e1, double x) {
+    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
+    return t * t * (3 - 2 * t);
+}
+}  // namespace
+
+float ModulationTexture::sample(double u, double v, int c) const {
+    const double x = u * size - 0.5, y = v * size - 0.5;
+    const double fx = std::floor(x), fy = std::floor(y);
+    const double ax = x - fx, ay = y - fy;
+    auto wrap = [this](long i) { return int(((i % size) + size) % size); };
+    const int x0 = wrap(long(fx)), x1 = wrap(long(fx) + 1), y0 = wrap(long(fy)), y1 = wrap(long(fy) + 1);
+    auto t = [&](int i, int j) { return double(texels[(std::size_t(j) * size + i) * 2 + c]); };
+    return float((1 - ay) * ((1 - ax) * t(x0, y0) + ax * t(x1, y0)) + ay * ((1 - ax) * t(x0, y1) + ax * t(x1, y1)));
+}
+
+ModulationTexture makeModulation(const ModulationSettings& s, unsigned seed) {
+    if (s.size < 8 || s.size > 8192) throw std::invalid_argument("layered modulation: size must be 8..8192");
+    if (s.octaves < 1 || s.octaves > 8) throw std::invalid_argument("layered modulation: octaves must be 1..8");
+    if (s.cells < 1 || s.cells > 256) throw std::invalid_argument("layered modulation: cells must be 1..256");
+    if (!(s.period > 0) || !(s.glowPeriod > 0)) throw std::invalid_argument("layered modulation: periods must be > 0 m");
+    if (!(s.maxThreshold > 0 && s.maxThreshold <= 1))
+        throw std::invalid_argument("layered modulation: maxThreshold must be in (0, 1]");
+    const int n = s.size;
+    const int glowCells = std::max(1, int(std::lround(s.period / s.glowPeriod)));
+    std::vector<float> noise(std::size_t(n) * n), city(std::size_t(n) * n);
+    parallelFor(n, [&](int j) {
+        for (int i = 0; i < n; ++i) {
+            const double u = (i + 0.5) / n, v = (j + 0.5) / n;
+            noise[std::size_t(j) * n + i] = fbm(glm::vec3(float(u * s.cells), float(v * s.cells), 0.5f), s.octaves, s.cells, seed);
+            const double c = fbm(glm::vec3(float(u * glowCells), float(v * glowCells), 3.5f), 3, glowCells, seed ^ 0x9E3779B9u);
+            city[std::size_t(j) * n + i] = float(smoothstep(0.1, 0.4, c));
+        }
+    });
+    // Histogram equalisation: r is the rank of the fBm value, so that r is uniform on
+    // [0, maxThreshold] and the area where C - r > 0 (cloud at the density's peak) is C / maxThreshold.
+    std::vector<std::uint32_t> order(noise.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return noise[a] < noise[b]; });
+    ModulationTexture m;
+    m.size = n;
+    m.texels.resize(noise.size() * 2);
+    for (std::size_t rank = 0; rank < order.size(); ++rank) {
+        m.texels[std::size_t(order[rank]) * 2] = float(double(rank) / double(order.size() - 1) * s.maxThreshold);
+        m.texels[std::size_t(order[rank]) * 2 + 1] = city[order[rank]];
+    }
+    return m;
+}
+
+void validate(const LayeredSettings& s) {
+    auto bad = [](const std::string& what) { throw std::invalid_argument("layered settings: " + what); };
+    if (s.layers < 2 || s.layers > 1024) bad("layers (N) must be 2..1024, got " + std::to_string(s.layers));
+    if (!(s.lod0Radius >= 0)) bad("lod0Radius must be >= 0 m");
+    if (!(s.lod0Spacing > 0)) bad("lod0Spacing must be > 0 m");
+    if (s.lod0Radius / s.lod0Spacing > 4096) bad("lod0Radius / lod0Spacing must be <= 4096 (billboard slices)");
+    if (!(s.extentFade >= 0 && s.extentFade <= 1)) bad("extentFade must be in [0, 1]");
+    if (!(s.nearRadius >= 0)) bad("nearRadius must be >= 0 m");
+    if (!(s.blendBand >= 0)) bad("blendBand must be >= 0 m");
+    if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
+    if (!std::isfinite(s.eyeScatterHeight) || !std::isfinite(s.glowHeight)) bad("eyeScatterHeight and glowHeight must be finite");
+}
+
+double nearFade(const LayeredSettings& s, double horizontal) {
+    if (horizontal < s.nearRadius) return 0;
+    if (s.blendBand <= 0) return 1;
+    return smoothstep(s.nearRadius, s.nearRadius + s.blendBand, horizontal);
+}
+
+namespace {
+double threshold(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, double x, double y, double t) {
+    return m.sample((x - t * layer.wind.x) / ms.period, (y - t * layer.wind.y) / ms.period, 0);
+}
+}  // namespace
+
+double layerModulation(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, double x, double y,
+                       double t) {
+    return layer.density * std::max(layer.coverage - threshold(layer, m, ms, x, y, t), 0.0);
+}
+
+double layerDensity(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, const LightingVolume& light,
+                    const Vec3& p, double t) {
+    const double z = (p.z - layer.base) / layer.thickness;
+    if (z < 0 || z > 1) return 0;
+    const double period = light.settings.tilePeriod;
+    const double a = light.sampleDensity((p.x - t * layer.wind.x) / period, (p.y - t * layer.wind.y) / period, z);
+    const double r = threshold(layer, m, ms, p.x, p.y, t);
+    return layer.density * std::max(a - (r + 1 - layer.coverage), 0.0);  // eq. (16)
+}
+
+double sunTransmittance(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, const Vec3& sun,
+                        const Vec3& p, double t) {
+    const double mid = layer.base + 0.5 * layer.thickness;
+    if (p.z >= mid || sun.z <= 0) return 1;
+    const Vec3 q = p + sun * ((mid - p.z) / sun.z);
+    // eq. (19) with T_S = 1: S = 1 - D max(1 - (r + 1 - C), 0)
+    return 1 - layerModulation(layer, m, ms, q.x, q.y, t);
+}
+
+}  // namespace nephele

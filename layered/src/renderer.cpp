@@ -1,0 +1,266 @@
+// The layered sky on the GPU: per scene layer, one instanced draw of N annuli (LOD1) and one
+// of the billboard slices (LOD0), into the host's frame with "over" blending.
+#include "nephele/gl_state.hpp"
+#include "nephele/layered.hpp"
+#include "nephele/shader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/gtc/constants.hpp>
+
+namespace nephele {
+using namespace gl;
+
+namespace {
+struct LayerResources {
+    LightingParameters lightKey;
+    unsigned seed = 0;
+    bool valid = false;
+    LightingVolume light;
+    ModulationTexture modulation;
+    Texture lightTexture, modulationTexture;
+};
+
+int mipLevels(int size) {
+    int levels = 1;
+    while ((size >>= 1) > 0) ++levels;
+    return levels;
+}
+
+glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
+}  // namespace
+
+struct LayeredRenderer::Impl {
+    Program program;
+    IndexedMesh annulus, quad;
+    std::vector<LayerResources> layers;
+    Medium medium;  // the medium the lighting volumes were made for
+};
+
+namespace {
+// An annulus of radius 1 around the origin: rings at r = (j / rings)^2, so that the triangles
+// are small near the eye, where perspective makes them large on screen.
+IndexedMesh makeAnnulus(int segments) {
+    const int rings = 16;
+    std::vector<float> v;
+    std::vector<unsigned> idx;
+    for (int j = 0; j <= rings; ++j) {
+        const double r = double(j * j) / (rings * rings);
+        for (int s = 0; s < segments; ++s) {
+            const double a = 2 * glm::pi<double>() * s / segments;
+            // The outer ring circumscribes the circle so the polygon covers the whole extent.
+            const double rr = j == rings ? r / std::cos(glm::pi<double>() / segments) : r;
+            v.insert(v.end(), {float(rr * std::cos(a)), float(rr * std::sin(a)), 0.0f});
+        }
+    }
+    for (int j = 0; j < rings; ++j)
+        for (int s = 0; s < segments; ++s) {
+            const unsigned a = j * segments + s, b = j * segments + (s + 1) % segments;
+            const unsigned c = a + segments, d = b + segments;
+            idx.insert(idx.end(), {a, c, b, b, c, d});
+        }
+    return makeIndexedMesh(v, idx, 1);
+}
+}  // namespace
+
+LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
+    validate(settings_);
+    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}});
+    impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
+    std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
+    impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);
+}
+
+LayeredRenderer::~LayeredRenderer() = default;
+
+const LightingVolume* LayeredRenderer::lighting(int index) const {
+    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].light : nullptr;
+}
+const ModulationTexture* LayeredRenderer::modulation(int index) const {
+    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].modulation
+                                                                                         : nullptr;
+}
+
+
+LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
+    LayeredStats stats;
+    stats.sceneLayers = int(scene.layers.size());
+    if (scene.layers.empty()) return stats;
+    Impl& m = *impl_;
+    const LayeredSettings& s = settings_;
+
+    GlStateGuard guard;
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    // ---- Per layer resources, rebuilt only when what they depend on changes.
+    m.layers.resize(scene.layers.size());
+    for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+        const Layer& layer = scene.layers[i];
+        LayerResources& r = m.layers[i];
+        const LightingParameters key = lightingParameters(scene.medium, layer);
+        if (!r.valid || !(r.lightKey == key)) {
+            r.light = lightingCached(s.lighting, key, s.cacheDir);
+            stats.precomputeMs += r.light.precomputeMs;
+            const LightingSettings& ls = s.lighting;
+            r.lightTexture = Texture::create(GL_TEXTURE_3D);
+            glTextureStorage3D(r.lightTexture.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width,
+                               ls.height, ls.depth);
+            glTextureSubImage3D(r.lightTexture.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE,
+                                r.light.texels.data());
+            glGenerateTextureMipmap(r.lightTexture.id());
+            // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+            r.lightKey = key;
+        }
+        if (!r.valid || r.seed != layer.seed) {
+            r.modulation = makeModulation(s.modulation, layer.seed);
+            const int n = r.modulation.size;
+            r.modulationTexture = Texture::create(GL_TEXTURE_2D);
+            glTextureStorage2D(r.modulationTexture.id(), mipLevels(n), GL_RG32F, n, n);
+            glTextureSubImage2D(r.modulationTexture.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, r.modulation.texels.data());
+            glGenerateTextureMipmap(r.modulationTexture.id());
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+            r.seed = layer.seed;
+        }
+        r.valid = true;
+    }
+    check("uploading the layered sky's textures");
+
+    // ---- Shared uniforms.
+    const Program& p = m.program;
+    glm::dmat4 rotation = view.viewMatrix;
+    rotation[3] = glm::dvec4(0, 0, 0, 1);
+    p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
+    p.set("eyeHeight", float(view.eye.z));
+    p.set("sunDirection", glm::vec3(scene.sun.direction));
+    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+    if (scene.skylight) {
+        p.set("skyDirection", glm::vec3(glm::normalize(scene.skylight->direction)));
+        p.set("skyIrradiance", glm::vec3(scene.skylight->color * scene.skylight->intensity));
+    } else {
+        p.set("skyDirection", glm::vec3(0, 0, 1));
+        p.set("skyIrradiance", glm::vec3(0));
+    }
+    p.set("ambient", glm::vec3(0.5 * (scene.sky.zenith + scene.sky.horizon)));  // the compositor's cloudAmbient
+    p.set("extinction", float(scene.medium.extinction));
+    p.set("albedo", float(scene.medium.albedo));
+    p.set("eyeHeightCoeff", float(s.eyeScatterHeight));
+    p.set("glowHeightCoeff", float(s.glowHeight));
+    p.set("lod0Radius", float(s.lod0Radius));
+    p.set("lod0Spacing", float(s.lod0Spacing));
+    p.set("nearRadius", float(s.nearRadius));
+    p.set("blendBand", float(s.blendBand));
+    p.set("lightVolume", 0);
+    p.set("modulation", 1);
+    int flashes = 0;
+    for (const Lightning& l : scene.lightning)
+        if (t >= l.start && t < l.start + l.duration && flashes < 8) {
+            const std::string name = "flashes[" + std::to_string(flashes++) + "]";
+            p.set(name.c_str(), glm::vec4(glm::vec3(l.position - view.eye), float(l.intensity)));
+        }
+    p.set("flashCount", flashes);
+    // Billboards face the horizontal view direction (the camera's up when looking straight up or down).
+    glm::dvec2 axis(view.forward.x, view.forward.y);
+    if (glm::length(axis) < 1e-3) axis = glm::dvec2(view.up.x, view.up.y) * (view.forward.z > 0 ? -1.0 : 1.0);
+    axis = glm::length(axis) > 0 ? glm::normalize(axis) : glm::dvec2(0, 1);
+    p.set("sliceAxis", glm::vec2(axis));
+
+    const int width = view.camera.width, height = view.camera.height;
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glViewport(0, 0, width, height);
+    glDisable(GL_SCISSOR_TEST);
+    glEnable(GL_DEPTH_TEST);  // behind the opaque objects already in the frame
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    for (int c = 0; c < 8; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(p.id());
+    glBindSampler(0, 0);
+    glBindSampler(1, 0);
+
+    // Scene layers far to near (by the distance of their band from the eye's height).
+    std::vector<int> order(scene.layers.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+    auto bandDistance = [&](int i) {
+        const Layer& l = scene.layers[i];
+        return std::max({l.base - view.eye.z, view.eye.z - (l.base + l.thickness), 0.0});
+    };
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return bandDistance(a) > bandDistance(b); });
+
+    const int n = s.layers;
+    for (int li : order) {
+        const Layer& layer = scene.layers[li];
+        const LayerResources& r = m.layers[li];
+        const double lp = s.lighting.tilePeriod, mp = s.modulation.period;
+        const glm::dvec2 eye(view.eye.x, view.eye.y), drift = t * layer.wind;
+        p.set("uvLightEye", fract2((eye - drift) / lp));
+        p.set("uvModEye", fract2((eye - drift) / mp));
+        p.set("uvCityEye", fract2(eye / mp));
+        p.set("invLightPeriod", float(1 / lp));
+        p.set("invModPeriod", float(1 / mp));
+        p.set("base", float(layer.base));
+        p.set("thickness", float(layer.thickness));
+        p.set("coverage", float(layer.coverage));
+        p.set("density", float(layer.density));
+        p.set("layerCount", n);
+        int firstAbove = n;
+        for (int i = 0; i < n; ++i)
+            if (layer.base + i * layer.thickness / (n - 1) > view.eye.z) {
+                firstAbove = i;
+                break;
+            }
+        p.set("firstAbove", firstAbove);
+        p.set("layerSlab", float(layer.thickness / n));
+        // Annuli and billboards sample equally well where a ray's horizontal run across one
+        // annulus slab (slab / tan e) equals its vertical run across one slice (spacing tan e).
+        p.set("steepTan", float(std::sqrt(layer.thickness / n / s.lod0Spacing)));
+        p.set("extent", float(layer.extent));
+        p.set("fadeStart", float(layer.extent * (1 - s.extentFade)));
+        p.set("eyePeak", float(r.light.eyeScatterPeak));
+        p.set("eyeCosPhi", float(std::min(r.light.eyeScatterCosPhi, 1.0 - 1e-6)));
+        p.set("glow", layer.cityGlow ? glm::vec3(layer.cityGlow->color * layer.cityGlow->strength) : glm::vec3(0));
+        glBindTextureUnit(0, r.lightTexture.id());
+        glBindTextureUnit(1, r.modulationTexture.id());
+
+        // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
+        // it the two share the volume's optical depth and their order changes colour only.
+        p.set("mode", 0);
+        p.set("annulusRadius", float(layer.extent));
+        glBindVertexArray(m.annulus.vao.id());
+        glDrawElementsInstanced(GL_TRIANGLES, m.annulus.indexCount, GL_UNSIGNED_INT, nullptr, n);
+        ++stats.drawCalls;
+        stats.instances += n;
+        if (s.lod0Radius > 0) {
+            p.set("mode", 1);
+            const int slices = std::max(1, int(std::floor(s.lod0Radius / s.lod0Spacing)));
+            const double hp = std::max(layer.thickness / (n - 1), s.lod0Spacing);  // H_p, eq. (13)
+            const int pieces = std::max(1, int(std::lround(layer.thickness / hp)));
+            p.set("slices", slices);
+            p.set("pieces", pieces);
+            glBindVertexArray(m.quad.vao.id());
+            glDrawElementsInstanced(GL_TRIANGLES, m.quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
+            ++stats.drawCalls;
+            stats.instances += slices * pieces;
+        }
+        check("drawing the layered sky");
+    }
+    return stats;
+}
+
+}  // namespace nephele

@@ -1,0 +1,92 @@
+// Wang, Ji & Zhang 2011 appearance: density by the 2D modulation texture (eqs. 14-16), light
+// from the precomputed 3D texture (vectors of length I: lit = max(n . l, 0)), skylight as a
+// second directional light, eye scattering (17), wind (18), city glow (20), lightning (21).
+// Output premultiplied: (radiance * alpha, alpha), blended ONE, ONE_MINUS_SRC_ALPHA.
+in vec3 rel;
+out vec4 color;
+uniform int mode;                  // 0 = annuli, 1 = billboards
+uniform sampler3D lightVolume;     // rgb = n / 2 + 0.5, a = density A
+uniform sampler2D modulation;      // r = threshold, g = city map
+uniform vec2 uvLightEye;           // fract((eye.xy - t wind) / tilePeriod)
+uniform vec2 uvModEye;             // fract((eye.xy - t wind) / modulationPeriod)
+uniform vec2 uvCityEye;            // fract(eye.xy / modulationPeriod): cities do not move with the wind
+uniform float invLightPeriod, invModPeriod;  // 1/m
+uniform float base, thickness, eyeHeight;    // m
+uniform float coverage, density;   // C, D in [0, 1]
+uniform float extinction;          // 1/m at density 1
+uniform float albedo;
+uniform float layerSlab;           // m, thickness / N: the slab one annulus stands for
+uniform float lod0Radius, lod0Spacing;  // m
+uniform vec2 sliceAxis;
+uniform float steepTan;            // tan of the elevation where annuli and billboards sample equally well
+uniform float extent, fadeStart;   // m
+uniform float nearRadius, blendBand;  // m
+uniform vec3 sunDirection, sunIrradiance;  // unit; colour * intensity
+uniform vec3 skyDirection, skyIrradiance;  // skylight (0 when the scene has none)
+uniform vec3 ambient;
+uniform float eyePeak, eyeCosPhi, eyeHeightCoeff;  // I_e0, cos(phi), f_e of eq. (17)
+uniform vec3 glow;                 // city glow colour * strength (0: none)
+uniform float glowHeightCoeff;     // f_c of eq. (20)
+uniform int flashCount;
+uniform vec4 flashes[8];           // xyz relative to the eye (m), w = intensity
+const float PI = 3.14159265358979;
+
+void main() {
+    // Texture coordinates and their derivatives before any discard (implicit derivatives in
+    // non-uniform control flow are undefined).
+    vec2 uvMod = uvModEye + rel.xy * invModPeriod;
+    vec2 uvMdx = dFdx(uvMod), uvMdy = dFdy(uvMod);
+    vec3 uvw = vec3(uvLightEye + rel.xy * invLightPeriod, (rel.z + eyeHeight - base) / thickness);
+    vec3 uvwdx = dFdx(uvw), uvwdy = dFdy(uvw);
+    float horizontal = length(rel.xy);
+    if (horizontal > extent) discard;
+    vec3 d = normalize(rel);
+    float zf = (rel.z + eyeHeight - base) / thickness;
+    if (zf < -1e-3 || zf > 1.0 + 1e-3) discard;
+    // Who stands for the volume here: inside the billboard disc, annuli for steep rays,
+    // billboards for grazing ones; a fragment's optical depth takes its share.
+    float tanElev = abs(d.z) / max(length(d.xy), 1e-6);
+    float annulusShare = smoothstep(0.5 * steepTan, 2.0 * steepTan, tanElev);
+    float share, path;
+    if (mode == 0) {
+        share = (lod0Radius > 0.0 && horizontal < lod0Radius) ? annulusShare : 1.0;
+        path = layerSlab / max(abs(d.z), 1e-4);
+    } else {
+        if (horizontal > lod0Radius) discard;
+        share = 1.0 - annulusShare;
+        path = lod0Spacing / max(abs(dot(d.xy, sliceAxis)), 1e-4);
+    }
+    share *= 1.0 - smoothstep(fadeStart, extent, horizontal);
+    if (horizontal < nearRadius) discard;
+    if (blendBand > 0.0) share *= smoothstep(nearRadius, nearRadius + blendBand, horizontal);
+    // Cheap tests first (llvmpipe pays per texture fetch): no share, or a threshold that no
+    // A <= 1 can pass (eq. 16 is 0 where r >= C), means no matter here.
+    if (share < 1e-4) discard;
+    float r = textureGrad(modulation, uvMod, uvMdx, uvMdy).r;
+    if (r >= coverage) discard;
+    vec4 t3 = textureGrad(lightVolume, vec3(uvw.xy, clamp(zf, 0.0, 1.0)), uvwdx, uvwdy);
+    float rho = density * max(t3.a - (r + 1.0 - coverage), 0.0);  // eq. (16)
+    float alpha = 1.0 - exp(-extinction * rho * path * share);
+    if (alpha <= 0.0) discard;
+    vec3 n = t3.rgb * 2.0 - 1.0;  // length = intensity I
+    float litSun = max(dot(n, sunDirection), 0.0);
+    float litSky = max(dot(n, skyDirection), 0.0);
+    vec3 radiance = albedo * (sunIrradiance / PI * litSun + skyIrradiance / PI * litSky + ambient * (0.5 + 0.5 * zf));
+    // Eye scattering, eq. (17).
+    // (smoothstep of the paper's linear term: the linear one shows the cone's rim as a ring)
+    float toward = smoothstep(0.0, 1.0, (dot(d, sunDirection) - eyeCosPhi) / (1.0 - eyeCosPhi));
+    radiance += sunIrradiance * eyePeak * toward * (eyeHeightCoeff * clamp(zf, 0.0, 1.0) + 1.0);
+    // City glow, eq. (20).
+    if (glow != vec3(0.0)) {
+        float city = textureGrad(modulation, uvCityEye + rel.xy * invModPeriod, uvMdx, uvMdy).g;
+        radiance += glow * city * (1.0 - clamp(glowHeightCoeff * zf, 0.0, 1.0));
+    }
+    // Lightning, eq. (21): I / d^2 for the flashes active now.
+    float flash = 0.0;
+    for (int i = 0; i < flashCount; ++i) {
+        vec3 v = rel - flashes[i].xyz;
+        flash += flashes[i].w / max(dot(v, v), 1.0);
+    }
+    radiance += vec3(albedo / PI * flash);
+    color = vec4(radiance * alpha, alpha);
+}

@@ -1,0 +1,347 @@
+// The layered sky on a headless context: draw counts, coverage, the eye below / in / above
+// the layer, wind, lightning, grazing-view gaps, and the host's GL state.
+#include "gl_test_util.hpp"
+
+#include "nephele/camera.hpp"
+#include "nephele/gl_state.hpp"
+#include "nephele/layered.hpp"
+#include "nephele/opaque.hpp"
+#include "nephele/parallel.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+using namespace nephele;
+using namespace nephele::gl;
+
+namespace {
+
+constexpr double kBase = 2000, kThickness = 600, kExtent = 20000;
+
+// Small textures keep the precomputation in milliseconds; the geometry is the real one.
+LayeredSettings testSettings() {
+    LayeredSettings s;
+    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
+    s.modulation.size = 128;
+    return s;
+}
+
+// One layer, the eye at height z looking along +y tilted up by pitchDeg, 160x90.
+Scene layerScene(double eyeZ, double pitchDeg, double coverage = 0.6, double density = 1.0) {
+    Scene s;
+    s.camera.position = Vec3(0, 0, eyeZ);
+    const double p = glm::radians(pitchDeg);
+    s.camera.direction = Vec3(0, std::cos(p), std::sin(p));
+    s.camera.up = std::abs(pitchDeg) > 89 ? Vec3(0, 1, 0) : Vec3(0, 0, 1);
+    s.camera.width = 160, s.camera.height = 90;
+    s.camera.farClip = 100000;
+    Layer l;
+    l.base = kBase, l.thickness = kThickness, l.extent = kExtent;
+    l.coverage = coverage, l.density = density;
+    s.layers.push_back(l);
+    return s;
+}
+
+struct Result {
+    Image rgba;
+    LayeredStats stats;
+    LightingVolume light;
+    ModulationTexture modulation;
+};
+
+Result render(const Scene& scene, const LayeredSettings& settings, double t = 0) {
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    LayeredRenderer sky(settings);
+    Result r;
+    r.stats = sky.render(scene, view, target.framebuffer(), t);
+    r.rgba = target.readColor();
+    r.light = *sky.lighting(0);
+    r.modulation = *sky.modulation(0);
+    return r;
+}
+
+// Mean opacity over the pixels whose ray elevation is within [lo, hi] degrees.
+double meanAlphaAtElevations(const Scene& scene, const Image& rgba, double lo, double hi) {
+    const View view = makeView(scene.camera);
+    double sum = 0;
+    int n = 0;
+    for (int y = 0; y < rgba.height; ++y)
+        for (int x = 0; x < rgba.width; ++x) {
+            const double e = glm::degrees(std::asin(view.rayDirection(x + 0.5, y + 0.5).z));
+            if (e >= lo && e <= hi) sum += rgba.at(x, y, 3), ++n;
+        }
+    EXPECT_GT(n, 0);
+    return n ? sum / n : 0;
+}
+
+Image opaqueOnly(const Scene& scene) {
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    return target.readColor();
+}
+
+bool allFinite(const Image& im) {
+    for (float v : im.pixels)
+        if (!std::isfinite(v)) return false;
+    return true;
+}
+
+// Does the ray of pixel (x, y) cross the slab [base, base + thickness] somewhere within
+// horizontal distance [from, to] of the eye? (The layer's angular band.)
+bool inBand(const View& view, int x, int y, double from, double to) {
+    const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+    const double h = std::sqrt(d.x * d.x + d.y * d.y);
+    double t0 = 0, t1 = 1e12;
+    if (std::abs(d.z) < 1e-12) {
+        if (view.eye.z < kBase || view.eye.z > kBase + kThickness) return false;
+    } else {
+        double a = (kBase - view.eye.z) / d.z, b = (kBase + kThickness - view.eye.z) / d.z;
+        if (a > b) std::swap(a, b);
+        t0 = std::max(a, 0.0), t1 = b;
+    }
+    if (h < 1e-12) return t1 > t0 && from <= 0;
+    t0 = std::max(t0, from / h), t1 = std::min(t1, to / h);
+    return t1 > t0;
+}
+
+// The opacity of the volume the layers stand for along each pixel's ray, 1 - exp(-tau),
+// tau = extinction * the integral of layerDensity (the shader's eq. 16 on the CPU) up to
+// the start of the rim fade, by the midpoint rule (20 m steps, at most 2000: the 3D texture's
+// texels are 250 m wide at the test's 32^2, the slab's 8 slices 75 m high).
+Image volumeOpacity(const Scene& scene, const Result& r, const LayeredSettings& s) {
+    const View view = makeView(scene.camera);
+    const Layer& layer = scene.layers[0];
+    Image out(scene.camera.width, scene.camera.height, 1);
+    const double reach = layer.extent * (1 - s.extentFade);
+    parallelFor(out.height, [&](int y) {
+        for (int x = 0; x < out.width; ++x) {
+            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+            double t0 = 0, t1 = reach / std::max(std::hypot(d.x, d.y), 1e-9);
+            if (std::abs(d.z) > 1e-12) {
+                double a = (layer.base - view.eye.z) / d.z, b = (layer.base + layer.thickness - view.eye.z) / d.z;
+                if (a > b) std::swap(a, b);
+                t0 = std::max(t0, a), t1 = std::min(t1, b);
+            }
+            if (t1 <= t0) continue;
+            const int steps = std::min(2000, std::max(1, int((t1 - t0) / 20)));
+            const double dt = (t1 - t0) / steps;
+            double tau = 0;
+            for (int i = 0; i < steps; ++i)
+                tau += layerDensity(layer, r.modulation, s.modulation, r.light, view.eye + d * (t0 + (i + 0.5) * dt), 0) * dt;
+            out.at(x, y, 0) = float(1 - std::exp(-scene.medium.extinction * tau));
+        }
+    });
+    return out;
+}
+
+struct Gaps {
+    int band = 0, holes = 0, gaps = 0;
+    double fraction() const { return band ? double(gaps) / band : 0; }
+    double holeFraction() const { return band ? double(holes) / band : 0; }
+};
+
+// Pixels of the layer's band (before the rim fade): holes = the layers' opacity is below
+// 0.5; gaps = holes where the volume itself is opaque (>= 0.9), i.e. holes that more layers
+// (or billboards) should have filled, not holes of the cloud field.
+Gaps measureGaps(const Scene& scene, const Result& r, const Image& volume, const LayeredSettings& s) {
+    const View view = makeView(scene.camera);
+    Gaps g;
+    for (int y = 0; y < r.rgba.height; ++y)
+        for (int x = 0; x < r.rgba.width; ++x)
+            if (inBand(view, x, y, 0, kExtent * (1 - s.extentFade))) {
+                ++g.band;
+                const bool hole = r.rgba.at(x, y, 3) < 0.5f;
+                g.holes += hole;
+                g.gaps += hole && volume.at(x, y, 0) >= 0.9f;
+            }
+    return g;
+}
+
+class LayeredGLTest : public ::testing::Test {
+protected:
+    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
+    std::unique_ptr<Context> ctx_;
+};
+
+}  // namespace
+
+TEST_F(LayeredGLTest, DrawCallsDoNotGrowWithTheLayerCount) {
+    const Scene scene = layerScene(500, 10);
+    int draws = -1;
+    for (int n : {2, 8, 32, 128}) {
+        LayeredSettings s = testSettings();
+        s.layers = n;
+        const Result r = render(scene, s);
+        if (draws < 0) draws = r.stats.drawCalls;
+        EXPECT_EQ(r.stats.drawCalls, draws) << "N = " << n;
+        EXPECT_GE(r.stats.instances, n);
+    }
+    EXPECT_EQ(draws, 2);  // one instanced draw of annuli, one of billboards
+    Scene two = scene;
+    two.layers.push_back(two.layers[0]);
+    two.layers[1].base = 5000;
+    EXPECT_EQ(render(two, testSettings()).stats.drawCalls, 4);  // per scene layer, not per annulus
+}
+
+TEST_F(LayeredGLTest, CoverageZeroLeavesTheFrameUnchanged) {
+    for (double z : {500.0, 2300.0, 4000.0}) {
+        const Scene scene = layerScene(z, z > 3000 ? -10 : 10, 0.0);
+        const Result r = render(scene, testSettings());
+        EXPECT_EQ(r.rgba.pixels, opaqueOnly(scene).pixels) << "eye at " << z;  // alpha 0 everywhere, colour untouched
+    }
+}
+
+TEST_F(LayeredGLTest, EyeBelowInAndAboveTheLayer) {
+    const LayeredSettings s = testSettings();
+    // Below, looking 10 degrees up: the horizon is 10 degrees (about 15 rows) below the
+    // centre; the overcast band lies above it, nothing below it.
+    {
+        const Scene scene = layerScene(500, 10, 1.0, 1.0);
+        const Result r = render(scene, s);
+        ASSERT_TRUE(allFinite(r.rgba));
+        // An opaque band near the horizon (between the layer's far rim at 4.3 degrees and
+        // 15 degrees); overhead, eq. (15) at C = 1 still leaves holes where r > A.
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, 5, 15), 0.97);
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, 25, 40), 0.7);
+        EXPECT_EQ(meanAlphaAtElevations(scene, r.rgba, -20, 0), 0.0);  // the ground
+        // Lit from above, seen from below: darker than the white a sunlit top would be, but
+        // not black (ambient and the transmitted light).
+        const float red = r.rgba.at(80, 10, 0);
+        EXPECT_GT(red, 0.05f);
+        EXPECT_LT(red, 0.9f);
+    }
+    // Above, looking 10 degrees down: cloud below the horizon, clear sky above.
+    {
+        const Scene scene = layerScene(4500, -10, 1.0, 1.0);
+        const Result r = render(scene, s);
+        ASSERT_TRUE(allFinite(r.rgba));
+        EXPECT_EQ(meanAlphaAtElevations(scene, r.rgba, 0, 20), 0.0);
+        // Looking down at 8-15 degrees crosses less of the slab than looking up at 5-15 from
+        // 500 m: the few holes of eq. (15) at C = 1 show (measured 0.958).
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, -15, -8), 0.93);
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, -40, -25), 0.7);
+        // Sunlit tops seen from above are brighter than the bottoms seen from below.
+        const Result below = render(layerScene(500, 10, 1.0, 1.0), s);
+        EXPECT_GT(r.rgba.at(80, 80, 0), below.rgba.at(80, 10, 0));
+    }
+    // Inside, looking level: cloud all around, above and below the horizon.
+    {
+        const Scene scene = layerScene(2300, 0, 1.0, 1.0);
+        const Result r = render(scene, s);
+        ASSERT_TRUE(allFinite(r.rgba));
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, 0.5, 15), 0.97);
+        EXPECT_GT(meanAlphaAtElevations(scene, r.rgba, -15, -0.5), 0.97);
+    }
+}
+
+TEST_F(LayeredGLTest, WindMovesThePatternByTimeTimesWind) {
+    LayeredSettings s = testSettings();
+    Scene scene = layerScene(500, 30);
+    scene.layers[0].wind = Vec2(40, -15);
+    const double t = 30;
+    const Image later = render(scene, s, t).rgba;
+    const Image now = render(scene, s, 0).rgba;
+    // At time t the texture coordinates are those of time 0 seen from an eye moved by
+    // -t * wind (the geometry stays centred on the eye).
+    Scene moved = scene;
+    moved.camera.position -= Vec3(scene.layers[0].wind * t, 0.0);
+    const Image shifted = render(moved, s, 0).rgba;
+    const ImageDifference same = compareImages(later, shifted, 2e-3);
+    // float texture coordinates of the two differ in their last bits: a few pixels may differ slightly
+    EXPECT_LT(same.fractionOver, 0.01);
+    EXPECT_LT(same.meanAbs, 1e-3);
+    const ImageDifference changed = compareImages(later, now, 2e-3);
+    EXPECT_GT(changed.fractionOver, 0.2);  // the pattern did move
+}
+
+TEST_F(LayeredGLTest, LightningBrightensOnlyWhileActive) {
+    const LayeredSettings s = testSettings();
+    Scene scene = layerScene(500, 20, 1.0, 1.0);
+    const Image dark = render(scene, s, 5).rgba;
+    Lightning l;
+    l.position = Vec3(0, 3000, 2300);
+    l.intensity = 3e7;  // I / d^2 at 3 km: about 3, brighter than the sun's irradiance
+    l.start = 5, l.duration = 0.2;
+    scene.lightning.push_back(l);
+    const Image before = render(scene, s, 4.9).rgba, during = render(scene, s, 5.1).rgba, after = render(scene, s, 5.2).rgba;
+    EXPECT_EQ(before.pixels, dark.pixels);
+    EXPECT_EQ(after.pixels, dark.pixels);
+    double gain = 0;
+    for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 160; ++x) gain += during.at(x, y, 0) - dark.at(x, y, 0);
+    EXPECT_GT(gain / (40 * 160), 0.1);
+    for (std::size_t i = 0; i < dark.pixels.size(); i += 4) EXPECT_GE(during.pixels[i], dark.pixels[i] - 1e-6f);
+}
+
+TEST_F(LayeredGLTest, LeavesHostStateUnchanged) {
+    const Scene scene = layerScene(2300, 5);
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    LayeredRenderer sky(testSettings());
+    Buffer hostSsbo = Buffer::create();
+    glNamedBufferStorage(hostSsbo.id(), 256, nullptr, 0);
+    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, hostSsbo.id(), 0, 128);
+    glEnable(GL_CLIP_DISTANCE2);
+    glEnable(GL_CULL_FACE);
+    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
+    glDepthFunc(GL_GEQUAL);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glActiveTexture(GL_TEXTURE4);
+    glViewport(3, 4, 50, 60);
+    for (int frame = 0; frame < 2; ++frame) {  // the first frame also uploads the textures
+        const GlStateSnapshot before = GlStateSnapshot::capture();
+        sky.render(scene, view, target.framebuffer(), frame);
+        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
+    }
+}
+
+TEST_F(LayeredGLTest, ObjectsInFrontHideTheLayer) {
+    Scene scene = layerScene(500, 20, 1.0, 1.0);
+    Object box;
+    box.type = Object::Type::Box;
+    box.center = Vec3(0, 300, 500 + 300 * std::tan(glm::radians(20.0)));
+    box.size = Vec3(60, 10, 60);
+    scene.objects.push_back(box);
+    const Result r = render(scene, testSettings());
+    EXPECT_EQ(r.rgba.at(80, 45, 3), 0.0f);  // the box, not cloud
+    EXPECT_GT(r.rgba.at(80, 5, 3), 0.5f);   // cloud above it
+}
+
+// The paper: too few layers show gaps at low view angles. Gap fraction = pixels of the
+// layer's angular band (rays that cross the slab before the rim fade) with opacity < 0.5,
+// at coverage 1 and density 1, against N and the view's elevation, for the eye below, in and
+// above the layer. Printed as a table; the default N must keep every view below 2%.
+TEST_F(LayeredGLTest, GrazingViewsHaveFewGapsAtTheDefaultLayerCount) {
+    struct ViewCase {
+        double z, pitch;
+    };
+    const ViewCase views[] = {{0, 2}, {0, 10}, {0, 30}, {1500, 0}, {2300, 0}, {2300, 89.5}, {3200, 0}, {5000, -2}, {5000, -30}};
+    const int counts[] = {2, 4, 8, 16};
+    const int defaultN = LayeredSettings{}.layers;
+    std::printf("gaps (%% of the band) at coverage 1, gap/hole: rows = eye z (m) / pitch (deg), columns = N\n%-14s", "view");
+    for (int n : counts) std::printf("%14d", n);
+    std::printf("\n");
+    double worstDefault = 0;
+    for (const ViewCase& v : views) {
+        std::printf("%5.0f / %5.1f  ", v.z, v.pitch);
+        const Scene scene = layerScene(v.z, v.pitch, 1.0, 1.0);
+        Image volume;
+        for (int n : counts) {
+            LayeredSettings s = testSettings();
+            s.layers = n;
+            const Result r = render(scene, s);
+            ASSERT_TRUE(allFinite(r.rgba));
+            if (volume.empty()) volume = volumeOpacity(scene, r, s);
+            const Gaps g = measureGaps(scene, r, volume, s);
+            std::printf("%7.2f/%6.2f", 100 * g.fraction(), 100 * g.holeFraction());
+            if (n == defaultN) worstDefault = std::max(worstDefault, g.fraction());
+        }
+        std::printf("\n");
+    }
+    // The bound: 2% of the band's pixels (the rest are covered at least half).
+    EXPECT_LT(worstDefault, 0.02) << "N = " << defaultN;
+}
