@@ -1,5 +1,6 @@
 #include "bench_command.hpp"
 
+#include "bench_util.hpp"
 #include "output_files.hpp"
 
 #include "nephele/camera.hpp"
@@ -10,17 +11,13 @@
 #include "nephele/opaque.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <iostream>
 #include <random>
 #include <sstream>
-#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -35,30 +32,6 @@ struct Random {
     double operator()() { return double(engine() >> 5) * 0x1.0p-27; }
     double range(double lo, double hi) { return lo + (hi - lo) * (*this)(); }
 };
-
-std::string firstLineOf(const std::string& file, const std::string& key) {
-    std::ifstream in(file);
-    for (std::string line; std::getline(in, line);)
-        if (line.rfind(key, 0) == 0) {
-            const auto colon = line.find(':');
-            return colon == std::string::npos ? line : line.substr(colon + 2);
-        }
-    return "unknown";
-}
-
-std::string utcNow() {
-    const std::time_t t = std::time(nullptr);
-    char buf[64];
-    std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M UTC", std::gmtime(&t));
-    return buf;
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-
-using Clock = std::chrono::steady_clock;
 
 struct Row {
     int count = 0;
@@ -101,27 +74,6 @@ Scene benchScene(int count, int width, int height) {
 }
 
 namespace {
-
-// Median wall times of `frames` frames per method (after two warm-up rounds), each finished
-// with glFinish. The methods take turns frame by frame, so that a busy machine slows them
-// alike and their ratios hold.
-std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
-                               const View& view, const std::vector<std::function<void()>>& methods) {
-    std::vector<std::vector<double>> ms(methods.size());
-    for (int i = 0; i < frames + 2; ++i)
-        for (std::size_t m = 0; m < methods.size(); ++m) {
-            opaque.draw(scene, view, target.framebuffer());
-            gl::glFinish();
-            const auto t0 = Clock::now();
-            methods[m]();
-            gl::glFinish();
-            const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-            if (i >= 2) ms[m].push_back(elapsed);
-        }
-    std::vector<double> out;
-    for (auto& v : ms) out.push_back(median(v));
-    return out;
-}
 
 struct Accuracy {
     std::string what;
@@ -179,12 +131,6 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
     return out;
 }
 
-std::string fmt(const char* f, double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
-}
-
 }  // namespace
 
 int runBench(const BenchOptions& o) {
@@ -239,8 +185,7 @@ int runBench(const BenchOptions& o) {
     }
 
     const std::string when = utcNow();
-    const std::string cpu = firstLineOf("/proc/cpuinfo", "model name");
-    const std::string machine = cpu + ", " + std::to_string(std::thread::hardware_concurrency()) + " cores; " + renderer;
+    const std::string machine = machineLine(renderer);
 
     std::ostringstream csv;
     csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,fused_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,"
@@ -291,29 +236,12 @@ int runBench(const BenchOptions& o) {
         std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
         return 1;
     }
-    // The chart: Debian's matplotlib, through /usr/bin/python3.
-    const std::string script = std::string(NEPHELE_SOURCE_DIR) + "/demo/plot_bench.py";
-    const std::string cmd = "/usr/bin/python3 '" + script + "' '" + csvPath + "' '" + pngPath + "' '" + when + "'";
-    if (std::system(cmd.c_str()) != 0) {
-        std::cerr << "nephele: bench: the chart failed (needs /usr/bin/python3 with python3-matplotlib; ./setup.sh "
-                     "installs it)\n";
+    try {
+        runPlot("plot_bench.py", {csvPath, pngPath, when});
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "ellipsoid bench", md.str());
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
-    }
-    if (!o.readme.empty()) {
-        std::ifstream in(o.readme);
-        std::stringstream text;
-        text << in.rdbuf();
-        std::string readme = text.str();
-        const std::string begin = "<!-- BEGIN GENERATED: ellipsoid bench -->", end = "<!-- END GENERATED: ellipsoid bench -->";
-        const auto b = readme.find(begin), e = readme.find(end);
-        if (b == std::string::npos || e == std::string::npos || e < b) {
-            std::cerr << "nephele: bench: " << o.readme << " has no '" << begin << "' ... '" << end << "' section\n";
-            return 1;
-        }
-        readme = readme.substr(0, b + begin.size()) + "\n" + md.str() + readme.substr(e);
-        OutputFiles files;
-        files.add(o.readme, [&](const std::string& p) { std::ofstream(p) << readme; });
-        files.commit();
     }
     std::cout << md.str();
     std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath

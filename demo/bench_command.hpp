@@ -26,4 +26,33 @@ Scene benchScene(int count, int width, int height);
 // The `bench` command: returns the exit code.
 int runBench(const BenchOptions& options);
 
+// `bench --accuracy`: speed against error for every method and a sweep of its settings.
+struct AccuracyOptions {
+    std::string outDir = "docs";  // accuracy.csv, accuracy.md, accuracy_chart.png, accuracy_distance.png
+    std::string readme;           // when set, its "accuracy bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    std::string cacheDir;         // path-traced references are cached here ("" = none)
+    int width = 320;              // px: every case is rendered this wide (aspect kept)
+    int referenceSpp = 64;        // samples per pixel of the reference
+    int block = 4;                // errors are measured on block x block pixel means (averages the
+                                  // reference's noise down by `block`)
+    int frames = 5;               // timed frames per GPU setting (median)
+    bool quick = false;           // one scene, two distances, defaults only (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runAccuracyBench(const AccuracyOptions& options);
+
+// `bench --flicker`: the stability of each method along camera paths (flythrough.json's path and
+// approach.json's 5 km run into a cumulus): mean frame-to-frame change against the exact model's.
+struct FlickerOptions {
+    std::string outDir = "docs";  // flicker.csv, flicker.md, flicker.png
+    std::string readme;           // when set, its "flicker bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    int width = 160;              // px (aspect kept)
+    double fps = 4;               // frames per second of scene time
+    bool quick = false;           // approach.json only, 1 fps (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runFlickerBench(const FlickerOptions& options);
+
 }  // namespace nephele::cli

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,18 +15,24 @@ namespace fs = std::filesystem;
 
 namespace nephele::cli {
 
-double meanFrameChange(const std::vector<Image>& frames) {
-    if (frames.size() < 2) return 0;
-    double sum = 0;
+std::vector<double> frameChanges(const std::vector<Image>& frames) {
+    std::vector<double> out;
     for (std::size_t k = 1; k < frames.size(); ++k) {
         const Image& a = frames[k - 1];
         const Image& b = frames[k];
         double frame = 0;
         for (std::size_t i = 0; i < a.pixels.size(); ++i)
             frame += std::fabs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
-        sum += frame / double(a.pixels.size());
+        out.push_back(frame / double(a.pixels.size()));
     }
-    return sum / double(frames.size() - 1);
+    return out;
+}
+
+double meanFrameChange(const std::vector<Image>& frames) {
+    const std::vector<double> c = frameChanges(frames);
+    double sum = 0;
+    for (double v : c) sum += v;
+    return c.empty() ? 0 : sum / double(c.size());
 }
 
 int runFlythrough(const FlythroughOptions& o) {

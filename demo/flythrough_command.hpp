@@ -13,8 +13,10 @@ struct FlythroughOptions {
     std::string referenceDir;   // a reference run's out-dir: also report the flicker index
 };
 
-// Mean frame-to-frame change of a sequence: the mean over consecutive pairs of the mean
-// absolute difference of linear RGB clamped to [0, 1].
+// Frame-to-frame changes of a sequence: per consecutive pair, the mean absolute difference
+// of linear RGB clamped to [0, 1] (size frames - 1).
+std::vector<double> frameChanges(const std::vector<Image>& frames);
+// Their mean (0 for fewer than two frames).
 double meanFrameChange(const std::vector<Image>& frames);
 
 // `nephele flythrough`: renders the scene's `path` to OUT-DIR/frame_NNNN.png and writes

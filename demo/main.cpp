@@ -5,6 +5,7 @@
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
+#include "nephele/scene.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -17,16 +18,26 @@ using namespace nephele::cli;
 
 namespace {
 
+// The path tracer's cache: the option's folder, else $NEPHELE_CACHE, else ~/.cache/nephele.
+std::string defaultCacheDir(const std::string& option) {
+    const char* env = std::getenv("NEPHELE_CACHE");
+    const char* home = std::getenv("HOME");
+    return !option.empty() ? option : env && *env ? env : home ? std::string(home) + "/.cache/nephele" : "";
+}
+
 // The options `render` and `flythrough` share, as typed on the command line.
 struct SceneArgs {
     std::string scene, method = "auto", backend = "egl";
     int width = 0, height = 0;
     double scale = 0;
     int minTile = 8, maxTile = 512;
-    std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "pass";
+    std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "fused";
+    std::string tileGeometry = "mesh";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
     RaymarchSettings raymarch;
     PathTraceSettings pathtrace;
+    LayeredSettings layered;
+    std::string lightSize = "256x256x32";
     std::string cache;
     bool noCache = false;
 };
@@ -52,12 +63,22 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
         ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
+    cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
+        ->check(CLI::IsMember({"mesh", "polygon"}))
+        ->capture_default_str();
     cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
         ->capture_default_str();
     cmd->add_option("--light-grid", a.raymarch.lightGrid, "Ray-marcher: voxels per side of each cloud's light grid")
         ->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
+    cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(CLI::Range(2, 1024))->capture_default_str();
+    cmd->add_option("--lod0-radius", a.layered.lod0Radius, "Layered sky: radius of the billboard disc (m; 0 = none)")->capture_default_str();
+    cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")->capture_default_str();
+    cmd->add_option("--light-size", a.lightSize, "Layered sky: lighting texture WxHxD (the paper's 256x256x32)")->capture_default_str();
+    cmd->add_option("--near-radius", a.layered.nearRadius, "Layered sky: no layer within this distance of the eye (m)")->capture_default_str();
+    cmd->add_option("--blend-band", a.layered.blendBand, "Layered sky: the layer fades in across this band beyond --near-radius (m)")
+        ->capture_default_str();
     cmd->add_option("--spp", a.pathtrace.spp, "Path tracer: samples per pixel")->check(CLI::Range(1, 1 << 20))->capture_default_str();
     cmd->add_option("--bounces", a.pathtrace.maxBounces, "Path tracer: scattering events per path")->check(CLI::Range(0, 10000))->capture_default_str();
     cmd->add_option("--seed", a.pathtrace.seed, "Path tracer: random seed")->capture_default_str();
@@ -98,14 +119,22 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.precision = a.precision == "u8" ? AtlasPrecision::Unorm8 : AtlasPrecision::Float16;
     es.instanced = a.draws == "instanced";
     es.colourMatrixPass = a.colourMatrix == "pass";
+    es.geometry = a.tileGeometry == "polygon" ? TileGeometry::Polygon : TileGeometry::Mesh;
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
     ro.raymarch = a.raymarch;
     ro.pathtrace = a.pathtrace;
-    if (!a.noCache) {
-        const char* env = std::getenv("NEPHELE_CACHE");
-        const char* home = std::getenv("HOME");
-        ro.cacheDir = !a.cache.empty() ? a.cache : env && *env ? env : home ? std::string(home) + "/.cache/nephele" : "";
+    if (!a.noCache) ro.cacheDir = defaultCacheDir(a.cache);
+    ro.layered = a.layered;
+    {
+        LightingSettings& ls = ro.layered.lighting;
+        char x1 = 0, x2 = 0, extra = 0;
+        if (std::sscanf(a.lightSize.c_str(), "%d%c%d%c%d%c", &ls.width, &x1, &ls.height, &x2, &ls.depth, &extra) != 5 ||
+            x1 != 'x' || x2 != 'x' || ls.width < 2 || ls.height < 2 || ls.depth < 2 || ls.width > 4096 || ls.height > 4096 ||
+            ls.depth > 1024)
+            throw UsageError("--light-size must be WxHxD with sizes 2..4096 x 2..4096 x 2..1024, got '" + a.lightSize + "'");
     }
+    ro.layered.cacheDir = ro.cacheDir;
+    validate(ro.layered);  // std::invalid_argument -> exit 2
     validate(ro.raymarch);  // std::invalid_argument -> exit 2
 }
 
@@ -144,8 +173,22 @@ int main(int argc, char** argv) {
     bench->add_option("--frames", bo.frames, "Measured frames per point (median)")->check(CLI::Range(1, 1000))->capture_default_str();
     bench->add_option("--width", bo.width, "Frame width")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
-    bench->add_flag("!--no-accuracy", bo.accuracy, "Skip the accuracy figures on the shared scenes");
+    bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
+    bool accuracyMode = false, flickerMode = false, quick = false, noCache = false;
+    AccuracyOptions ao;
+    FlickerOptions flo;
+    std::string benchCache;
+    bench->add_flag("--accuracy", accuracyMode,
+                    "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
+    bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
+    bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
+        ->check(CLI::Range(1, 1048576))->capture_default_str();
+    bench->add_option("--fps", flo.fps, "--flicker: frames per second of scene time")
+        ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
+    bench->add_option("--cache", benchCache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
+    bench->add_flag("--no-cache", noCache, "--accuracy: do not read or write the reference cache");
+    bench->add_flag("--quick", quick, "--accuracy/--flicker: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
     CompareOptions co;
@@ -158,6 +201,9 @@ int main(int argc, char** argv) {
     std::string infoGl = "egl";
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
     info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
+    std::string infoScene;
+    info->add_option("scene", infoScene,
+                     "Instead: load this scene and print its clouds and what each `generate` entry made");
 
     try {
         app.parse(argc, argv);
@@ -172,6 +218,23 @@ int main(int argc, char** argv) {
         return 2;
     }
 
+    if (*info && !infoScene.empty()) {
+        try {
+            const Scene scene = loadScene(infoScene);
+            size_t ellipsoids = 0;
+            for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
+            std::cout << scene.file << ": " << scene.clouds.size() << " clouds, " << ellipsoids << " ellipsoids\n";
+            for (const GenerateStats& g : scene.generated)
+                std::cout << "generate " << g.name << ": placed " << g.placed << ", pruned " << g.prunedHollow
+                          << " hollow / " << g.prunedContained << " contained"
+                          << (g.degenerate ? ", " + std::to_string(g.degenerate) + " degenerate skipped" : "")
+                          << ", kept " << g.kept << "\n";
+            return 0;
+        } catch (const SceneError& e) {
+            std::cerr << "nephele: " << e.what() << "\n";
+            return 2;
+        }
+    }
     if (*info) {
         try {
             ContextOptions co;
@@ -193,6 +256,24 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
+        if (accuracyMode && flickerMode) {
+            std::cerr << "nephele: bench: --accuracy and --flicker are separate runs; give one\n";
+            return 2;
+        }
+        const bool widthGiven = bench->count("--width") > 0;
+        if (accuracyMode) {
+            ao.outDir = bo.outDir, ao.readme = bo.readme, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
+            ao.backend = bo.backend, ao.quick = quick;
+            if (widthGiven) ao.width = bo.width;
+            if (!noCache) ao.cacheDir = defaultCacheDir(benchCache);
+            return runAccuracyBench(ao);
+        }
+        if (flickerMode) {
+            flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;
+            flo.backend = bo.backend, flo.quick = quick;
+            if (widthGiven) flo.width = bo.width;
+            return runFlickerBench(flo);
+        }
         return runBench(bo);
     }
     try {

@@ -64,13 +64,8 @@ int reportError(const std::exception& e, const std::string& doing) {
     return badInput ? 2 : 1;
 }
 
-void checkRenderable(const Scene& scene, const RenderOptions& o) {
-    if (o.method == Method::Layered)
-        throw UsageError("--method layered is not available in this build yet; available: auto, ellipsoid, "
-                         "raymarch, pathtrace, gardner-exact");
-    if (!scene.generators.empty())
-        throw UsageError(scene.file + ": generate[0]: procedural clouds are validated but this build cannot "
-                         "expand them into ellipsoids yet; remove the `generate` entries to render");
+void checkRenderable(const Scene& /*scene*/, const RenderOptions& /*o*/) {
+    // Every method renders every scene now (--method layered draws its layers; see renderFrame).
 }
 
 FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
@@ -85,6 +80,7 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     gl::setChecks(true);  // a frame costs far more than the checks
     opaque_ = std::make_unique<OpaquePass>();
     if (o.method == Method::Raymarch) raymarch_ = std::make_unique<RaymarchRenderer>(o.raymarch);
+    else if (o.method == Method::Layered) layered_ = std::make_unique<LayeredRenderer>(o.layered);
     else clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
 }
 
@@ -109,7 +105,8 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
         if (!target_ || target_->width() != camera.width || target_->height() != camera.height)
             target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
         opaque_->draw(scene, view, target_->framebuffer());
-        if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
+        if (layered_) frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
+        else if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
         else frame.stats = clouds_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
         rgba = target_->readColor();
     }
@@ -121,7 +118,14 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
 
 Frame renderFrame(const Scene& scene, const RenderOptions& o) {
     checkRenderable(scene, o);
-    if (!scene.layers.empty())
+    if (o.method == Method::Layered) {
+        std::size_t clouds = 0;
+        for (const Cloud& c : scene.clouds) clouds += c.ellipsoids.empty() ? 0 : 1;
+        if (clouds > 0)
+            std::cerr << "nephele: note: --method layered draws the far-field layers only; " << clouds
+                      << " explicit ellipsoid cloud(s) left out\n";
+        if (scene.layers.empty()) std::cerr << "nephele: note: the scene has no layers; --method layered draws only the sky\n";
+    } else if (!scene.layers.empty())
         std::cerr << "nephele: note: this build does not draw far-field layers yet; " << scene.layers.size()
                   << " layer(s) left out\n";
     return FrameRenderer(o).render(scene, o.time);
@@ -164,6 +168,13 @@ int runRender(const RenderOptions& o) {
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
                   << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
                   << " draw calls\n";
+    if (frame.layered.sceneLayers > 0)
+        std::cerr << "nephele: layers: " << frame.layered.sceneLayers << " scene layer(s), " << frame.layered.instances
+                  << " instances in " << frame.layered.drawCalls << " draw calls"
+                  << (frame.layered.precomputeMs > 0
+                          ? ", lighting precomputed in " + std::to_string(std::lround(frame.layered.precomputeMs)) + " ms"
+                          : std::string(", lighting from the cache"))
+                  << "\n";
     return 0;
 }
 

@@ -2,6 +2,7 @@
 
 #include "nephele/context.hpp"
 #include "nephele/ellipsoid.hpp"
+#include "nephele/layered.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/pathtrace.hpp"
@@ -35,6 +36,7 @@ struct RenderOptions {
     EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
     RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves
     PathTraceSettings pathtrace;  // --spp, --bounces, --seed
+    LayeredSettings layered;      // --layers, --lod0-radius, --lod0-spacing, --light-size, --near-radius, --blend-band
     std::string cacheDir;         // path-traced references are cached here ("" = no cache)
 };
 
@@ -42,6 +44,7 @@ struct Frame {
     Image color;  // RGB linear radiance
     Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
     EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
+    LayeredStats layered;  // the layered sky's, when it ran
     Image densityAlpha;    // the exact opacity of the density field, when asked for
 };
 
@@ -65,6 +68,7 @@ private:
     std::unique_ptr<OpaquePass> opaque_;
     std::unique_ptr<EllipsoidRenderer> clouds_;
     std::unique_ptr<RaymarchRenderer> raymarch_;
+    std::unique_ptr<LayeredRenderer> layered_;
     NoiseVolume noise_;
 };
 

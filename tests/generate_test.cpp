@@ -202,7 +202,9 @@ TEST(GenerateTest, ContainedPruningKeepsNoEllipsoidInsideAnother) {
         EXPECT_GT(s.prunedContained, 0);
         for (size_t i = 0; i < kept.ellipsoids.size(); ++i)
             for (size_t j = 0; j < kept.ellipsoids.size(); ++j)
-                if (i != j) EXPECT_FALSE(insideSampled(kept.ellipsoids[i], kept.ellipsoids[j])) << i << " holds " << j;
+                if (i != j) {
+                    EXPECT_FALSE(insideSampled(kept.ellipsoids[i], kept.ellipsoids[j])) << i << " holds " << j;
+                }
         // Every dropped one is inside a kept one.
         size_t k = 0;
         for (const Ellipsoid& e : full.ellipsoids) {

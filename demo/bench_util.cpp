@@ -1,0 +1,103 @@
+#include "bench_util.hpp"
+
+#include "output_files.hpp"
+
+#include "nephele/gl.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace nephele::cli {
+
+namespace {
+std::string firstLineOf(const std::string& file, const std::string& key) {
+    std::ifstream in(file);
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind(key, 0) == 0) {
+            const auto colon = line.find(':');
+            return colon == std::string::npos ? line : line.substr(colon + 2);
+        }
+    return "unknown";
+}
+
+std::string shellQuote(const std::string& s) {
+    std::string out = "'";
+    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+}  // namespace
+
+std::string utcNow() {
+    const std::time_t t = std::time(nullptr);
+    char buf[64];
+    std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M UTC", std::gmtime(&t));
+    return buf;
+}
+
+std::string machineLine(const std::string& glRenderer) {
+    return firstLineOf("/proc/cpuinfo", "model name") + ", " + std::to_string(std::thread::hardware_concurrency()) +
+           " cores; " + glRenderer;
+}
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+std::string fmt(const char* f, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
+                               const View& view, const std::vector<std::function<void()>>& methods) {
+    using Clock = std::chrono::steady_clock;
+    std::vector<std::vector<double>> ms(methods.size());
+    for (int i = 0; i < frames + 2; ++i)
+        for (std::size_t m = 0; m < methods.size(); ++m) {
+            opaque.draw(scene, view, target.framebuffer());
+            gl::glFinish();
+            const auto t0 = Clock::now();
+            methods[m]();
+            gl::glFinish();
+            const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+            if (i >= 2) ms[m].push_back(elapsed);
+        }
+    std::vector<double> out;
+    for (auto& v : ms) out.push_back(median(v));
+    return out;
+}
+
+void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown) {
+    std::ifstream in(readme);
+    if (!in) throw std::runtime_error("cannot read '" + readme + "'");
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string s = text.str();
+    const std::string begin = "<!-- BEGIN GENERATED: " + tag + " -->", end = "<!-- END GENERATED: " + tag + " -->";
+    const auto b = s.find(begin), e = s.find(end);
+    if (b == std::string::npos || e == std::string::npos || e < b)
+        throw std::runtime_error(readme + " has no '" + begin + "' ... '" + end + "' section");
+    s = s.substr(0, b + begin.size()) + "\n" + markdown + s.substr(e);
+    OutputFiles files;
+    files.add(readme, [&](const std::string& p) { std::ofstream(p) << s; });
+    files.commit();
+}
+
+void runPlot(const std::string& scriptName, const std::vector<std::string>& args) {
+    std::string cmd = "/usr/bin/python3 " + shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/demo/" + scriptName);
+    for (const std::string& a : args) cmd += " " + shellQuote(a);
+    if (std::system(cmd.c_str()) != 0)
+        throw std::runtime_error("the chart (" + scriptName +
+                                 ") failed: it needs /usr/bin/python3 with python3-matplotlib (./setup.sh installs it)");
+}
+
+}  // namespace nephele::cli

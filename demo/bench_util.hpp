@@ -1,0 +1,36 @@
+// What the bench commands (`bench`, `bench --accuracy`, `bench --flicker`) share: the
+// machine line, medians, interleaved frame timing and the generated README sections.
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/opaque.hpp"
+#include "nephele/scene.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace nephele::cli {
+
+std::string utcNow();  // "2026-11-22 04:17 UTC"
+// "CPU model, N cores; GL renderer" (the renderer string from Context::description()).
+std::string machineLine(const std::string& glRenderer);
+double median(std::vector<double> v);
+std::string fmt(const char* printfFormat, double v);
+
+// Median wall times (ms) of `frames` frames per method after two warm-up rounds, each
+// finished with glFinish, the sky and objects drawn before the clock starts. The methods
+// take turns frame by frame, so a busy machine slows them alike and their ratios hold.
+std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
+                               const View& view, const std::vector<std::function<void()>>& methods);
+
+// Replaces the text between "<!-- BEGIN GENERATED: TAG -->" and "<!-- END GENERATED: TAG -->"
+// in `readme` (a file) with `markdown`, atomically. Throws std::runtime_error naming what is
+// missing when the markers are not there.
+void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown);
+
+// Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib). Throws with a
+// message naming the package when it fails.
+void runPlot(const std::string& scriptName, const std::vector<std::string>& args);
+
+}  // namespace nephele::cli

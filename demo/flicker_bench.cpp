@@ -1,0 +1,197 @@
+// `nephele bench --flicker`: how much each method's image changes from frame to frame along
+// camera paths, against the exact model's change along the same path. Popping (a tile
+// jumping to the next power of two, back-to-front order flipping, an LOD switch) is change
+// the exact evaluation does not have: it shows up as a positive flicker index and as spikes
+// in the per-frame excess.
+#include "bench_command.hpp"
+
+#include "bench_util.hpp"
+#include "flythrough_command.hpp"
+#include "output_files.hpp"
+#include "render_command.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace nephele::cli {
+
+namespace {
+
+struct Sequence {
+    std::string name;  // the scene file
+    Scene scene;
+    int frames = 0;
+    double t0 = 0, fps = 1;
+};
+
+struct Run {
+    std::string method, setting;
+    RenderOptions options;
+};
+
+struct Outcome {
+    std::string sequence, method, setting;
+    int frames = 0;
+    double meanChange = 0, referenceMeanChange = 0, flickerIndex = 0;
+    double maxExcess = 0;  // max over frame pairs of (change - the reference's change)
+    int worstPair = 0;     // the pair (k-1, k) where it happens: k
+    double msPerFrame = 0;
+    std::vector<double> changes;
+};
+
+std::vector<Image> renderSequence(const Sequence& s, const RenderOptions& o, double& msPerFrame) {
+    FrameRenderer renderer(o);
+    std::vector<Image> frames;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < s.frames; ++k) frames.push_back(renderer.render(s.scene, s.t0 + k / s.fps).color);
+    msPerFrame = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / s.frames;
+    return frames;
+}
+
+}  // namespace
+
+int runFlickerBench(const FlickerOptions& o) {
+    std::error_code ec;
+    fs::create_directories(o.outDir, ec);
+    if (!fs::is_directory(o.outDir)) {
+        std::cerr << "nephele: bench: cannot create the output folder '" << o.outDir << "'\n";
+        return 2;
+    }
+    if (!o.readme.empty() && !fs::is_regular_file(o.readme)) {
+        std::cerr << "nephele: bench: --readme '" << o.readme << "' is not a file\n";
+        return 2;
+    }
+    std::vector<Sequence> sequences;
+    try {
+        const std::vector<std::string> names =
+            o.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
+        for (const std::string& n : names) {
+            Sequence s{n, loadScene(o.scenesDir + "/" + n)};
+            if (s.scene.path.size() < 2) throw UsageError(s.scene.file + ": path: the flicker bench needs a camera path");
+            const double aspect = double(s.scene.camera.width) / s.scene.camera.height;
+            s.scene.camera.width = o.width;
+            s.scene.camera.height = std::max(1, int(std::lround(o.width / aspect)));
+            s.fps = o.quick ? 0.5 : o.fps;
+            s.t0 = s.scene.path.front().t;
+            s.frames = int(std::floor((s.scene.path.back().t - s.t0) * s.fps + 1e-9)) + 1;
+            sequences.push_back(std::move(s));
+        }
+    } catch (const std::exception& e) {
+        return reportError(e, "loading the scenes");
+    }
+
+    std::vector<Run> runs;
+    auto add = [&](std::string method, std::string setting, Method m, auto change) {
+        Run r{std::move(method), std::move(setting), {}};
+        r.options.method = m;
+        r.options.backend = o.backend;
+        change(r.options);
+        runs.push_back(std::move(r));
+    };
+    add("gardner-exact", "reference", Method::GardnerExact, [](RenderOptions&) {});
+    add("ellipsoid", "default", Method::Ellipsoid, [](RenderOptions&) {});
+    if (!o.quick) {
+        add("ellipsoid", "8-bit atlas", Method::Ellipsoid,
+            [](RenderOptions& r) { r.ellipsoid.precision = AtlasPrecision::Unorm8; });
+        add("ellipsoid", "max tile 32", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.maxTile = 32; });
+        add("raymarch", "default", Method::Raymarch, [](RenderOptions&) {});
+        add("raymarch", "step 100 m", Method::Raymarch, [](RenderOptions& r) { r.raymarch.step = 100; });
+    }
+
+    std::vector<Outcome> outcomes;
+    std::string renderer;
+    try {
+        {
+            ContextOptions co;
+            co.backend = o.backend;
+            renderer = Context::create(co)->description();
+        }
+        for (const Sequence& s : sequences) {
+            std::vector<double> reference;
+            for (const Run& r : runs) {
+                std::cerr << "bench: flicker: " << s.name << ", " << r.method << " " << r.setting << " (" << s.frames
+                          << " frames at " << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
+                Outcome out{s.name, r.method, r.setting, s.frames};
+                const std::vector<Image> frames = renderSequence(s, r.options, out.msPerFrame);
+                out.changes = frameChanges(frames);
+                if (reference.empty()) reference = out.changes;  // the first run is the reference
+                for (std::size_t k = 0; k < out.changes.size(); ++k) {
+                    out.meanChange += out.changes[k] / out.changes.size();
+                    out.referenceMeanChange += reference[k] / reference.size();
+                    const double excess = out.changes[k] - reference[k];
+                    if (k == 0 || excess > out.maxExcess) out.maxExcess = excess, out.worstPair = int(k) + 1;
+                }
+                out.flickerIndex = out.meanChange - out.referenceMeanChange;
+                outcomes.push_back(std::move(out));
+            }
+        }
+    } catch (const std::exception& e) {
+        return reportError(e, "bench --flicker");
+    }
+
+    const std::string when = utcNow();
+    std::ostringstream csv, series;
+    csv << "sequence,method,setting,frames,fps,mean_change,reference_mean_change,flicker_index,max_excess,worst_frame,"
+           "ms_per_frame\n";
+    series << "sequence,method,setting,frame,change\n";
+    for (const Outcome& r : outcomes) {
+        const Sequence& s = *std::find_if(sequences.begin(), sequences.end(), [&](const Sequence& q) { return q.name == r.sequence; });
+        csv << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << r.frames << "," << fmt("%.3g", s.fps) << ","
+            << fmt("%.6f", r.meanChange) << "," << fmt("%.6f", r.referenceMeanChange) << "," << fmt("%.6f", r.flickerIndex)
+            << "," << fmt("%.6f", r.maxExcess) << "," << r.worstPair << "," << fmt("%.1f", r.msPerFrame) << "\n";
+        for (std::size_t k = 0; k < r.changes.size(); ++k)
+            series << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << k + 1 << "," << fmt("%.6f", r.changes[k])
+                   << "\n";
+    }
+    std::ostringstream md;
+    md << "Measured by `nephele bench --flicker` on " << when << ", " << machineLine(renderer) << ". Each sequence is the "
+       << "scene's camera `path` rendered at " << o.width << " px wide; change = mean |difference| of linear RGB (clamped "
+          "to [0, 1]) between consecutive frames. The reference is `gardner-exact`, the exact, noise-free evaluation of "
+          "the Gardner model (no tiles, no atlas, exact order), not the path tracer: at affordable sample counts the "
+          "path tracer's Monte Carlo noise changes every frame and would swamp the signal. Flicker index = the method's "
+          "mean change − the reference's; max excess = the largest single-frame (change − reference change), where a "
+          "pop would show.\n\n"
+          "| sequence | method | setting | frames | fps | mean change | flicker index | max excess (frame) |\n"
+          "|---|---|---|---:|---:|---:|---:|---:|\n";
+    for (const Outcome& r : outcomes) {
+        if (r.setting == "reference") {
+            md << "| " << r.sequence << " | " << r.method << " | reference | " << r.frames << " | "
+               << fmt("%.3g", sequences[0].fps) << " | " << fmt("%.5f", r.meanChange) << " | — | — |\n";
+            continue;
+        }
+        md << "| " << r.sequence << " | " << r.method << " | " << r.setting << " | " << r.frames << " | "
+           << fmt("%.3g", sequences[0].fps) << " | " << fmt("%.5f", r.meanChange) << " | " << fmt("%+.5f", r.flickerIndex)
+           << " | " << fmt("%+.5f", r.maxExcess) << " (" << r.worstPair << ") |\n";
+    }
+    md << "\n![per-frame change along each path](docs/flicker.png)\n";
+
+    const std::string csvPath = (fs::path(o.outDir) / "flicker.csv").string();
+    const std::string seriesPath = (fs::path(o.outDir) / "flicker_series.csv").string();
+    const std::string mdPath = (fs::path(o.outDir) / "flicker.md").string();
+    const std::string pngPath = (fs::path(o.outDir) / "flicker.png").string();
+    try {
+        OutputFiles files;
+        files.add(csvPath, [&](const std::string& p) { std::ofstream(p) << csv.str(); });
+        files.add(seriesPath, [&](const std::string& p) { std::ofstream(p) << series.str(); });
+        files.add(mdPath, [&](const std::string& p) { std::ofstream(p) << md.str(); });
+        files.commit();
+        runPlot("plot_flicker.py", {seriesPath, pngPath, when});
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str());
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
+        return 1;
+    }
+    std::cout << md.str();
+    std::cerr << "nephele: bench --flicker wrote " << csvPath << ", " << seriesPath << ", " << mdPath << ", " << pngPath
+              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+    return 0;
+}
+
+}  // namespace nephele::cli
