@@ -32,8 +32,9 @@ struct SceneArgs {
     double scale = 0;
     int minTile = 8, maxTile = 512;
     std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "fused";
-    std::string tileGeometry = "mesh";
+    std::string tileGeometry = "mesh", exactOrder = "ellipsoid";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
+    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr;
     RaymarchSettings raymarch;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
@@ -76,14 +77,21 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--lod0-radius", a.layered.lod0Radius, "Layered sky: radius of the billboard disc (m; 0 = none)")->capture_default_str();
     cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")->capture_default_str();
     cmd->add_option("--light-size", a.lightSize, "Layered sky: lighting texture WxHxD (the paper's 256x256x32)")->capture_default_str();
-    cmd->add_option("--near-radius", a.layered.nearRadius, "Layered sky: no layer within this distance of the eye (m)")->capture_default_str();
-    cmd->add_option("--blend-band", a.layered.blendBand, "Layered sky: the layer fades in across this band beyond --near-radius (m)")
-        ->capture_default_str();
+    a.nearRadiusOpt = cmd->add_option("--near-radius", a.layered.nearRadius,
+                                      "Layered sky: no layer within this distance of the eye (m; auto: near_lod layers are "
+                                      "ellipsoid cumulus there; default 0, auto " + std::to_string(int(kAutoNearRadius)) + ")");
+    a.blendBandOpt = cmd->add_option("--blend-band", a.layered.blendBand,
+                                     "Layered sky: the layer fades in across this band beyond --near-radius (m; default 0, auto " +
+                                         std::to_string(int(kAutoBlendBand)) + ")");
     cmd->add_option("--spp", a.pathtrace.spp, "Path tracer: samples per pixel")->check(CLI::Range(1, 1 << 20))->capture_default_str();
     cmd->add_option("--bounces", a.pathtrace.maxBounces, "Path tracer: scattering events per path")->check(CLI::Range(0, 10000))->capture_default_str();
     cmd->add_option("--seed", a.pathtrace.seed, "Path tracer: random seed")->capture_default_str();
     cmd->add_option("--cache", a.cache, "Path tracer: cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
     cmd->add_flag("--no-cache", a.noCache, "Path tracer: do not read or write the cache");
+    cmd->add_option("--exact-order", a.exactOrder,
+                    "gardner-exact: ellipsoid (whole ellipsoids back to front, as the tiles) or pixel (per-pixel depth order)")
+        ->check(CLI::IsMember({"ellipsoid", "pixel"}))
+        ->capture_default_str();
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
@@ -121,6 +129,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.colourMatrixPass = a.colourMatrix == "pass";
     es.geometry = a.tileGeometry == "polygon" ? TileGeometry::Polygon : TileGeometry::Mesh;
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
+    ro.exactOrder = a.exactOrder == "pixel" ? CompositeOrder::PerPixel : CompositeOrder::PerEllipsoid;
     ro.raymarch = a.raymarch;
     ro.pathtrace = a.pathtrace;
     if (!a.noCache) ro.cacheDir = defaultCacheDir(a.cache);
@@ -134,6 +143,11 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
             throw UsageError("--light-size must be WxHxD with sizes 2..4096 x 2..4096 x 2..1024, got '" + a.lightSize + "'");
     }
     ro.layered.cacheDir = ro.cacheDir;
+    if (ro.method == Method::Auto) {
+        if (!a.nearRadiusOpt->count()) ro.layered.nearRadius = kAutoNearRadius;
+        if (!a.blendBandOpt->count()) ro.layered.blendBand = kAutoBlendBand;
+        validate(ro.nearLod, ro.layered);  // std::invalid_argument -> exit 2
+    }
     validate(ro.layered);  // std::invalid_argument -> exit 2
     validate(ro.raymarch);  // std::invalid_argument -> exit 2
 }

@@ -18,9 +18,9 @@ def main():
     rows = list(csv.DictReader(open(sys.argv[1])))
     n = [int(r["ellipsoids"]) for r in rows]
     fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
-    for key, label, style in [("ms", "compositor (instanced)", "o-"),
-                              ("baseline_ms", "baseline: one draw per ellipsoid", "s--"),
-                              ("fused_ms", "compositor, colour matrix fused into the composite", "d-"),
+    for key, label, style in [("ms", "compositor (instanced, colour matrix in the composite)", "o-"),
+                              ("baseline_ms", "baseline: one draw per ellipsoid, separate colour-matrix pass", "s--"),
+                              ("separate_pass_ms", "instanced, separate colour-matrix pass", "d-"),
                               ("floor_ms", "floor: pixel work alone", "^:")]:
         ax.plot(n, [float(r[key]) for r in rows], style, label=label)
     ax.set_xscale("log", base=2)

@@ -82,6 +82,7 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     if (o.method == Method::Raymarch) raymarch_ = std::make_unique<RaymarchRenderer>(o.raymarch);
     else if (o.method == Method::Layered) layered_ = std::make_unique<LayeredRenderer>(o.layered);
     else clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
+    if (o.method == Method::Auto) validate(o.nearLod, o.layered);  // bad settings before any frame
 }
 
 FrameRenderer::~FrameRenderer() = default;
@@ -94,7 +95,7 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
     Image rgba;
     Frame frame;
     if (options_.method == Method::GardnerExact) {
-        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise);
+        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder);
     } else if (options_.method == Method::Pathtrace) {
         PathTraceSettings ps = options_.pathtrace;
         ps.progress = ::isatty(2) != 0;
@@ -105,9 +106,17 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
         if (!target_ || target_->width() != camera.width || target_->height() != camera.height)
             target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
         opaque_->draw(scene, view, target_->framebuffer());
-        if (layered_) frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
-        else if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
-        else frame.stats = clouds_->render(scene, view, target_->framebuffer(), !scene.objects.empty());
+        const bool objects = !scene.objects.empty();
+        if (options_.method == Method::Auto && !scene.layers.empty()) {
+            // The far field, then the near LOD's clouds and the explicit ones in one compositor call.
+            if (!layered_) layered_ = std::make_unique<LayeredRenderer>(options_.layered);
+            if (!nearLod_) nearLod_ = std::make_unique<NearLod>(options_.nearLod, options_.layered);
+            frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
+            const std::vector<Cloud> near = nearLod_->update(scene, view.eye, time, &frame.nearLod);
+            frame.stats = clouds_->render(withNearClouds(scene, near), view, target_->framebuffer(), objects);
+        } else if (layered_) frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
+        else if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), objects);
+        else frame.stats = clouds_->render(scene, view, target_->framebuffer(), objects);
         rgba = target_->readColor();
     }
     if (!options_.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);
@@ -125,9 +134,9 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
             std::cerr << "nephele: note: --method layered draws the far-field layers only; " << clouds
                       << " explicit ellipsoid cloud(s) left out\n";
         if (scene.layers.empty()) std::cerr << "nephele: note: the scene has no layers; --method layered draws only the sky\n";
-    } else if (!scene.layers.empty())
-        std::cerr << "nephele: note: this build does not draw far-field layers yet; " << scene.layers.size()
-                  << " layer(s) left out\n";
+    } else if (!scene.layers.empty() && o.method != Method::Auto)
+        std::cerr << "nephele: note: --method " << methodName(o.method) << " does not draw far-field layers; "
+                  << scene.layers.size() << " layer(s) left out (--method auto or layered draws them)\n";
     return FrameRenderer(o).render(scene, o.time);
 }
 
@@ -168,6 +177,12 @@ int runRender(const RenderOptions& o) {
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
                   << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
                   << " draw calls\n";
+    if (o.method == Method::Auto && frame.layered.sceneLayers > 0) {
+        const NearLodStats& n = frame.nearLod;
+        std::cerr << "nephele: near LOD: " << n.cells << " cell(s) within " << o.layered.nearRadius + o.layered.blendBand
+                  << " m, " << n.clouds << " cumulus spawned (" << n.fading << " fading in the blend band), "
+                  << n.ellipsoids << " ellipsoids\n";
+    }
     if (frame.layered.sceneLayers > 0)
         std::cerr << "nephele: layers: " << frame.layered.sceneLayers << " scene layer(s), " << frame.layered.instances
                   << " instances in " << frame.layered.drawCalls << " draw calls"

@@ -2,7 +2,9 @@
 
 #include "nephele/context.hpp"
 #include "nephele/ellipsoid.hpp"
+#include "nephele/gardner.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/near_lod.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/pathtrace.hpp"
@@ -37,7 +39,10 @@ struct RenderOptions {
     RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves
     PathTraceSettings pathtrace;  // --spp, --bounces, --seed
     LayeredSettings layered;      // --layers, --lod0-radius, --lod0-spacing, --light-size, --near-radius, --blend-band
+                                  // (auto: nearRadius/blendBand default to kAutoNearRadius/kAutoBlendBand)
+    NearLodSettings nearLod;      // auto: the near LOD's cells
     std::string cacheDir;         // path-traced references are cached here ("" = no cache)
+    CompositeOrder exactOrder = CompositeOrder::PerEllipsoid;  // gardner-exact: --exact-order
 };
 
 struct Frame {
@@ -45,6 +50,7 @@ struct Frame {
     Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
     EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
     LayeredStats layered;  // the layered sky's, when it ran
+    NearLodStats nearLod;  // auto: what the near LOD spawned
     Image densityAlpha;    // the exact opacity of the density field, when asked for
 };
 
@@ -69,6 +75,7 @@ private:
     std::unique_ptr<EllipsoidRenderer> clouds_;
     std::unique_ptr<RaymarchRenderer> raymarch_;
     std::unique_ptr<LayeredRenderer> layered_;
+    std::unique_ptr<NearLod> nearLod_;  // auto, made with layered_ at the first scene with layers
     NoiseVolume noise_;
 };
 

@@ -91,7 +91,8 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
             p.shape = e;
             p.unit = ellipsoidToUnit(e);
             p.axes = glm::inverse(p.unit);
-            p.sigma = scene.medium.extinction * e.density;
+            p.sigma = scene.medium.extinction * e.density * std::clamp(cloud.weight, 0.0, 1.0);
+            if (!(p.sigma > 0)) continue;  // no matter the eye can see (Ac would be 0)
             if (p.projection.crossesNear) {
                 // Any ray's chord is at most the longest diameter: 16/15 * r_max bounds its depth.
                 const double rMax = std::max({e.radii.x, e.radii.y, e.radii.z});
@@ -100,7 +101,7 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
                 const Vec3 dc = glm::normalize(e.center - view.eye);
                 p.ac = model::opacityOf(float(p.sigma * model::kChordScale / glm::length(p.unit * dc)));
             }
-            p.noiseOffset = ellipsoidNoiseOffset(std::size_t(c), std::size_t(i), noise.seed);
+            p.noiseOffset = ellipsoidNoiseOffset(cloud.noiseId ? std::size_t(cloud.noiseId) : std::size_t(c), std::size_t(i), noise.seed);
             out.ellipsoids.push_back(p);
         }
     }
@@ -133,19 +134,22 @@ RayRange rayRange(const Scene& scene, const View& view, const Vec3& d) {
 }  // namespace
 
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noiseVolume,
-                         const NoiseSettings& noiseSettings) {
+                         const NoiseSettings& noiseSettings, CompositeOrder order) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     const float amp = float(scene.medium.noise);
     const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
     // As the compositor's composite pass sets it (ellipsoid/src/compositor.cpp); see cloudAmbient.
     const Vec3 ambient = cloudAmbient(scene.sky);
     Image image(view.camera.width, view.camera.height, 4);
+    struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
+        std::vector<Layer> layers;  // PerPixel: this pixel's contributions, sorted before compositing
         for (int x = 0; x < image.width; ++x) {
             const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
             const RayRange range = rayRange(scene, view, d);
             Vec3 color = opaqueRadiance(scene, view, d);
             double alphaSum = 0;
+            layers.clear();
             for (const PreparedEllipsoid& p : prepared.ellipsoids) {
                 const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
                 // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
@@ -176,8 +180,17 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                                                     float(glm::dot(normal, scene.sun.direction)));
                 const glm::vec3 c = model::cloudColor(glm::vec3(sunRadiance), light, glm::vec3(ambient),
                                                       float(scene.medium.albedo), model::noiseModulation(amp, n));
+                if (order == CompositeOrder::PerPixel) {
+                    layers.push_back({tShade, alpha, c});
+                    continue;
+                }
                 color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
                 alphaSum = alpha + alphaSum * (1.0 - alpha);
+            }
+            std::sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
+            for (const Layer& l : layers) {
+                color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
+                alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
             }
             for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(color[k]);
             image.at(x, y, 3) = float(alphaSum);
@@ -196,7 +209,7 @@ Image exactDensityOpacity(const Scene& scene, const View& view) {
             for (const Cloud& cloud : scene.clouds)
                 for (const Ellipsoid& e : cloud.ellipsoids) {
                     const glm::dmat3 m = ellipsoidToUnit(e);
-                    tau += scene.medium.extinction * e.density *
+                    tau += scene.medium.extinction * e.density * std::clamp(cloud.weight, 0.0, 1.0) *
                            model::segmentDepth(glm::vec3(m * (view.eye - e.center)), glm::vec3(m * d),
                                                float(range.tNear), float(range.tEnd));
                 }

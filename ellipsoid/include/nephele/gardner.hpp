@@ -86,8 +86,14 @@ Vec3 cloudAmbient(const Sky& sky);
 // falloff, exact light transmittance, no tiles and no 8-bit buffers, over the opaque
 // background (objects inside clouds are covered only by the matter in front of them).
 // RGBA: rgb linear radiance, a = cloud opacity.
+// Order: PerEllipsoid composites whole ellipsoids back to front by centre distance, as the
+// compositor's tiles must (so the two agree, order flips included); PerPixel sorts each
+// pixel's contributions by the depth of their shading points, the order light actually
+// meets them, which does not flip as the eye moves: the reference for order-flip popping.
+// Opacity is the same either way ("over" of opacities commutes); only colour differs.
+enum class CompositeOrder { PerEllipsoid, PerPixel };
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
-                         const NoiseSettings& noiseSettings);
+                         const NoiseSettings& noiseSettings, CompositeOrder order = CompositeOrder::PerEllipsoid);
 
 // The physics: per pixel 1 - exp(-sum of the ellipsoids' optical depths) along the ray
 // (closed form per ellipsoid), up to the nearest opaque object. Grey image.
