@@ -4,6 +4,8 @@
 #include "nephele/noise.hpp"
 #include "nephele/parallel.hpp"
 
+#include <glm/gtc/constants.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -107,6 +109,15 @@ double sunTransmittance(const Layer& layer, const ModulationTexture& m, const Mo
     const Vec3 q = p + sun * ((mid - p.z) / sun.z);
     // eq. (19) with T_S = 1: S = 1 - D max(1 - (r + 1 - C), 0)
     return 1 - layerModulation(layer, m, ms, q.x, q.y, t);
+}
+
+double groundSunShare(const Sun& sun, const Sky& sky) {
+    auto luminance = [](const Vec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; };
+    const double eSun = luminance(sun.color) * sun.intensity * std::max(sun.direction.z, 0.0);
+    const double eSky = std::max(glm::pi<double>() * luminance(sky.horizon) +
+                                     2 * glm::pi<double>() / 3 * (luminance(sky.zenith) - luminance(sky.horizon)),
+                                 0.0);
+    return eSun + eSky > 0 ? eSun / (eSun + eSky) : 0;
 }
 
 }  // namespace nephele

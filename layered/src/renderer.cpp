@@ -1,8 +1,10 @@
 // The layered sky on the GPU: per scene layer, one instanced draw of N annuli (LOD1) and one
 // of the billboard slices (LOD0), into the host's frame with "over" blending.
+#include "nephele/gardner.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
+#include "shadow_pass.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -35,6 +37,7 @@ struct LayeredRenderer::Impl {
     IndexedMesh annulus, quad;
     std::vector<LayerResources> layers;
     Medium medium;  // the medium the lighting volumes were made for
+    ShadowPass shadows;
 };
 
 namespace {
@@ -133,6 +136,13 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     }
     check("uploading the layered sky's textures");
 
+    // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them.
+    if (s.shadows) {
+        std::vector<GLuint> modulationTextures;
+        for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
+        stats.shadowDrawCalls = m.shadows.draw(scene, view, framebuffer, t, modulationTextures, s.modulation, s.groundHeight);
+    }
+
     // ---- Shared uniforms.
     const Program& p = m.program;
     glm::dmat4 rotation = view.viewMatrix;
@@ -148,7 +158,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         p.set("skyDirection", glm::vec3(0, 0, 1));
         p.set("skyIrradiance", glm::vec3(0));
     }
-    p.set("ambient", glm::vec3(0.5 * (scene.sky.zenith + scene.sky.horizon)));  // the compositor's cloudAmbient
+    p.set("ambient", glm::vec3(cloudAmbient(scene.sky)));  // as the compositor: near ellipsoids and layers lit alike
     p.set("extinction", float(scene.medium.extinction));
     p.set("albedo", float(scene.medium.albedo));
     p.set("eyeHeightCoeff", float(s.eyeScatterHeight));

@@ -38,7 +38,9 @@
 //    (the linear term draws the cone's rim as a visible ring).
 //    Textures are mipmapped (the 3D one GL_LINEAR_MIPMAP_NEAREST, fewer fetches on llvmpipe),
 //    so far away the GPU thresholds filtered A and r; the CPU twins below sample level 0.
-// 4. Shadows (19): sunTransmittance() on the CPU (not yet wired into the object shader).
+// 4. Shadows (19): after the opaque pass and before the layers, one full-screen pass per layer
+//    multiplies the frame's surfaces by S (shaders/layered_shadow.frag, depth-reconstructed
+//    points; the ground is the plane z = groundHeight); sunTransmittance() is its CPU twin.
 // 5. The hand-off to the near field: see nearFade() and layerModulation().
 #pragma once
 
@@ -172,6 +174,8 @@ struct LayeredSettings {
     double eyeScatterHeight = 1;  // f_e of eq. (17)
     double glowHeight = 1;        // f_c of eq. (20)
     int segments = 96;            // angular segments of the annulus mesh, >= 8
+    bool shadows = true;          // cloud shadows, eq. (19), on the frame's surfaces and the ground
+    double groundHeight = 0;      // m, z of the ground plane the shadows fall on (the format's ground)
     LightingSettings lighting;
     ModulationSettings modulation;
     std::string cacheDir;         // lighting volumes are cached here ("" = not cached)
@@ -198,6 +202,12 @@ double layerDensity(const Layer& layer, const ModulationTexture& modulation, con
 // or with the sun at or below the horizon.
 double sunTransmittance(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
                         const Vec3& sunDirection, const Vec3& point, double t);
+// The sun's share in [0, 1] of the irradiance of a horizontal ground plane under the format's
+// sky (horizon + (zenith - horizon) d.z over the upper hemisphere, E_sky = pi horizon +
+// 2 pi / 3 (zenith - horizon)) and sun (E_sun = colour intensity sun.z), by luminance: the
+// part of the ground colour that the layers' shadows darken (0 with the sun at or below the
+// horizon).
+double groundSunShare(const Sun& sun, const Sky& sky);
 
 // ---------------------------------------------------------------------------------------
 // The renderer
@@ -206,6 +216,7 @@ struct LayeredStats {
     int sceneLayers = 0;     // layers in the scene
     int drawCalls = 0;       // draws issued this frame
     int instances = 0;       // annuli + billboards drawn
+    int shadowDrawCalls = 0; // full-screen cloud-shadow passes (one per shadowing layer)
     double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded)
 };
 
