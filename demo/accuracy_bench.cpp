@@ -10,6 +10,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/layered.hpp"
 #include "nephele/metrics.hpp"
 #include "nephele/pathtrace.hpp"
 #include "nephele/raymarch.hpp"
@@ -24,6 +25,8 @@
 #include <memory>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -77,6 +80,7 @@ std::vector<Config> sweep(bool quick) {
         ell("tessellation 48", [](EllipsoidSettings& s) { s.tessellation = 48; });
         ell("light volume 8", [](EllipsoidSettings& s) { s.lightVolume = 8; });
         ell("no self-shadowing", [](EllipsoidSettings& s) { s.lightVolume = 0; });
+        ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
         ray("step 10 m", [](RaymarchSettings& s) { s.step = 10; });
         ray("step 50 m", [](RaymarchSettings& s) { s.step = 50; });
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
@@ -206,6 +210,85 @@ void markPareto(std::vector<Aggregate>& a) {
     }
 }
 
+// The layered sky has no path-traced reference: the format's density field (what the path
+// tracer renders) has no layers. Its layer count N is charted against its own converged
+// limit instead: the same frame with kLayeredReferenceN layers, on the layer of
+// near_and_far.json seen from below (the scene's camera), grazing (just under the base,
+// looking at the horizon) and from above.
+constexpr int kLayeredReferenceN = 128;
+
+struct LayeredPoint {
+    std::string view;
+    int layers = 0;
+    double ms = 0, relRmse = 0;
+};
+
+std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const OpaquePass& opaque) {
+    Scene base = loadScene(o.scenesDir + "/near_and_far.json");
+    base.clouds.clear();
+    if (base.layers.empty()) throw UsageError(base.file + ": the layered convergence needs a scene with layers");
+    scaleTo(base, o.width);
+    const Layer& layer = base.layers.front();
+    struct ViewCase { std::string name; Vec3 eye, lookAt; };
+    const double mid = layer.base + 0.5 * layer.thickness;
+    const std::vector<ViewCase> views = {
+        {"below (the scene's camera)", base.camera.position, base.camera.position + base.camera.direction},
+        {"grazing, 100 m under the base", Vec3(0, 0, layer.base - 100), Vec3(0, 10000, layer.base - 100 + 200)},
+        {"above, looking 10° down", Vec3(0, 0, mid + 2000), Vec3(0, 10000, mid + 2000 - 1763)}};
+    const std::vector<int> counts = o.quick ? std::vector<int>{2, 8} : std::vector<int>{2, 4, 8, 16, 32};
+    std::vector<LayeredPoint> out;
+    // The lighting volume depends on the layer, not on N: computed once and shared through a
+    // cache folder (a temporary one, removed at the end, under --no-cache).
+    std::string cacheDir = o.cacheDir;
+    struct TempDir {
+        std::string path;
+        ~TempDir() {
+            std::error_code ec;
+            if (!path.empty()) fs::remove_all(path, ec);
+        }
+    } temp;
+    if (cacheDir.empty()) {
+        temp.path = (fs::temp_directory_path() / ("nephele-layered-" + std::to_string(::getpid()))).string();
+        fs::create_directories(temp.path);
+        cacheDir = temp.path;
+    }
+    std::vector<std::unique_ptr<LayeredRenderer>> renderers;
+    for (int n : counts) {
+        LayeredSettings ls;
+        ls.layers = n;
+        ls.cacheDir = cacheDir;
+        renderers.push_back(std::make_unique<LayeredRenderer>(ls));
+    }
+    LayeredSettings refSettings;
+    refSettings.layers = kLayeredReferenceN;
+    refSettings.cacheDir = cacheDir;
+    LayeredRenderer reference(refSettings);
+    for (const ViewCase& vc : views) {
+        Scene scene = base;
+        scene.camera.position = vc.eye;
+        scene.camera.direction = glm::normalize(vc.lookAt - vc.eye);
+        scene.path.clear();
+        const View view = makeView(scene.camera);
+        FrameTarget target(scene.camera.width, scene.camera.height);
+        opaque.draw(scene, view, target.framebuffer());
+        reference.render(scene, view, target.framebuffer(), 0);
+        const Image ref = blockMean(target.readColor(), o.block);
+        std::vector<std::function<void()>> draws;
+        for (auto& r : renderers) draws.push_back([&, rp = r.get()] { rp->render(scene, view, target.framebuffer(), 0); });
+        gl::setChecks(false);
+        const std::vector<double> ms = timeFrames(o.frames, target, opaque, scene, view, draws);
+        gl::setChecks(true);
+        for (std::size_t k = 0; k < renderers.size(); ++k) {
+            opaque.draw(scene, view, target.framebuffer());
+            draws[k]();
+            out.push_back({vc.name, counts[k], ms[k], relativeRmse(blockMean(target.readColor(), o.block), ref)});
+        }
+        gl::checkAlways("bench --accuracy (layered)");
+        std::cerr << "bench: accuracy: layered, " << vc.name << ": done\n";
+    }
+    return out;
+}
+
 }  // namespace
 
 int runAccuracyBench(const AccuracyOptions& o) {
@@ -227,6 +310,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     }
     const std::vector<Config> configs = sweep(o.quick);
     std::vector<Result> results;
+    std::vector<LayeredPoint> layered;
     std::string renderer;
     using Clock = std::chrono::steady_clock;
     try {
@@ -316,6 +400,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 }
             }
         }
+        layered = layeredConvergence(o, opaque);
     } catch (const std::exception& e) {
         return reportError(e, "bench --accuracy");
     }
@@ -413,13 +498,41 @@ int runAccuracyBench(const AccuracyOptions& o) {
         md << " |\n";
     }
     md << "\n![error and time against distance](docs/accuracy_distance.png)\n";
+    md << "\nThe layered sky has no path-traced reference (the format's density field, which the path tracer "
+          "renders, has no layers), so its layer count N is measured against its own converged limit, N = "
+       << kLayeredReferenceN << ", on the layer of `near_and_far.json` (error as above; ms per frame):\n\n"
+          "| view |";
+    std::vector<int> layerCounts;
+    for (const LayeredPoint& p : layered)
+        if (std::find(layerCounts.begin(), layerCounts.end(), p.layers) == layerCounts.end()) layerCounts.push_back(p.layers);
+    for (int n : layerCounts) md << " N = " << n << " |";
+    md << "\n|---|";
+    for (std::size_t k = 0; k < layerCounts.size(); ++k) md << "---:|";
+    md << "\n";
+    std::vector<std::string> layerViews;
+    for (const LayeredPoint& p : layered)
+        if (std::find(layerViews.begin(), layerViews.end(), p.view) == layerViews.end()) layerViews.push_back(p.view);
+    for (const std::string& v : layerViews) {
+        md << "| " << v;
+        for (int n : layerCounts)
+            for (const LayeredPoint& p : layered)
+                if (p.view == v && p.layers == n) md << " | " << fmt("%.1f%%", 100 * p.relRmse) << " / " << fmt("%.0f", p.ms);
+        md << " |\n";
+    }
+    std::ostringstream layeredCsv;
+    layeredCsv << "view,layers,reference_layers,ms,rel_rmse\n";
+    for (const LayeredPoint& p : layered)
+        layeredCsv << "\"" << p.view << "\"," << p.layers << "," << kLayeredReferenceN << "," << fmt("%.3f", p.ms) << ","
+                   << fmt("%.5f", p.relRmse) << "\n";
 
     const std::string csvPath = (fs::path(o.outDir) / "accuracy.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "accuracy.md").string();
+    const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
     try {
         OutputFiles files;
         files.add(csvPath, [&](const std::string& p) { std::ofstream(p) << csv.str(); });
         files.add(mdPath, [&](const std::string& p) { std::ofstream(p) << md.str(); });
+        files.add(layeredPath, [&](const std::string& p) { std::ofstream(p) << layeredCsv.str(); });
         files.commit();
         runPlot("plot_accuracy.py", {csvPath, o.outDir, when});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str());

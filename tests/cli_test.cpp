@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -295,6 +296,23 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     EXPECT_NE(text.find("Measured by `nephele bench --accuracy`"), std::string::npos);
     EXPECT_EQ(text.find("old\n"), std::string::npos);
     EXPECT_NE(text.find("<!-- END GENERATED: accuracy bench -->\nafter\n"), std::string::npos);
+    // The layered sky against its own converged limit: more layers, less error, in every view.
+    std::ifstream lay(path("acc/accuracy_layered.csv"));
+    std::getline(lay, line);
+    EXPECT_EQ(line, "view,layers,reference_layers,ms,rel_rmse");
+    std::map<std::string, std::map<int, double>> err;
+    while (std::getline(lay, line)) {
+        const auto q = line.rfind('"');
+        std::stringstream f(line.substr(q + 2));
+        std::string n, ref, ms, e;
+        std::getline(f, n, ','), std::getline(f, ref, ','), std::getline(f, ms, ','), std::getline(f, e, ',');
+        err[line.substr(1, q - 1)][std::stoi(n)] = std::stod(e);
+    }
+    EXPECT_EQ(err.size(), 3u);
+    for (const auto& [view, byN] : err) {
+        ASSERT_EQ(byN.size(), 2u) << view;
+        EXPECT_LT(byN.at(8), byN.at(2)) << view;
+    }
 }
 
 // `bench --flicker` on the approach from 5 km into a cumulus, at a toy size: the compositor's
