@@ -165,8 +165,6 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     p.set("glowHeightCoeff", float(s.glowHeight));
     p.set("lod0Radius", float(s.lod0Radius));
     p.set("lod0Spacing", float(s.lod0Spacing));
-    p.set("nearRadius", float(s.nearRadius));
-    p.set("blendBand", float(s.blendBand));
     p.set("lightVolume", 0);
     p.set("modulation", 1);
     int flashes = 0;
@@ -228,6 +226,10 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         p.set("thickness", float(layer.thickness));
         p.set("coverage", float(layer.coverage));
         p.set("density", float(layer.density));
+        // The near-LOD hand-off cuts only layers whose near clouds are drawn as ellipsoids
+        // (near_lod); the others are drawn all the way in.
+        p.set("nearRadius", float(layer.nearLod ? s.nearRadius : 0.0));
+        p.set("blendBand", float(layer.nearLod ? s.blendBand : 0.0));
         p.set("layerCount", n);
         int firstAbove = n;
         for (int i = 0; i < n; ++i)

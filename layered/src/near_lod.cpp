@@ -1,0 +1,185 @@
+// The near LOD: cells of a layer's pattern spawned as Gaussian cumulus near the eye
+// (nephele/near_lod.hpp).
+#include "nephele/near_lod.hpp"
+
+#include "nephele/generate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace nephele {
+
+namespace {
+
+std::uint64_t mix(std::uint64_t x) {  // SplitMix64's finaliser
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+
+// A hash of (layer seed, i, j, salt): the only inputs of a cell.
+std::uint64_t cellHash(unsigned seed, std::int64_t i, std::int64_t j, std::uint64_t salt) {
+    std::uint64_t h = mix(std::uint64_t(seed) ^ (salt << 40));
+    h = mix(h ^ std::uint64_t(i));
+    return mix(h ^ std::uint64_t(j) * 0xD6E8FEB86659FD93ull);
+}
+
+double unit(std::uint64_t h) { return double(h >> 11) * 0x1.0p-53; }  // [0, 1)
+
+Vec2 spawnPoint(unsigned seed, std::int64_t i, std::int64_t j, const NearLodSettings& s) {
+    const double jx = (2 * unit(cellHash(seed, i, j, 1)) - 1) * s.jitter;
+    const double jy = (2 * unit(cellHash(seed, i, j, 2)) - 1) * s.jitter;
+    return Vec2((double(i) + 0.5 + jx) * s.cellSize, (double(j) + 0.5 + jy) * s.cellSize);
+}
+
+double reach(const LayeredSettings& l) { return l.nearRadius + l.blendBand; }
+
+}  // namespace
+
+void validate(const NearLodSettings& s, const LayeredSettings& l) {
+    auto bad = [](const std::string& what) { throw std::invalid_argument("near LOD settings: " + what); };
+    if (!(s.cellSize > 0) || !std::isfinite(s.cellSize)) bad("cellSize must be > 0 m");
+    if (!(s.jitter >= 0 && s.jitter < 0.5)) bad("jitter must be in [0, 0.5) cells");
+    if (s.ellipsoids < 1 || s.ellipsoids > 1000) bad("ellipsoids must be 1..1000, got " + std::to_string(s.ellipsoids));
+    if (!(s.minWidth > 0 && s.minWidth <= s.maxWidth && s.maxWidth <= 1.5))
+        bad("minWidth and maxWidth must satisfy 0 < minWidth <= maxWidth <= 1.5 (fractions of cellSize)");
+    if (!(s.minHeight > 0 && s.minHeight <= 1)) bad("minHeight must be in (0, 1] (fraction of the layer's thickness)");
+    if (s.maxCellsPerAxis < 1 || s.maxCellsPerAxis > 4096) bad("maxCellsPerAxis must be 1..4096");
+    validate(l);
+    if (!std::isfinite(reach(l))) bad("nearRadius + blendBand must be finite");
+    if (2 * reach(l) / s.cellSize > s.maxCellsPerAxis)
+        bad("2 (nearRadius + blendBand) / cellSize = " + std::to_string(2 * reach(l) / s.cellSize) + " cells per axis exceeds " +
+            std::to_string(s.maxCellsPerAxis) + "; raise cellSize or lower the near radius / blend band");
+}
+
+NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j, const NearLodSettings& s,
+                      const ModulationTexture& modulation, const ModulationSettings& ms) {
+    const Layer& layer = scene.layers.at(std::size_t(li));
+    NearCell cell;
+    cell.layer = li, cell.i = i, cell.j = j;
+    cell.spawn = spawnPoint(layer.seed, i, j, s);
+    // Pattern coordinates are the world at t = 0.
+    cell.modulation = layerModulation(layer, modulation, ms, cell.spawn.x, cell.spawn.y, 0);
+    cell.cloud.name = "near" + std::to_string(li) + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
+    cell.cloud.noiseId = cellHash(layer.seed, i, j, 3) | 1;  // never 0 ("the cloud's index")
+    if (!(cell.modulation > 0)) return cell;
+    const double q = std::clamp(cell.modulation / std::max(layer.density * layer.coverage, 1e-12), 0.0, 1.0);
+
+    // Cumulus geometry (generate.hpp): offsets clamped to [-2, 2] sigma per horizontal axis
+    // and [-0.5, 2] sigma vertically, radii <= maxRadius * aspect. With R the largest radius
+    // and a_z its vertical aspect, the cloud spans 2.5 sigma_z + 2 R a_z vertically and lies
+    // within 2 sqrt(2) sigma_xy + R of its centre horizontally (a corner of the clamp box).
+    Generator g;
+    g.type = Generator::Type::Cumulus;
+    g.name = cell.cloud.name;
+    g.seed = unsigned(cellHash(layer.seed, i, j, 4) >> 32);
+    g.density = layer.density;
+    g.count = std::max(4, int(std::lround(s.ellipsoids * (0.4 + 0.6 * q))));
+    g.clampLo = Vec3(-2, -2, -0.5);
+    g.clampHi = Vec3(2, 2, 2);
+    g.aspect = Vec3(1, 1, 0.7);
+    const double height = layer.thickness * (s.minHeight + (1 - s.minHeight) * q);
+    const double halfWidth = 0.5 * s.cellSize * (s.minWidth + (s.maxWidth - s.minWidth) * q);
+    g.maxRadius = std::min(0.2 * height / g.aspect.z, halfWidth / 1.5);  // R a_z <= 0.2 of the height
+    const double sigmaZ = (height - 2 * g.maxRadius * g.aspect.z) / 2.5;
+    const double sigmaXY = (halfWidth - g.maxRadius) / (2 * std::sqrt(2.0));  // > 0: R <= halfWidth / 1.5
+    g.sigma = Vec3(sigmaXY, sigmaXY, sigmaZ);
+    // The lowest point is at most 0.5 sigma_z + R a_z below the centre: the base on the layer's.
+    g.center = Vec3(cell.spawn.x, cell.spawn.y, layer.base + 0.5 * sigmaZ + g.maxRadius * g.aspect.z);
+    cell.cloud.ellipsoids = generateCumulus(g).ellipsoids;
+    return cell;
+}
+
+struct NearLod::LayerCache {
+    bool valid = false;
+    double base = 0, thickness = 0, coverage = 0, density = 0;
+    unsigned seed = 0;
+    ModulationTexture modulation;
+    std::map<std::pair<std::int64_t, std::int64_t>, NearCell> cells;
+};
+
+NearLod::NearLod(NearLodSettings settings, LayeredSettings layered) : settings_(settings), layered_(std::move(layered)) {
+    validate(settings_, layered_);
+}
+
+NearLod::~NearLod() = default;
+
+std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats) {
+    NearLodStats st;
+    std::vector<Cloud> out;
+    const double r = reach(layered_), size = settings_.cellSize, jit = settings_.jitter;
+    const std::size_t before = layers_.size();
+    for (std::size_t li = scene.layers.size(); li < before; ++li) st.retired += int(layers_[li]->cells.size());
+    layers_.resize(scene.layers.size());
+    for (std::size_t li = 0; li < scene.layers.size(); ++li) {
+        const Layer& layer = scene.layers[li];
+        if (!layers_[li]) layers_[li] = std::make_unique<LayerCache>();
+        LayerCache& c = *layers_[li];
+        if (!layer.nearLod || !(r > 0)) {
+            st.retired += int(c.cells.size());
+            c.cells.clear();
+            continue;
+        }
+        if (!c.valid || c.seed != layer.seed) c.modulation = makeModulation(layered_.modulation, layer.seed);
+        if (!c.valid || c.seed != layer.seed || c.base != layer.base || c.thickness != layer.thickness ||
+            c.coverage != layer.coverage || c.density != layer.density) {
+            st.retired += int(c.cells.size());
+            c.cells.clear();
+        }
+        c.valid = true, c.seed = layer.seed, c.base = layer.base, c.thickness = layer.thickness;
+        c.coverage = layer.coverage, c.density = layer.density;
+
+        const Vec2 drift = t * layer.wind;
+        const Vec2 e = Vec2(eye.x, eye.y) - drift;  // the eye in pattern coordinates
+        // Spawn points lie within jitter cells of their cell's centre.
+        const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)), i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
+        const auto j0 = std::int64_t(std::floor((e.y - r) / size - 0.5 - jit)), j1 = std::int64_t(std::ceil((e.y + r) / size - 0.5 + jit));
+        std::map<std::pair<std::int64_t, std::int64_t>, NearCell> next;
+        for (std::int64_t j = j0; j <= j1; ++j)
+            for (std::int64_t i = i0; i <= i1; ++i) {
+                if (glm::length(spawnPoint(layer.seed, i, j, settings_) - e) >= r) continue;
+                auto old = c.cells.find({i, j});
+                if (old != c.cells.end()) {
+                    next.emplace(old->first, std::move(old->second));
+                    c.cells.erase(old);
+                } else {
+                    next.emplace(std::make_pair(i, j),
+                                 makeNearCell(scene, int(li), i, j, settings_, c.modulation, layered_.modulation));
+                    ++st.generated;
+                }
+            }
+        st.retired += int(c.cells.size());
+        c.cells = std::move(next);
+        for (const auto& [ij, cell] : c.cells) {
+            ++st.cells;
+            if (cell.cloud.ellipsoids.empty()) continue;
+            Cloud cloud = cell.cloud;
+            cloud.weight = 1 - nearFade(layered_, glm::length(cell.spawn - e));
+            for (Ellipsoid& el : cloud.ellipsoids) el.center += Vec3(drift, 0.0);
+            ++st.clouds;
+            st.ellipsoids += int(cloud.ellipsoids.size());
+            st.fading += cloud.weight > 0 && cloud.weight < 1;
+            out.push_back(std::move(cloud));
+        }
+    }
+    if (stats) *stats = st;
+    return out;
+}
+
+std::vector<const NearCell*> NearLod::cells() const {
+    std::vector<const NearCell*> out;
+    for (const auto& c : layers_)
+        if (c)
+            for (const auto& [ij, cell] : c->cells) out.push_back(&cell);
+    return out;
+}
+
+Scene withNearClouds(const Scene& scene, const std::vector<Cloud>& near) {
+    Scene s = scene;
+    s.clouds.insert(s.clouds.end(), near.begin(), near.end());
+    return s;
+}
+
+}  // namespace nephele

@@ -1,0 +1,236 @@
+// The near LOD with the layered sky and the compositor (what `--method auto` draws): both
+// are drawn, the per-layer near radius, no flicker across the blend band, and auto = the
+// compositor on a scene without layers.
+#include "gl_test_util.hpp"
+
+#include "nephele/camera.hpp"
+#include "nephele/ellipsoid.hpp"
+#include "nephele/layered.hpp"
+#include "nephele/near_lod.hpp"
+#include "nephele/opaque.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <numeric>
+
+using namespace nephele;
+
+namespace {
+
+constexpr double kBase = 2000, kThickness = 600;
+
+// Small textures keep the precomputation in milliseconds; the geometry is the real one.
+LayeredSettings testLayered(double nearRadius = 2000, double blendBand = 1500) {
+    LayeredSettings s;
+    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
+    s.modulation.size = 128;
+    s.nearRadius = nearRadius, s.blendBand = blendBand;
+    return s;
+}
+
+EllipsoidSettings testEllipsoid() {
+    EllipsoidSettings s;
+    s.lightVolume = 8;  // the light volumes are remade whenever a cell spawns: keep them cheap
+    return s;
+}
+
+Scene layerScene(const Vec3& eye, double pitchDeg, int width, int height) {
+    Scene s;
+    s.camera.position = eye;
+    const double p = glm::radians(pitchDeg);
+    s.camera.direction = Vec3(std::cos(p), 0, std::sin(p));
+    s.camera.width = width, s.camera.height = height;
+    s.camera.fovYDeg = 50;
+    Layer l;
+    l.base = kBase, l.thickness = kThickness, l.coverage = 0.6, l.density = 0.8, l.seed = 5, l.extent = 30000;
+    s.layers.push_back(l);
+    return s;
+}
+
+// What FrameRenderer draws for --method auto (demo/render_command.cpp).
+struct Auto {
+    LayeredRenderer sky;
+    NearLod near;
+    EllipsoidRenderer clouds;
+    explicit Auto(const LayeredSettings& ls, const EllipsoidSettings& es = testEllipsoid()) : sky(ls), near({}, ls), clouds(es) {}
+
+    struct Result {
+        Image rgba;
+        NearLodStats near;
+        EllipsoidStats clouds;
+    };
+    Result render(const Scene& scene, double t = 0) {
+        const View view = makeView(scene.camera);
+        FrameTarget target(scene.camera.width, scene.camera.height);
+        OpaquePass().draw(scene, view, target.framebuffer());
+        Result r;
+        sky.render(scene, view, target.framebuffer(), t);
+        const std::vector<Cloud> c = near.update(scene, view.eye, t, &r.near);
+        r.clouds = clouds.render(withNearClouds(scene, c), view, target.framebuffer(), !scene.objects.empty());
+        r.rgba = target.readColor();
+        return r;
+    }
+};
+
+// Mean |difference| of linear RGB clamped to [0, 1] (the fly-through's frame change).
+double meanChange(const Image& a, const Image& b) {
+    double sum = 0;
+    int n = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < 3; ++c, ++n)
+                sum += std::abs(std::clamp(a.at(x, y, c), 0.0f, 1.0f) - std::clamp(b.at(x, y, c), 0.0f, 1.0f));
+    return sum / n;
+}
+
+class NearLodGLTest : public ::testing::Test {
+protected:
+    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
+    std::unique_ptr<Context> ctx_;
+};
+
+}  // namespace
+
+TEST_F(NearLodGLTest, AutoDrawsTheLayerAndTheNearCumulus) {
+    // Below the layer, looking up 25 degrees: the near cumulus above, the layer towards the horizon.
+    const Scene scene = layerScene(Vec3(0, 0, 1000), 25, 160, 90);
+    Auto a(testLayered());
+    const Auto::Result r = a.render(scene);
+    EXPECT_GT(r.near.clouds, 5);
+    EXPECT_GT(r.near.ellipsoids, 50);
+    EXPECT_GT(r.clouds.visible, 10) << "near cumulus in view";
+    // The layer alone (nothing within the near radius) and the ellipsoids alone.
+    const View view = makeView(scene.camera);
+    Image layerOnly, cloudsOnly;
+    {
+        FrameTarget target(scene.camera.width, scene.camera.height);
+        OpaquePass().draw(scene, view, target.framebuffer());
+        LayeredRenderer(testLayered()).render(scene, view, target.framebuffer(), 0);
+        layerOnly = target.readColor();
+    }
+    int layerPixels = 0, cloudPixels = 0, both = 0;
+    for (int y = 0; y < r.rgba.height; ++y)
+        for (int x = 0; x < r.rgba.width; ++x) {
+            const float total = r.rgba.at(x, y, 3), layer = layerOnly.at(x, y, 3);
+            layerPixels += layer > 0.2f;
+            cloudPixels += total > layer + 0.2f;  // matter the layer alone does not have: the ellipsoids
+            both += layer > 0.2f && total > layer + 0.05f;
+        }
+    const int n = r.rgba.width * r.rgba.height;
+    std::printf("layer pixels %.1f%%, ellipsoid pixels %.1f%%, overlap %.1f%%\n", 100.0 * layerPixels / n,
+                100.0 * cloudPixels / n, 100.0 * both / n);
+    EXPECT_GT(layerPixels, n / 20);
+    EXPECT_GT(cloudPixels, n / 20);
+}
+
+TEST_F(NearLodGLTest, LayersWithoutNearLodAreDrawnAllTheWayIn) {
+    // Looking straight up from under the layer with a 3 km near radius: a near_lod layer
+    // leaves the zenith to the ellipsoids, a near_lod: false layer is drawn there.
+    Scene scene = layerScene(Vec3(0, 0, 1000), 89.9, 64, 64);
+    scene.camera.up = Vec3(1, 0, 0);
+    scene.layers[0].coverage = 1;
+    auto zenithAlpha = [&](bool nearLod) {
+        scene.layers[0].nearLod = nearLod;
+        const View view = makeView(scene.camera);
+        FrameTarget target(64, 64);
+        OpaquePass().draw(scene, view, target.framebuffer());
+        LayeredRenderer(testLayered(3000, 1000)).render(scene, view, target.framebuffer(), 0);
+        const Image im = target.readColor();
+        double sum = 0;
+        for (float v : channels(im, 3, 1).pixels) sum += v;
+        return sum / (64 * 64);
+    };
+    EXPECT_EQ(zenithAlpha(true), 0.0);
+    EXPECT_GT(zenithAlpha(false), 0.3);
+}
+
+// Flicker across the blend band. The eye flies 10 m a step along +x under the layer,
+// looking ahead and up at the reach (nearRadius + blendBand = 3.5 km), aimed so that the
+// biggest cumulus of the cells ahead crosses the reach in mid-flight, in the middle of the
+// view (other cells spawn and retire too). A step in which a cell spawned or retired must
+// change the frame no more than the steps in which none did: with the fade, a cell enters
+// at weight 0 and its weight grows by at most 1.5 * step / band = 0.01 a step (the
+// smoothstep's steepest slope), so its steps look like the others. kMaxRatio = 1.5 leaves
+// room for the spread of the quiet steps (the parallax of the near cumulus and the tile
+// sizes' power-of-two steps: the faded run's busiest spawn step is within 1.1 of the quiet
+// mean); with the fade off (a 1 m band: the cloud whole in one step, the layer cut at
+// once), the spawn step is several times the quiet mean, so the bound catches it.
+TEST_F(NearLodGLTest, NoPopAcrossTheBlendBand) {
+    constexpr double kNear = 2000, kBand = 1500, kReach = kNear + kBand, kStep = 10;  // m
+    constexpr int kSteps = 60;
+    constexpr double kMaxRatio = 1.5;
+    // The cell ahead (+x) with the most ellipsoids.
+    const Scene base = layerScene(Vec3(0, 0, 1000), 0, 96, 64);
+    const LayeredSettings probeSettings = testLayered(kNear, kBand);
+    const ModulationTexture modulation = makeModulation(probeSettings.modulation, base.layers[0].seed);
+    NearCell target;
+    for (std::int64_t i = 3; i < 12; ++i) {
+        const NearCell c = makeNearCell(base, 0, i, 0, {}, modulation, probeSettings.modulation);
+        if (c.cloud.ellipsoids.size() > target.cloud.ellipsoids.size()) target = c;
+    }
+    ASSERT_GT(target.cloud.ellipsoids.size(), 8u);
+    // Elevation of the cloud's middle seen from the reach.
+    const double pitch = glm::degrees(std::atan2(kBase + 0.3 * kThickness - 1000, kReach));
+
+    struct Run {
+        double maxEvent = 0, meanQuiet = 0;
+        int events = 0, quiet = 0;
+    };
+    auto fly = [&](const LayeredSettings& ls) {
+        Auto a(ls);
+        Run run;
+        Image previous;
+        double quietSum = 0;
+        for (int k = 0; k <= kSteps; ++k) {
+            const double x = target.spawn.x - kReach - kStep * (kSteps / 2 - 0.5) + kStep * k;
+            Scene scene = layerScene(Vec3(x, target.spawn.y, 1000), pitch, 96, 64);
+            scene.camera.fovYDeg = 20;
+            const Auto::Result r = a.render(scene);
+            if (k > 0) {
+                const double change = meanChange(previous, r.rgba);
+                if (r.near.generated + r.near.retired > 0) run.maxEvent = std::max(run.maxEvent, change), ++run.events;
+                else quietSum += change, ++run.quiet;
+            }
+            previous = r.rgba;
+        }
+        run.meanQuiet = run.quiet ? quietSum / run.quiet : 0;
+        std::printf("band %.0f m: %d steps with spawns/retirements, max change %.5f; %d quiet steps, mean change %.5f; "
+                    "ratio %.2f (bound %.2f)\n",
+                    ls.blendBand, run.events, run.maxEvent, run.quiet, run.meanQuiet, run.maxEvent / run.meanQuiet, kMaxRatio);
+        return run;
+    };
+    const Run faded = fly(testLayered(kNear, kBand));
+    ASSERT_GE(faded.events, 1);
+    ASSERT_GE(faded.quiet, 20);
+    EXPECT_LE(faded.maxEvent, kMaxRatio * faded.meanQuiet);
+    // The test can fail: the same flight with the fade off pops.
+    const Run hard = fly(testLayered(kReach - 1, 1));
+    EXPECT_GT(hard.maxEvent, kMaxRatio * hard.meanQuiet);
+}
+
+TEST_F(NearLodGLTest, AutoWithoutLayersIsTheCompositor) {
+    // Through the command line: the same PNG with --method auto and --method ellipsoid.
+    const std::string dir = test::outputDir();
+    const std::string scene = std::string(NEPHELE_SCENES) + "/two_clouds.json";
+    auto render = [&](const std::string& method) {
+        const std::string out = dir + "/near_lod_auto_vs_" + method + ".png";
+        std::filesystem::remove(out);
+        const std::string cmd = std::string(NEPHELE_BINARY) + " render " + scene + " -o " + out + " --method " + method +
+                                " --width 128 2>&1";
+        FILE* pipe = popen(cmd.c_str(), "r");
+        std::string text;
+        char buf[512];
+        while (pipe && fgets(buf, sizeof buf, pipe)) text += buf;
+        const int status = pipe ? pclose(pipe) : -1;
+        EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 0) << text;
+        return readPng(out);
+    };
+    const Image a = render("auto"), e = render("ellipsoid");
+    ASSERT_EQ(a.pixels.size(), e.pixels.size());
+    EXPECT_TRUE(a.pixels == e.pixels);
+}
+

@@ -1,0 +1,231 @@
+// The near LOD's cells without GL: determinism, which cells spawn and retire, where the
+// clouds lie, wind, and the weights across the blend band.
+#include "nephele/near_lod.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <tuple>
+
+using namespace nephele;
+
+namespace {
+
+constexpr double kBase = 2000, kThickness = 600, kNear = 2000, kBand = 1500;
+
+Scene layerScene(Vec2 wind = Vec2(0.0), bool nearLod = true) {
+    Scene s;
+    Layer l;
+    l.base = kBase, l.thickness = kThickness, l.coverage = 0.6, l.density = 0.8, l.seed = 3, l.wind = wind;
+    l.nearLod = nearLod;
+    s.layers.push_back(l);
+    return s;
+}
+
+LayeredSettings layeredSettings() {
+    LayeredSettings s;
+    s.modulation.size = 128;  // the pattern's period stays 30 km: a few ms to make
+    s.nearRadius = kNear, s.blendBand = kBand;
+    return s;
+}
+
+bool sameCloud(const Cloud& a, const Cloud& b) {
+    if (a.ellipsoids.size() != b.ellipsoids.size() || a.noiseId != b.noiseId) return false;
+    for (std::size_t k = 0; k < a.ellipsoids.size(); ++k) {
+        const Ellipsoid &x = a.ellipsoids[k], &y = b.ellipsoids[k];
+        if (x.center != y.center || x.radii != y.radii || x.rotationDeg != y.rotationDeg || x.density != y.density) return false;
+    }
+    return true;
+}
+
+using Key = std::tuple<int, std::int64_t, std::int64_t>;
+std::set<Key> keys(const NearLod& lod) {
+    std::set<Key> out;
+    for (const NearCell* c : lod.cells()) out.insert({c->layer, c->i, c->j});
+    return out;
+}
+
+}  // namespace
+
+TEST(NearLodTest, SameCellSameCloudWhateverTheEyePath) {
+    const Scene scene = layerScene();
+    NearLod a({}, layeredSettings()), b({}, layeredSettings());
+    // a comes from the west in 300 m steps, b from the north-east in 700 m steps; both end at the origin.
+    for (int k = 20; k >= 0; --k) a.update(scene, Vec3(-300.0 * k, 0, 1000), 0);
+    for (int k = 12; k >= 0; --k) b.update(scene, Vec3(500.0 * k, 500.0 * k, 1000), 0);
+    ASSERT_EQ(keys(a), keys(b));
+    const auto ca = a.cells(), cb = b.cells();
+    int clouds = 0;
+    for (std::size_t k = 0; k < ca.size(); ++k) {
+        EXPECT_TRUE(sameCloud(ca[k]->cloud, cb[k]->cloud)) << ca[k]->cloud.name;
+        // and the same as a cell made from scratch
+        const NearLodSettings ns;
+        const NearCell fresh = makeNearCell(scene, 0, ca[k]->i, ca[k]->j, ns, makeModulation(layeredSettings().modulation, 3),
+                                            layeredSettings().modulation);
+        EXPECT_TRUE(sameCloud(ca[k]->cloud, fresh.cloud)) << ca[k]->cloud.name;
+        clouds += !ca[k]->cloud.ellipsoids.empty();
+    }
+    EXPECT_GT(clouds, 5);  // coverage 0.6: most cells hold a cloud
+}
+
+TEST(NearLodTest, OnlyCellsWithinReachSpawnAndTheyRetire) {
+    const Scene scene = layerScene();
+    const NearLodSettings ns;
+    NearLod lod(ns, layeredSettings());
+    const double reach = kNear + kBand;
+    NearLodStats st;
+    lod.update(scene, Vec3(123, -456, 500), 0, &st);
+    EXPECT_EQ(st.generated, st.cells);
+    EXPECT_EQ(st.retired, 0);
+    // Every cell within reach and no other: check a wider grid of spawn points.
+    const auto have = keys(lod);
+    const auto modulation = makeModulation(layeredSettings().modulation, 3);
+    int inside = 0;
+    for (std::int64_t j = -8; j <= 8; ++j)
+        for (std::int64_t i = -8; i <= 8; ++i) {
+            const NearCell c = makeNearCell(scene, 0, i, j, ns, modulation, layeredSettings().modulation);
+            const bool near = glm::length(c.spawn - Vec2(123, -456)) < reach;
+            inside += near;
+            EXPECT_EQ(have.count({0, i, j}) == 1, near) << i << "," << j;
+        }
+    EXPECT_EQ(inside, st.cells);
+    // 10 km east: nothing in common; every old cell retires, every new one is generated.
+    const int before = st.cells;
+    lod.update(scene, Vec3(10123, -456, 500), 0, &st);
+    EXPECT_EQ(st.retired, before);
+    EXPECT_EQ(st.generated, st.cells);
+    for (const NearCell* c : lod.cells()) EXPECT_LT(glm::length(c->spawn - Vec2(10123, -456)), reach);
+    // A small step: only the cells crossing the reach change; the others are kept, not remade.
+    lod.update(scene, Vec3(10323, -456, 500), 0, &st);
+    EXPECT_LT(st.generated, st.cells / 2);
+    EXPECT_GT(st.generated + st.retired, 0);
+}
+
+TEST(NearLodTest, CloudsLieInTheLayerWhereItHasCloud) {
+    const Vec2 wind(6, 2);
+    const Scene scene = layerScene(wind);
+    NearLod lod({}, layeredSettings());
+    const auto modulation = makeModulation(layeredSettings().modulation, 3);
+    for (double t : {0.0, 250.0}) {
+        NearLodStats st;
+        const Vec3 eye(-700, 300, 1500);
+        const std::vector<Cloud> clouds = lod.update(scene, eye, t, &st);
+        ASSERT_GT(st.clouds, 5);
+        EXPECT_EQ(int(clouds.size()), st.clouds);
+        const auto cells = lod.cells();
+        std::size_t k = 0;
+        for (const NearCell* c : cells) {
+            if (c->cloud.ellipsoids.empty()) {
+                EXPECT_LE(c->modulation, 0.0);
+                continue;
+            }
+            const Cloud& cloud = clouds.at(k++);
+            // where the layer has cloud, at the time of the frame (the pattern moved with the wind)
+            const Vec2 world = c->spawn + t * wind;
+            EXPECT_GT(layerModulation(scene.layers[0], modulation, layeredSettings().modulation, world.x, world.y, t), 0);
+            double lo = 1e30, hi = -1e30;
+            for (const Ellipsoid& e : cloud.ellipsoids) {
+                lo = std::min(lo, e.center.z - e.radii.z), hi = std::max(hi, e.center.z + e.radii.z);
+                // horizontally within the widest cloud's half width of its spawn point (drifted by t * wind)
+                const NearLodSettings ns;
+                EXPECT_LE(glm::length(Vec2(e.center) - world) + std::max(e.radii.x, e.radii.y), 0.5 * ns.maxWidth * ns.cellSize + 1e-6);
+            }
+            EXPECT_GE(lo, kBase - 1e-6) << cloud.name;
+            EXPECT_LE(hi, kBase + kThickness + 1e-6) << cloud.name;
+            EXPECT_LT(lo, kBase + 0.1 * kThickness) << cloud.name << ": the base sits on the layer's base";
+        }
+    }
+}
+
+TEST(NearLodTest, CloudsDriftWithTheWind) {
+    const Vec2 wind(6, 2);
+    const Scene scene = layerScene(wind);
+    NearLod lod({}, layeredSettings());
+    // The eye moves with the wind: the same cells, each cloud moved by dt * wind exactly.
+    const std::vector<Cloud> c0 = lod.update(scene, Vec3(0, 0, 1000), 0);
+    const std::vector<Cloud> c1 = lod.update(scene, Vec3(Vec2(0.0) + 100.0 * wind, 1000), 100);
+    ASSERT_EQ(c0.size(), c1.size());
+    for (std::size_t k = 0; k < c0.size(); ++k) {
+        ASSERT_EQ(c0[k].ellipsoids.size(), c1[k].ellipsoids.size());
+        EXPECT_NEAR(c0[k].weight, c1[k].weight, 1e-9);
+        for (std::size_t e = 0; e < c0[k].ellipsoids.size(); ++e) {
+            const Vec3 d = c1[k].ellipsoids[e].center - c0[k].ellipsoids[e].center;
+            EXPECT_NEAR(d.x, 600, 1e-6);
+            EXPECT_NEAR(d.y, 200, 1e-6);
+            EXPECT_EQ(d.z, 0);
+        }
+    }
+}
+
+TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {
+    const Scene scene = layerScene();
+    const LayeredSettings ls = layeredSettings();
+    NearLod lod({}, ls);
+    lod.update(scene, Vec3(0, 0, 1000), 0);
+    const NearCell* cell = nullptr;
+    for (const NearCell* c : lod.cells())
+        if (!c->cloud.ellipsoids.empty()) cell = c;
+    ASSERT_NE(cell, nullptr);
+    // Put the eye at distance d (east) of that cell's spawn point; read that cloud's weight.
+    auto weightAt = [&](double d) {
+        NearLod probe({}, ls);
+        const Vec3 eye(cell->spawn.x + d, cell->spawn.y, 1000);
+        for (const Cloud& c : probe.update(scene, eye, 0))
+            if (c.name == cell->cloud.name) return c.weight;
+        return -1.0;  // not spawned
+    };
+    EXPECT_EQ(weightAt(0), 1.0);
+    EXPECT_EQ(weightAt(kNear - 1), 1.0);
+    EXPECT_NEAR(weightAt(kNear + 0.5 * kBand), 0.5, 1e-9);  // smoothstep's midpoint
+    EXPECT_LT(weightAt(kNear + kBand - 0.01), 1e-9);         // spawns with weight ~0 ...
+    EXPECT_EQ(weightAt(kNear + kBand + 0.01), -1.0);          // ... and not beyond
+    // The cloud and the layer share the optical depth: weight + nearFade = 1 across the band.
+    for (double d = 0; d < kNear + kBand; d += 97) EXPECT_NEAR(weightAt(d) + nearFade(ls, d), 1.0, 1e-12) << d;
+}
+
+TEST(NearLodTest, LayersWithoutNearLodSpawnNothing) {
+    Scene scene = layerScene(Vec2(0.0), false);
+    NearLod lod({}, layeredSettings());
+    NearLodStats st;
+    EXPECT_TRUE(lod.update(scene, Vec3(0, 0, 1000), 0, &st).empty());
+    EXPECT_EQ(st.cells, 0);
+    // Turned on, then the layer changes (coverage): the cells are made again.
+    scene.layers[0].nearLod = true;
+    lod.update(scene, Vec3(0, 0, 1000), 0, &st);
+    EXPECT_GT(st.clouds, 0);
+    const int cells = st.cells;
+    scene.layers[0].coverage = 0.3;
+    lod.update(scene, Vec3(0, 0, 1000), 0, &st);
+    EXPECT_EQ(st.retired, cells);
+    EXPECT_EQ(st.generated, st.cells);
+    // Zero coverage: cells, but no cloud.
+    scene.layers[0].coverage = 0;
+    EXPECT_TRUE(lod.update(scene, Vec3(0, 0, 1000), 0, &st).empty());
+    EXPECT_GT(st.cells, 0);
+}
+
+TEST(NearLodTest, BadSettingsNameTheSetting) {
+    auto message = [](NearLodSettings ns, LayeredSettings ls) -> std::string {
+        try {
+            NearLod lod(ns, ls);
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    NearLodSettings ns;
+    ns.cellSize = 0;
+    EXPECT_NE(message(ns, layeredSettings()).find("cellSize"), std::string::npos);
+    ns = {}, ns.jitter = 0.5;
+    EXPECT_NE(message(ns, layeredSettings()).find("jitter"), std::string::npos);
+    ns = {}, ns.ellipsoids = 0;
+    EXPECT_NE(message(ns, layeredSettings()).find("ellipsoids"), std::string::npos);
+    ns = {}, ns.minWidth = 2;
+    EXPECT_NE(message(ns, layeredSettings()).find("minWidth"), std::string::npos);
+    ns = {}, ns.cellSize = 10;  // 700 cells per axis
+    EXPECT_NE(message(ns, layeredSettings()).find("cellSize"), std::string::npos);
+    LayeredSettings ls = layeredSettings();
+    ls.blendBand = -1;
+    EXPECT_NE(message({}, ls).find("blendBand"), std::string::npos);
+}
