@@ -303,7 +303,9 @@ TEST_F(RaymarchGLTest, ManyCandidatesAndCloudsPerRayStayExact) {
         e.center = {0, 2300.0 + 150.0 * c, 0};
         e.radii = {70, 50, 70};
         e.density = 0.03;
-        s.clouds.push_back({"c" + std::to_string(c), {e}});
+        std::string name = "c";
+        name += std::to_string(c);  // not "c" + ...: a GCC 12 -Wrestrict false positive
+        s.clouds.push_back({name, {e}});
     }
     const Image exact = exactDensityOpacity(s, makeView(s.camera));
     RaymarchSettings fine;  // a fine fixed step: what is left is the bookkeeping, not the quadrature
