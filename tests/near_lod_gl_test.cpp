@@ -167,9 +167,10 @@ TEST_F(NearLodGLTest, NoPopAcrossTheBlendBand) {
     const Scene base = layerScene(Vec3(0, 0, 1000), 0, 96, 64);
     const LayeredSettings probeSettings = testLayered(kNear, kBand);
     const ModulationTexture modulation = makeModulation(probeSettings.modulation, base.layers[0].seed);
+    const LightingVolume light = precomputeLighting(probeSettings.lighting, lightingParameters(base.medium, base.layers[0]));
     NearCell target;
     for (std::int64_t i = 3; i < 12; ++i) {
-        const NearCell c = makeNearCell(base, 0, i, 0, {}, modulation, probeSettings.modulation);
+        const NearCell c = makeNearCell(base, 0, i, 0, {}, modulation, probeSettings.modulation, light);
         if (c.cloud.ellipsoids.size() > target.cloud.ellipsoids.size()) target = c;
     }
     ASSERT_GT(target.cloud.ellipsoids.size(), 8u);

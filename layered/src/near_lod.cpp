@@ -42,7 +42,11 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     auto bad = [](const std::string& what) { throw std::invalid_argument("near LOD settings: " + what); };
     if (!(s.cellSize > 0) || !std::isfinite(s.cellSize)) bad("cellSize must be > 0 m");
     if (!(s.jitter >= 0 && s.jitter < 0.5)) bad("jitter must be in [0, 0.5) cells");
+    if (s.samples < 1 || s.samples > 64) bad("samples must be 1..64, got " + std::to_string(s.samples));
+    if (s.levels < 1 || s.levels > 64) bad("levels must be 1..64, got " + std::to_string(s.levels));
+    if (!(s.columnDepth > 0) || !std::isfinite(s.columnDepth)) bad("columnDepth must be > 0");
     if (s.ellipsoids < 1 || s.ellipsoids > 1000) bad("ellipsoids must be 1..1000, got " + std::to_string(s.ellipsoids));
+    if (!(s.widthScale > 0) || !std::isfinite(s.widthScale)) bad("widthScale must be > 0");
     if (!(s.minWidth > 0 && s.minWidth <= s.maxWidth && s.maxWidth <= 1.5))
         bad("minWidth and maxWidth must satisfy 0 < minWidth <= maxWidth <= 1.5 (fractions of cellSize)");
     if (!(s.minHeight > 0 && s.minHeight <= 1)) bad("minHeight must be in (0, 1] (fraction of the layer's thickness)");
@@ -55,17 +59,33 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
 }
 
 NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j, const NearLodSettings& s,
-                      const ModulationTexture& modulation, const ModulationSettings& ms) {
+                      const ModulationTexture& modulation, const ModulationSettings& ms, const LightingVolume& light) {
     const Layer& layer = scene.layers.at(std::size_t(li));
     NearCell cell;
     cell.layer = li, cell.i = i, cell.j = j;
     cell.spawn = spawnPoint(layer.seed, i, j, s);
-    // Pattern coordinates are the world at t = 0.
-    cell.modulation = layerModulation(layer, modulation, ms, cell.spawn.x, cell.spawn.y, 0);
     cell.cloud.name = "near" + std::to_string(li) + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
     cell.cloud.noiseId = cellHash(layer.seed, i, j, 3) | 1;  // never 0 ("the cloud's index")
-    if (!(cell.modulation > 0)) return cell;
-    const double q = std::clamp(cell.modulation / std::max(layer.density * layer.coverage, 1e-12), 0.0, 1.0);
+    // The layer's columns over the cell (pattern coordinates are the world at t = 0).
+    std::vector<Vec2> cloudy;
+    const double dz = layer.thickness / s.levels;
+    for (int b = 0; b < s.samples; ++b)
+        for (int a = 0; a < s.samples; ++a) {
+            const Vec2 xy((double(i) + (a + 0.5) / s.samples) * s.cellSize, (double(j) + (b + 0.5) / s.samples) * s.cellSize);
+            double tau = 0;
+            for (int k = 0; k < s.levels; ++k)
+                tau += layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
+            if (scene.medium.extinction * tau * dz >= s.columnDepth) cloudy.push_back(xy);
+        }
+    cell.cover = double(cloudy.size()) / (s.samples * s.samples);
+    if (cloudy.empty()) return cell;
+    Vec2 centroid(0.0);
+    for (const Vec2& c : cloudy) centroid += c / double(cloudy.size());
+    cell.center = *std::min_element(cloudy.begin(), cloudy.end(), [&](const Vec2& a, const Vec2& b) {
+        return glm::length(a - centroid) < glm::length(b - centroid);
+    });
+    cell.modulation = layerModulation(layer, modulation, ms, cell.center.x, cell.center.y, 0);
+    const double q = cell.cover;
 
     // Cumulus geometry (generate.hpp): offsets clamped to [-2, 2] sigma per horizontal axis
     // and [-0.5, 2] sigma vertically, radii <= maxRadius * aspect. With R the largest radius
@@ -76,18 +96,18 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     g.name = cell.cloud.name;
     g.seed = unsigned(cellHash(layer.seed, i, j, 4) >> 32);
     g.density = layer.density;
-    g.count = std::max(4, int(std::lround(s.ellipsoids * (0.4 + 0.6 * q))));
+    g.count = std::max(4, int(std::lround(s.ellipsoids * (0.3 + 0.7 * q))));
     g.clampLo = Vec3(-2, -2, -0.5);
     g.clampHi = Vec3(2, 2, 2);
     g.aspect = Vec3(1, 1, 0.7);
     const double height = layer.thickness * (s.minHeight + (1 - s.minHeight) * q);
-    const double halfWidth = 0.5 * s.cellSize * (s.minWidth + (s.maxWidth - s.minWidth) * q);
-    g.maxRadius = std::min(0.2 * height / g.aspect.z, halfWidth / 1.5);  // R a_z <= 0.2 of the height
+    const double halfWidth = 0.5 * s.cellSize * std::clamp(s.widthScale * std::sqrt(q), s.minWidth, s.maxWidth);
+    g.maxRadius = std::min(0.28 * height / g.aspect.z, halfWidth / 1.5);  // R a_z <= 0.28 of the height
     const double sigmaZ = (height - 2 * g.maxRadius * g.aspect.z) / 2.5;
     const double sigmaXY = (halfWidth - g.maxRadius) / (2 * std::sqrt(2.0));  // > 0: R <= halfWidth / 1.5
     g.sigma = Vec3(sigmaXY, sigmaXY, sigmaZ);
     // The lowest point is at most 0.5 sigma_z + R a_z below the centre: the base on the layer's.
-    g.center = Vec3(cell.spawn.x, cell.spawn.y, layer.base + 0.5 * sigmaZ + g.maxRadius * g.aspect.z);
+    g.center = Vec3(cell.center, layer.base + 0.5 * sigmaZ + g.maxRadius * g.aspect.z);
     cell.cloud.ellipsoids = generateCumulus(g).ellipsoids;
     return cell;
 }
@@ -96,7 +116,9 @@ struct NearLod::LayerCache {
     bool valid = false;
     double base = 0, thickness = 0, coverage = 0, density = 0;
     unsigned seed = 0;
+    LightingParameters lightKey;
     ModulationTexture modulation;
+    LightingVolume light;
     std::map<std::pair<std::int64_t, std::int64_t>, NearCell> cells;
 };
 
@@ -123,12 +145,15 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
             continue;
         }
         if (!c.valid || c.seed != layer.seed) c.modulation = makeModulation(layered_.modulation, layer.seed);
-        if (!c.valid || c.seed != layer.seed || c.base != layer.base || c.thickness != layer.thickness ||
-            c.coverage != layer.coverage || c.density != layer.density) {
+        const LightingParameters key = lightingParameters(scene.medium, layer);
+        const bool newLight = !c.valid || !(c.lightKey == key);
+        if (newLight) c.light = lightingCached(layered_.lighting, key, layered_.cacheDir);
+        if (newLight || c.seed != layer.seed || c.base != layer.base || c.coverage != layer.coverage ||
+            c.density != layer.density) {
             st.retired += int(c.cells.size());
             c.cells.clear();
         }
-        c.valid = true, c.seed = layer.seed, c.base = layer.base, c.thickness = layer.thickness;
+        c.valid = true, c.seed = layer.seed, c.lightKey = key, c.base = layer.base, c.thickness = layer.thickness;
         c.coverage = layer.coverage, c.density = layer.density;
 
         const Vec2 drift = t * layer.wind;
@@ -146,7 +171,7 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
                     c.cells.erase(old);
                 } else {
                     next.emplace(std::make_pair(i, j),
-                                 makeNearCell(scene, int(li), i, j, settings_, c.modulation, layered_.modulation));
+                                 makeNearCell(scene, int(li), i, j, settings_, c.modulation, layered_.modulation, c.light));
                     ++st.generated;
                 }
             }

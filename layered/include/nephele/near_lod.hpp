@@ -8,14 +8,20 @@
 //   the cell's centre moved by a jitter of at most `jitter` cells per axis, so that the grid
 //   does not show.
 // - Spawning: a cell whose spawn point lies within nearRadius + blendBand (LayeredSettings)
-//   of the eye, horizontally, holds a cloud if layerModulation() is > 0 there. The cloud is a
-//   Gaussian cumulus (generateCumulus, Jimenez de Parga eqs. 14-17) whose seed comes from the
+//   of the eye, horizontally, is made. It holds a cloud where the layer itself has one: its
+//   `samples` x `samples` columns are integrated through the layer's density as the shader
+//   has it (layerDensity(): eq. 16 with the lighting volume's A, at `levels` heights), and a
+//   column counts as cloud when its optical depth is >= columnDepth. With cover = the
+//   fraction of such columns (> 0), the cloud is a Gaussian cumulus (generateCumulus,
+//   Jimenez de Parga eqs. 14-17) centred on the cloudy column nearest to their centroid
+//   (there layerModulation() > 0: eq. 16 needs C - r > 1 - A >= 0), its width
+//   cellSize * clamp(widthScale sqrt(cover), minWidth, maxWidth) (the area follows the
+//   cover), its height thickness * (minHeight + (1 - minHeight) cover), its base on the
+//   layer's base and its top within the layer; ellipsoid density = the layer's D. (Sampling
+//   only layerModulation(), the 3D texture's peak, spawned cumulus where the layer shows
+//   blue sky and single puffs where it shows a deck.) The cumulus's seed comes from the
 //   layer's seed and (i, j) alone, never from the eye: the same cell always gives the same
-//   cloud, whatever path the eye took to it. Its size follows the local modulation m:
-//   strength q = m / (D * C) in (0, 1] (D, C the layer's density and coverage; D * C is
-//   the largest m), the cloud's width 2 * halfWidth(q) (see NearLodSettings), its height
-//   thickness * (minHeight + (1 - minHeight) q), its base on the layer's base and its top
-//   within the layer; ellipsoid density = the layer's D.
+//   cloud, whatever path the eye took to it.
 // - Wind: a cloud is made once in pattern coordinates and drawn moved by t * wind, so it
 //   drifts with the layer's pattern.
 // - Cache: spawned cells are kept by (layer, i, j) while they stay within reach and
@@ -48,10 +54,14 @@ inline constexpr double kAutoBlendBand = 1500;   // m
 struct NearLodSettings {
     double cellSize = 1000;     // m, side of a cell (about a cumulus's width), > 0
     double jitter = 0.2;        // cells, largest offset of a spawn point from its cell's centre per axis, [0, 0.5)
-    int ellipsoids = 40;        // cumulus `count` at full strength (q = 1), 1..1000; at least 4 at any q
-    double minWidth = 0.6;      // cloud width at q -> 0, as a fraction of cellSize, (0, maxWidth]
-    double maxWidth = 1.4;      // cloud width at q = 1, as a fraction of cellSize, <= 1.5 (> 1: neighbours merge)
-    double minHeight = 0.4;     // cloud height at q -> 0, as a fraction of the layer's thickness, (0, 1]
+    int samples = 8;            // columns per cell side sampled through the layer, 1..64
+    int levels = 8;             // heights per column, 1..64
+    double columnDepth = 0.5;   // optical depth of a column that counts as cloud, > 0
+    int ellipsoids = 40;        // cumulus `count` at cover 1, 1..1000; 0.3 of it at cover -> 0, at least 4
+    double widthScale = 1.2;    // width = widthScale * sqrt(cover) cells, clamped to [minWidth, maxWidth], > 0
+    double minWidth = 0.5;      // cells, (0, maxWidth]
+    double maxWidth = 1.4;      // cells, <= 1.5 (> 1: neighbours merge where the layer is a deck)
+    double minHeight = 0.4;     // cloud height at cover -> 0, as a fraction of the layer's thickness, (0, 1]
     int maxCellsPerAxis = 256;  // bound on 2 (nearRadius + blendBand) / cellSize (a setting error beyond)
 };
 // Throws std::invalid_argument naming the setting (NearLodSettings and the reach of `layered`).
@@ -61,9 +71,12 @@ void validate(const NearLodSettings& settings, const LayeredSettings& layered);
 struct NearCell {
     int layer = 0;               // index in scene.layers
     std::int64_t i = 0, j = 0;   // cell coordinates in the layer's pattern
-    Vec2 spawn{0.0};             // m, spawn point in pattern coordinates (world = spawn + t * wind)
-    double modulation = 0;       // layerModulation at the spawn point (0: the cell holds no cloud)
-    Cloud cloud;                 // in pattern coordinates (empty when modulation is 0)
+    Vec2 spawn{0.0};             // m, spawn point in pattern coordinates (world = spawn + t * wind):
+                                 // reach and weight are measured from it
+    double cover = 0;            // fraction of the cell's columns where the layer has cloud (0: no cloud)
+    Vec2 center{0.0};            // m, the cloud's centre in pattern coordinates (a cloudy column)
+    double modulation = 0;       // layerModulation at `center` (> 0 when the cell holds a cloud)
+    Cloud cloud;                 // in pattern coordinates (empty when cover is 0)
 };
 
 struct NearLodStats {
@@ -75,13 +88,15 @@ struct NearLodStats {
     int fading = 0;        // clouds in the blend band (0 < weight < 1)
 };
 
-// The layer's own cell: same arguments, same cloud (pure; what NearLod caches).
+// The layer's own cell: same arguments, same cloud (pure; what NearLod caches). `light` is
+// the layer's lighting volume (its density A), as the layered sky uses it.
 NearCell makeNearCell(const Scene& scene, int layer, std::int64_t i, std::int64_t j, const NearLodSettings& settings,
-                      const ModulationTexture& modulation, const ModulationSettings& ms);
+                      const ModulationTexture& modulation, const ModulationSettings& ms, const LightingVolume& light);
 
 class NearLod {
 public:
-    // Throws std::invalid_argument for bad settings (validate()).
+    // Throws std::invalid_argument for bad settings (validate()). The layers' lighting volumes
+    // come from lightingCached(layered.lighting, ..., layered.cacheDir), the layered sky's cache.
     NearLod(NearLodSettings settings, LayeredSettings layered);
     ~NearLod();
     NearLod(const NearLod&) = delete;
