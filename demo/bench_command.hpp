@@ -55,4 +55,20 @@ struct FlickerOptions {
 };
 int runFlickerBench(const FlickerOptions& options);
 
+// `bench --layered`: the layered far field against its floor over the extent and the annulus
+// count N, with the cloud-shadow pass's share and the renderer before its speed work.
+struct LayeredBenchOptions {
+    std::string outDir = "docs";  // layered_bench.csv, layered_bench.md, layered_bench.png
+    std::string readme;           // when set, its "layered bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    std::string cacheDir;         // lighting volumes are cached here ("" = none)
+    std::vector<int> counts{2, 4, 8, 16, 32};     // N, annuli per layer
+    std::vector<double> extents{20000, 90000};    // m, the layer's extent
+    int frames = 5;               // timed frames per variant (median)
+    int width = 1280, height = 720;
+    bool quick = false;           // 20 km, N = 2 and 8, one frame (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runLayeredBench(const LayeredBenchOptions& options);
+
 }  // namespace nephele::cli

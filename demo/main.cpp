@@ -9,6 +9,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -189,20 +191,25 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, quick = false, noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, quick = false, noCache = false;
+    LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
     std::string benchCache;
     bench->add_flag("--accuracy", accuracyMode,
                     "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
     bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
+    bench->add_flag("--layered", layeredMode,
+                    "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
+    bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
     bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
         ->check(CLI::Range(1, 1048576))->capture_default_str();
     bench->add_option("--fps", flo.fps, "--flicker: frames per second of scene time")
         ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
     bench->add_option("--cache", benchCache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
     bench->add_flag("--no-cache", noCache, "--accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", quick, "--accuracy/--flicker: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
     CompareOptions co;
@@ -270,8 +277,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (accuracyMode && flickerMode) {
-            std::cerr << "nephele: bench: --accuracy and --flicker are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker and --layered are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -281,6 +288,19 @@ int main(int argc, char** argv) {
             if (widthGiven) ao.width = bo.width;
             if (!noCache) ao.cacheDir = defaultCacheDir(benchCache);
             return runAccuracyBench(ao);
+        }
+        if (layeredMode) {
+            lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
+            lbo.backend = bo.backend, lbo.quick = quick;
+            if (widthGiven) lbo.width = bo.width;
+            if (bench->count("--height") > 0) lbo.height = bo.height;
+            if (widthGiven != (bench->count("--height") > 0)) {  // one alone keeps the 16:9 aspect
+                if (widthGiven) lbo.height = std::max(16, int(std::lround(lbo.width * 9.0 / 16.0)));
+                else lbo.width = std::max(16, int(std::lround(lbo.height * 16.0 / 9.0)));
+            }
+            if (quick && !widthGiven && bench->count("--height") == 0) lbo.width = 320, lbo.height = 180;
+            lbo.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
+            return runLayeredBench(lbo);
         }
         if (flickerMode) {
             flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;

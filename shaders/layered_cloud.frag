@@ -9,6 +9,7 @@ uniform sampler3D lightVolume;     // rgb = n / 2 + 0.5, a = density A
 uniform sampler2D modulation;      // r = threshold, g = city map
 uniform vec2 uvLightEye;           // fract((eye.xy - t wind) / tilePeriod)
 uniform vec2 uvModEye;             // fract((eye.xy - t wind) / modulationPeriod)
+uniform float gradScale;           // 1 / LayeredSettings::downsample: the textures' detail of a full-resolution pixel
 uniform vec2 uvCityEye;            // fract(eye.xy / modulationPeriod): cities do not move with the wind
 uniform float invLightPeriod, invModPeriod;  // 1/m
 uniform float base, thickness, eyeHeight;    // m
@@ -35,9 +36,9 @@ void main() {
     // Texture coordinates and their derivatives before any discard (implicit derivatives in
     // non-uniform control flow are undefined).
     vec2 uvMod = uvModEye + rel.xy * invModPeriod;
-    vec2 uvMdx = dFdx(uvMod), uvMdy = dFdy(uvMod);
+    vec2 uvMdx = dFdx(uvMod) * gradScale, uvMdy = dFdy(uvMod) * gradScale;
     vec3 uvw = vec3(uvLightEye + rel.xy * invLightPeriod, (rel.z + eyeHeight - base) / thickness);
-    vec3 uvwdx = dFdx(uvw), uvwdy = dFdy(uvw);
+    vec3 uvwdx = dFdx(uvw) * gradScale, uvwdy = dFdy(uvw) * gradScale;
     float horizontal = length(rel.xy);
     if (horizontal > extent) discard;
     vec3 d = normalize(rel);

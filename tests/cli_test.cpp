@@ -315,6 +315,34 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     }
 }
 
+// `bench --layered --quick`: the layered sky against its floor at two layer counts, a chart,
+// and a README without the section's markers is refused before the run with exit code 2.
+TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
+    // (a cache folder of its own: the lighting volume is computed once, not once per renderer)
+    const CliRun r = run("bench --layered --quick --cache " + path("cache") + " --scenes " + std::string(NEPHELE_SCENES) +
+                         " --out-dir " + path("lay"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"layered_bench.csv", "layered_bench.md", "layered_bench.png"})
+        EXPECT_TRUE(fs::exists(path(std::string("lay/") + f))) << f;
+    EXPECT_GT(fs::file_size(path("lay/layered_bench.png")), 1000u);
+    std::ifstream csv(path("lay/layered_bench.csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line.rfind("extent_m,layers,ms,floor_ms,ratio_to_floor,", 0), 0u) << line;
+    int rows = 0;
+    for (; std::getline(csv, line); ++rows) EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+    EXPECT_EQ(rows, 2);  // the quick run: 20 km, N = 2 and 8
+    std::ifstream md(path("lay/layered_bench.md"));
+    std::stringstream text;
+    text << md.rdbuf();
+    EXPECT_NE(text.str().find("Measured by `nephele bench --layered` on "), std::string::npos);
+    EXPECT_NE(text.str().find("`--method auto` on near_and_far.json"), std::string::npos);
+    const std::string readme = write("NoMarkers.md", "no generated sections here\n");
+    const CliRun bad = run("bench --layered --quick --out-dir " + path("lay2") + " --readme " + readme);
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("<!-- BEGIN GENERATED: layered bench -->"), std::string::npos) << bad.output;
+}
+
 // `bench --flicker` on the approach from 5 km into a cumulus, at a toy size: the compositor's
 // frame-to-frame change is the exact model's to within a small margin (no popping).
 TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {

@@ -75,11 +75,18 @@ protected:
 
 }  // namespace
 
-TEST_F(LayeredShadowGLTest, ShaderMatchesSunTransmittanceOnObjectsAndGround) {
+// At full resolution the shadows are a pass of their own; at half resolution they are fused
+// into the upsampling of the layers: both must match the CPU twin.
+class LayeredShadowResolutionGLTest : public LayeredShadowGLTest, public ::testing::WithParamInterface<int> {};
+INSTANTIATE_TEST_SUITE_P(Downsample, LayeredShadowResolutionGLTest, ::testing::Values(1, 2));
+
+TEST_P(LayeredShadowResolutionGLTest, ShaderMatchesSunTransmittanceOnObjectsAndGround) {
     const Scene scene = shadowScene();
-    const LayeredSettings settings = testSettings();
+    LayeredSettings settings = testSettings();
+    settings.downsample = GetParam();
     const Shadowed r = renderShadowed(scene, settings);
-    EXPECT_EQ(r.stats.shadowDrawCalls, 1);
+    EXPECT_EQ(r.stats.shadowDrawCalls, settings.downsample == 1 ? 1 : 0);
+    EXPECT_EQ(r.stats.shadowLayers, 1);
     const View view = makeView(scene.camera);
     const Layer& layer = scene.layers[0];
     const double share = groundSunShare(scene.sun, scene.sky);
@@ -139,8 +146,8 @@ TEST_F(LayeredShadowGLTest, ShaderMatchesSunTransmittanceOnObjectsAndGround) {
     EXPECT_LT(worstGround, 1e-5);
     EXPECT_LT(worst, 5e-3);
     if (worst >= 5e-3 || worstGround >= 1e-5) {
-        writePng(test::outputDir() + "/layered_shadow_actual.png", r.rgba, Encoding::Srgb);
-        writePng(test::outputDir() + "/layered_shadow_diff.png", diff, Encoding::Linear);
+        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_actual.png", r.rgba, Encoding::Srgb);
+        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_diff.png", diff, Encoding::Linear);
     }
     // Darker where the layer's modulation is cloud than where it is clear: at C = 0.5 and
     // D = 1, eq. (19) gives S < 0.7 where r < 0.2 and exactly 1 where r >= C.
@@ -155,7 +162,7 @@ TEST_F(LayeredShadowGLTest, NoShadowWithoutTheSunOrWhenTurnedOff) {
     LayeredSettings off = testSettings();
     off.shadows = false;
     const Shadowed none = renderShadowed(scene, off);
-    EXPECT_EQ(none.stats.shadowDrawCalls, 0);
+    EXPECT_EQ(none.stats.shadowLayers, 0);
     // The same frame without the layer: what the opaque pass alone draws (no ray meets the layer).
     Scene bare = scene;
     bare.layers.clear();
@@ -166,7 +173,7 @@ TEST_F(LayeredShadowGLTest, NoShadowWithoutTheSunOrWhenTurnedOff) {
     EXPECT_EQ(none.rgba.pixels, opaque.pixels);
     scene.sun.direction = glm::normalize(Vec3(0.3, 0.2, -0.1));  // night: no sun term, no shadow
     const Shadowed night = renderShadowed(scene, testSettings());
-    EXPECT_EQ(night.stats.shadowDrawCalls, 0);
+    EXPECT_EQ(night.stats.shadowLayers, 0);
 }
 
 TEST_F(LayeredShadowGLTest, ShadowsMoveWithTheWind) {
@@ -203,7 +210,7 @@ TEST_F(LayeredShadowGLTest, ShadowPassLeavesHostStateUnchanged) {
     for (int frame = 0; frame < 2; ++frame) {
         const GlStateSnapshot before = GlStateSnapshot::capture();
         const LayeredStats stats = sky.render(scene, view, target.framebuffer(), frame);
-        EXPECT_EQ(stats.shadowDrawCalls, 1);
+        EXPECT_EQ(stats.shadowLayers, 1);
         EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
     }
 }

@@ -4,7 +4,9 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
+#include "reduced_target.hpp"
 #include "shadow_pass.hpp"
+#include "nephele/frame_depth.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -38,6 +40,9 @@ struct LayeredRenderer::Impl {
     std::vector<LayerResources> layers;
     Medium medium;  // the medium the lighting volumes were made for
     ShadowPass shadows;
+    ReducedTarget reduced;  // LayeredSettings::downsample > 1
+    FrameDepth depth;       // a copy of the host frame's depth, for the shadows and the upsampling
+    Program floor;  // the bench's floor (renderFloor)
 };
 
 namespace {
@@ -72,6 +77,7 @@ LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move
     impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
     std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
     impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);
+    impl_->floor = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_floor.frag"}});
 }
 
 LayeredRenderer::~LayeredRenderer() = default;
@@ -136,12 +142,24 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     }
     check("uploading the layered sky's textures");
 
-    // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them.
-    if (s.shadows) {
-        std::vector<GLuint> modulationTextures;
-        for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
-        stats.shadowDrawCalls = m.shadows.draw(scene, view, framebuffer, t, modulationTextures, s.modulation, s.groundHeight);
+    // ---- A copy of the frame's depth (0 without one), for the shadows and the upsampling.
+    GLuint frameDepth = 0;
+    if (s.shadows || s.downsample > 1) {
+        GLint depthBits = 0;
+        glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT,
+                                                   GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
+        if (depthBits > 0) frameDepth = m.depth.copy(framebuffer, view.camera.width, view.camera.height);
     }
+    // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them:
+    // fused into the upsampling at reduced resolution, else a pass of their own.
+    const std::vector<int> shadowing = s.shadows ? ShadowPass::shadowingLayers(scene) : std::vector<int>{};
+    const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;
+    std::vector<GLuint> modulationTextures;
+    for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
+    stats.shadowLayers = int(shadowing.size());
+    if (!fuseShadows)
+        stats.shadowDrawCalls = m.shadows.draw(scene, view, framebuffer, frameDepth, t, shadowing, modulationTextures,
+                                               s.modulation, s.groundHeight);
 
     // ---- Shared uniforms.
     const Program& p = m.program;
@@ -167,6 +185,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     p.set("lod0Spacing", float(s.lod0Spacing));
     p.set("lightVolume", 0);
     p.set("modulation", 1);
+    p.set("gradScale", float(1.0 / s.downsample));
     int flashes = 0;
     for (const Lightning& l : scene.lightning)
         if (t >= l.start && t < l.start + l.duration && flashes < 8) {
@@ -181,8 +200,12 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     p.set("sliceAxis", glm::vec2(axis));
 
     const int width = view.camera.width, height = view.camera.height;
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, width, height);
+    if (s.downsample > 1) {  // into the reduced target (bound, viewport set), upsampled at the end
+        m.reduced.begin(frameDepth, width, height, s.downsample);
+    } else {
+        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        glViewport(0, 0, width, height);
+    }
     glDisable(GL_SCISSOR_TEST);
     glEnable(GL_DEPTH_TEST);  // behind the opaque objects already in the frame
     glDepthFunc(GL_LESS);
@@ -272,6 +295,89 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         }
         check("drawing the layered sky");
     }
+    if (s.downsample > 1) {
+        ShadowPass::setUniforms(m.reduced.program(), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
+                                modulationTextures, s.modulation, s.groundHeight);
+        m.reduced.composite(framebuffer, frameDepth, view);
+        ++stats.upsampleDrawCalls;
+    }
+    return stats;
+}
+
+LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer, double t) {
+    LayeredStats stats;
+    stats.sceneLayers = int(scene.layers.size());
+    Impl& m = *impl_;
+    if (m.layers.size() != scene.layers.size()) throw std::logic_error("LayeredRenderer::renderFloor: call render() first");
+    const LayeredSettings& s = settings_;
+    GlStateGuard guard;
+    const Program& p = m.floor;
+    glm::dmat4 rotation = view.viewMatrix;
+    rotation[3] = glm::dvec4(0, 0, 0, 1);
+    p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
+    p.set("eyeHeight", float(view.eye.z));
+    p.set("lod0Radius", float(s.lod0Radius));
+    p.set("lod0Spacing", float(s.lod0Spacing));
+    p.set("modulation", 1);
+    p.set("invModPeriod", float(1 / s.modulation.period));
+    glm::dvec2 axis(view.forward.x, view.forward.y);
+    if (glm::length(axis) < 1e-3) axis = glm::dvec2(view.up.x, view.up.y) * (view.forward.z > 0 ? -1.0 : 1.0);
+    axis = glm::length(axis) > 0 ? glm::normalize(axis) : glm::dvec2(0, 1);
+    p.set("sliceAxis", glm::vec2(axis));
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glViewport(0, 0, view.camera.width, view.camera.height);
+    glDisable(GL_SCISSOR_TEST);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    for (int c = 0; c < 8; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(p.id());
+    glBindSampler(1, 0);
+    const int n = s.layers;
+    for (std::size_t li = 0; li < scene.layers.size(); ++li) {
+        const Layer& layer = scene.layers[li];
+        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - t * layer.wind) / s.modulation.period;
+        p.set("uvModEye", glm::vec2(uv - glm::floor(uv)));
+        p.set("base", float(layer.base));
+        p.set("thickness", float(layer.thickness));
+        p.set("layerCount", n);
+        int firstAbove = n;
+        for (int i = 0; i < n; ++i)
+            if (layer.base + i * layer.thickness / (n - 1) > view.eye.z) {
+                firstAbove = i;
+                break;
+            }
+        p.set("firstAbove", firstAbove);
+        glBindTextureUnit(1, m.layers[li].modulationTexture.id());
+        p.set("mode", 0);
+        p.set("annulusRadius", float(layer.extent));
+        glBindVertexArray(m.annulus.vao.id());
+        glDrawElementsInstanced(GL_TRIANGLES, m.annulus.indexCount, GL_UNSIGNED_INT, nullptr, n);
+        ++stats.drawCalls;
+        stats.instances += n;
+        if (s.lod0Radius > 0) {
+            p.set("mode", 1);
+            const int slices = std::max(1, int(std::floor(s.lod0Radius / s.lod0Spacing)));
+            const double hp = std::max(layer.thickness / (n - 1), s.lod0Spacing);
+            const int pieces = std::max(1, int(std::lround(layer.thickness / hp)));
+            p.set("slices", slices);
+            p.set("pieces", pieces);
+            glBindVertexArray(m.quad.vao.id());
+            glDrawElementsInstanced(GL_TRIANGLES, m.quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
+            ++stats.drawCalls;
+            stats.instances += slices * pieces;
+        }
+    }
+    check("drawing the layered bench's floor");
     return stats;
 }
 

@@ -1,6 +1,8 @@
 #include "shadow_pass.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace nephele {
 using namespace gl;
@@ -10,36 +12,57 @@ ShadowPass::ShadowPass() {
     empty_ = VertexArray::create();
 }
 
-int ShadowPass::draw(const Scene& scene, const View& view, GLuint framebuffer, double t,
-                     const std::vector<GLuint>& modulationTextures, const ModulationSettings& ms, double groundHeight) {
-    const Vec3 sun = scene.sun.direction;
-    if (sun.z <= 0) return 0;  // no sun, no shadow (as sunTransmittance)
-    bool any = false;
-    for (const Layer& l : scene.layers) any = any || l.coverage * l.density > 0;
-    if (!any) return 0;
+std::vector<int> ShadowPass::shadowingLayers(const Scene& scene) {
+    std::vector<int> out;
+    if (!(scene.sun.direction.z > 0)) return out;  // no sun, no shadow (as sunTransmittance)
+    for (std::size_t i = 0; i < scene.layers.size(); ++i)
+        if (scene.layers[i].coverage * scene.layers[i].density > 0) out.push_back(int(i));  // else S = 1
+    return out;
+}
 
-    const int width = view.camera.width, height = view.camera.height;
-    GLint depthBits = 0;
-    glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT,
-                                               GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
-    const Program& p = program_;
-    p.set("hasDepth", depthBits > 0 ? 1 : 0);
-    if (depthBits > 0) glBindTextureUnit(0, depth_.copy(framebuffer, width, height));
-    p.set("frameDepth", 0);
-    p.set("modulation", 1);
-    p.set("forward", glm::vec3(view.forward));
-    p.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
-    p.set("upScaled", glm::vec3(view.up * view.tanHalfY));
-    p.set("nearClip", float(view.camera.nearClip));
-    p.set("farClip", float(view.camera.farClip));
-    p.set("eyeHeight", float(view.eye.z));
+int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& view, double t, const std::vector<int>& layers,
+                            int first, const std::vector<GLuint>& modulationTextures, const ModulationSettings& ms,
+                            double groundHeight) {
+    const int count = std::clamp(int(layers.size()) - first, 0, kLayersPerPass);
+    p.set("shadowLayerCount", count);
+    p.set("shadowForward", glm::vec3(view.forward));
+    p.set("shadowRightScaled", glm::vec3(view.right * view.tanHalfX));
+    p.set("shadowUpScaled", glm::vec3(view.up * view.tanHalfY));
+    p.set("shadowNear", float(view.camera.nearClip));
+    p.set("shadowFar", float(view.camera.farClip));
+    p.set("shadowEyeHeight", float(view.eye.z));
     p.set("groundHeight", float(groundHeight));
     p.set("groundSunShare", float(groundSunShare(scene.sun, scene.sky)));
-    p.set("sunDirection", glm::vec3(sun));
-    p.set("invModPeriod", float(1 / ms.period));
+    p.set("shadowSun", glm::vec3(scene.sun.direction));
+    p.set("shadowInvModPeriod", float(1 / ms.period));
+    for (int k = 0; k < kLayersPerPass; ++k) {
+        const std::string i = "[" + std::to_string(k) + "]";
+        p.set(("shadowModulation" + i).c_str(), kFirstUnit + k);
+        glBindSampler(kFirstUnit + k, 0);
+        if (k >= count) continue;
+        const int li = layers[first + k];
+        const Layer& layer = scene.layers[li];
+        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - t * layer.wind) / ms.period;
+        p.set(("shadowUvModEye" + i).c_str(), glm::vec2(uv - glm::floor(uv)));
+        p.set(("shadowMiddle" + i).c_str(), float(layer.base + 0.5 * layer.thickness));
+        p.set(("shadowCoverage" + i).c_str(), float(layer.coverage));
+        p.set(("shadowDensity" + i).c_str(), float(layer.density));
+        glBindTextureUnit(kFirstUnit + k, modulationTextures[li]);
+    }
+    return count;
+}
 
+int ShadowPass::draw(const Scene& scene, const View& view, GLuint framebuffer, GLuint frameDepth, double t,
+                     const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
+                     const ModulationSettings& ms, double groundHeight) {
+    if (layers.empty()) return 0;
+    const Program& p = program_;
+    p.set("hasDepth", frameDepth != 0 ? 1 : 0);
+    p.set("frameDepth", 0);
+    if (frameDepth != 0) glBindTextureUnit(0, frameDepth);
+    glBindSampler(0, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, width, height);
+    glViewport(0, 0, view.camera.width, view.camera.height);
     glDisable(GL_SCISSOR_TEST);
     glDisable(GL_DEPTH_TEST);
     glDepthMask(GL_FALSE);
@@ -55,18 +78,9 @@ int ShadowPass::draw(const Scene& scene, const View& view, GLuint framebuffer, d
     glBlendFuncSeparate(GL_ZERO, GL_SRC_COLOR, GL_ZERO, GL_ONE);  // rgb *= S, alpha kept
     glUseProgram(p.id());
     glBindVertexArray(empty_.id());
-    glBindSampler(0, 0);
-    glBindSampler(1, 0);
     int draws = 0;
-    for (std::size_t i = 0; i < scene.layers.size() && i < modulationTextures.size(); ++i) {
-        const Layer& layer = scene.layers[i];
-        if (!(layer.coverage * layer.density > 0)) continue;  // S = 1 everywhere
-        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - t * layer.wind) / ms.period;
-        p.set("uvModEye", glm::vec2(uv - glm::floor(uv)));
-        p.set("middle", float(layer.base + 0.5 * layer.thickness));
-        p.set("coverage", float(layer.coverage));
-        p.set("density", float(layer.density));
-        glBindTextureUnit(1, modulationTextures[i]);
+    for (int first = 0; first < int(layers.size()); first += kLayersPerPass) {
+        setUniforms(p, scene, view, t, layers, first, modulationTextures, ms, groundHeight);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         ++draws;
     }

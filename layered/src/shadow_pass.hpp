@@ -2,7 +2,6 @@
 #pragma once
 
 #include "nephele/camera.hpp"
-#include "nephele/frame_depth.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
 
@@ -13,25 +12,35 @@ namespace nephele {
 // Why a pass over the finished frame rather than a term in the opaque pass's shaders: the
 // shadow then falls on whatever the frame's depth holds (Nephele's objects, or a host
 // simulator's own terrain and aircraft, whose shaders Nephele does not own), core stays free
-// of any layered code, and the opaque pass and its golden images are untouched. It costs one
-// full-screen pass per shadowing layer (sky pixels are discarded) and a copy of the depth.
+// of any layered code, and the opaque pass and its golden images are untouched. At reduced
+// resolution (LayeredSettings::downsample > 1) it is fused into the upsampling pass (dual-source
+// blending), so it costs no pass of its own; at full resolution it is one full-screen pass per
+// kShadowLayers (4) shadowing layers. Sky pixels are multiplied by 1.
 class ShadowPass {
 public:
+    static constexpr int kLayersPerPass = 4;  // kShadowLayers in shaders/layered_shadow.glsl
+    static constexpr int kFirstUnit = 3;      // texture units kFirstUnit.. hold the layers' modulation
+
     ShadowPass();  // builds its shader in the current context
-    // Multiplies the rgb of `framebuffer` (alpha untouched) by each layer's S, eq. (19), at
-    // every surface point below the layer's middle: depth < 1 pixels (whole colour) and the
-    // ground plane z = groundHeight for depth-1 pixels below the horizon (the sun's share of
-    // it, groundSunShare()). modulationTextures[i] is scene layer i's texture. Expects the
-    // caller to hold a GlStateGuard; changes blend, depth, program, vertex array, texture
-    // units 0 and 1. Returns the draw calls issued (0 when no layer can shadow).
-    int draw(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds,
-             const std::vector<GLuint>& modulationTextures, const ModulationSettings& modulation,
-             double groundHeight);
+    // The scene layers that can shadow (coverage * density > 0), none without a sun above the horizon.
+    static std::vector<int> shadowingLayers(const Scene& scene);
+    // Sets the uniforms of shaders/layered_shadow.glsl in `program` for layers[first ..
+    // first + kLayersPerPass) and binds their modulation textures (modulationTextures[scene
+    // layer index]) to units kFirstUnit... Returns how many layers it took.
+    static int setUniforms(const Program& program, const Scene& scene, const View& view, double timeSeconds,
+                           const std::vector<int>& layers, int first, const std::vector<GLuint>& modulationTextures,
+                           const ModulationSettings& modulation, double groundHeight);
+    // Multiplies the rgb of `framebuffer` (alpha untouched) by the shadows of `layers`.
+    // frameDepth: a copy of the frame's depth (FrameDepth), 0 when the frame has none. Expects
+    // the caller to hold a GlStateGuard; changes blend, depth, program, vertex array, texture
+    // units 0 and kFirstUnit... Returns the draw calls issued.
+    int draw(const Scene& scene, const View& view, GLuint framebuffer, GLuint frameDepth, double timeSeconds,
+             const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
+             const ModulationSettings& modulation, double groundHeight);
 
 private:
     Program program_;
     gl::VertexArray empty_;
-    FrameDepth depth_;
 };
 
 }  // namespace nephele

@@ -38,10 +38,16 @@
 //    (the linear term draws the cone's rim as a visible ring).
 //    Textures are mipmapped (the 3D one GL_LINEAR_MIPMAP_NEAREST, fewer fetches on llvmpipe),
 //    so far away the GPU thresholds filtered A and r; the CPU twins below sample level 0.
-// 4. Shadows (19): after the opaque pass and before the layers, one full-screen pass per layer
-//    multiplies the frame's surfaces by S (shaders/layered_shadow.frag, depth-reconstructed
-//    points; the ground is the plane z = groundHeight); sunTransmittance() is its CPU twin.
+// 4. Shadows (19): the frame's surfaces are multiplied by S (shaders/layered_shadow.glsl,
+//    points reconstructed from a copy of the frame's depth; the ground is the plane z =
+//    groundHeight, of which the sun's share is shadowed), fused into the upsampling pass at
+//    reduced resolution, else a full-screen pass before the layers; sunTransmittance() is its
+//    CPU twin.
 // 5. The hand-off to the near field: see nearFade() and layerModulation().
+// 6. Speed (`nephele bench --layered`): llvmpipe runs a fragment shader to its end whatever it
+//    discards, so the layers cost covered pixels x N x the whole shader; they are drawn at
+//    1/downsample of the resolution (texture gradients scaled back so the detail is that of a
+//    full-resolution pixel) and upsampled with the frame's depth.
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -175,6 +181,8 @@ struct LayeredSettings {
     double glowHeight = 1;        // f_c of eq. (20)
     int segments = 96;            // angular segments of the annulus mesh, >= 8
     bool shadows = true;          // cloud shadows, eq. (19), on the frame's surfaces and the ground
+    int downsample = 2;           // the layers are drawn at 1/downsample of the frame's resolution (1..4) and
+                                  // upsampled with the frame's depth (nearest-depth); 1 = full resolution
     double groundHeight = 0;      // m, z of the ground plane the shadows fall on (the format's ground)
     LightingSettings lighting;
     ModulationSettings modulation;
@@ -214,9 +222,11 @@ double groundSunShare(const Sun& sun, const Sky& sky);
 
 struct LayeredStats {
     int sceneLayers = 0;     // layers in the scene
-    int drawCalls = 0;       // draws issued this frame
+    int drawCalls = 0;       // the layers' instanced draws this frame (two per scene layer)
     int instances = 0;       // annuli + billboards drawn
-    int shadowDrawCalls = 0; // full-screen cloud-shadow passes (one per shadowing layer)
+    int shadowLayers = 0;    // layers casting cloud shadows this frame
+    int shadowDrawCalls = 0; // full-screen cloud-shadow passes of their own (0 when fused into the upsampling)
+    int upsampleDrawCalls = 0;  // full-screen passes that upsample the layers (1 with downsample > 1)
     double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded)
 };
 
@@ -233,6 +243,11 @@ public:
     // cloud opacity; with a depth buffer holding the opaque objects, which are depth-tested),
     // premultiplied "over". timeSeconds drives wind and lightning.
     LayeredStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
+    // The bench's floor (`nephele bench --layered`): the same annulus and billboard instances
+    // (same vertex shader, depth test, blending) with a trivial fragment shader that fetches
+    // the 2D modulation texture once and blends every fragment: the unavoidable pixel work of
+    // the geometry. Call after render() with the same scene (it uses its textures).
+    LayeredStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
 
     // The lighting volume and modulation texture used for scene layer `index` at the last
     // render (nullptr before).

@@ -1,0 +1,18 @@
+// The frame's depth reduced to the layered sky's lower resolution: per texel, the farthest
+// depth of the frame's pixels it covers (so that the layers are computed wherever any of them
+// sees past the objects; the upsampling sorts out which pixel gets what).
+uniform sampler2D frameDepth;
+uniform vec2 fullSize, reducedSize;  // pixels
+void main() {
+    ivec2 t = ivec2(gl_FragCoord.xy);
+    // The block of full-resolution pixels whose centres fall in this texel.
+    vec2 scale = fullSize / reducedSize;
+    ivec2 last = ivec2(fullSize) - 1;
+    ivec2 lo = ivec2(ceil(vec2(t) * scale - 0.5)), hi = ivec2(ceil(vec2(t + 1) * scale - 0.5)) - 1;
+    lo = clamp(lo, ivec2(0), last);
+    hi = clamp(max(hi, lo), ivec2(0), last);
+    float d = 0.0;
+    for (int y = lo.y; y <= hi.y; ++y)
+        for (int x = lo.x; x <= hi.x; ++x) d = max(d, texelFetch(frameDepth, ivec2(x, y), 0).r);
+    gl_FragDepth = d;
+}

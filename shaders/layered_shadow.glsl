@@ -1,0 +1,58 @@
+// Cloud shadows of the far-field layers, Wang, Ji & Zhang 2011 eq. (19), per pixel of the
+// frame: "the multiplication of S to the rendering results of the scene".
+//   S = 1 - D max(T_S - (r + 1 - C), 0), T_S = 1 (the column's peak alpha),
+// r the modulation texture's threshold where the ray from the surface point towards the sun
+// crosses the layer's middle, read with the layer shader's wind (eq. 18); the product over
+// the layers above the point. The CPU twin is sunTransmittance() in layered/src/modulation.cpp:
+// keep the two equal (layered_shadow_gl_test).
+// Surfaces: every pixel with depth < 1 (the scene's objects, a host's terrain and aircraft) is
+// a point on a sunlit opaque surface (its colour is the format's sun-only Lambert term, so the
+// whole colour is multiplied); a pixel at depth 1 whose ray goes down is the format's ground,
+// taken to be the plane z = groundHeight, of which only the sun's share is shadowed.
+// Where a pixel spans more than a texel of the threshold texture, its mipmaps filter it.
+// Used by layered_shadow.frag (its own pass) and layered_upsample.frag (fused into the
+// upsampling of the reduced-resolution layers).
+const int kShadowLayers = 4;
+uniform int shadowLayerCount;               // 0..kShadowLayers
+uniform sampler2D shadowModulation[kShadowLayers];  // r = threshold
+uniform vec2 shadowUvModEye[kShadowLayers];  // fract((eye.xy - t wind) / modulationPeriod)
+uniform float shadowMiddle[kShadowLayers];   // m, the layer's middle height (base + thickness / 2)
+uniform float shadowCoverage[kShadowLayers], shadowDensity[kShadowLayers];  // C, D in [0, 1]
+uniform float shadowInvModPeriod;            // 1/m
+uniform vec3 shadowForward;                  // unit view direction
+uniform vec3 shadowRightScaled, shadowUpScaled;  // camera right * tan(half fov x), up * tan(half fov y)
+uniform float shadowNear, shadowFar;         // m, the camera's clip distances
+uniform float shadowEyeHeight;               // m, eye z
+uniform float groundHeight;                  // m, z of the ground plane
+uniform float groundSunShare;                // in [0, 1]: the sun's share of the ground's light
+uniform vec3 shadowSun;                      // unit, towards the sun (z > 0)
+
+// The factor for the colour of the pixel at `ndc` whose depth (in [0, 1]) is `depth`: 1 where
+// the pixel is sky or above every shadowing layer's middle.
+float cloudShadow(vec2 ndc, float depth) {
+    // A ray whose component along the view direction is 1: the point at eye-space depth z is ray * z.
+    vec3 ray = shadowForward + ndc.x * shadowRightScaled + ndc.y * shadowUpScaled;
+    vec3 rel;            // m, the surface point relative to the eye
+    float share = 1.0;   // how much of the pixel's light is the sun's
+    bool surface = true;
+    if (depth < 1.0) {
+        float zn = 2.0 * depth - 1.0;
+        rel = ray * (2.0 * shadowNear * shadowFar / ((shadowFar + shadowNear) - zn * (shadowFar - shadowNear)));
+    } else if (ray.z < 0.0 && shadowEyeHeight > groundHeight) {
+        rel = ray * ((groundHeight - shadowEyeHeight) / ray.z);
+        share = groundSunShare;
+    } else {
+        rel = ray * shadowFar;  // the sky: no surface, but a point for its neighbours' derivatives
+        surface = false;
+    }
+    float h = shadowEyeHeight + rel.z;
+    float s = 1.0;
+    for (int i = 0; i < shadowLayerCount; ++i) {
+        vec2 q = rel.xy + shadowSun.xy * ((shadowMiddle[i] - h) / max(shadowSun.z, 1e-6));
+        vec2 uv = shadowUvModEye[i] + q * shadowInvModPeriod;
+        float r = textureGrad(shadowModulation[i], uv, dFdx(uv), dFdy(uv)).r;
+        // At or above the layer's middle: no shadow from it (as the CPU twin).
+        if (h < shadowMiddle[i]) s *= 1.0 - shadowDensity[i] * max(shadowCoverage[i] - r, 0.0);  // eq. (19), T_S = 1
+    }
+    return surface ? 1.0 - share * (1.0 - s) : 1.0;
+}
