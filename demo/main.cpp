@@ -36,7 +36,7 @@ struct SceneArgs {
     std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "fused";
     std::string tileGeometry = "mesh", exactOrder = "ellipsoid";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
-    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr;
+    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr;
     RaymarchSettings raymarch;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
@@ -76,7 +76,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
     cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(CLI::Range(2, 1024))->capture_default_str();
-    cmd->add_option("--lod0-radius", a.layered.lod0Radius, "Layered sky: radius of the billboard disc (m; 0 = none)")->capture_default_str();
+    a.lod0RadiusOpt = cmd->add_option("--lod0-radius", a.layered.lod0Radius,
+                                      "Layered sky: radius of the billboard disc (m; 0 = none; default 1500, auto "
+                                      "--near-radius + --blend-band + " + std::to_string(int(kAutoLod0Margin)) + ")");
     cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")->capture_default_str();
     cmd->add_option("--light-size", a.lightSize, "Layered sky: lighting texture WxHxD (the paper's 256x256x32)")->capture_default_str();
     a.nearRadiusOpt = cmd->add_option("--near-radius", a.layered.nearRadius,
@@ -148,6 +150,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     if (ro.method == Method::Auto) {
         if (!a.nearRadiusOpt->count()) ro.layered.nearRadius = kAutoNearRadius;
         if (!a.blendBandOpt->count()) ro.layered.blendBand = kAutoBlendBand;
+        if (!a.lod0RadiusOpt->count()) ro.layered.lod0Radius = ro.layered.nearRadius + ro.layered.blendBand + kAutoLod0Margin;
         validate(ro.nearLod, ro.layered);  // std::invalid_argument -> exit 2
     }
     validate(ro.layered);  // std::invalid_argument -> exit 2

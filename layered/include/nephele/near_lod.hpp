@@ -50,6 +50,11 @@ namespace nephele {
 // few km as ellipsoids and hands over to the layer across the next 1.5 km.
 inline constexpr double kAutoNearRadius = 2000;  // m
 inline constexpr double kAutoBlendBand = 1500;   // m
+// Auto's billboard disc (LayeredSettings::lod0Radius) reaches this far beyond the blend band:
+// the near radius removes the layer's billboards within it, and without billboards beyond
+// it the layer seen edge-on (from inside it, or grazing) shows only the annuli's thin streaks
+// instead of a wall of cloud at the horizon.
+inline constexpr double kAutoLod0Margin = 1000;  // m
 
 struct NearLodSettings {
     double cellSize = 1000;     // m, side of a cell (about a cumulus's width), > 0
