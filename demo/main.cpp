@@ -80,6 +80,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
                                       "Layered sky: radius of the billboard disc (m; 0 = none; default 1500, auto "
                                       "--near-radius + --blend-band + " + std::to_string(int(kAutoLod0Margin)) + ")");
     cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")->capture_default_str();
+    cmd->add_option("--layer-downsample", a.layered.downsample,
+                    "Layered sky: draw the layers at 1/D of the resolution, upsampled with the depth (1 = full)")
+        ->check(CLI::Range(1, 4))->capture_default_str();
+    cmd->add_flag("!--no-cloud-shadows", a.layered.shadows, "Layered sky: no cloud shadows on the ground and objects");
     cmd->add_option("--light-size", a.lightSize, "Layered sky: lighting texture WxHxD (the paper's 256x256x32)")->capture_default_str();
     a.nearRadiusOpt = cmd->add_option("--near-radius", a.layered.nearRadius,
                                       "Layered sky: no layer within this distance of the eye (m; auto: near_lod layers are "
