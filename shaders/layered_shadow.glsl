@@ -11,7 +11,9 @@
 // taken to be the plane z = groundHeight, of which only the sun's share is shadowed.
 // Where a pixel spans more than a texel of the threshold texture, its mipmaps filter it.
 // Used by layered_shadow.frag (its own pass) and layered_upsample.frag (fused into the
-// upsampling of the reduced-resolution layers).
+// upsampling of the reduced-resolution layers, compiled per layer count with SHADOW_LAYERS
+// defined: llvmpipe runs every instruction of a shader, so a dynamically indexed sampler
+// array and a loop sized by a uniform cost more than the unrolled count).
 const int kShadowLayers = 4;
 uniform int shadowLayerCount;               // 0..kShadowLayers
 uniform sampler2D shadowModulation[kShadowLayers];  // r = threshold
@@ -47,7 +49,11 @@ float cloudShadow(vec2 ndc, float depth) {
     }
     float h = shadowEyeHeight + rel.z;
     float s = 1.0;
+#ifdef SHADOW_LAYERS
+    for (int i = 0; i < SHADOW_LAYERS; ++i) {  // a compile-time count: unrolled, constant sampler indices
+#else
     for (int i = 0; i < shadowLayerCount; ++i) {
+#endif
         vec2 q = rel.xy + shadowSun.xy * ((shadowMiddle[i] - h) / max(shadowSun.z, 1e-6));
         vec2 uv = shadowUvModEye[i] + q * shadowInvModPeriod;
         float r = textureGrad(shadowModulation[i], uv, dFdx(uv), dFdy(uv)).r;

@@ -1,12 +1,23 @@
 #include "reduced_target.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace nephele {
 using namespace gl;
 
 ReducedTarget::ReducedTarget() {
     reduce_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_depth_reduce.frag"}});
-    upsample_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_upsample.frag"}});
     empty_ = VertexArray::create();
+}
+
+const Program& ReducedTarget::program(int shadowLayers) {
+    if (shadowLayers < 0 || shadowLayers > 4) throw std::invalid_argument("ReducedTarget: shadowLayers must be 0..4");
+    Program& p = upsample_[shadowLayers];
+    if (p.id() == 0)
+        p = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_upsample.frag"}},
+                           "#define SHADOW_LAYERS " + std::to_string(shadowLayers) + "\n");
+    return p;
 }
 
 glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int divisor) {
@@ -64,7 +75,7 @@ glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int di
     return size;
 }
 
-void ReducedTarget::composite(GLuint framebuffer, GLuint frameDepth, const View& view) {
+void ReducedTarget::composite(GLuint framebuffer, GLuint frameDepth, const View& view, int shadowLayers) {
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, full_.x, full_.y);
     glDisable(GL_DEPTH_TEST);
@@ -73,7 +84,7 @@ void ReducedTarget::composite(GLuint framebuffer, GLuint frameDepth, const View&
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ONE, GL_SRC1_ALPHA);  // cloud + frame * keep
-    const Program& p = upsample_;
+    const Program& p = program(shadowLayers);
     p.set("cloud", 0);
     p.set("cloudDepth", 1);
     p.set("frameDepth", 2);

@@ -24,11 +24,13 @@ public:
     // Composites the target "over" `framebuffer` (premultiplied) at full resolution, the frame
     // multiplied by the cloud shadows set in program() (ShadowPass::setUniforms; none when
     // shadowLayerCount is 0) before. Changes the same state as begin() and texture units 0..2.
-    void composite(GLuint framebuffer, GLuint frameDepth, const View& view);
-    const Program& program() const { return upsample_; }
+    // shadowLayers: how many layers program(shadowLayers) was given (0..4).
+    void composite(GLuint framebuffer, GLuint frameDepth, const View& view, int shadowLayers);
+    // The upsampling program compiled for `shadowLayers` shadowing layers (0..4; built on first use).
+    const Program& program(int shadowLayers);
 
 private:
-    Program reduce_, upsample_;
+    Program reduce_, upsample_[5];
     gl::VertexArray empty_;
     gl::Texture color_, depth_;
     gl::Framebuffer fbo_;

@@ -296,9 +296,10 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         check("drawing the layered sky");
     }
     if (s.downsample > 1) {
-        ShadowPass::setUniforms(m.reduced.program(), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
+        const int fused = fuseShadows ? int(shadowing.size()) : 0;
+        ShadowPass::setUniforms(m.reduced.program(fused), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
                                 modulationTextures, s.modulation, s.groundHeight);
-        m.reduced.composite(framebuffer, frameDepth, view);
+        m.reduced.composite(framebuffer, frameDepth, view, fused);
         ++stats.upsampleDrawCalls;
     }
     return stats;
