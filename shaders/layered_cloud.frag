@@ -78,10 +78,12 @@ void main() {
     float toward = smoothstep(0.0, 1.0, (dot(d, sunDirection) - eyeCosPhi) / (1.0 - eyeCosPhi));
     radiance += sunIrradiance * eyePeak * toward * (eyeHeightCoeff * clamp(zf, 0.0, 1.0) + 1.0);
     // City glow, eq. (20).
+#ifdef CITY_GLOW  // (a program of its own: llvmpipe would fetch the city map even where no layer glows)
     if (glow != vec3(0.0)) {
         float city = textureGrad(modulation, uvCityEye + rel.xy * invModPeriod, uvMdx, uvMdy).g;
         radiance += glow * city * (1.0 - clamp(glowHeightCoeff * zf, 0.0, 1.0));
     }
+#endif
     // Lightning, eq. (21): I / d^2 for the flashes active now.
     float flash = 0.0;
     for (int i = 0; i < flashCount; ++i) {

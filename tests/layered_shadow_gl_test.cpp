@@ -265,3 +265,32 @@ TEST_F(LayeredShadowGLTest, HalfResolutionMatchesFullResolutionAndKeepsSilhouett
         writePng(test::outputDir() + "/layered_full_actual.png", a, Encoding::Srgb);
     }
 }
+
+// City glow is compiled into a program of its own (CITY_GLOW): a layer with glow is drawn with
+// it and lit from below where the city map is, a layer without is drawn as before.
+class LayeredGlowGLTest : public LayeredShadowGLTest {};
+TEST_F(LayeredGlowGLTest, GlowingLayerIsLitFromBelowOnlyWithGlow) {
+    Scene scene;
+    scene.camera.position = Vec3(0, 0, 500);
+    scene.camera.direction = glm::normalize(Vec3(0, 1, 0.6));
+    scene.camera.width = 160, scene.camera.height = 90;
+    scene.sun.direction = glm::normalize(Vec3(0.3, 0.2, -0.5));  // night
+    Layer l;
+    l.base = 2000, l.thickness = 600, l.extent = 20000, l.coverage = 1.0, l.density = 1.0;
+    scene.layers.push_back(l);
+    const Image dark = renderShadowed(scene, testSettings()).rgba;
+    scene.layers[0].cityGlow = CityGlow{Vec3(1.0, 0.6, 0.3), 2.0};
+    const Image lit = renderShadowed(scene, testSettings()).rgba;
+    double gain = 0;
+    int brighter = 0, darker = 0;
+    for (int y = 0; y < dark.height; ++y)
+        for (int x = 0; x < dark.width; ++x) {
+            const float d = lit.at(x, y, 0) - dark.at(x, y, 0);
+            gain += d;
+            brighter += d > 1e-3f;
+            darker += d < -1e-6f;
+        }
+    std::printf("glow: mean red gain %.4f, %d pixels brighter\n", gain / (dark.width * dark.height), brighter);
+    EXPECT_GT(brighter, dark.width * dark.height / 10);  // the city map covers part of the layer's view
+    EXPECT_EQ(darker, 0);
+}
