@@ -294,3 +294,50 @@ TEST_F(LayeredGlowGLTest, GlowingLayerIsLitFromBelowOnlyWithGlow) {
     EXPECT_GT(brighter, dark.width * dark.height / 10);  // the city map covers part of the layer's view
     EXPECT_EQ(darker, 0);
 }
+
+// Two layers: the shadow is the product of both layers' S (the fused upsampling compiled for
+// two layers at half resolution, the separate pass's loop at full resolution).
+TEST_P(LayeredShadowResolutionGLTest, TwoLayersMultiplyTheirShadows) {
+    Scene scene = shadowScene();
+    Layer upper = scene.layers[0];
+    upper.base = 4000, upper.seed = 7, upper.coverage = 0.6, upper.density = 0.7;
+    upper.wind = Vec2(-4, 9);
+    scene.layers.push_back(upper);
+    LayeredSettings settings = testSettings();
+    settings.downsample = GetParam();
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    LayeredRenderer sky(settings);
+    const LayeredStats stats = sky.render(scene, view, target.framebuffer(), kTime);
+    EXPECT_EQ(stats.shadowLayers, 2);
+    const Image rgba = target.readColor();
+    const double share = groundSunShare(scene.sun, scene.sky);
+    double worst = 0, minS = 1;
+    int pixels = 0;
+    for (int y = 0; y < rgba.height; ++y)
+        for (int x = 0; x < rgba.width; ++x) {
+            // Ground only (exact on both sides), away from the box's silhouette, where a pixel's
+            // neighbours on the box make its texture footprint large (mipmapped there).
+            bool nearBox = false;
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx)
+                    nearBox = nearBox || intersectObjects(scene, view.eye, view.rayDirection(x + 0.5 + dx, y + 0.5 + dy),
+                                                          scene.camera.nearClip, scene.camera.farClip);
+            if (nearBox) continue;
+            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+            const Vec3 point = view.eye + d * (-view.eye.z / d.z);
+            double s = 1;
+            for (int i = 0; i < 2; ++i)
+                s *= sunTransmittance(scene.layers[i], *sky.modulation(i), settings.modulation, scene.sun.direction, point, kTime);
+            minS = std::min(minS, s);
+            const double expected = scene.sky.ground.x * (1 - share * (1 - s));
+            worst = std::max(worst, std::abs(rgba.at(x, y, 0) - expected));
+            ++pixels;
+        }
+    std::printf("two layers, downsample %d: %d ground px, worst |GPU - CPU| %.2e, darkest S %.3f\n", GetParam(), pixels,
+                worst, minS);
+    EXPECT_GT(pixels, 1000);
+    EXPECT_LT(minS, 0.6);     // both layers' shadows show
+    EXPECT_LT(worst, 1e-5);   // the ground plane is exact on both sides (see the first test)
+}
