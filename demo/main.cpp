@@ -35,6 +35,7 @@ struct SceneArgs {
     int minTile = 8, maxTile = 512;
     std::string atlas, precision = "f16", draws = "instanced", flythrough = "fraction", colourMatrix = "fused";
     std::string tileGeometry = "mesh", exactOrder = "ellipsoid";
+    std::string composite = EllipsoidSettings().order == CompositeOrder::Weighted ? "weighted" : "back-to-front";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
     CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr;
     RaymarchSettings raymarch;
@@ -65,6 +66,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->capture_default_str();
     cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
         ->check(CLI::IsMember({"pass", "fused"}))
+        ->capture_default_str();
+    cmd->add_option("--composite", a.composite,
+                    "back-to-front (the paper: whole tiles by centre distance; pops when the order flips) or weighted "
+                    "(order-independent, weighted by each pixel's depth)")
+        ->check(CLI::IsMember({"back-to-front", "weighted"}))
         ->capture_default_str();
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
@@ -97,8 +103,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--cache", a.cache, "Path tracer: cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
     cmd->add_flag("--no-cache", a.noCache, "Path tracer: do not read or write the cache");
     cmd->add_option("--exact-order", a.exactOrder,
-                    "gardner-exact: ellipsoid (whole ellipsoids back to front, as the tiles) or pixel (per-pixel depth order)")
-        ->check(CLI::IsMember({"ellipsoid", "pixel"}))
+                    "gardner-exact: ellipsoid (whole ellipsoids back to front, as the tiles), pixel (per-pixel depth "
+                    "order) or weighted (the weighted composite's exact model)")
+        ->check(CLI::IsMember({"ellipsoid", "pixel", "weighted"}))
         ->capture_default_str();
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
@@ -137,7 +144,10 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.colourMatrixPass = a.colourMatrix == "pass";
     es.geometry = a.tileGeometry == "polygon" ? TileGeometry::Polygon : TileGeometry::Mesh;
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
-    ro.exactOrder = a.exactOrder == "pixel" ? CompositeOrder::PerPixel : CompositeOrder::PerEllipsoid;
+    es.order = a.composite == "weighted" ? CompositeOrder::Weighted : CompositeOrder::PerEllipsoid;
+    ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
+                    : a.exactOrder == "weighted" ? CompositeOrder::Weighted
+                                                 : CompositeOrder::PerEllipsoid;
     ro.raymarch = a.raymarch;
     ro.pathtrace = a.pathtrace;
     if (!a.noCache) ro.cacheDir = defaultCacheDir(a.cache);

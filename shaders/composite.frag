@@ -3,6 +3,9 @@
 // need is compiled out rather than skipped at run time):
 //   FUSED     the colour-matrix copy is applied here as the atlas is read (no pass of its own)
 //   FRACTION  objects inside clouds: weight by the optical depth in front of the opaque depth
+//   WEIGHTED  order-independent: instead of "over", accumulate w a c and w a (attachment 0,
+//             additive) and a (attachment 1, which keeps prod(1 - a)); composite_resolve.frag
+//             puts the result over the frame. w = compositeWeight of this pixel's shading depth.
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
@@ -17,12 +20,22 @@ uniform mat4 colourMatrix;            // red / D -> alpha (what the colour-matri
 uniform vec3 sunRadiance, ambient;
 uniform float albedo;
 uniform vec2 atlasSize;
+#if defined(FRACTION) || defined(WEIGHTED)
+uniform vec3 forward, rightScaled, upScaled;
+uniform float nearClip;               // m
+#endif
 #ifdef FRACTION
 uniform sampler2D sceneDepth;         // copy of the frame's depth
-uniform vec3 forward, rightScaled, upScaled;
-uniform float nearClip, farClip;      // m
+uniform float farClip;                // m
 #endif
+#ifdef WEIGHTED
+uniform float weightExponent;         // k of w = (tRef / tShade)^k
+uniform float weightReference;        // tRef, m (weightReferenceDepth in gardner.cpp)
+layout(location = 0) out vec4 accum;  // rgb: w a c, a: w a (blended ONE, ONE)
+layout(location = 1) out vec4 reveal; // r: a (blended ZERO, ONE_MINUS_SRC_COLOR: the target keeps prod(1 - a))
+#else
 out vec4 result;
+#endif
 void main() {
     // Stay half a texel inside the tile so that filtering never reads a neighbour.
     vec2 lo = atlasRect.xy + 0.5, hi = atlasRect.xy + atlasRect.z - 0.5;
@@ -34,22 +47,31 @@ void main() {
     float alpha = clamp(terms.a, 0.0, 1.0);
 #endif
     vec3 color = cloudColor(sunRadiance, terms.g, ambient, albedo, 2.0 * terms.b);
+#if defined(FRACTION) || defined(WEIGHTED)
+    // This pixel's ray in the ellipsoid's unit space (as gardner-exact evaluates it).
+    Tile t = tiles[tileIndex];
+    vec3 d = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
+    float cosF = dot(d, forward);
+    vec3 o = t.eyeUnitAc.xyz, du = toUnit(t, d);
+    float tStart = t.params.x > 0.5 ? nearClip / cosF : 0.0;
+#endif
 #ifdef FRACTION
     if (alpha > 0.0) {
         float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
         if (z < 1.0) {
-            Tile t = tiles[tileIndex];
-            vec3 d = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
             float zEye = 2.0 * nearClip * farClip / (farClip + nearClip - (2.0 * z - 1.0) * (farClip - nearClip));
-            float cosF = dot(d, forward);
             float tObj = zEye / cosF;
-            vec3 o = t.eyeUnitAc.xyz, du = toUnit(t, d);
-            float tStart = t.params.x > 0.5 ? nearClip / cosF : 0.0;
             float whole = segmentDepth(o, du, tStart, 1e30);
             float front = segmentDepth(o, du, tStart, tObj);
             alpha = opacityInFront(alpha, front, whole);
         }
     }
 #endif
+#ifdef WEIGHTED
+    float wa = compositeWeight(matterDepth(o, du, tStart), weightReference, weightExponent) * alpha;
+    accum = vec4(color * wa, wa);
+    reveal = vec4(alpha);
+#else
     result = vec4(color, alpha);
+#endif
 }

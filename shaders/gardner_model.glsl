@@ -63,6 +63,56 @@ MODEL_FN float opacityInFront(float alpha, float front, float whole) {
     return 1.0f - pow(max(1.0f - alpha, 1e-7f), min(front / whole, 1.0f));
 }
 
+// The depth along the ray (m) of an ellipsoid's shading point: the ray's closest approach to
+// the centre in unit space, clamped to the chord the eye sees, [max(tIn, tStart), tOut]
+// (tStart: the near plane's distance along the ray when the near plane cuts the ellipsoid,
+// else 0). The per-pixel order and the weighted composite's weights are by this depth.
+MODEL_FN float shadeDepth(vec3 oUnit, vec3 dUnit, float tStart) {
+    float len = length(dUnit);
+    vec3 dn = dUnit / len;
+    float tc = -dot(oUnit, dn);
+    vec3 perp = oUnit + tc * dn;
+    float h = sqrt(max(0.0f, 1.0f - dot(perp, perp)));
+    float tIn = (tc - h) / len, tOut = (tc + h) / len;
+    return min(max(tc / len, max(tIn, tStart)), tOut);
+}
+
+// The depth along the ray (m) of the centroid of an ellipsoid's matter the eye sees (density
+// along the chord beyond tStart), in closed form: with u as in segmentDepth, the first moment
+// of (h2 - u^2)^2 over [u0, h] is (h2 - u0^2)^3 / 6. Unlike shadeDepth it does not collapse
+// to the near plane as the eye passes the centre of an ellipsoid it is inside (the matter
+// left is ahead), so weights taken from it change as smoothly as the matter does.
+MODEL_FN float matterDepth(vec3 oUnit, vec3 dUnit, float tStart) {
+    float len = length(dUnit);
+    vec3 dn = dUnit / len;
+    float tc = -dot(oUnit, dn);
+    vec3 perp = oUnit + tc * dn;
+    float h2 = 1.0f - dot(perp, perp);
+    if (h2 <= 0.0f) return max(tc / len, tStart);
+    float h = sqrt(h2);
+    float u0 = clamp(tStart * len - tc, -h, h);
+    float mass = chordPrimitive(h, h2) - chordPrimitive(u0, h2);
+    float a0 = h2 - u0 * u0;
+    float u = mass > 0.0f ? a0 * a0 * a0 / (6.0f * mass) : u0;
+    return max((tc + u) / len, tStart);
+}
+
+// ---- The weighted, order-independent composite (after McGuire & Bavoil 2013, "Weighted
+// blended order-independent transparency"). Per pixel, over the contributions i (opacity
+// a_i, colour c_i, shading depth t_i):
+//   colour = sum(w_i a_i c_i) / sum(w_i a_i),  opacity = 1 - prod(1 - a_i),
+// composited "over" the background once. The opacity is exactly the back-to-front one;
+// the colour is a weighted mean in which nearer matter counts more. The weight is a power
+// of a depth ratio, w = (tRef / t)^k: after the division only ratios of weights matter, and
+// (t2 / t1)^k is the same at every distance (no scale to tune), continuous in t (so in the
+// eye's position: nothing can flip). tRef, one per frame below every shading depth
+// (weightReferenceDepth in gardner.cpp), keeps w in (0, 1]; the floor keeps the sums above
+// zero in float (RGBA32F accumulation), reached only at t > tRef * 1e30^(1/k).
+const float kWeightExponent = 3.0f;  // k, chosen by measurement: see the README ("composite order")
+MODEL_FN float compositeWeight(float tShade, float tRef, float exponent) {
+    return max(pow(tRef / max(tShade, tRef), exponent), 1e-30f);
+}
+
 // Opacity of optical depth tau.
 MODEL_FN float opacityOf(float tau) { return 1.0f - exp(-tau); }
 

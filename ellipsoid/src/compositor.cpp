@@ -98,6 +98,7 @@ struct EllipsoidRenderer::Impl {
     FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view);
 
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
+    Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
     Texture falloff, noise, light;
@@ -113,6 +114,29 @@ struct EllipsoidRenderer::Impl {
     int atlasW = 0, atlasH = 0, atlasLayers = 0;
     std::vector<Framebuffer> layerFbos;
     FrameDepth depth;  // copy of the frame's depth (fraction mode)
+    // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
+    Texture accum, reveal;
+    Framebuffer weightedFbo;
+    int weightedW = 0, weightedH = 0;
+
+    void weightedTarget(int w, int h) {
+        if (weightedFbo && w == weightedW && h == weightedH) return;
+        // 32-bit floats: the weights span (tRef / t)^k over the whole depth range (half floats
+        // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
+        accum = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(accum.id(), 1, GL_RGBA32F, w, h);
+        reveal = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(reveal.id(), 1, GL_R32F, w, h);
+        weightedFbo = Framebuffer::create();
+        glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT0, accum.id(), 0);
+        glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT1, reveal.id(), 0);
+        const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glNamedFramebufferDrawBuffers(weightedFbo.id(), 2, buffers);
+        if (glCheckNamedFramebufferStatus(weightedFbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw GlError("weighted composite: framebuffer incomplete");
+        weightedW = w;
+        weightedH = h;
+    }
 
     const IndexedMesh& mesh(int slices) {
         auto it = meshes.find(slices);
@@ -129,6 +153,9 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
         throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
     if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
+    if (s.order == CompositeOrder::PerPixel)
+        throw std::invalid_argument("order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
+    if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
     Impl& m = *impl_;
     // Only the programs these settings use (llvmpipe compiles each in tens of milliseconds).
     if (s.geometry == TileGeometry::Mesh) {
@@ -145,8 +172,17 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = s.colourMatrixPass ? "" : "#define FUSED 1\n";
     m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
-    m.compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                         fused + "#define FRACTION 1\n");
+    if (s.order == CompositeOrder::Weighted) {
+        m.compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                             fused + "#define WEIGHTED 1\n");
+        m.compositeWeightedFraction = Program::build(
+            {{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+            fused + "#define WEIGHTED 1\n#define FRACTION 1\n");
+        m.resolve = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
+    } else {
+        m.compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                             fused + "#define FRACTION 1\n");
+    }
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     m.empty = VertexArray::create();
 
@@ -482,18 +518,31 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         first += count;
     }
 
-    // ---- Composite, back to front, over the frame.
+    // ---- Composite over the frame: back to front, or weighted into a target of its own
+    // and resolved over the frame (the stencil fly-through is per ellipsoid: back to front).
     const bool stencil = s.flyThrough == FlyThrough::Stencil && opaqueDepth;
     const bool fraction = s.flyThrough == FlyThrough::Fraction && opaqueDepth;
+    const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
     if (fraction) m.depth.copy(framebuffer, frameW, frameH);
 
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, frameW, frameH);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
-    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    const Program& cp = fraction ? m.compositeFraction : m.composite;
+    if (weighted) {
+        m.weightedTarget(frameW, frameH);
+        glBindFramebuffer(GL_FRAMEBUFFER, m.weightedFbo.id());
+        const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
+        glClearNamedFramebufferfv(m.weightedFbo.id(), GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(m.weightedFbo.id(), GL_COLOR, 1, one);
+        glBlendFunci(0, GL_ONE, GL_ONE);                  // sums
+        glBlendFunci(1, GL_ZERO, GL_ONE_MINUS_SRC_COLOR);  // product of (1 - a)
+    } else {
+        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    }
+    glViewport(0, 0, frameW, frameH);
+    const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
+                                 : (fraction ? m.compositeFraction : m.composite);
     cp.set("atlasTerms", 3);
     cp.set("sunRadiance", glm::vec3(sunRadiance));
     cp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
@@ -508,6 +557,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("upScaled", glm::vec3(view.up * view.tanHalfY));
     cp.set("nearClip", float(view.camera.nearClip));
     cp.set("farClip", float(view.camera.farClip));
+    cp.set("weightExponent", s.weightExponent);
+    cp.set("weightReference", float(weightReferenceDepth(prepared, view)));
     glBindTextureUnit(3, m.atlasTerms.id());
     glBindTextureUnit(5, fraction ? m.depth.texture() : 0);
     glBindSampler(3, m.linearClamp.id());
@@ -566,6 +617,21 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         }
     }
     check("compositing the ellipsoid tiles");
+    if (weighted) {
+        // The resolve: colour sum(w a c) / sum(w a), opacity 1 - prod(1 - a), "over" the frame.
+        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glUseProgram(m.resolve.id());
+        m.resolve.set("accumTexture", 3);
+        m.resolve.set("revealTexture", 4);
+        glBindTextureUnit(3, m.accum.id());
+        glBindTextureUnit(4, m.reveal.id());
+        glBindSampler(3, 0);
+        glBindSampler(4, 0);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        ++stats.drawCalls;
+        check("resolving the weighted composite");
+    }
     return stats;
 }
 

@@ -113,6 +113,15 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
     return out;
 }
 
+double weightReferenceDepth(const PreparedClouds& prepared, const View& view) {
+    double nearest = INFINITY;
+    for (const PreparedEllipsoid& p : prepared.ellipsoids) {
+        const double rMax = std::max({p.shape.radii.x, p.shape.radii.y, p.shape.radii.z});
+        nearest = std::min(nearest, p.projection.distance - rMax);
+    }
+    return std::max(nearest, view.camera.nearClip);
+}
+
 std::vector<CloudLight> makeCloudLights(const Scene& scene, int size) {
     std::vector<CloudLight> lights;
     for (const Cloud& cloud : scene.clouds) lights.push_back(makeLight(scene, cloud, size));
@@ -134,12 +143,13 @@ RayRange rayRange(const Scene& scene, const View& view, const Vec3& d) {
 }  // namespace
 
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noiseVolume,
-                         const NoiseSettings& noiseSettings, CompositeOrder order) {
+                         const NoiseSettings& noiseSettings, CompositeOrder order, float weightExponent) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     const float amp = float(scene.medium.noise);
     const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
     // As the compositor's composite pass sets it (ellipsoid/src/compositor.cpp); see cloudAmbient.
     const Vec3 ambient = cloudAmbient(scene.sky);
+    const float weightReference = float(weightReferenceDepth(prepared, view));
     Image image(view.camera.width, view.camera.height, 4);
     struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
@@ -150,6 +160,8 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
             Vec3 color = opaqueRadiance(scene, view, d);
             double alphaSum = 0;
             layers.clear();
+            Vec3 weightedColor(0.0);  // Weighted: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
+            double weightSum = 0, transmittance = 1;
             for (const PreparedEllipsoid& p : prepared.ellipsoids) {
                 const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
                 // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
@@ -161,7 +173,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const float tc = -glm::dot(o, dn);
                 const float h = std::sqrt(std::max(0.0f, 1.0f - glm::dot(o + tc * dn, o + tc * dn)));
                 const float tIn = (tc - h) / len, tOut = (tc + h) / len;
-                const float tShade = std::clamp(tc / len, std::max(tIn, tStart), tOut);
+                const float tShade = model::shadeDepth(o, du, tStart);
                 const Vec3 shadePoint = view.eye + double(tShade) * d;
                 const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
                 const float n = noiseVolume.sample(glm::vec3(uvw));
@@ -184,6 +196,15 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                     layers.push_back({tShade, alpha, c});
                     continue;
                 }
+                if (order == CompositeOrder::Weighted) {
+                    // As the GPU's weighted composite: w alpha in float, the sums in wide floats.
+                    const float wa =
+                        model::compositeWeight(model::matterDepth(o, du, tStart), weightReference, weightExponent) * alpha;
+                    weightedColor += Vec3(c) * double(wa);
+                    weightSum += wa;
+                    transmittance *= 1.0 - alpha;
+                    continue;
+                }
                 color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
                 alphaSum = alpha + alphaSum * (1.0 - alpha);
             }
@@ -191,6 +212,11 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
             for (const Layer& l : layers) {
                 color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
                 alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
+            }
+            if (weightSum > 0) {
+                const double a = 1.0 - transmittance;
+                color = weightedColor / weightSum * a + color * transmittance;
+                alphaSum = a;
             }
             for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(color[k]);
             image.at(x, y, 3) = float(alphaSum);

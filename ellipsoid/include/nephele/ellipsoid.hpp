@@ -15,8 +15,9 @@
 //      barrier) through a 4x4 colour matrix that copies red / D into alpha,
 //      reverse-subtractive, for all tiles in one draw: alpha = ((I - T1) - T2 (1 - g)) / D,
 //      eq. (2). By default the composite applies the same matrix as it reads the atlas.
-// Then every tile is composited at its screen place, back to front, over the frame, in one
-// instanced draw. Objects inside clouds: see FlyThrough.
+// Then every tile is composited at its screen place over the frame, in one instanced draw:
+// back to front by centre distance (the paper), or weighted and order-independent (see
+// EllipsoidSettings::order). Objects inside clouds: see FlyThrough.
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -66,6 +67,22 @@ struct EllipsoidSettings {
     bool falloffTexture = false;    // Mesh geometry: true reads F(b) from the paper's projective radial
                                     // texture; false evaluates the same F at the same projective
                                     // coordinates in closed form (cheaper on llvmpipe, no resampling)
+    // How the tiles are composited (nephele/gardner.hpp, CompositeOrder):
+    //   PerEllipsoid  the paper: whole tiles "over" the frame back to front by the distance of
+    //                 their ellipsoids' centres. When the eye flies through overlapping
+    //                 ellipsoids their centre distances cross and the whole view swaps which
+    //                 colour is on top at once: a pop.
+    //   Weighted      order-independent (McGuire & Bavoil 2013, weighted blended): per pixel
+    //                 sum(w a c) and sum(w a) added, prod(1 - a) multiplied in a frame-sized
+    //                 RGBA32F + R32F target, then one full-screen resolve puts colour
+    //                 sum(w a c) / sum(w a) with opacity 1 - prod(1 - a) "over" the frame;
+    //                 w = model::compositeWeight of the pixel's shading depth, continuous, so
+    //                 nothing can pop. The same opacity as back to front; the colour a weighted
+    //                 mean (renderGardnerExact with CompositeOrder::Weighted is its exact model).
+    //                 The stencil fly-through (the paper's per-ellipsoid stencil) stays back to front.
+    //   PerPixel      not available on the GPU (std::invalid_argument).
+    CompositeOrder order = CompositeOrder::PerEllipsoid;
+    float weightExponent = model::kWeightExponent;  // Weighted: k of w = (tRef / tShade)^k, model::compositeWeight
     NoiseSettings noise;
 };
 

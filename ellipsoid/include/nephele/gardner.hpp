@@ -10,6 +10,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/gardner_model.hpp"
 #include "nephele/image.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/projection.hpp"
@@ -54,6 +55,11 @@ struct PreparedClouds {
 
 // Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);
+// The weighted composite's reference depth tRef (m), one for the whole frame: the nearest
+// visible ellipsoid's centre distance minus its largest radius, at least the near plane, so
+// below every shading depth: the weights (tRef / tShade)^k are at most 1. Only ratios of
+// weights reach the image; tRef keeps them within float range (model::compositeWeight).
+double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
 // The per-cloud light volumes (size^3 voxels each); they depend on the clouds and the sun only.
 std::vector<CloudLight> makeCloudLights(const Scene& scene, int size);
 
@@ -90,10 +96,16 @@ Vec3 cloudAmbient(const Sky& sky);
 // compositor's tiles must (so the two agree, order flips included); PerPixel sorts each
 // pixel's contributions by the depth of their shading points, the order light actually
 // meets them, which does not flip as the eye moves: the reference for order-flip popping.
-// Opacity is the same either way ("over" of opacities commutes); only colour differs.
-enum class CompositeOrder { PerEllipsoid, PerPixel };
+// Weighted needs no order: the weighted, order-independent composite the GPU compositor can
+// use instead of back to front (see compositeWeight in shaders/gardner_model.glsl): colour =
+// the mean of the contributions' colours weighted by opacity times (tRef / tShade)^k,
+// opacity = 1 - prod(1 - alpha), put "over" the background once; continuous in the eye's
+// position, so it cannot pop. `weightExponent` is k (Weighted only).
+// Opacity is the same in every order ("over" of opacities commutes); only colour differs.
+enum class CompositeOrder { PerEllipsoid, PerPixel, Weighted };
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
-                         const NoiseSettings& noiseSettings, CompositeOrder order = CompositeOrder::PerEllipsoid);
+                         const NoiseSettings& noiseSettings, CompositeOrder order = CompositeOrder::PerEllipsoid,
+                         float weightExponent = model::kWeightExponent);
 
 // The physics: per pixel 1 - exp(-sum of the ellipsoids' optical depths) along the ray
 // (closed form per ellipsoid), up to the nearest opaque object. Grey image.
