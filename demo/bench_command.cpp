@@ -36,6 +36,7 @@ struct Random {
 struct Row {
     int count = 0;
     double ms = 0, baselineMs = 0, floorMs = 0, separateMs = 0;
+    double otherCompositeMs = 0;  // the defaults with the other composite order (see otherCompositeName)
     EllipsoidStats stats, baselineStats;
 };
 
@@ -74,6 +75,12 @@ Scene benchScene(int count, int width, int height) {
 }
 
 namespace {
+
+// The composite order that is not the default: the bench times it beside the defaults.
+CompositeOrder otherComposite() {
+    return EllipsoidSettings().order == CompositeOrder::Weighted ? CompositeOrder::PerEllipsoid : CompositeOrder::Weighted;
+}
+const char* otherCompositeName() { return otherComposite() == CompositeOrder::Weighted ? "weighted" : "back-to-front"; }
 
 struct Accuracy {
     std::string what;
@@ -158,11 +165,13 @@ int runBench(const BenchOptions& o) {
         // instanced: the defaults (batched, colour matrix fused into the composite); separate: batched
         // with the paper's own colour-matrix pass; baseline: the paper's pipeline, one draw per
         // ellipsoid and the separate colour-matrix pass.
-        EllipsoidSettings instancedSettings, baselineSettings, separateSettings;
+        EllipsoidSettings instancedSettings, baselineSettings, separateSettings, otherSettings;
         baselineSettings.instanced = false;
         baselineSettings.colourMatrixPass = true;
         separateSettings.colourMatrixPass = true;
-        EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings), separate(separateSettings);
+        otherSettings.order = otherComposite();
+        EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings), separate(separateSettings),
+            other(otherSettings);
         for (int count : o.counts) {
             const Scene scene = benchScene(count, o.width, o.height);
             const View view = makeView(scene.camera);
@@ -173,11 +182,13 @@ int runBench(const BenchOptions& o) {
                 {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
                  [&] { instanced.renderFloor(scene, view, target.framebuffer()); },
                  [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
-                 [&] { separate.render(scene, view, target.framebuffer(), false); }});
-            r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.separateMs = ms[3];
+                 [&] { separate.render(scene, view, target.framebuffer(), false); },
+                 [&] { other.render(scene, view, target.framebuffer(), false); }});
+            r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.separateMs = ms[3], r.otherCompositeMs = ms[4];
             std::cerr << "bench: " << count << " ellipsoids: " << fmt("%.1f", r.ms) << " ms, floor "
                       << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms, separate colour-matrix pass "
-                      << fmt("%.1f", r.separateMs) << " ms\n";
+                      << fmt("%.1f", r.separateMs) << " ms, " << otherCompositeName() << " composite "
+                      << fmt("%.1f", r.otherCompositeMs) << " ms\n";
             rows.push_back(r);
         }
         gl::setChecks(true);
@@ -193,12 +204,14 @@ int runBench(const BenchOptions& o) {
 
     std::ostringstream csv;
     csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,separate_pass_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,"
-           "baseline_draw_calls,passes,utilisation,tile_pixels,screen_pixels\n";
+           "baseline_draw_calls,passes,utilisation,tile_pixels,screen_pixels,"
+        << (otherComposite() == CompositeOrder::Weighted ? "weighted_composite_ms" : "back_to_front_composite_ms") << "\n";
     for (const Row& r : rows)
         csv << r.count << "," << r.stats.visible << "," << fmt("%.3f", r.ms) << "," << fmt("%.3f", r.floorMs) << ","
             << fmt("%.3f", r.baselineMs) << "," << fmt("%.3f", r.separateMs) << "," << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.baselineMs / r.ms)
             << "," << r.stats.drawCalls << "," << r.baselineStats.drawCalls << "," << r.stats.passes << ","
-            << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << "," << r.stats.screenPixels << "\n";
+            << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << "," << r.stats.screenPixels << ","
+            << fmt("%.3f", r.otherCompositeMs) << "\n";
 
     std::ostringstream md;
     md << "Measured by `nephele bench` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
@@ -209,12 +222,15 @@ int runBench(const BenchOptions& o) {
           "pass's tiles into one instanced draw and applies the colour matrix inside the composite; \"separate "
           "pass\" is the same with the paper's own colour-matrix copy pass (same image); the baseline is the "
           "paper's pipeline: one draw per ellipsoid (same shaders, a viewport and a draw per tile and per "
-          "composite) and the separate colour-matrix pass.\n\n";
-    md << "| ellipsoids | ms/frame | floor ms | baseline ms | separate pass ms | × floor | separate pass × floor | speed-up vs baseline "
-          "| draws | baseline draws | passes | atlas use |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          "composite) and the separate colour-matrix pass; \""
+       << otherCompositeName() << " composite\" is the defaults with the other composite order (`--composite`).\n\n";
+    md << "| ellipsoids | ms/frame | floor ms | baseline ms | separate pass ms | " << otherCompositeName()
+       << " composite ms | × floor | separate pass × floor | speed-up vs baseline "
+          "| draws | baseline draws | passes | atlas use |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
         md << "| " << r.count << " | " << fmt("%.1f", r.ms) << " | " << fmt("%.1f", r.floorMs) << " | "
-           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.1f", r.separateMs) << " | " << fmt("%.2f", r.ms / r.floorMs)
+           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.1f", r.separateMs) << " | " << fmt("%.1f", r.otherCompositeMs)
+           << " | " << fmt("%.2f", r.ms / r.floorMs)
            << " | " << fmt("%.2f", r.separateMs / r.floorMs) << " | "
            << fmt("%.1f", r.baselineMs / r.ms) << " | " << r.stats.drawCalls << " | " << r.baselineStats.drawCalls
            << " | " << r.stats.passes << " | " << fmt("%.0f%%", 100 * r.stats.utilisation) << " |\n";

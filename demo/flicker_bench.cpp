@@ -98,6 +98,14 @@ int runFlickerBench(const FlickerOptions& o) {
     add("gardner-exact", "reference", Method::GardnerExact,
         [](RenderOptions& r) { r.exactOrder = CompositeOrder::PerPixel; });
     add("ellipsoid", "default", Method::Ellipsoid, [](RenderOptions&) {});
+    // The other composite than the default: back to front by centre distance (the paper) or
+    // weighted, order-independent (see EllipsoidSettings::order).
+    if (EllipsoidSettings().order == CompositeOrder::Weighted)
+        add("ellipsoid", "back-to-front composite", Method::Ellipsoid,
+            [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::PerEllipsoid; });
+    else
+        add("ellipsoid", "weighted composite", Method::Ellipsoid,
+            [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::Weighted; });
     // The model itself, whole ellipsoids sorted by centre distance as the tiles must be: its
     // excess over the per-pixel reference is the popping of order flips alone.
     add("gardner-exact", "per-ellipsoid order", Method::GardnerExact, [](RenderOptions&) {});
@@ -162,7 +170,9 @@ int runFlickerBench(const FlickerOptions& o) {
           "their shading points (an order that cannot flip as the eye moves), not the path tracer: at affordable "
           "sample counts the path tracer's Monte Carlo noise changes every frame and would swamp the signal. "
           "`gardner-exact, per-ellipsoid order` is the same model with whole ellipsoids sorted back to front by "
-          "centre distance, as the compositor's tiles must be: its excess is the popping of order flips alone. Flicker index = the method's "
+          "centre distance, as the compositor's back-to-front tiles must be: its excess is the popping of order flips alone; "
+          "the compositor's other composite (`--composite`: back-to-front or weighted, order-independent) has a row of its "
+          "own. Flicker index = the method's "
           "mean change − the reference's; max excess = the largest single-frame (change − reference change), where a "
           "pop would show.\n\n"
           "| sequence | method | setting | frames | fps | mean change | flicker index | max excess (frame) |\n"
