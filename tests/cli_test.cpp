@@ -112,7 +112,8 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
              std::string("--min-tile 3"), std::string("--max-tile 0"), std::string("--min-tile 64 --max-tile 32"),
              std::string("--atlas 100"), std::string("--atlas 0x10"), std::string("--atlas 64x64x"),
              std::string("--precision f32"), std::string("--draws some"), std::string("--flythrough sideways"),
-             std::string("--colour-matrix maybe"), std::string("--density-alpha ") + path("out.png"),
+             std::string("--colour-matrix maybe"), std::string("--composite front-to-back"),
+             std::string("--exact-order random"), std::string("--density-alpha ") + path("out.png"),
              std::string("--pfm ") + path("missing-folder/x.pfm")}) {
         const CliRun r = run("render " + scene + out + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
