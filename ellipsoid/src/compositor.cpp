@@ -4,6 +4,7 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/fingerprint.hpp"
 #include "nephele/frame_depth.hpp"
+#include "nephele/light_cache.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/packer.hpp"
 
@@ -104,6 +105,7 @@ struct EllipsoidRenderer::Impl {
     Texture falloff, noise, light;
     Sampler linearClamp;
     std::uint64_t lightKeyValue = 0;
+    CloudLightCache lightCache;
     int lightClouds = 0;
     glm::ivec3 lightGrid{1, 1, 1};      // slots of the clouds' light volumes in the 3D texture
     Buffer tiles, lightBoxes, order;
@@ -323,7 +325,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     if (lightSize > 0) {
         const std::uint64_t key = lightKey(scene, lightSize);
         if (!m.light || key != m.lightKeyValue) {
-            const std::vector<CloudLight> lights = makeCloudLights(scene, lightSize);
+            // Clouds that only moved (wind, near-LOD cells) keep their volumes: see light_cache.hpp.
+            const std::vector<CloudLight> lights = m.lightCache.lights(scene, lightSize);
             m.lightClouds = int(lights.size());
             // The clouds' volumes side by side in one 3D texture: a grid of gx * gy * gz slots.
             GLint max3d = 0;
