@@ -21,8 +21,10 @@ def main():
     for key, label, style in [("ms", "compositor (instanced, colour matrix in the composite)", "o-"),
                               ("baseline_ms", "baseline: one draw per ellipsoid, separate colour-matrix pass", "s--"),
                               ("separate_pass_ms", "instanced, separate colour-matrix pass", "d-"),
+                              ("weighted_composite_ms", "instanced, weighted composite (--composite weighted)", "x-"),
                               ("floor_ms", "floor: pixel work alone", "^:")]:
-        ax.plot(n, [float(r[key]) for r in rows], style, label=label)
+        if key in rows[0]:  # older CSVs lack the later columns
+            ax.plot(n, [float(r[key]) for r in rows], style, label=label)
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xlabel("ellipsoids")
