@@ -81,8 +81,8 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     opaque_ = std::make_unique<OpaquePass>();
     if (o.method == Method::Raymarch) raymarch_ = std::make_unique<RaymarchRenderer>(o.raymarch);
     else if (o.method == Method::Layered) layered_ = std::make_unique<LayeredRenderer>(o.layered);
+    else if (o.method == Method::Auto) sky_ = std::make_unique<SkyRenderer>(SkySettings{o.layered, o.nearLod, o.ellipsoid});
     else clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
-    if (o.method == Method::Auto) validate(o.nearLod, o.layered);  // bad settings before any frame
 }
 
 FrameRenderer::~FrameRenderer() = default;
@@ -107,13 +107,9 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
             target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
         opaque_->draw(scene, view, target_->framebuffer());
         const bool objects = !scene.objects.empty();
-        if (options_.method == Method::Auto && !scene.layers.empty()) {
-            // The far field, then the near LOD's clouds and the explicit ones in one compositor call.
-            if (!layered_) layered_ = std::make_unique<LayeredRenderer>(options_.layered);
-            if (!nearLod_) nearLod_ = std::make_unique<NearLod>(options_.nearLod, options_.layered);
-            frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
-            const std::vector<Cloud> near = nearLod_->update(scene, view.eye, time, &frame.nearLod);
-            frame.stats = clouds_->render(withNearClouds(scene, near), view, target_->framebuffer(), objects);
+        if (sky_) {  // auto: the far field, then the near LOD's clouds and the explicit ones
+            const SkyStats st = sky_->render(scene, view, target_->framebuffer(), time, objects);
+            frame.layered = st.layered, frame.nearLod = st.nearLod, frame.stats = st.ellipsoids;
         } else if (layered_) frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
         else if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), objects);
         else frame.stats = clouds_->render(scene, view, target_->framebuffer(), objects);

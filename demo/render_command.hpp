@@ -4,6 +4,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/sky.hpp"
 #include "nephele/near_lod.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
@@ -75,7 +76,7 @@ private:
     std::unique_ptr<EllipsoidRenderer> clouds_;
     std::unique_ptr<RaymarchRenderer> raymarch_;
     std::unique_ptr<LayeredRenderer> layered_;
-    std::unique_ptr<NearLod> nearLod_;  // auto, made with layered_ at the first scene with layers
+    std::unique_ptr<SkyRenderer> sky_;  // auto
     NoiseVolume noise_;
 };
 

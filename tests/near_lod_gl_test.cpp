@@ -7,7 +7,9 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/near_lod.hpp"
+#include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/sky.hpp"
 
 #include <sys/wait.h>
 
@@ -18,6 +20,7 @@
 #include <numeric>
 
 using namespace nephele;
+using namespace nephele::gl;
 
 namespace {
 
@@ -51,27 +54,23 @@ Scene layerScene(const Vec3& eye, double pitchDeg, int width, int height) {
     return s;
 }
 
-// What FrameRenderer draws for --method auto (demo/render_command.cpp).
+// --method auto: the library's SkyRenderer (nephele/sky.hpp), which FrameRenderer draws with.
 struct Auto {
-    LayeredRenderer sky;
-    NearLod near;
-    EllipsoidRenderer clouds;
-    explicit Auto(const LayeredSettings& ls, const EllipsoidSettings& es = testEllipsoid()) : sky(ls), near({}, ls), clouds(es) {}
+    SkyRenderer sky;
+    explicit Auto(const LayeredSettings& ls, const EllipsoidSettings& es = testEllipsoid()) : sky(SkySettings{ls, {}, es}) {}
 
     struct Result {
         Image rgba;
         NearLodStats near;
         EllipsoidStats clouds;
+        LayeredStats layered;
     };
     Result render(const Scene& scene, double t = 0) {
         const View view = makeView(scene.camera);
         FrameTarget target(scene.camera.width, scene.camera.height);
         OpaquePass().draw(scene, view, target.framebuffer());
-        Result r;
-        sky.render(scene, view, target.framebuffer(), t);
-        const std::vector<Cloud> c = near.update(scene, view.eye, t, &r.near);
-        r.clouds = clouds.render(withNearClouds(scene, c), view, target.framebuffer(), !scene.objects.empty());
-        r.rgba = target.readColor();
+        const SkyStats st = sky.render(scene, view, target.framebuffer(), t, !scene.objects.empty());
+        Result r{target.readColor(), st.nearLod, st.ellipsoids, st.layered};
         return r;
     }
 };
@@ -235,3 +234,41 @@ TEST_F(NearLodGLTest, AutoWithoutLayersIsTheCompositor) {
     EXPECT_TRUE(a.pixels == e.pixels);
 }
 
+
+// SkyRenderer, what a host links for auto, restores the host's GL state like its parts.
+TEST_F(NearLodGLTest, SkyRendererLeavesHostStateUnchanged) {
+    const Scene scene = layerScene(Vec3(0, 0, 1000), 25, 96, 64);
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    SkyRenderer sky(SkySettings{testLayered(), {}, testEllipsoid()});
+    glEnable(GL_CULL_FACE);
+    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
+    glDepthFunc(GL_GEQUAL);
+    glActiveTexture(GL_TEXTURE4);
+    glViewport(3, 4, 50, 60);
+    for (int frame = 0; frame < 2; ++frame) {  // the first frame also makes the textures and cells
+        const GlStateSnapshot before = GlStateSnapshot::capture();
+        const SkyStats st = sky.render(scene, view, target.framebuffer(), frame, false);
+        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
+        EXPECT_EQ(st.layered.sceneLayers, 1);
+        EXPECT_GT(st.nearLod.clouds, 0);
+    }
+}
+
+// Without layers SkyRenderer is the compositor alone, pixel for pixel.
+TEST_F(NearLodGLTest, SkyRendererWithoutLayersIsTheCompositor) {
+    Scene scene = test::sharedScene("cumulus27.json", 96);
+    const View view = makeView(scene.camera);
+    auto draw = [&](auto&& render) {
+        FrameTarget target(scene.camera.width, scene.camera.height);
+        OpaquePass().draw(scene, view, target.framebuffer());
+        render(target.framebuffer());
+        return target.readColor();
+    };
+    SkyRenderer sky(SkySettings{testLayered(), {}, testEllipsoid()});
+    EllipsoidRenderer clouds(testEllipsoid());
+    const Image a = draw([&](GLuint fb) { EXPECT_EQ(sky.render(scene, view, fb, 0, false).layered.sceneLayers, 0); });
+    const Image b = draw([&](GLuint fb) { clouds.render(scene, view, fb, false); });
+    EXPECT_EQ(a.pixels, b.pixels);
+}
