@@ -81,6 +81,7 @@ std::vector<Config> sweep(bool quick) {
         ell("light volume 8", [](EllipsoidSettings& s) { s.lightVolume = 8; });
         ell("no self-shadowing", [](EllipsoidSettings& s) { s.lightVolume = 0; });
         ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
+        ell("weighted composite", [](EllipsoidSettings& s) { s.order = CompositeOrder::Weighted; });
         ray("step 10 m", [](RaymarchSettings& s) { s.step = 10; });
         ray("step 50 m", [](RaymarchSettings& s) { s.step = 50; });
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });

@@ -119,7 +119,7 @@ double weightReferenceDepth(const PreparedClouds& prepared, const View& view) {
         const double rMax = std::max({p.shape.radii.x, p.shape.radii.y, p.shape.radii.z});
         nearest = std::min(nearest, p.projection.distance - rMax);
     }
-    return std::max(nearest, view.camera.nearClip);
+    return std::max({nearest, view.camera.nearClip, double(model::kWeightNearDepth)});
 }
 
 std::vector<CloudLight> makeCloudLights(const Scene& scene, int size) {

@@ -56,9 +56,10 @@ struct PreparedClouds {
 // Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);
 // The weighted composite's reference depth tRef (m), one for the whole frame: the nearest
-// visible ellipsoid's centre distance minus its largest radius, at least the near plane, so
-// below every shading depth: the weights (tRef / tShade)^k are at most 1. Only ratios of
-// weights reach the image; tRef keeps them within float range (model::compositeWeight).
+// visible ellipsoid's centre distance minus its largest radius, at least the near plane and
+// model::kWeightNearDepth (matter nearer than that weighs alike). The weights
+// (tRef / max(tShade, tRef))^k are at most 1; only their ratios reach the image; tRef keeps
+// them within float range (model::compositeWeight).
 double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
 // The per-cloud light volumes (size^3 voxels each); they depend on the clouds and the sun only.
 std::vector<CloudLight> makeCloudLights(const Scene& scene, int size);
