@@ -13,6 +13,7 @@
 #include "nephele/gl.hpp"
 #include "nephele/ellipsoid.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/sky.hpp"
 #include "nephele/near_lod.hpp"
 #include "nephele/opaque.hpp"
 
@@ -67,12 +68,13 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
     Scene scene = loadScene(o.scenesDir + "/near_and_far.json");
     scene.camera.width = o.width, scene.camera.height = o.height;
     const View view = makeView(scene.camera);
-    LayeredSettings ls;
-    ls.nearRadius = kAutoNearRadius, ls.blendBand = kAutoBlendBand;
+    // auto's settings (nephele/sky.hpp): the hand-off radii, the billboard disc beyond the
+    // band, the weighted composite.
+    LayeredSettings ls = autoLayeredSettings();
     ls.cacheDir = o.cacheDir;
     LayeredRenderer far(ls);
     NearLod nearLod(NearLodSettings{}, ls);
-    EllipsoidRenderer near;
+    EllipsoidRenderer near(autoEllipsoidSettings());
     const bool objects = !scene.objects.empty();
     const double t = 0;
     AutoSplit a;

@@ -37,7 +37,7 @@ struct SceneArgs {
     std::string tileGeometry = "mesh", exactOrder = "ellipsoid";
     std::string composite = EllipsoidSettings().order == CompositeOrder::Weighted ? "weighted" : "back-to-front";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
-    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr;
+    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr, *compositeOpt = nullptr;
     RaymarchSettings raymarch;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
@@ -67,11 +67,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
         ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
-    cmd->add_option("--composite", a.composite,
+    a.compositeOpt = cmd->add_option("--composite", a.composite,
                     "back-to-front (the paper: whole tiles by centre distance; pops when the order flips) or weighted "
-                    "(order-independent, weighted by each pixel's depth)")
-        ->check(CLI::IsMember({"back-to-front", "weighted"}))
-        ->capture_default_str();
+                    "(order-independent, weighted by each pixel's depth); default back-to-front, auto weighted")
+        ->check(CLI::IsMember({"back-to-front", "weighted"}));
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
         ->capture_default_str();
@@ -145,6 +144,8 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.geometry = a.tileGeometry == "polygon" ? TileGeometry::Polygon : TileGeometry::Mesh;
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
     es.order = a.composite == "weighted" ? CompositeOrder::Weighted : CompositeOrder::PerEllipsoid;
+    // auto flies the eye through the near LOD's overlapping cumulus: no order flips there.
+    if (ro.method == Method::Auto && !a.compositeOpt->count()) es.order = CompositeOrder::Weighted;
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted
                                                  : CompositeOrder::PerEllipsoid;

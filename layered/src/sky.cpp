@@ -9,6 +9,11 @@ LayeredSettings autoLayeredSettings(LayeredSettings base) {
     return base;
 }
 
+EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
+    base.order = CompositeOrder::Weighted;
+    return base;
+}
+
 SkyRenderer::SkyRenderer(SkySettings settings) : settings_(std::move(settings)), clouds_(settings_.ellipsoid) {
     validate(settings_.layered);
     validate(settings_.nearLod, settings_.layered);

@@ -17,10 +17,15 @@ namespace nephele {
 // they are 0, and the billboard disc reaching kAutoLod0Margin beyond the band.
 LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 
+// The compositor's settings for auto: the weighted, order-independent composite, since the
+// eye flies through overlapping near cumulus, where back to front pops as the order flips
+// (see the README, "Composite order").
+EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base = {});
+
 struct SkySettings {
     LayeredSettings layered = autoLayeredSettings();
     NearLodSettings nearLod;
-    EllipsoidSettings ellipsoid;
+    EllipsoidSettings ellipsoid = autoEllipsoidSettings();
 };
 
 struct SkyStats {
