@@ -104,7 +104,7 @@ int runFlickerBench(const FlickerOptions& o) {
         add("ellipsoid", "back-to-front composite", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::PerEllipsoid; });
     else
-        add("ellipsoid", "weighted composite", Method::Ellipsoid,
+        add("ellipsoid", "weighted composite (as --method auto)", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::Weighted; });
     // The model itself, whole ellipsoids sorted by centre distance as the tiles must be: its
     // excess over the per-pixel reference is the popping of order flips alone.
