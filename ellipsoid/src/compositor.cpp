@@ -538,6 +538,17 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     glBlendEquation(GL_FUNC_ADD);
     if (weighted) {
         m.weightedTarget(frameW, frameH);
+        // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
+        // the frame-sized clear and resolve were most of the weighted composite's cost.
+        float lo[2] = {1, 1}, hi[2] = {-1, -1};
+        for (const GpuTile& t : gpu)
+            for (int k = 0; k < 2; ++k) lo[k] = std::min(lo[k], t.screenRect[k]), hi[k] = std::max(hi[k], t.screenRect[k + 2]);
+        const int x0 = std::clamp(int(std::floor((lo[0] * 0.5f + 0.5f) * frameW)) - 1, 0, frameW);
+        const int y0 = std::clamp(int(std::floor((lo[1] * 0.5f + 0.5f) * frameH)) - 1, 0, frameH);
+        const int x1 = std::clamp(int(std::ceil((hi[0] * 0.5f + 0.5f) * frameW)) + 1, 0, frameW);
+        const int y1 = std::clamp(int(std::ceil((hi[1] * 0.5f + 0.5f) * frameH)) + 1, 0, frameH);
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(x0, y0, std::max(x1 - x0, 0), std::max(y1 - y0, 0));
         glBindFramebuffer(GL_FRAMEBUFFER, m.weightedFbo.id());
         const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
         glClearNamedFramebufferfv(m.weightedFbo.id(), GL_COLOR, 0, zero);
