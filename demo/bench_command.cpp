@@ -141,16 +141,7 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
 }  // namespace
 
 int runBench(const BenchOptions& o) {
-    std::error_code ec;
-    fs::create_directories(o.outDir, ec);
-    if (!fs::is_directory(o.outDir)) {
-        std::cerr << "nephele: bench: cannot create the output folder '" << o.outDir << "'\n";
-        return 2;
-    }
-    if (!o.readme.empty() && !fs::is_regular_file(o.readme)) {
-        std::cerr << "nephele: bench: --readme '" << o.readme << "' is not a file\n";
-        return 2;
-    }
+    if (!prepareBenchOutputs(o.outDir, o.readme)) return 2;
     std::vector<Row> rows;
     std::vector<Accuracy> accuracy;
     std::string renderer;

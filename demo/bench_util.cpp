@@ -9,10 +9,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+namespace fs = std::filesystem;
 
 namespace nephele::cli {
 
@@ -76,13 +80,52 @@ std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass
     return out;
 }
 
-void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown) {
-    std::ifstream in(readme);
-    if (!in) throw std::runtime_error("cannot read '" + readme + "'");
+namespace {
+
+std::string beginMarker(const std::string& tag) { return "<!-- BEGIN GENERATED: " + tag + " -->"; }
+std::string endMarker(const std::string& tag) { return "<!-- END GENERATED: " + tag + " -->"; }
+
+std::string readText(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error("cannot read '" + path + "'");
     std::stringstream text;
     text << in.rdbuf();
-    std::string s = text.str();
-    const std::string begin = "<!-- BEGIN GENERATED: " + tag + " -->", end = "<!-- END GENERATED: " + tag + " -->";
+    return text.str();
+}
+
+}  // namespace
+
+bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, const std::string& tag) {
+    std::error_code ec;
+    fs::create_directories(outDir, ec);
+    if (!fs::is_directory(outDir)) {
+        std::cerr << "nephele: bench: cannot create the output folder '" << outDir << "'\n";
+        return false;
+    }
+    if (readme.empty()) return true;
+    if (!fs::is_regular_file(readme)) {
+        std::cerr << "nephele: bench: --readme '" << readme << "' is not a file\n";
+        return false;
+    }
+    if (tag.empty()) return true;
+    std::string text;
+    try {
+        text = readText(readme);
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: bench: " << e.what() << "\n";
+        return false;
+    }
+    if (text.find(beginMarker(tag)) == std::string::npos || text.find(endMarker(tag)) == std::string::npos) {
+        std::cerr << "nephele: bench: --readme '" << readme << "' has no '" << beginMarker(tag) << "' ... '"
+                  << endMarker(tag) << "' lines to replace; add them where the table should go\n";
+        return false;
+    }
+    return true;
+}
+
+void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown) {
+    std::string s = readText(readme);
+    const std::string begin = beginMarker(tag), end = endMarker(tag);
     const auto b = s.find(begin), e = s.find(end);
     if (b == std::string::npos || e == std::string::npos || e < b)
         throw std::runtime_error(readme + " has no '" + begin + "' ... '" + end + "' section");
@@ -93,8 +136,10 @@ void replaceGeneratedSection(const std::string& readme, const std::string& tag, 
 }
 
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args) {
-    std::string cmd = "/usr/bin/python3 " + shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/demo/" + scriptName);
-    for (const std::string& a : args) cmd += " " + shellQuote(a);
+    // Appended piece by piece: "literal " + string trips a GCC 12 -Wrestrict false positive.
+    std::string cmd = "/usr/bin/python3 ";
+    cmd += shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/demo/" + scriptName);
+    for (const std::string& a : args) cmd += ' ', cmd += shellQuote(a);
     if (std::system(cmd.c_str()) != 0)
         throw std::runtime_error("the chart (" + scriptName +
                                  ") failed: it needs /usr/bin/python3 with python3-matplotlib (./setup.sh installs it)");

@@ -29,6 +29,11 @@ std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass
 // missing when the markers are not there.
 void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown);
 
+// Before a bench runs: creates `outDir` and checks that `readme`, when given, is a file and,
+// when `tag` is given too, that it holds the "<!-- BEGIN/END GENERATED: TAG -->" lines, so
+// that bad arguments fail before the long run. Prints what is wrong and returns false.
+bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, const std::string& tag = "");
+
 // Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib). Throws with a
 // message naming the package when it fails.
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args);

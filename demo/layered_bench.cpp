@@ -98,27 +98,8 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
 }  // namespace
 
 int runLayeredBench(const LayeredBenchOptions& o) {
-    std::error_code ec;
-    fs::create_directories(o.outDir, ec);
-    if (!fs::is_directory(o.outDir)) {
-        std::cerr << "nephele: bench: cannot create the output folder '" << o.outDir << "'\n";
-        return 2;
-    }
-    if (!o.readme.empty() && !fs::is_regular_file(o.readme)) {
-        std::cerr << "nephele: bench: --readme '" << o.readme << "' is not a file\n";
-        return 2;
-    }
-    if (!o.readme.empty()) {  // before the long run: fail now if the section cannot be written
-        std::ifstream in(o.readme);
-        std::stringstream text;
-        text << in.rdbuf();
-        const std::string begin = "<!-- BEGIN GENERATED: layered bench -->", end = "<!-- END GENERATED: layered bench -->";
-        if (text.str().find(begin) == std::string::npos || text.str().find(end) == std::string::npos) {
-            std::cerr << "nephele: bench: --readme '" << o.readme << "' has no '" << begin << "' ... '" << end
-                      << "' lines to replace; add them where the table should go\n";
-            return 2;
-        }
-    }
+    // The README section is checked before the long run: fail now if it cannot be written.
+    if (!prepareBenchOutputs(o.outDir, o.readme, "layered bench")) return 2;
     if (o.extents.empty() || o.counts.empty()) {
         std::cerr << "nephele: bench: --extents and --counts need at least one value each\n";
         return 2;
