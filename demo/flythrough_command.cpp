@@ -1,5 +1,7 @@
 #include "flythrough_command.hpp"
 
+#include "nephele/metrics.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <unistd.h>
@@ -17,14 +19,7 @@ namespace nephele::cli {
 
 std::vector<double> frameChanges(const std::vector<Image>& frames) {
     std::vector<double> out;
-    for (std::size_t k = 1; k < frames.size(); ++k) {
-        const Image& a = frames[k - 1];
-        const Image& b = frames[k];
-        double frame = 0;
-        for (std::size_t i = 0; i < a.pixels.size(); ++i)
-            frame += std::fabs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
-        out.push_back(frame / double(a.pixels.size()));
-    }
+    for (std::size_t k = 1; k < frames.size(); ++k) out.push_back(meanClampedDifference(frames[k - 1], frames[k]));
     return out;
 }
 

@@ -27,14 +27,6 @@ Image clamped(Image image) {
     return image;
 }
 
-// Mean |a - b| over every channel of two same-sized images (clamped to [0, 1]).
-double meanChange(const Image& a, const Image& b) {
-    double s = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i)
-        s += std::fabs(std::clamp(a.pixels[i], 0.f, 1.f) - std::clamp(b.pixels[i], 0.f, 1.f));
-    return s / double(a.pixels.size());
-}
-
 void save(const std::string& name, const Image& rgba) {
     writePng(test::outputDir() + "/" + name + ".png", channels(clamped(rgba), 0, 3));
 }
@@ -88,7 +80,7 @@ TEST_F(FailureCaseGLTest, TileSizeJumpOnApproachDoesNotPop) {
         tiles.insert(int(st.tilePixels));  // one ellipsoid: its tile's area
         const Image gpu = target.readColor(), exact = renderGardnerExact(s, view, noise, ns);
         if (k > 0) {
-            const double cg = meanChange(gpu, prevGpu), ce = meanChange(exact, prevExact);
+            const double cg = meanClampedDifference(gpu, prevGpu), ce = meanClampedDifference(exact, prevExact);
             // Relative to what may change: 10% of the exact change plus 1e-4 for the bilinear
             // resampling of a small tile moving by a fraction of a pixel.
             worst = std::max(worst, std::fabs(cg - ce) / (0.1 * ce + 1e-4));
@@ -179,8 +171,8 @@ TEST_F(FailureCaseGLTest, RaymarchGrowingStepOnApproachDoesNotPop) {
         const View view = makeView(s.camera);
         const Image alpha = alphaOf(marcher, view), ref = alphaOf(reference, view);
         if (k > 0) {
-            worst = std::max(worst, std::fabs(meanChange(alpha, prevGpu) - meanChange(ref, prevRef)));
-            meanRefChange += meanChange(ref, prevRef) / steps;
+            worst = std::max(worst, std::fabs(meanClampedDifference(alpha, prevGpu) - meanClampedDifference(ref, prevRef)));
+            meanRefChange += meanClampedDifference(ref, prevRef) / steps;
         }
         prevGpu = alpha;
         prevRef = ref;
@@ -227,7 +219,7 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
                                  renderGardnerExact(s, view, noise, ns, CompositeOrder::PerPixel)};
         for (int m = 0; m < 3; ++m) {
             if (k > 0) {
-                const double change = meanChange(frames[m], prev[m]);
+                const double change = meanClampedDifference(frames[m], prev[m]);
                 if (change > worst[m]) worst[m] = change, worstFrame[m] = k;
             }
             prev[m] = frames[m];

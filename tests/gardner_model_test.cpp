@@ -208,6 +208,20 @@ TEST(RaymarchModelTest, EnvironmentTermKeepsTheFurnaceAndLeansToTheNearerSide) {
     EXPECT_NEAR(rmodel::rmSkyWeight(2.0f, 2.0f), 0.5f, 1e-6f);
 }
 
+namespace {
+
+// Mean |a - b| over channels [c0, c0 + n) of two same-sized images, unclamped (the exact
+// model's radiance).
+double meanDifference(const Image& a, const Image& b, int c0, int n) {
+    double sum = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = c0; c < c0 + n; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
+    return sum / (double(a.width) * a.height * n);
+}
+
+}  // namespace
+
 // Failure case: the eye flies through two overlapping ellipsoids (flythrough.json, t = 8.25 s
 // -> 8.5 s). Both cover the whole view; their centre distances cross between the two frames,
 // so whole-ellipsoid back-to-front order (what tiles must use) swaps which colour lies on
@@ -225,18 +239,11 @@ TEST(GardnerExactTest, OrderFlipOfOverlappingEllipsoidsPopsOnlyInPerEllipsoidOrd
         c.height = s.camera.height;
         return renderGardnerExact(s, makeView(c), noise, ns, order);
     };
-    auto change = [](const Image& a, const Image& b, int c0, int n) {
-        double sum = 0;
-        for (int y = 0; y < a.height; ++y)
-            for (int x = 0; x < a.width; ++x)
-                for (int c = c0; c < c0 + n; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
-        return sum / (double(a.width) * a.height * n);
-    };
     const Image e0 = frame(8.25, CompositeOrder::PerEllipsoid), e1 = frame(8.5, CompositeOrder::PerEllipsoid);
     const Image p0 = frame(8.25, CompositeOrder::PerPixel), p1 = frame(8.5, CompositeOrder::PerPixel);
-    EXPECT_LT(change(e0, p0, 3, 1), 1e-6);  // same opacity
-    EXPECT_LT(change(e1, p1, 3, 1), 1e-6);
-    const double popping = change(e0, e1, 0, 3), smooth = change(p0, p1, 0, 3);
+    EXPECT_LT(meanDifference(e0, p0, 3, 1), 1e-6);  // same opacity
+    EXPECT_LT(meanDifference(e1, p1, 3, 1), 1e-6);
+    const double popping = meanDifference(e0, e1, 0, 3), smooth = meanDifference(p0, p1, 0, 3);
     std::cout << "frame change: per-ellipsoid order " << popping << ", per-pixel order " << smooth << "\n";
     // Measured 0.048 against 0.018 (160 px wide): the flip more than doubles the change.
     EXPECT_GT(popping, 2 * smooth);
@@ -279,21 +286,14 @@ TEST(GardnerExactTest, WeightedOrderKeepsOpacityAndDoesNotPop) {
         c.height = 48;
         return renderGardnerExact(scene, makeView(c), noise, ns, order);
     };
-    auto change = [](const Image& a, const Image& b, int c0, int n) {
-        double sum = 0;
-        for (int y = 0; y < a.height; ++y)
-            for (int x = 0; x < a.width; ++x)
-                for (int c = c0; c < c0 + n; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
-        return sum / (double(a.width) * a.height * n);
-    };
     Scene one = loadScene(std::string(NEPHELE_SCENES) + "/single.json");
-    EXPECT_LT(change(frame(one, -1, CompositeOrder::Weighted), frame(one, -1, CompositeOrder::PerEllipsoid), 0, 4), 1e-6);
+    EXPECT_LT(meanDifference(frame(one, -1, CompositeOrder::Weighted), frame(one, -1, CompositeOrder::PerEllipsoid), 0, 4), 1e-6);
     const Image w0 = frame(s, 8.25, CompositeOrder::Weighted), w1 = frame(s, 8.5, CompositeOrder::Weighted);
     const Image e0 = frame(s, 8.25, CompositeOrder::PerEllipsoid), e1 = frame(s, 8.5, CompositeOrder::PerEllipsoid);
     const Image p0 = frame(s, 8.25, CompositeOrder::PerPixel), p1 = frame(s, 8.5, CompositeOrder::PerPixel);
-    EXPECT_LT(change(w0, e0, 3, 1), 1e-6);  // same opacity
-    EXPECT_LT(change(w1, e1, 3, 1), 1e-6);
-    const double weighted = change(w0, w1, 0, 3), popping = change(e0, e1, 0, 3), smooth = change(p0, p1, 0, 3);
+    EXPECT_LT(meanDifference(w0, e0, 3, 1), 1e-6);  // same opacity
+    EXPECT_LT(meanDifference(w1, e1, 3, 1), 1e-6);
+    const double weighted = meanDifference(w0, w1, 0, 3), popping = meanDifference(e0, e1, 0, 3), smooth = meanDifference(p0, p1, 0, 3);
     std::cout << "frame change: weighted " << weighted << ", per-ellipsoid " << popping << ", per-pixel " << smooth << "\n";
     // Measured (64 x 48): weighted 0.0195, per-pixel 0.024, per-ellipsoid 0.060: the weighted
     // change is about the per-pixel order's, the flip's three times as much.

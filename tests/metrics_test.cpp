@@ -173,3 +173,12 @@ TEST(MetricsTest, MismatchesThrow) {
 }
 
 }  // namespace
+
+TEST(MetricsTest, MeanClampedDifferenceClampsEachValueFirst) {
+    Image a(2, 1, 1), b(2, 1, 1);
+    a.pixels = {0.25f, 3.0f};   // 3 counts as 1
+    b.pixels = {0.75f, -1.0f};  // -1 counts as 0
+    EXPECT_DOUBLE_EQ(meanClampedDifference(a, b), (0.5 + 1.0) / 2);
+    EXPECT_DOUBLE_EQ(meanClampedDifference(a, a), 0.0);
+    EXPECT_THROW(meanClampedDifference(a, Image(1, 2, 1)), ImageError);
+}

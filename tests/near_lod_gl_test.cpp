@@ -6,6 +6,7 @@
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/metrics.hpp"
 #include "nephele/near_lod.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
@@ -75,16 +76,8 @@ struct Auto {
     }
 };
 
-// Mean |difference| of linear RGB clamped to [0, 1] (the fly-through's frame change).
-double meanChange(const Image& a, const Image& b) {
-    double sum = 0;
-    int n = 0;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < 3; ++c, ++n)
-                sum += std::abs(std::clamp(a.at(x, y, c), 0.0f, 1.0f) - std::clamp(b.at(x, y, c), 0.0f, 1.0f));
-    return sum / n;
-}
+// The fly-through's frame change: mean |difference| of linear RGB clamped to [0, 1].
+double meanChange(const Image& a, const Image& b) { return meanClampedDifference(channels(a, 0, 3), channels(b, 0, 3)); }
 
 class NearLodGLTest : public ::testing::Test {
 protected:

@@ -140,6 +140,15 @@ RenderComparison compareRenders(const Image& a, const Image& b, const Image* alp
     return c;
 }
 
+double meanClampedDifference(const Image& a, const Image& b) {
+    if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+        throw ImageError("meanClampedDifference: " + sizeOf(a) + " against " + sizeOf(b));
+    double sum = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i)
+        sum += std::fabs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
+    return a.pixels.empty() ? 0 : sum / double(a.pixels.size());
+}
+
 std::string toJson(const RenderComparison& c) {
     std::string s = "{";
     appendNumber(s, "exposure", c.exposure);

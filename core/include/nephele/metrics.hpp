@@ -29,6 +29,11 @@ RenderComparison compareRenders(const Image& a, const Image& b, const Image* alp
 // side shorter than 11 pixels shrinks the window to that side (weights renormalised).
 double ssimLuminance(const Image& a, const Image& b);
 
+// Mean |a - b| over every value of two images of the same size and channels, each value
+// clamped to [0, 1] first: the frame-to-frame change of fly-throughs and the flicker bench.
+// Throws ImageError on a size or channel mismatch.
+double meanClampedDifference(const Image& a, const Image& b);
+
 // One line of JSON: {"exposure":..,"rmse":..,"psnr":..,"ssim":..} plus "alpha_mae" and
 // "alpha_iou" when hasAlpha. Numbers are shortest round-trip decimals. JSON has no infinity:
 // a non-finite value is written as null, so "psnr":null means the images match exactly.
