@@ -58,11 +58,7 @@ void save(const std::string& name, const Image& rgba) {
     writePng(test::outputDir() + "/" + name + ".png", channels(rgba, 0, 3));
 }
 
-class EllipsoidGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class EllipsoidGLTest : public test::EglTest {};
 
 // The tiled GPU path against the exact CPU evaluation of the same model. What separates
 // them: each ellipsoid resampled from its power-of-two tile onto its screen rectangle

@@ -50,11 +50,7 @@ Scene oneEllipsoid(Vec3 radii) {
     return s;
 }
 
-class FailureCaseGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class FailureCaseGLTest : public test::EglTest {};
 
 }  // namespace
 

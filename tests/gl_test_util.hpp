@@ -39,6 +39,13 @@ inline std::unique_ptr<Context> makeContext(GlBackend backend) {
     return ctx;
 }
 
+// A test fixture with a headless EGL context per test (checks on).
+class EglTest : public ::testing::Test {
+protected:
+    void SetUp() override { ctx_ = makeContext(GlBackend::Egl); }
+    std::unique_ptr<Context> ctx_;
+};
+
 // A host's window: draws the scene's sky and objects, then `clouds(view, 0)`, into the
 // default framebuffer of a hidden GLFW window the camera's size (needs a DISPLAY: the suite
 // runs under xvfb-run) and reads it back as RGBA, top row first.

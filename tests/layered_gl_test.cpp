@@ -160,11 +160,7 @@ Gaps measureGaps(const Scene& scene, const Result& r, const Image& volume, const
     return g;
 }
 
-class LayeredGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class LayeredGLTest : public test::EglTest {};
 
 }  // namespace
 

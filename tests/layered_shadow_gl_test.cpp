@@ -67,11 +67,7 @@ Shadowed renderShadowed(const Scene& scene, const LayeredSettings& settings) {
     return r;
 }
 
-class LayeredShadowGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class LayeredShadowGLTest : public test::EglTest {};
 
 }  // namespace
 

@@ -79,11 +79,7 @@ struct Auto {
 // The fly-through's frame change: mean |difference| of linear RGB clamped to [0, 1].
 double meanChange(const Image& a, const Image& b) { return meanClampedDifference(channels(a, 0, 3), channels(b, 0, 3)); }
 
-class NearLodGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class NearLodGLTest : public test::EglTest {};
 
 }  // namespace
 

@@ -68,11 +68,7 @@ void save(const std::string& name, const Image& image) {
              image.channels == 1 ? Encoding::Linear : Encoding::Srgb);
 }
 
-class RaymarchGLTest : public ::testing::Test {
-protected:
-    void SetUp() override { ctx_ = test::makeContext(GlBackend::Egl); }
-    std::unique_ptr<Context> ctx_;
-};
+class RaymarchGLTest : public test::EglTest {};
 
 // With medium.noise = 0 the marcher integrates exactly the format's density field, so its
 // opacity must follow 1 - exp(-tau) of the closed form, and get closer as the step shrinks
