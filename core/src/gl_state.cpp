@@ -225,4 +225,17 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     return out.str();
 }
 
+void resetPassState() {
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    for (int c = 0; c < 8; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_FALSE);
+}
+
 }  // namespace nephele

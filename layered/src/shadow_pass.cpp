@@ -1,5 +1,7 @@
 #include "shadow_pass.hpp"
 
+#include "nephele/gl_state.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -63,16 +65,8 @@ int ShadowPass::draw(const Scene& scene, const View& view, GLuint framebuffer, G
     glBindSampler(0, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, view.camera.width, view.camera.height);
-    glDisable(GL_SCISSOR_TEST);
+    resetPassState();
     glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_CULL_FACE);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    glDisable(GL_RASTERIZER_DISCARD);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    for (int c = 0; c < 8; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFuncSeparate(GL_ZERO, GL_SRC_COLOR, GL_ZERO, GL_ONE);  // rgb *= S, alpha kept

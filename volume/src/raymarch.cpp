@@ -233,15 +233,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
 
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, width, height);
-    glDisable(GL_SCISSOR_TEST);
+    resetPassState();
     glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_CULL_FACE);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    glDisable(GL_RASTERIZER_DISCARD);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     // The shader writes premultiplied (radiance, 1 - T): colour' = radiance + T colour,
     // alpha' = (1 - T) + T alpha.
     glEnable(GL_BLEND);

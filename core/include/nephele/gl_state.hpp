@@ -59,6 +59,12 @@ struct GlStateSnapshot {
     std::string differences(const GlStateSnapshot& other) const;
 };
 
+// The fixed-function state a Nephele pass starts from, whatever the host left (call it inside
+// a GlStateGuard): no scissor, stencil, face culling, sRGB conversion, rasterizer discard,
+// polygon offset or clip distances; filled polygons; every colour channel written; no depth
+// writes. The depth test and blending are each pass's own to set.
+void resetPassState();
+
 // Captures on construction, restores on destruction (also when an exception unwinds).
 class GlStateGuard {
 public:
