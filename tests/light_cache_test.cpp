@@ -14,7 +14,7 @@ Scene twoClouds() {
     Scene s;
     for (int c = 0; c < 2; ++c) {
         Cloud cloud;
-        cloud.name = c == 0 ? "a" : "b";
+        cloud.name = std::string(1, char('a' + c));  // "a", "b" (a ternary of literals trips GCC 12 -Wrestrict)
         for (int k = 0; k < 3; ++k) {
             Ellipsoid e;
             e.center = Vec3(1000.0 * c + 120.0 * k, 300.0 * c, 1500 + 40.0 * k);

@@ -38,7 +38,9 @@ int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& vi
     p.set("shadowSun", glm::vec3(scene.sun.direction));
     p.set("shadowInvModPeriod", float(1 / ms.period));
     for (int k = 0; k < kLayersPerPass; ++k) {
-        const std::string i = "[" + std::to_string(k) + "]";
+        std::string i = "[";  // appended: "[" + to_string(k) trips a GCC 12 -Wrestrict false positive
+        i += std::to_string(k);
+        i += ']';
         p.set(("shadowModulation" + i).c_str(), kFirstUnit + k);
         glBindSampler(kFirstUnit + k, 0);
         if (k >= count) continue;
