@@ -42,7 +42,6 @@ int runFlythrough(const FlythroughOptions& o) {
         if (!fs::is_directory(parent)) throw UsageError("--out-dir: folder '" + parent.string() + "' does not exist");
         scene = loadScene(o.render.scene);
         applySize(scene, o.render);
-        checkRenderable(scene, o.render);
         if (scene.path.size() < 2)
             throw UsageError(o.render.scene + ": path: a fly-through needs a `path` of at least two keyframes");
         if (!o.referenceDir.empty()) {

@@ -64,10 +64,6 @@ int reportError(const std::exception& e, const std::string& doing) {
     return badInput ? 2 : 1;
 }
 
-void checkRenderable(const Scene& /*scene*/, const RenderOptions& /*o*/) {
-    // Every method renders every scene now (--method layered draws its layers; see renderFrame).
-}
-
 FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     if (o.method == Method::GardnerExact || o.method == Method::Pathtrace) {  // CPU: no GL context
         const NoiseSettings& ns = o.ellipsoid.noise;
@@ -122,7 +118,6 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
 }
 
 Frame renderFrame(const Scene& scene, const RenderOptions& o) {
-    checkRenderable(scene, o);
     if (o.method == Method::Layered) {
         std::size_t clouds = 0;
         for (const Cloud& c : scene.clouds) clouds += c.ellipsoids.empty() ? 0 : 1;

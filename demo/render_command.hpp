@@ -80,9 +80,6 @@ private:
     NoiseVolume noise_;
 };
 
-// UsageError when the method or the scene needs what this build cannot render yet.
-void checkRenderable(const Scene& scene, const RenderOptions& options);
-
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).
 void applySize(Scene& scene, const RenderOptions& options);
 // Renders the scene at options.time with options.method. Throws UsageError for what this
