@@ -57,6 +57,30 @@ struct ProgramPair {
     }
 };
 
+// One scene layer's geometry with program `p` (its uniforms for the layer set): the N annuli
+// (LOD1) in one instanced draw, then the billboards (LOD0, eq. 13) in another.
+template <class P>
+void drawLayerGeometry(const P& p, const IndexedMesh& annulus, const IndexedMesh& quad, const LayeredSettings& s,
+                       const Layer& layer, int n, LayeredStats& stats) {
+    p.set("mode", 0);
+    p.set("annulusRadius", float(layer.extent));
+    glBindVertexArray(annulus.vao.id());
+    glDrawElementsInstanced(GL_TRIANGLES, annulus.indexCount, GL_UNSIGNED_INT, nullptr, n);
+    ++stats.drawCalls;
+    stats.instances += n;
+    if (s.lod0Radius <= 0) return;
+    p.set("mode", 1);
+    const int slices = std::max(1, int(std::floor(s.lod0Radius / s.lod0Spacing)));
+    const double hp = std::max(layer.thickness / (n - 1), s.lod0Spacing);  // H_p, eq. (13)
+    const int pieces = std::max(1, int(std::lround(layer.thickness / hp)));
+    p.set("slices", slices);
+    p.set("pieces", pieces);
+    glBindVertexArray(quad.vao.id());
+    glDrawElementsInstanced(GL_TRIANGLES, quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
+    ++stats.drawCalls;
+    stats.instances += slices * pieces;
+}
+
 // An annulus of radius 1 around the origin: rings at r = (j / rings)^2, so that the triangles
 // are small near the eye, where perspective makes them large on screen.
 IndexedMesh makeAnnulus(int segments) {
@@ -281,24 +305,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
 
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
         // it the two share the volume's optical depth and their order changes colour only.
-        p.set("mode", 0);
-        p.set("annulusRadius", float(layer.extent));
-        glBindVertexArray(m.annulus.vao.id());
-        glDrawElementsInstanced(GL_TRIANGLES, m.annulus.indexCount, GL_UNSIGNED_INT, nullptr, n);
-        ++stats.drawCalls;
-        stats.instances += n;
-        if (s.lod0Radius > 0) {
-            p.set("mode", 1);
-            const int slices = std::max(1, int(std::floor(s.lod0Radius / s.lod0Spacing)));
-            const double hp = std::max(layer.thickness / (n - 1), s.lod0Spacing);  // H_p, eq. (13)
-            const int pieces = std::max(1, int(std::lround(layer.thickness / hp)));
-            p.set("slices", slices);
-            p.set("pieces", pieces);
-            glBindVertexArray(m.quad.vao.id());
-            glDrawElementsInstanced(GL_TRIANGLES, m.quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
-            ++stats.drawCalls;
-            stats.instances += slices * pieces;
-        }
+        drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
         check("drawing the layered sky");
     }
     if (s.downsample > 1) {
@@ -357,24 +364,7 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
             }
         p.set("firstAbove", firstAbove);
         glBindTextureUnit(1, m.layers[li].modulationTexture.id());
-        p.set("mode", 0);
-        p.set("annulusRadius", float(layer.extent));
-        glBindVertexArray(m.annulus.vao.id());
-        glDrawElementsInstanced(GL_TRIANGLES, m.annulus.indexCount, GL_UNSIGNED_INT, nullptr, n);
-        ++stats.drawCalls;
-        stats.instances += n;
-        if (s.lod0Radius > 0) {
-            p.set("mode", 1);
-            const int slices = std::max(1, int(std::floor(s.lod0Radius / s.lod0Spacing)));
-            const double hp = std::max(layer.thickness / (n - 1), s.lod0Spacing);
-            const int pieces = std::max(1, int(std::lround(layer.thickness / hp)));
-            p.set("slices", slices);
-            p.set("pieces", pieces);
-            glBindVertexArray(m.quad.vao.id());
-            glDrawElementsInstanced(GL_TRIANGLES, m.quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
-            ++stats.drawCalls;
-            stats.instances += slices * pieces;
-        }
+        drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
     }
     check("drawing the layered bench's floor");
     return stats;
