@@ -4,7 +4,6 @@
 #include "bench_command.hpp"
 
 #include "bench_util.hpp"
-#include "output_files.hpp"
 #include "render_command.hpp"
 
 #include "nephele/ellipsoid.hpp"
@@ -521,11 +520,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "accuracy.md").string();
     const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
     try {
-        OutputFiles files;
-        files.add(csvPath, [&](const std::string& p) { std::ofstream(p) << csv.str(); });
-        files.add(mdPath, [&](const std::string& p) { std::ofstream(p) << md.str(); });
-        files.add(layeredPath, [&](const std::string& p) { std::ofstream(p) << layeredCsv.str(); });
-        files.commit();
+        writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
         runPlot("plot_accuracy.py", {csvPath, o.outDir, when});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str());
     } catch (const std::exception& e) {

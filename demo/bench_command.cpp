@@ -1,7 +1,6 @@
 #include "bench_command.hpp"
 
 #include "bench_util.hpp"
-#include "output_files.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"
@@ -241,10 +240,7 @@ int runBench(const BenchOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "ellipsoid_bench.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "ellipsoid_bench.png").string();
     try {
-        OutputFiles files;
-        files.add(csvPath, [&](const std::string& p) { std::ofstream(p) << csv.str(); });
-        files.add(mdPath, [&](const std::string& p) { std::ofstream(p) << md.str(); });
-        files.commit();
+        writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
         return 1;

@@ -135,6 +135,13 @@ void replaceGeneratedSection(const std::string& readme, const std::string& tag, 
     files.commit();
 }
 
+void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts) {
+    OutputFiles files;
+    for (const auto& [path, text] : pathsAndTexts)
+        files.add(path, [&text](const std::string& p) { std::ofstream(p) << text; });
+    files.commit();
+}
+
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args) {
     // Appended piece by piece: "literal " + string trips a GCC 12 -Wrestrict false positive.
     std::string cmd = "/usr/bin/python3 ";

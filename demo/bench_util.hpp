@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace nephele::cli {
@@ -33,6 +34,9 @@ void replaceGeneratedSection(const std::string& readme, const std::string& tag, 
 // when `tag` is given too, that it holds the "<!-- BEGIN/END GENERATED: TAG -->" lines, so
 // that bad arguments fail before the long run. Prints what is wrong and returns false.
 bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, const std::string& tag = "");
+
+// Writes each (path, text) all or nothing (OutputFiles): on failure none is left. Throws.
+void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts);
 
 // Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib). Throws with a
 // message naming the package when it fails.

@@ -7,7 +7,6 @@
 
 #include "bench_util.hpp"
 #include "flythrough_command.hpp"
-#include "output_files.hpp"
 #include "render_command.hpp"
 
 #include <algorithm>
@@ -185,11 +184,7 @@ int runFlickerBench(const FlickerOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "flicker.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "flicker.png").string();
     try {
-        OutputFiles files;
-        files.add(csvPath, [&](const std::string& p) { std::ofstream(p) << csv.str(); });
-        files.add(seriesPath, [&](const std::string& p) { std::ofstream(p) << series.str(); });
-        files.add(mdPath, [&](const std::string& p) { std::ofstream(p) << md.str(); });
-        files.commit();
+        writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, md.str()}});
         runPlot("plot_flicker.py", {seriesPath, pngPath, when});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str());
     } catch (const std::exception& e) {
