@@ -57,6 +57,14 @@ struct ProgramPair {
     }
 };
 
+// The index of the first of the N annuli (at H_i = base + i thickness / (N - 1), eq. 12) above
+// the eye's height; N when none is.
+int firstAnnulusAbove(const Layer& layer, int n, double eyeZ) {
+    for (int i = 0; i < n; ++i)
+        if (layer.base + i * layer.thickness / (n - 1) > eyeZ) return i;
+    return n;
+}
+
 // One scene layer's geometry with program `p` (its uniforms for the layer set): the N annuli
 // (LOD1) in one instanced draw, then the billboards (LOD0, eq. 13) in another.
 template <class P>
@@ -283,13 +291,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         p.set("nearRadius", float(layer.nearLod ? s.nearRadius : 0.0));
         p.set("blendBand", float(layer.nearLod ? s.blendBand : 0.0));
         p.set("layerCount", n);
-        int firstAbove = n;
-        for (int i = 0; i < n; ++i)
-            if (layer.base + i * layer.thickness / (n - 1) > view.eye.z) {
-                firstAbove = i;
-                break;
-            }
-        p.set("firstAbove", firstAbove);
+        p.set("firstAbove", firstAnnulusAbove(layer, n, view.eye.z));
         p.set("layerSlab", float(layer.thickness / n));
         // Annuli and billboards sample equally well where a ray's horizontal run across one
         // annulus slab (slab / tan e) equals its vertical run across one slice (spacing tan e).
@@ -356,13 +358,7 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
         p.set("base", float(layer.base));
         p.set("thickness", float(layer.thickness));
         p.set("layerCount", n);
-        int firstAbove = n;
-        for (int i = 0; i < n; ++i)
-            if (layer.base + i * layer.thickness / (n - 1) > view.eye.z) {
-                firstAbove = i;
-                break;
-            }
-        p.set("firstAbove", firstAbove);
+        p.set("firstAbove", firstAnnulusAbove(layer, n, view.eye.z));
         glBindTextureUnit(1, m.layers[li].modulationTexture.id());
         drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
     }
