@@ -106,13 +106,15 @@ IndexedMesh makeIndexedMesh(const std::vector<float>& v, const std::vector<unsig
 }
 
 void uploadDynamic(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
-    bytes = std::max<std::size_t>(bytes, 16);
-    if (!buffer || capacity < bytes) {
+    // The storage is at least 16 bytes (an empty SSBO binding is an error), but only the
+    // caller's `bytes` are read from `data`: copying the padded size read past a short buffer.
+    const std::size_t storage = std::max<std::size_t>(bytes, 16);
+    if (!buffer || capacity < storage) {
         buffer = Buffer::create();
-        capacity = std::max(bytes, capacity * 2);
+        capacity = std::max(storage, capacity * 2);
         glNamedBufferStorage(buffer.id(), GLsizeiptr(capacity), nullptr, GL_DYNAMIC_STORAGE_BIT);
     }
-    if (data) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
+    if (data && bytes > 0) glNamedBufferSubData(buffer.id(), 0, GLsizeiptr(bytes), data);
 }
 
 Sampler linearSampler(GLenum wrap) {

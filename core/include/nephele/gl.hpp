@@ -106,7 +106,7 @@ struct IndexedMesh {
 IndexedMesh makeIndexedMesh(const std::vector<float>& interleaved, const std::vector<unsigned>& indices, int attributes);
 
 // Storage that is rewritten every frame: grows `buffer` (doubling, never shrinking) to hold
-// `bytes` and copies `data` in (nothing when data is null).
+// `bytes` (at least 16) and copies exactly `bytes` of `data` in (nothing when data is null).
 void uploadDynamic(Buffer& buffer, std::size_t& capacity, const void* data, std::size_t bytes);
 
 // A sampler with linear filtering and the same wrap mode on s, t and r.
