@@ -5,6 +5,7 @@
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
+#include "nephele/log.hpp"
 #include "nephele/scene.hpp"
 
 #include <CLI/CLI.hpp>
@@ -14,6 +15,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+
+#include <unistd.h>
 
 using namespace nephele;
 using namespace nephele::cli;
@@ -174,7 +177,27 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
 
 }  // namespace
 
+// The library never prints (nephele/log.hpp): the command line prints its messages to
+// stderr, and draws its progress reports as a bar when stderr is a terminal.
+void installConsoleLogging() {
+    setLogCallback([](LogLevel level, std::string_view message) {
+        if (level == LogLevel::Debug) return;
+        if (level == LogLevel::Info) std::fprintf(stderr, "nephele: %.*s\n", int(message.size()), message.data());
+        else std::fprintf(stderr, "nephele: %s: %.*s\n", logLevelName(level), int(message.size()), message.data());
+    });
+    if (::isatty(2) == 0) return;
+    setProgressCallback([](std::string_view label, double fraction) {
+        const int percent = std::clamp(int(fraction * 100), 0, 100);
+        char bar[41];
+        for (int i = 0; i < 40; ++i) bar[i] = i < percent * 40 / 100 ? '#' : '.';
+        bar[40] = 0;
+        std::fprintf(stderr, "\r%.*s [%s] %3d%%%s", int(label.size()), label.data(), bar, percent, percent == 100 ? "\n" : "");
+        std::fflush(stderr);
+    });
+}
+
 int main(int argc, char** argv) {
+    installConsoleLogging();
     CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
     app.set_version_flag("--version", "nephele 0.1.0");
     app.require_subcommand(1);

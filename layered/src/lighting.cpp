@@ -3,6 +3,7 @@
 // vectors whose length is the intensity, n' = n / 2 + 0.5, in an RGBA8 3D texture.
 #include "nephele/fingerprint.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/log.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/parallel.hpp"
 
@@ -280,7 +281,7 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
         try {
             return LightingVolume::load(file.string(), s, p);
         } catch (const LightingFileError& e) {
-            std::fprintf(stderr, "nephele: warning: ignoring the cached lighting volume: %s\n", e.what());
+            logMessage(LogLevel::Warning, std::string("ignoring the cached lighting volume: ") + e.what());
         }
     }
     LightingVolume v = precomputeLighting(s, p);
@@ -292,7 +293,7 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
         std::filesystem::rename(tmp, file);
     } catch (const std::exception& e) {
         std::filesystem::remove(tmp, ec);
-        std::fprintf(stderr, "nephele: warning: could not cache the lighting volume in %s: %s\n", cacheDir.c_str(), e.what());
+        logMessage(LogLevel::Warning, "could not cache the lighting volume in " + cacheDir + ": " + e.what());
     }
     return v;
 }

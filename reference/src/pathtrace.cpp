@@ -11,6 +11,7 @@
 
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
+#include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/parallel.hpp"
 #include "nephele/projection.hpp"
@@ -328,28 +329,23 @@ private:
     std::vector<Node> nodes_;
 };
 
-// A text progress bar on stderr, updated as rows finish.
+// Progress through the host's progress callback (nephele/log.hpp), as rows finish.
 class Progress {
 public:
-    Progress(bool on, int total) : on_(on), total_(total) { draw(0); }
+    Progress(bool on, int total) : on_(on), total_(total) { report(0); }
     void rowDone() {
         if (!on_) return;
         const int done = ++done_;
         const int percent = int(100LL * done / total_);
         std::lock_guard lock(mutex_);
-        if (percent != shown_) draw(percent);
-        if (done == total_) std::fputc('\n', stderr);
+        if (percent != shown_) report(percent);
     }
 
 private:
-    void draw(int percent) {
+    void report(int percent) {
         if (!on_) return;
         shown_ = percent;
-        char bar[41];
-        for (int i = 0; i < 40; ++i) bar[i] = i < percent * 40 / 100 ? '#' : '.';
-        bar[40] = 0;
-        std::fprintf(stderr, "\rpathtrace [%s] %3d%%", bar, percent);
-        std::fflush(stderr);
+        reportProgress("pathtrace", percent / 100.0);
     }
     bool on_;
     int total_, shown_ = -1;
@@ -493,7 +489,7 @@ void writeCache(const std::filesystem::path& file, const std::string& key, const
     if (out) std::filesystem::rename(temp, file, ec);
     if (!out || ec) {  // the image is still good: say so and go on without caching it
         std::filesystem::remove(temp, ec);
-        std::fprintf(stderr, "renderPathTracedCached: warning: could not write %s\n", file.string().c_str());
+        logMessage(LogLevel::Warning, "could not write the path tracer's cache file " + file.string());
     }
 }
 

@@ -143,7 +143,7 @@ struct LightingVolume {
 // Then the light. Throws std::invalid_argument for bad settings.
 LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
 // The same through a cache folder (created if missing): loaded when a file of the same
-// parameters is there, else computed and saved (a failed save only warns on stderr).
+// parameters is there, else computed and saved (a failed save only warns through the log callback, nephele/log.hpp).
 // cacheDir "" = no cache.
 LightingVolume lightingCached(const LightingSettings& settings, const LightingParameters& parameters,
                               const std::string& cacheDir);

@@ -36,7 +36,7 @@ struct PathTraceSettings {
     int spp = 64;         // samples per pixel, >= 1
     int maxBounces = 32;  // scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only
     unsigned seed = 1;    // same seed, scene and settings -> bit-identical image, whatever the thread count
-    bool progress = false;  // a progress bar on stderr
+    bool progress = false;  // report progress through nephele::reportProgress (nephele/log.hpp)
 };
 
 // RGBA: rgb linear radiance, a = cloud opacity along the primary ray (1 - transmittance of
