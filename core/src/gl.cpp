@@ -66,6 +66,20 @@ void check(const char* what) {
     if (g_checks) checkAlways(what);
 }
 
+PartTimer::PartTimer(bool on) : on_(on) {
+    if (on_) glFinish();
+    last_ = std::chrono::steady_clock::now();
+}
+
+double PartTimer::lap() {
+    if (!on_) return 0;
+    glFinish();
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
+    last_ = now;
+    return ms;
+}
+
 namespace kind {
 GLuint Buffer::create() { GLuint id = 0; glCreateBuffers(1, &id); return id; }
 void Buffer::destroy(GLuint id) { glDeleteBuffers(1, &id); }
