@@ -120,6 +120,7 @@ struct EllipsoidRenderer::Impl {
     Texture accum, reveal;
     Framebuffer weightedFbo;
     int weightedW = 0, weightedH = 0;
+    std::vector<TileDebug> lastTiles;  // the last plan's tiles (debug views)
 
     void weightedTarget(int w, int h) {
         if (weightedFbo && w == weightedW && h == weightedH) return;
@@ -287,6 +288,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     std::vector<GpuTile>& gpu = out.gpu;
     gpu.resize(placements.size());
+    m.lastTiles.clear();
     std::vector<int> slot(prepared.ellipsoids.size());  // prepared index -> GPU tile index
     for (std::size_t k = 0; k < placements.size(); ++k) {
         const TilePlacement& tp = placements[k];
@@ -316,6 +318,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         put(t.params, Vec3(p.crossesNear ? 1.0 : 0.0, double(e.cloud), 0.0));
         put(t.noiseOffset, e.noiseOffset);
         slot[tp.id] = int(k);
+        m.lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
         stats.tilePixels += std::int64_t(tp.size) * tp.size;
         stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
     }
@@ -394,9 +397,14 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
 EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
     Impl& m = *impl_;
     const EllipsoidSettings& s = settings_;
+    PartTimer timer(s.timings);
     const FramePlan plan = m.plan(s, scene, view);
     EllipsoidStats stats = plan.stats;
-    if (plan.order.empty()) return stats;
+    if (plan.order.empty()) {
+        m.lastTiles.clear();
+        stats.tilesMs = timer.lap();
+        return stats;
+    }
     const PreparedClouds& prepared = plan.prepared;
     const PackResult& packed = plan.packed;
     const std::vector<TilePlacement>& placements = plan.placements;
@@ -531,6 +539,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const bool stencil = s.flyThrough == FlyThrough::Stencil && opaqueDepth;
     const bool fraction = s.flyThrough == FlyThrough::Fraction && opaqueDepth;
     const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
+    stats.tilesMs = timer.lap();
     if (fraction) m.depth.copy(framebuffer, frameW, frameH);
 
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
@@ -651,8 +660,13 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         ++stats.drawCalls;
         check("resolving the weighted composite");
     }
+    stats.compositeMs = timer.lap();
     return stats;
 }
+
+const std::vector<TileDebug>& EllipsoidRenderer::lastTiles() const { return impl_->lastTiles; }
+GLuint EllipsoidRenderer::atlasTexture() const { return impl_->atlasTerms.id(); }
+glm::ivec3 EllipsoidRenderer::atlasSize() const { return {impl_->atlasW, impl_->atlasH, impl_->atlasLayers}; }
 
 EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
     Impl& m = *impl_;

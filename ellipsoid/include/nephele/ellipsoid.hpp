@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nephele {
 
@@ -84,6 +85,7 @@ struct EllipsoidSettings {
     CompositeOrder order = CompositeOrder::PerEllipsoid;
     float weightExponent = model::kWeightExponent;  // Weighted: k of w = (tRef / tShade)^k, model::compositeWeight
     NoiseSettings noise;
+    bool timings = false;  // EllipsoidStats::tilesMs and compositeMs (glFinish between the parts: slower)
 };
 
 struct EllipsoidStats {
@@ -95,6 +97,17 @@ struct EllipsoidStats {
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
     std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
+    // With EllipsoidSettings::timings, the wall time of each part (ms, gl::PartTimer); else 0.
+    double tilesMs = 0;      // projection, packing, light volumes and the tile passes
+    double compositeMs = 0;  // the tiles composited over the frame (with the weighted resolve)
+};
+
+// One tile of the last frame, for a host's debug views.
+struct TileDebug {
+    float screen[4] = {0, 0, 0, 0};  // the ellipsoid's screen rectangle, NDC x0, y0, x1, y1
+    int atlasX = 0, atlasY = 0;      // px, the tile's corner in its atlas layer
+    int size = 0;                    // px, tile side
+    int pass = 0;                    // atlas layer
 };
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
@@ -117,6 +130,13 @@ public:
     // the unavoidable pixel work: each tile's pixels blended once per pass, and each tile's
     // screen rectangle composited once as a plain textured quad; one draw each per pass.
     EllipsoidStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer);
+
+    // Debug views of the last render (a host's tools: `nephele fly`). The tiles, and the atlas:
+    // a GL_TEXTURE_2D_ARRAY of atlasSize() with a layer per pass (at least the last frame's
+    // passes; rgba = the tile pass's terms, see the top of this file; 0 before the first tile).
+    const std::vector<TileDebug>& lastTiles() const;
+    GLuint atlasTexture() const;
+    glm::ivec3 atlasSize() const;  // width, height, layers
 
 private:
     struct Impl;
