@@ -14,7 +14,15 @@ EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
     return base;
 }
 
-SkyRenderer::SkyRenderer(SkySettings settings) : settings_(std::move(settings)), clouds_(settings_.ellipsoid) {
+namespace {
+EllipsoidSettings withTimings(EllipsoidSettings s, bool timings) {
+    s.timings = s.timings || timings;
+    return s;
+}
+}  // namespace
+
+SkyRenderer::SkyRenderer(SkySettings settings)
+    : settings_(std::move(settings)), clouds_(withTimings(settings_.ellipsoid, settings_.timings)) {
     validate(settings_.layered);
     validate(settings_.nearLod, settings_.layered);
 }
@@ -30,8 +38,11 @@ SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint frameb
     }
     if (!layered_) layered_ = std::make_unique<LayeredRenderer>(settings_.layered);
     if (!nearLod_) nearLod_ = std::make_unique<NearLod>(settings_.nearLod, settings_.layered);
+    gl::PartTimer timer(settings_.timings);
     stats.layered = layered_->render(scene, view, framebuffer, timeSeconds);
+    stats.farFieldMs = timer.lap();
     const std::vector<Cloud> near = nearLod_->update(scene, view.eye, timeSeconds, &stats.nearLod);
+    stats.nearLodMs = timer.lap();
     stats.ellipsoids = clouds_.render(withNearClouds(scene, near), view, framebuffer, opaqueDepth);
     return stats;
 }

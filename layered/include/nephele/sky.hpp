@@ -26,12 +26,16 @@ struct SkySettings {
     LayeredSettings layered = autoLayeredSettings();
     NearLodSettings nearLod;
     EllipsoidSettings ellipsoid = autoEllipsoidSettings();
+    bool timings = false;  // SkyStats' ms by part (gl::PartTimer: glFinish between the parts, slower)
 };
 
 struct SkyStats {
     LayeredStats layered;      // the far field (sceneLayers 0 when the scene has no layers)
     NearLodStats nearLod;      // what the near LOD spawned
-    EllipsoidStats ellipsoids; // the compositor, explicit and near clouds together
+    EllipsoidStats ellipsoids; // the compositor, explicit and near clouds together (tilesMs, compositeMs)
+    // With SkySettings::timings, the wall time of each part (ms); else 0.
+    double farFieldMs = 0;     // the layered sky
+    double nearLodMs = 0;      // the near LOD's update (spawning and retiring cells)
 };
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
@@ -49,6 +53,11 @@ public:
     // opaque objects' depth in its depth attachment when `opaqueDepth`). timeSeconds drives
     // wind, lightning and the near LOD's drift.
     SkyStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth);
+
+    // For a host's debug views: the compositor (its last tiles and atlas), and the near LOD
+    // (its cells; nullptr before the first scene with layers).
+    const EllipsoidRenderer& compositor() const { return clouds_; }
+    const NearLod* nearLod() const { return nearLod_.get(); }
 
 private:
     SkySettings settings_;
