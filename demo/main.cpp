@@ -2,6 +2,7 @@
 #include "bench_command.hpp"
 #include "compare_command.hpp"
 #include "flythrough_command.hpp"
+#include "fly_command.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
@@ -221,6 +222,9 @@ int main(int argc, char** argv) {
     fly->add_option("--fps", fo.fps, "Frames per second of scene time")->capture_default_str();
     fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index");
 
+    fly::FlyOptions flyo;
+    CLI::App* flyCmd = fly::addFlyCommand(app, flyo);
+
     BenchOptions bo;
     std::string benchGl = "egl";
     CLI::App* bench = app.add_subcommand("bench", "Time the ellipsoid compositor against its floor and baseline");
@@ -279,6 +283,7 @@ int main(int argc, char** argv) {
         app.exit(e);
         return 2;
     }
+    if (*flyCmd) return flyo.cacheDir = defaultCacheDir(""), fly::runFly(flyo);
 
     if (*info && !infoScene.empty()) {
         try {
