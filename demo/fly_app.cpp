@@ -3,6 +3,7 @@
 #include "output_files.hpp"
 
 #include "nephele/camera.hpp"
+#include "nephele/image.hpp"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -42,6 +43,7 @@ void commandKey(FlyApp::State& s, int key) {
             break;
         case GLFW_KEY_P: s.followPath = !s.followPath && s.scene.path.size() >= 2; break;
         case GLFW_KEY_R: resetToScene(s); break;
+        case GLFW_KEY_F12: s.capture = "nephele_fly_" + std::to_string(++s.screenshots) + ".png"; break;
         case GLFW_KEY_ESCAPE: glfwSetWindowShouldClose(s.context->window(), GLFW_TRUE); break;
         default: break;
     }
@@ -60,8 +62,7 @@ void onMouseButton(GLFWwindow* w, int button, int action, int mods) {
     if (s.imgui) ImGui_ImplGlfw_MouseButtonCallback(w, button, action, mods);
     if (button != GLFW_MOUSE_BUTTON_LEFT) return;
     const bool overUi = s.imgui && ImGui::GetIO().WantCaptureMouse;
-    s.dragging = action == GLFW_PRESS && !overUi;
-    glfwGetCursorPos(w, &s.cursorX, &s.cursorY);
+    s.dragging = action == GLFW_PRESS && !overUi;  // from the cursor's last position (onCursor)
 }
 
 void onCursor(GLFWwindow* w, double x, double y) {
@@ -112,6 +113,18 @@ void fly(FlyApp::State& s, double dt) {
     s.input.mouseDx = s.input.mouseDy = 0;
 }
 
+// The window's back buffer (already sRGB-encoded) to a PNG.
+void writeWindow(const std::string& png, int w, int h) {
+    Image bottomUp(w, h, 3), image(w, h, 3);
+    gl::glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    gl::glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl::glReadPixels(0, 0, w, h, GL_RGB, GL_FLOAT, bottomUp.pixels.data());
+    gl::checkAlways("reading the window");
+    const std::size_t row = std::size_t(w) * 3;
+    for (int y = 0; y < h; ++y) std::copy_n(bottomUp.pixels.data() + std::size_t(h - 1 - y) * row, row, image.pixels.data() + y * row);
+    writePng(png, image, Encoding::Linear);
+}
+
 Camera frameCamera(const FlyApp::State& s, int fw, int fh) {
     Camera c = s.followPath && s.scene.path.size() >= 2 ? cameraAt(s.scene, s.t) : cameraFromPose(s.pose, s.scene.camera);
     c.width = std::max(1, int(std::lround(fw * s.options.renderScale)));
@@ -150,6 +163,7 @@ FlyApp::FlyApp(const FlyAppOptions& o) : s_(std::make_unique<State>()) {
     glfwSetCursorPosCallback(w, onCursor);
     glfwSetScrollCallback(w, onScroll);
     glfwSetCharCallback(w, onChar);
+    glfwGetCursorPos(w, &s.cursorX, &s.cursorY);
     if (!o.recordInput.empty()) s.recorder.emplace(s.pose, 30);
 }
 
@@ -189,6 +203,7 @@ bool FlyApp::frame(double dt) {
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     gl::checkAlways("drawing the window's frame");
+    if (!s.capture.empty()) writeWindow(s.capture, fw, fh), s.capture.clear();
     glfwSwapBuffers(w);
     return true;
 }
@@ -213,6 +228,7 @@ void FlyApp::finish() {
     s.recorder.reset();
 }
 
+void FlyApp::captureNextFrame(const std::string& png) { s_->capture = png; }
 GLFWwindow* FlyApp::window() const { return s_->context->window(); }
 const FlyPose& FlyApp::pose() const { return s_->pose; }
 FlyViews& FlyApp::views() { return s_->views; }

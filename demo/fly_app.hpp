@@ -45,6 +45,10 @@ public:
     // Writes --record-input (all or nothing); throws on failure.
     void finish();
 
+    // Writes the window as the next frame shows it (HUD and views included) to a PNG (F12
+    // writes nephele_fly_N.png in the working folder).
+    void captureNextFrame(const std::string& png);
+
     GLFWwindow* window() const;
     const FlyPose& pose() const;
     FlyViews& views();

@@ -42,6 +42,8 @@ struct FlyApp::State {
     gl::Framebuffer atlasRead, atlasDraw;
     int atlasViewW = 0, atlasViewH = 0;
     bool imgui = false;
+    std::string capture;           // PNG to write from the next frame
+    int screenshots = 0;
 };
 
 // fly_hud.cpp: all of it drawn with Dear ImGui inside one ImGui frame.

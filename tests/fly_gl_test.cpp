@@ -1,0 +1,258 @@
+// `nephele fly`: recorded flights match `nephele render --time`, and the window (under Xvfb:
+// README command 2 runs the suite with xvfb-run) moves the camera on injected key and mouse
+// events, toggles its HUD and debug views without GL errors, resizes and closes cleanly.
+#include "fly_app.hpp"
+
+#include "nephele/context.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/image.hpp"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+namespace fs = std::filesystem;
+using namespace nephele;
+using namespace nephele::fly;
+
+namespace {
+
+bool haveDisplay() {
+    const char* d = std::getenv("DISPLAY");
+    return d && *d;
+}
+#define SKIP_WITHOUT_DISPLAY() \
+    if (!haveDisplay()) GTEST_SKIP() << "no DISPLAY: the window tests run under xvfb-run (README command 2)"
+
+const std::string kScene = std::string(NEPHELE_TEST_DATA) + "/scenes/fly_small.json";
+
+int run(const std::string& args, std::string* output = nullptr) {
+    const std::string cmd = std::string(NEPHELE_BINARY) + " " + args + " 2>&1";
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return -1;
+    std::string out;
+    std::array<char, 512> buf;
+    while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
+    const int status = pclose(pipe);
+    if (output) *output = out;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+fs::path freshDir(const std::string& name) {
+    const fs::path d = fs::path(NEPHELE_TEST_OUTPUT) / name;
+    fs::remove_all(d);
+    fs::create_directories(d.parent_path());
+    return d;
+}
+
+// Records the scene's 2 s path at 1 fps (3 frames, 320x180) and compares `frames` with
+// `nephele render --time` of the same moments.
+void expectRecordingMatchesRender(const std::string& name, const std::string& extra, std::initializer_list<int> frames) {
+    const fs::path dir = freshDir(name);
+    std::string out;
+    ASSERT_EQ(run("fly " + kScene + " --record " + dir.string() + " --fps 1 --no-video " + extra, &out), 0) << out;
+    ASSERT_TRUE(fs::exists(dir / "frame_0002.png"));
+    EXPECT_FALSE(fs::exists(dir / "frame_0003.png"));
+    std::ifstream csv(dir / "frames.csv");
+    int rows = 0;
+    for (std::string line; std::getline(csv, line);) ++rows;
+    EXPECT_EQ(rows, 4);  // header and three frames
+    EXPECT_TRUE(fs::exists(dir / "flight.json"));
+    for (int k : frames) {
+        const std::string ref = (dir.string() + "_render_" + std::to_string(k) + ".png");
+        ASSERT_EQ(run("render " + kScene + " --time " + std::to_string(k) + " -o " + ref, &out), 0) << out;
+        char frame[32];
+        std::snprintf(frame, sizeof frame, "frame_%04d.png", k);
+        // The recording draws with the renderers and settings of `render`, into the same float
+        // frame, encoded the same way: measured identical (0 difference) on llvmpipe. One 8-bit
+        // step per pixel and 0.1 step on average allow the compositor's light cache, which keeps
+        // the light volumes of clouds that only drifted with the wind over a flight but
+        // recomputes them in a fresh `render`, to round differently; a wrong camera, time or
+        // method changes hundreds of pixels by tens of steps.
+        const ImageDifference d = compareImages(readPng((dir / frame).string()), readPng(ref), 1.5 / 255);
+        EXPECT_LE(d.maxAbs, 1.0 / 255 + 1e-6) << frame;
+        EXPECT_LE(d.meanAbs, 0.1 / 255) << frame;
+    }
+}
+
+// Calls the callbacks the window installed, as GLFW does for real events.
+struct Inject {
+    GLFWwindow* w;
+    GLFWkeyfun key;
+    GLFWmousebuttonfun button;
+    GLFWcursorposfun cursor;
+    explicit Inject(GLFWwindow* window)
+        : w(window),
+          key(glfwSetKeyCallback(window, nullptr)),
+          button(glfwSetMouseButtonCallback(window, nullptr)),
+          cursor(glfwSetCursorPosCallback(window, nullptr)) {
+        glfwSetKeyCallback(w, key);
+        glfwSetMouseButtonCallback(w, button);
+        glfwSetCursorPosCallback(w, cursor);
+    }
+    void press(int k) const { key(w, k, 0, GLFW_PRESS, 0); }
+    void release(int k) const { key(w, k, 0, GLFW_RELEASE, 0); }
+    void tap(int k) const { press(k), release(k); }
+    void drag(double dx, double dy) const {
+        cursor(w, 50, 50);
+        button(w, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+        cursor(w, 50 + dx, 50 + dy);
+        button(w, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    }
+};
+
+FlyAppOptions smallWindow(FlyMethod method, const std::string& scene = kScene) {
+    FlyAppOptions o;
+    o.scene = scene;
+    o.method = method;
+    o.width = 320, o.height = 180;
+    return o;
+}
+
+}  // namespace
+
+TEST(FlyGLTest, HeadlessRecordingMatchesRender) { expectRecordingMatchesRender("fly_headless", "--headless", {0, 2}); }
+
+TEST(FlyGLTest, WindowRecordingUnderXvfbMatchesRender) {
+    SKIP_WITHOUT_DISPLAY();
+    expectRecordingMatchesRender("fly_window", "", {1});
+}
+
+TEST(FlyGLTest, InjectedKeysAndMouseMoveTheCameraAsDocumented) {
+    SKIP_WITHOUT_DISPLAY();
+    FlyAppOptions o = smallWindow(FlyMethod::Ellipsoid);
+    o.renderScale = 0.5;
+    FlyApp app(o);
+    const Inject in(app.window());
+    ASSERT_TRUE(app.frame(0));
+    FlyPose expected = app.pose();
+    in.press(GLFW_KEY_W);  // forward for two steps of 0.5 s
+    FlyInput forward;
+    forward.forward = true;
+    for (int k = 0; k < 2; ++k) {
+        ASSERT_TRUE(app.frame(0.5));
+        expected = stepFlight(expected, forward, 0.5);
+    }
+    in.release(GLFW_KEY_W);
+    EXPECT_NEAR(glm::length(app.pose().position - expected.position), 0, 1e-9);
+    EXPECT_GT(app.pose().position.y - (-1500), 15);  // heading north: moved north
+    ASSERT_TRUE(app.frame(0.5));  // no key: slowing to a hover
+    EXPECT_LT(glm::length(app.pose().velocity), glm::length(expected.velocity));
+    const double heading = app.pose().heading, pitch = app.pose().pitch;
+    in.drag(100, 0);  // mouse-look: right
+    ASSERT_TRUE(app.frame(0.1));
+    EXPECT_NEAR(app.pose().heading, heading + 100 * FlyTuning().mouseDegPerPx, 1e-9);
+    in.press(GLFW_KEY_UP);
+    ASSERT_TRUE(app.frame(0.5));
+    in.release(GLFW_KEY_UP);
+    EXPECT_NEAR(app.pose().pitch, pitch + 0.5 * FlyTuning().pitchRate, 1e-9);
+    in.tap(GLFW_KEY_R);  // back to the scene's camera
+    ASSERT_TRUE(app.frame(0));
+    EXPECT_NEAR(app.pose().position.y, -1500, 1e-9);
+}
+
+TEST(FlyGLTest, HudAndDebugViewsToggleWithoutGlErrors) {
+    SKIP_WITHOUT_DISPLAY();
+    FlyApp app(smallWindow(FlyMethod::Auto));
+    const Inject in(app.window());
+    app.views().hud = false;
+    const fs::path out = fs::path(NEPHELE_TEST_OUTPUT);
+    fs::create_directories(out);
+    ASSERT_NO_THROW(app.frame(0));
+    app.captureNextFrame((out / "fly_view_none.png").string());
+    ASSERT_NO_THROW(app.frame(0));
+    const Image none = readPng((out / "fly_view_none.png").string());
+    const std::pair<int, const char*> views[] = {{GLFW_KEY_F1, "hud"},   {GLFW_KEY_H, "help"},  {GLFW_KEY_TAB, "controls"},
+                                                 {GLFW_KEY_F2, "atlas"}, {GLFW_KEY_F3, "tiles"}, {GLFW_KEY_F4, "cells"}};
+    for (auto [key, name] : views) {
+        in.tap(key);  // on: each view draws something over the frame, without a GL error
+        ASSERT_NO_THROW(app.frame(0)) << name;  // ImGui sizes a new window in its first frame, shows it in the next
+        const std::string png = (out / ("fly_view_" + std::string(name) + ".png")).string();
+        app.captureNextFrame(png);
+        ASSERT_NO_THROW(app.frame(0)) << name;
+        const ImageDifference d = compareImages(readPng(png), none, 0.1);
+        EXPECT_GT(d.fractionOver, 0.002) << name << ": nothing drawn";
+        in.tap(key);  // and off again
+        ASSERT_NO_THROW(app.frame(0)) << name;
+    }
+    const FlyViews& v = app.views();
+    EXPECT_FALSE(v.hud || v.help || v.controls || v.atlas || v.tiles || v.cells);
+    // Every method and both composite orders, with every view on.
+    for (int key : {GLFW_KEY_F1, GLFW_KEY_F2, GLFW_KEY_F3, GLFW_KEY_F4}) in.tap(key);
+    for (int m = 0; m < 4; ++m) {
+        in.tap(GLFW_KEY_M);
+        ASSERT_NO_THROW(app.frame(0.1)) << m;
+        in.tap(GLFW_KEY_O);
+        ASSERT_NO_THROW(app.frame(0.1)) << m;
+    }
+}
+
+TEST(FlyGLTest, ResizesAndClosesCleanly) {
+    SKIP_WITHOUT_DISPLAY();
+    const fs::path inputs = freshDir("fly_inputs.json");
+    FlyAppOptions o = smallWindow(FlyMethod::Ellipsoid);
+    o.recordInput = inputs.string();
+    {
+        FlyApp app(o);
+        const Inject in(app.window());
+        ASSERT_TRUE(app.frame(0));
+        EXPECT_EQ(app.renderWidth(), 320);
+        glfwSetWindowSize(app.window(), 200, 150);
+        int w = 0, h = 0;
+        for (int k = 0; k < 100 && (w != 200 || h != 150); ++k) {
+            glfwWaitEventsTimeout(0.02);
+            glfwGetFramebufferSize(app.window(), &w, &h);
+        }
+        ASSERT_EQ(w, 200);
+        ASSERT_TRUE(app.frame(0.1));
+        EXPECT_EQ(app.renderWidth(), 200);
+        EXPECT_EQ(app.renderHeight(), 150);
+        in.press(GLFW_KEY_D);
+        ASSERT_TRUE(app.frame(0.1));
+        in.tap(GLFW_KEY_ESCAPE);  // closes
+        EXPECT_FALSE(app.frame(0.1));
+        app.finish();
+    }
+    // The window is gone and GL still works: a headless context renders after it.
+    auto ctx = Context::create({GlBackend::Egl});
+    EXPECT_NO_THROW(gl::checkAlways("after the window closed"));
+    std::ifstream f(inputs);
+    std::stringstream text;
+    text << f.rdbuf();
+    EXPECT_NE(text.str().find("\"right\""), std::string::npos) << text.str();
+}
+
+TEST(FlyGLTest, ABadEditOfTheSceneKeepsTheLastGoodOne) {
+    SKIP_WITHOUT_DISPLAY();
+    const fs::path scene = freshDir("fly_reload.json");
+    fs::copy_file(kScene, scene);
+    std::ifstream good(kScene);
+    std::stringstream text;
+    text << good.rdbuf();
+    FlyApp app(smallWindow(FlyMethod::Ellipsoid, scene.string()));
+    ASSERT_TRUE(app.frame(0));
+    auto rewrite = [&](const std::string& from, const std::string& to) {
+        std::string s = text.str();
+        s.replace(s.find(from), from.size(), to);
+        std::this_thread::sleep_for(std::chrono::milliseconds(600));  // reloads are checked twice a second
+        std::ofstream(scene) << s;
+    };
+    rewrite("\"coverage\": 0.3", "\"coverage\": 1.5");
+    ASSERT_NO_THROW(app.frame(0.1));  // still draws the last good scene
+    EXPECT_NE(app.sceneError().find("layers[0].coverage"), std::string::npos) << app.sceneError();
+    rewrite("\"coverage\": 0.3", "\"coverage\": 0.4");
+    ASSERT_NO_THROW(app.frame(0.1));
+    EXPECT_EQ(app.sceneError(), "");
+}
