@@ -13,6 +13,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -48,8 +50,12 @@ Recording prepare(const FlyOptions& o) {
     if (!fs::is_directory(parent)) throw std::invalid_argument("--record: folder '" + parent.string() + "' does not exist");
     if (!(o.fps > 0 && o.fps <= 1000)) throw std::invalid_argument("--fps must be in (0, 1000]");
     r.scene = loadScene(o.scene);
-    if (o.width > 0) r.scene.camera.width = o.width;
-    if (o.height > 0) r.scene.camera.height = o.height;
+    // One of --width / --height alone keeps the camera's aspect, as `render` does.
+    Camera& cam = r.scene.camera;
+    const double aspect = double(cam.width) / cam.height;
+    if (o.width > 0) cam.width = o.width, cam.height = o.height > 0 ? o.height : std::max(1, int(std::lround(o.width / aspect)));
+    else if (o.height > 0) cam.height = o.height, cam.width = std::max(1, int(std::lround(o.height * aspect)));
+    if (cam.width > 16384 || cam.height > 16384) throw std::invalid_argument("--width/--height: frames of at most 16384 pixels a side");
     r.flight = o.script.empty() ? pathFlight(r.scene, o.fps) : loadFlight(o.script);
     return r;
 }
