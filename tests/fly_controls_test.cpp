@@ -8,7 +8,12 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 using namespace nephele;
 using namespace nephele::fly;
@@ -193,4 +198,50 @@ TEST(FlyScriptTest, APathlessSceneCannotBeFollowed) {
     Scene scene;
     scene.file = "s.json";
     EXPECT_THROW(pathFlight(scene, 10), SceneError);
+}
+
+// The command line rejects bad flights and options with exit code 2 before it makes a
+// context (so these need no GL), and leaves no record folder behind.
+namespace {
+struct CliResult {
+    int code;
+    std::string output;
+};
+
+CliResult runNephele(const std::string& args) {
+    FILE* pipe = popen((std::string(NEPHELE_BINARY) + " " + args + " 2>&1").c_str(), "r");
+    std::string out;
+    char buf[512];
+    while (pipe && fgets(buf, sizeof buf, pipe)) out += buf;
+    const int status = pipe ? pclose(pipe) : -1;
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+}  // namespace
+
+TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "nephele_fly_cli";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "full");
+    std::ofstream(dir / "full" / "x") << "x";
+    std::ofstream(dir / "bad.json") << R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]},
+        {"t": 0, "position": [0,0,0], "look_at": [0,1,0]}]})";
+    const std::string scene = std::string(NEPHELE_SCENES) + "/example.json";  // no path
+    const std::string rec = (dir / "rec").string();
+    const std::pair<std::string, std::string> cases[] = {
+        {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record " + rec, "bad.json: keyframes[1].t: must be greater"},
+        {"fly " + scene + " --record " + rec, "example.json: path: "},
+        {"fly " + scene + " --record " + (dir / "full").string(), "exists and is not an empty folder"},
+        {"fly " + scene + " --script " + (dir / "bad.json").string(), "--script needs --record"},
+        {"fly " + scene + " --method volume --record " + rec, "--method: unknown method 'volume'"},
+        {"fly " + (dir / "missing.json").string() + " --record " + rec, "missing.json"},
+        {"fly " + scene + " --record " + (dir / "no" / "such" / "rec").string(), "does not exist"},
+        {"fly " + scene + " --width 0", "--width"},
+    };
+    for (const auto& [args, message] : cases) {
+        const CliResult r = runNephele(args);
+        EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
+    }
+    EXPECT_FALSE(std::filesystem::exists(rec));
+    std::filesystem::remove_all(dir);
 }
