@@ -119,8 +119,8 @@ void drawControls(FlyApp::State& s) {
     ImGui::End();
 }
 
-// The atlas, every layer of the last frame's passes, scaled to 256 px wide (rgba as the tile
-// pass writes it, opaque).
+// The atlas, every layer of the last frame's passes, scaled down so that all fit on the window
+// (rgba as the tile pass writes it, opaque).
 void drawAtlas(FlyApp::State& s) {
     ImGui::SetNextWindowPos(ImVec2(8, ImGui::GetIO().DisplaySize.y - 8), ImGuiCond_Always, ImVec2(0, 1));
     ImGui::SetNextWindowBgAlpha(0.8f);
@@ -132,7 +132,9 @@ void drawAtlas(FlyApp::State& s) {
         return ImGui::End();
     }
     const glm::ivec3 size = c->atlasSize();
-    const int w = 256, h = std::max(1, 256 * size.y / size.x);
+    const int columns = std::min(passes, std::max(4, int(std::ceil(std::sqrt(passes * 1.5)))));
+    const int w = std::clamp(int(ImGui::GetIO().DisplaySize.x * 0.9f) / columns - 8, 32, 200);
+    const int h = std::max(1, w * size.y / size.x);
     if (w != s.atlasViewW || h != s.atlasViewH) s.atlasViews.clear(), s.atlasViewW = w, s.atlasViewH = h;
     if (!s.atlasRead) s.atlasRead = Framebuffer::create(), s.atlasDraw = Framebuffer::create();
     GlStateGuard guard;
@@ -148,7 +150,7 @@ void drawAtlas(FlyApp::State& s) {
         glNamedFramebufferReadBuffer(s.atlasRead.id(), GL_COLOR_ATTACHMENT0);
         glNamedFramebufferTexture(s.atlasDraw.id(), GL_COLOR_ATTACHMENT0, s.atlasViews[l].id(), 0);
         glBlitNamedFramebuffer(s.atlasRead.id(), s.atlasDraw.id(), 0, 0, size.x, size.y, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_LINEAR);
-        if (l > 0 && l % 4 != 0) ImGui::SameLine();
+        if (l % columns != 0) ImGui::SameLine();
         ImGui::BeginGroup();
         ImGui::Text("pass %d", l);
         ImGui::Image(ImTextureID(std::intptr_t(s.atlasViews[l].id())), ImVec2(float(w), float(h)), ImVec2(0, 1), ImVec2(1, 0));
