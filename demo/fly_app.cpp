@@ -102,8 +102,8 @@ void pollReload(FlyApp::State& s, double wall) {
 
 // Moves the eye by dt: along the scene's path when following it, else by the controls.
 void fly(FlyApp::State& s, double dt) {
+    if (s.recorder) s.recorder->add(s.t, s.input);  // held from the step's start, as a script replays it
     s.t += dt;
-    if (s.recorder) s.recorder->add(s.t, s.input);
     if (s.followPath && s.scene.path.size() >= 2) {
         if (s.t > s.scene.path.back().t) s.t = s.scene.path.front().t;  // loop
         s.pose = poseFromCamera(cameraAt(s.scene, s.t));

@@ -32,6 +32,10 @@ CLI::App* addFlyCommand(CLI::App& app, FlyOptions& o) {
 int runFly(const FlyOptions& given) {
     FlyOptions o = given;
     if (o.scene.empty()) o.scene = NEPHELE_SOURCE_DIR "/data/scenes/showcase.json";
+    if (!o.record.empty() && !o.recordInput.empty()) {
+        std::cerr << "nephele: --record-input records the window's flight; it does not go with --record\n";
+        return 2;
+    }
     if (!o.record.empty()) return runFlyRecord(o);
     const char* misplaced = !o.script.empty() ? "--script" : o.headless ? "--headless" : nullptr;
     if (misplaced) {

@@ -236,6 +236,7 @@ TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
         {"fly " + (dir / "missing.json").string() + " --record " + rec, "missing.json"},
         {"fly " + scene + " --record " + (dir / "no" / "such" / "rec").string(), "does not exist"},
         {"fly " + scene + " --width 0", "--width"},
+        {"fly " + scene + " --record " + rec + " --record-input " + (dir / "in.json").string(), "does not go with --record"},
     };
     for (const auto& [args, message] : cases) {
         const CliResult r = runNephele(args);

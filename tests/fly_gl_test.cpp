@@ -234,6 +234,12 @@ TEST(FlyGLTest, ResizesAndClosesCleanly) {
     std::stringstream text;
     text << f.rdbuf();
     EXPECT_NE(text.str().find("\"right\""), std::string::npos) << text.str();
+    // The recorded inputs replay as a script.
+    const fs::path replay = freshDir("fly_replay");
+    std::string out;
+    EXPECT_EQ(run("fly " + kScene + " --script " + inputs.string() + " --record " + replay.string() +
+                  " --headless --method ellipsoid --width 64 --no-video", &out), 0) << out;
+    EXPECT_TRUE(fs::exists(replay / "frame_0000.png"));
 }
 
 TEST(FlyGLTest, ABadEditOfTheSceneKeepsTheLastGoodOne) {
