@@ -43,6 +43,7 @@ struct SceneArgs {
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
     CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr, *compositeOpt = nullptr;
     RaymarchSettings raymarch;
+    RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
@@ -81,8 +82,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
         ->capture_default_str();
-    cmd->add_option("--light-grid", a.raymarch.lightGrid, "Ray-marcher: voxels per side of each cloud's light grid")
-        ->capture_default_str();
+    cmd->add_option("--light-grid", a.light.size, "Compositor, gardner-exact, ray-marcher: voxels per side of each cloud's radiance grid")
+        ->check(CLI::Range(4, 128))->capture_default_str();
+    cmd->add_option("--photons", a.light.sunPhotons,
+                    "Compositor, gardner-exact, ray-marcher: photons traced per cloud from the sun, and as many from the sky")
+        ->check(CLI::Range(0, 1 << 24))->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
     cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(CLI::Range(2, 1024))->capture_default_str();
     a.lod0RadiusOpt = cmd->add_option("--lod0-radius", a.layered.lod0Radius,
@@ -153,7 +157,11 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted
                                                  : CompositeOrder::PerEllipsoid;
+    RadianceGridSettings light = a.light;
+    light.skyPhotons = light.sunPhotons;
+    es.light = light;
     ro.raymarch = a.raymarch;
+    ro.raymarch.light = light;
     ro.pathtrace = a.pathtrace;
     if (!a.noCache) ro.cacheDir = defaultCacheDir(a.cache);
     ro.layered = a.layered;

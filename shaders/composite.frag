@@ -13,11 +13,11 @@ flat in int tileIndex;
 flat in vec4 atlasRect;
 in vec2 atlasCoord;
 in vec2 ndc;
-uniform sampler2DArray atlasTerms;    // green: sunLight, blue: noise modulation / 2, alpha: eq. (2)
+uniform sampler2DArray atlasTerms;    // green, blue: the light scalars (sun, sky; encodeLight), alpha: eq. (2)
 #ifdef FUSED
 uniform mat4 colourMatrix;            // red / D -> alpha (what the colour-matrix pass would subtract)
 #endif
-uniform vec3 sunRadiance, ambient;
+uniform vec3 sunIrradiance;           // sun.color * sun.intensity
 uniform float albedo;
 uniform vec2 atlasSize;
 #if defined(FRACTION) || defined(WEIGHTED)
@@ -46,7 +46,8 @@ void main() {
 #else
     float alpha = clamp(terms.a, 0.0, 1.0);
 #endif
-    vec3 color = cloudColor(sunRadiance, terms.g, ambient, albedo, 2.0 * terms.b);
+    vec3 color = sourceFromScalars(vec3(decodeLight(terms.g), decodeLight(terms.b), 0.0), sunIrradiance,
+                                   tiles[tileIndex].skyChroma.rgb, albedo);
 #if defined(FRACTION) || defined(WEIGHTED)
     // This pixel's ray in the ellipsoid's unit space (as gardner-exact evaluates it).
     Tile t = tiles[tileIndex];

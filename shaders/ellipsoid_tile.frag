@@ -2,12 +2,20 @@
 // attachment blended reverse-subtractively (rgb) and subtractively (alpha) into the
 // cleared (T2, 1, 1, T1 / D):
 //   red   = T2 - T2 g      (g from the projective radial falloff texture)
-//   green = 1 - (1 - sunLight) = sunLight
-//   blue  = 1 - (1 - modulation / 2) = modulation / 2
+//   green = 1 - (1 - m sun) = m sun     (the chord's light scalars, cloud_light.glsl, times the
+//   blue  = 1 - (1 - m sky) = m sky      noise modulation m; encodeLight'ed in an 8-bit atlas)
 //   alpha = I / D - T1 / D (I the noise-textured ellipsoid)
+// CUT (cut by the near plane, or around the eye): the light too per pixel from the exact chord
+// beyond the near plane. Such an ellipsoid fills much of the view and its chords change fast
+// across it (a few metres ahead to hundreds): Gouraud light is visibly off there.
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
+#ifdef CUT
+#include "cloud_light_grid.glsl"
+uniform vec3 sunDirection;             // unit, towards the sun
+uniform float hgG;                     // medium.hg_g
+#endif
 flat in int tileIndex;
 #ifdef CUT
 in vec3 relPosition;
@@ -16,7 +24,9 @@ in vec3 projCoord;
 #endif
 in float invLen;
 in vec3 noiseCoord;
-in float light;
+#ifndef CUT
+in vec2 light;
+#endif
 flat in vec4 instance;                 // Ac, sigma, L^2, cut (per ellipsoid: no storage read per fragment)
 out vec4 terms;
 uniform vec3 forward;                  // unit view direction
@@ -33,7 +43,9 @@ void main() {
     // Cut by the near plane, or the eye inside: the exact chord beyond the near plane.
     Tile t = tiles[tileIndex];
     vec3 d = normalize(relPosition);
-    float depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), nearClip / dot(d, forward), 1e30);
+    float tStart = nearClip / dot(d, forward);
+    float depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), tStart, 1e30);
+    vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz, toUnit(t, d), d, tStart, instance.y, sunDirection, hgG);
 #else
     // The plane point at radius rho lies on the ray with impact parameter
     // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):
@@ -53,11 +65,13 @@ void main() {
     if (depth <= 0.0) {
         // Outside the silhouette (the circumscribed mesh is larger): n = -1 makes eq. (2)
         // non-positive whatever Ac is, and saves the noise lookup.
-        terms = vec4(kTranslucence * termG(ac, noiseAmp, 0.0), 1.0 - light, 1.0, termIOverD(ac, noiseAmp, -1.0));
+        terms = vec4(kTranslucence * termG(ac, noiseAmp, 0.0), 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y),
+                     termIOverD(ac, noiseAmp, -1.0));
         return;
     }
     float a = opacityOf(instance.y * depth);
     float n = texture(noiseVolume, noiseCoord).r;
-    terms = vec4(kTranslucence * termG(ac, noiseAmp, a / ac), 1.0 - light,
-                 1.0 - 0.5 * noiseModulation(noiseAmp, n), termIOverD(ac, noiseAmp, n));
+    vec2 lit = light * noiseModulation(noiseAmp, n);
+    terms = vec4(kTranslucence * termG(ac, noiseAmp, a / ac), 1.0 - encodeLight(lit.x), 1.0 - encodeLight(lit.y),
+                 termIOverD(ac, noiseAmp, n));
 }

@@ -1,8 +1,9 @@
 // The ellipsoid pass: one ellipsoid per instance, drawn by its back faces (a circumscribed
 // mesh, so that it covers the exact silhouette even with the eye inside), in its tile.
 // What varies slowly over the ellipse is evaluated per vertex, as the paper's Gouraud-lit,
-// texture-mapped ellipsoids are: the shading point, its sun light (from the cloud's light
-// volume) and its noise coordinates, and the 1/|M d| scale of the chord. What shapes the
+// texture-mapped ellipsoids are: the light the vertex's chord sends to the eye (from the
+// cloud's radiance grid, cloud_light_grid.glsl), the noise coordinates of its shading point,
+// and the 1/|M d| scale of the chord. What shapes the
 // ellipse is per pixel: the projective falloff coordinates are linear in the vertex
 // position and divided per fragment, as OpenGL's projective texturing does.
 // CUT (a second program): ellipsoids cut by the near plane, or around the eye, whose
@@ -10,6 +11,7 @@
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
+#include "cloud_light_grid.glsl"
 layout(location = 0) in vec3 position;   // on the circumscribed unit-sphere mesh
 uniform int instanceBase;                // first tile of this draw
 uniform vec2 atlasSize;                  // px
@@ -19,11 +21,8 @@ uniform float nearClip;                  // m
 uniform vec3 forward;                    // unit view direction
 uniform vec3 eyeNoise;                   // fract(eye / noisePeriod)
 uniform float noisePeriod;               // m
-uniform sampler3D lightVolume;           // per-cloud sun transmittance, one slot of a grid per cloud
-uniform int lightSize;                   // voxels per side of a slot; 0 = no self-shadowing
-uniform vec3 lightGrid;                  // slots along x, y, z; cloud c is at (c % gx, c / gx % gy, c / (gx gy))
-layout(std430, binding = 1) readonly buffer LightBoxes { vec4 lightBoxes[]; };  // per cloud: minRel, extent
-uniform vec3 sunDirection;
+uniform vec3 sunDirection;               // unit, towards the sun
+uniform float hgG;                       // medium.hg_g
 flat out int tileIndex;
 #ifdef CUT
 out vec3 relPosition;                    // camera-relative world position (the ray)
@@ -32,19 +31,10 @@ out vec3 projCoord;                      // projective falloff coordinates (x, y
 #endif
 out float invLen;                        // 1 / |M d|: metres of ray per unit of unit space
 out vec3 noiseCoord;                     // shading point in noise texture coordinates
-out float light;                         // sunLight() at the shading point
+#ifndef CUT
+out vec2 light;                          // the chord's light scalars: sun, sky (chordLightAt)
+#endif
 flat out vec4 instance;                  // Ac, sigma (1/m), L^2 = |M (eye - c)|^2, 1 if cut by the near plane
-
-float sunTransmittance(int cloud, vec3 p) {
-    if (lightSize == 0) return 1.0;
-    vec3 uvw = (p - lightBoxes[2 * cloud].xyz) / lightBoxes[2 * cloud + 1].xyz;
-    float n = float(lightSize);
-    uvw = clamp(uvw, 0.5 / n, 1.0 - 0.5 / n);
-    int gx = int(lightGrid.x), gy = int(lightGrid.y);
-    vec3 slot = vec3(cloud % gx, (cloud / gx) % gy, cloud / (gx * gy));
-    uvw = (slot + uvw) / lightGrid;
-    return textureLod(lightVolume, uvw, 0.0).r;
-}
 
 void main() {
     tileIndex = instanceBase + gl_InstanceID;
@@ -94,10 +84,7 @@ void main() {
     float tShade = clamp(tc / len, max(tIn, tStart), max(tOut, tStart));
     vec3 shade = tShade * d;
     noiseCoord = shade / noisePeriod + eyeNoise + t.noiseOffset.xyz;
-    vec3 normal = -d;
-    if (tIn > tStart) {
-        vec3 pu = o + tIn * du;  // entry point, unit space: the world normal is M^T pu
-        normal = normalize(t.unit0.xyz * pu.x + t.unit1.xyz * pu.y + t.unit2.xyz * pu.z);
-    }
-    light = sunLight(sunTransmittance(int(t.params.y), shade), dot(normal, sunDirection));
+#ifndef CUT
+    light = chordLightAt(int(t.params.y), o, du, d, tStart, t.centerSigma.w, sunDirection, hgG);
+#endif
 }

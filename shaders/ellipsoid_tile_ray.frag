@@ -1,29 +1,29 @@
 // Eq. (2)'s terms and the colour of one ellipsoid per pixel of its tile, the ray per pixel
 // (EllipsoidSettings::geometry = Polygon): the same terms as ellipsoid_tile.frag, blended
 // the same way into the cleared (T2, 1, 1, T1 / D), but with the opacity, the shading point
-// and its noise evaluated exactly per pixel, as `gardner-exact` does, and the sun light
-// from the light volume per pixel, instead of interpolated from a mesh's vertices. Outside
+// and its noise evaluated exactly per pixel, as `gardner-exact` does, and the chord's light
+// from the radiance grid per pixel, instead of interpolated from a mesh's vertices. Outside
 // the ellipse (the polygon circumscribes it) eq. (2) is non-positive.
 // CUT: ellipsoids cut by the near plane (or around the eye): the chord beyond the near plane.
 #define MODEL_FN
 #include "gardner_model.glsl"
+#include "tiles.glsl"
+#include "cloud_light_grid.glsl"
 in vec3 ray;                           // camera-relative point on the ray (m)
 in vec3 rayUnit;                       // M ray
 flat in vec4 instance;                 // Ac, sigma (1/m), unused, cut
 flat in vec3 eyeUnit;
 flat in vec3 unitRow0, unitRow1, unitRow2;
 flat in vec3 noiseBase;
-flat in vec3 lightMin, lightScale, lightSlot;
+flat in int cloud;
 out vec4 terms;
 uniform vec3 forward;                  // unit view direction
 uniform float nearClip;                // m
 uniform float noisePeriod;             // m
 uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
-uniform sampler3D lightVolume;         // per-cloud sun transmittance, one slot of a grid per cloud
-uniform int lightSize;                 // voxels per side of a slot; 0 = no self-shadowing
-uniform vec3 lightGrid;                // slots along x, y, z
 uniform vec3 sunDirection;             // unit, towards the sun
+uniform float hgG;                     // medium.hg_g
 
 void main() {
     float ac = instance.x;
@@ -49,16 +49,12 @@ void main() {
     float tShade = clamp(tc / len, max(tIn, tStart), max(tOut, tStart));
     vec3 shade = tShade * d;
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
-    vec3 pu = o + tIn * du;              // entry point, unit space: the world normal is M^T pu
-    vec3 normal = tIn > tStart ? normalize(unitRow0 * pu.x + unitRow1 * pu.y + unitRow2 * pu.z) : -d;
-    float n1 = float(lightSize);
-    vec3 uvw = (lightSlot + clamp((shade - lightMin) * lightScale, 0.5 / n1, 1.0 - 0.5 / n1)) / lightGrid;
-    float transmittance = lightSize == 0 ? 1.0 : textureLod(lightVolume, uvw, 0.0).r;
-    float light = sunLight(transmittance, dot(normal, sunDirection));
+    vec2 light = chordLightAt(cloud, o, du, d, tStart, instance.y, sunDirection, hgG);
     // Outside the silhouette: n = -1 makes eq. (2) non-positive whatever Ac is; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.
     bool inside = depth > 0.0;
     float a = opacityOf(instance.y * depth);
-    terms = vec4(kTranslucence * termG(ac, noiseAmp, inside ? a / ac : 0.0), 1.0 - light,
-                 1.0 - 0.5 * noiseModulation(noiseAmp, n), termIOverD(ac, noiseAmp, inside ? n : -1.0));
+    vec2 lit = light * (inside ? noiseModulation(noiseAmp, n) : 1.0);
+    terms = vec4(kTranslucence * termG(ac, noiseAmp, inside ? a / ac : 0.0), 1.0 - encodeLight(lit.x),
+                 1.0 - encodeLight(lit.y), termIOverD(ac, noiseAmp, inside ? n : -1.0));
 }

@@ -15,16 +15,13 @@ uniform vec2 atlasSize;                  // px
 uniform int foldAtlas;                   // 1: the tile's place is folded into the projection (instanced)
                                          // 0: the caller set the viewport to the tile (one draw per ellipsoid)
 uniform vec3 eyeNoise;                   // fract(eye / noisePeriod)
-uniform int lightSize;                   // voxels per side of a light-volume slot; 0 = no self-shadowing
-uniform vec3 lightGrid;                  // slots along x, y, z; cloud c is at (c % gx, c / gx % gy, c / (gx gy))
-layout(std430, binding = 1) readonly buffer LightBoxes { vec4 lightBoxes[]; };  // per cloud: minRel, extent
 out vec3 ray;                            // camera-relative point on the pixel's ray (m)
 out vec3 rayUnit;                        // M ray: the same in the ellipsoid's unit space
 flat out vec4 instance;                  // Ac, sigma (1/m), unused, 1 if cut by the near plane
 flat out vec3 eyeUnit;                   // M (eye - c)
 flat out vec3 unitRow0, unitRow1, unitRow2;  // rows of M
 flat out vec3 noiseBase;                 // noise texture coordinates of the eye
-flat out vec3 lightMin, lightScale, lightSlot;  // light volume: (p - min) * scale in [0,1]^3, slot offset
+flat out int cloud;                      // the scene cloud: its radiance grid
 const float kOctagon = 1.0823922;        // 1 / cos(pi / 8): the octagon circumscribes the unit circle
 
 void main() {
@@ -66,9 +63,5 @@ void main() {
     unitRow1 = t.unit1.xyz;
     unitRow2 = t.unit2.xyz;
     noiseBase = eyeNoise + t.noiseOffset.xyz;
-    int cloud = int(t.params.y);
-    lightMin = lightBoxes[2 * cloud].xyz;
-    lightScale = lightSize == 0 ? vec3(0.0) : 1.0 / lightBoxes[2 * cloud + 1].xyz;
-    int gx = int(lightGrid.x), gy = int(lightGrid.y);
-    lightSlot = vec3(cloud % gx, (cloud / gx) % gy, cloud / (gx * gy));
+    cloud = int(t.params.y);
 }

@@ -125,36 +125,10 @@ MODEL_FN float compositeWeight(float tShade, float tRef, float exponent) {
 // Opacity of optical depth tau.
 MODEL_FN float opacityOf(float tau) { return 1.0f - exp(-tau); }
 
-// ---- Colour (section 3.5): the ellipsoid lit by the sun and the sky, modulated by noise:
-//   colour = albedo * (sunRadiance * sunLight + ambient) * noiseModulation
-// sunRadiance = sun.color * sun.intensity / pi: the radiance of a white Lambertian plane facing
-// the sun. A cloud is a thick, strongly forward-scattering medium, not a white plane: of the
-// sunlight it sends back its diffuse reflectance R (diffuseReflectance below, about 0.56 for
-// the format's default medium), not 1. So
-//   sunTransmittance (the light volume, cloudSunLight in gardner.cpp) = R / albedo times the
-//     sun's transmittance at the shading point with the similarity-reduced extinction (through
-//     every ellipsoid of the cloud: self-shadowing), and the albedo factor makes it R;
-//   ambient (cloudAmbient in gardner.cpp) = the mean radiance of the whole environment over
-//     the sphere, sky above and ground below: skylight enters from every side and, the cloud
-//     absorbing little, leaves it nearly as bright (the path tracer shows 0.9-1.0 of it).
-// The two scalars are what the atlas stores (green and blue), so that one attachment
-// carries eq. (2) and the colour.
-// cosSun: the ellipsoid normal at the ray's entry point against the sun direction.
-MODEL_FN float sunLight(float sunTransmittance, float cosSun) {
-    float wrap = 0.35f + 0.65f * (0.5f + 0.5f * cosSun);  // forward-scattering clouds glow past the terminator
-    return sunTransmittance * wrap;
-}
+// ---- Colour (section 3.5): each ellipsoid's colour is the light its chord sends to the eye
+// (cloud_light.glsl), times the same fBm noise that textures its opacity, at half its
+// amplitude: brighter where the noise thickens the cloud.
 MODEL_FN float noiseModulation(float noiseAmp, float n) { return 1.0f + 0.5f * noiseAmp * n; }
-MODEL_FN vec3 cloudColor(vec3 sunRadiance, float light, vec3 ambient, float albedo, float modulation) {
-    return albedo * (sunRadiance * light + ambient) * modulation;
-}
 
-// Diffuse reflectance (spherical albedo) of a semi-infinite medium of single-scattering albedo
-// `albedo` in [0, 1] and Henyey-Greenstein asymmetry g in (-1, 1), by the similarity parameter
-// s = sqrt((1 - albedo) / (1 - albedo g)) (van de Hulst 1980, "Multiple light scattering",
-// vol. 2, eq. for the spherical albedo: (1 - s)(1 - 0.139 s) / (1 + 1.17 s)). 1 when
-// albedo = 1 (no absorption: all light comes back out), ~0.56 for albedo 0.99, g 0.85.
-MODEL_FN float diffuseReflectance(float albedo, float g) {
-    float s = sqrt(max(1.0f - albedo, 0.0f) / max(1.0f - albedo * g, 1e-6f));
-    return (1.0f - s) * (1.0f - 0.139f * s) / (1.0f + 1.17f * s);
-}
+// The light of cloud matter (single scattering, the grids' diffuse light): cloud_light.glsl.
+#include "cloud_light.glsl"

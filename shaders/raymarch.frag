@@ -3,8 +3,9 @@
 // the method; the CPU twin of the density and of the no-duplicate tracing is
 // volume/src/raymarch_light.cpp. Positions are camera-relative (eye at 0), lengths in metres.
 #include "raymarch_data.glsl"
-#define RM_FN
-#include "raymarch_model.glsl"
+#define MODEL_FN
+#include "gardner_model.glsl"
+#include "cloud_light_grid.glsl"
 
 in vec2 ndc;
 out vec4 result;
@@ -21,15 +22,8 @@ uniform float kappa;                          // medium.noise: the pseudo-sphero
 uniform sampler3D noiseVolume;                // tileable fBm in [-1, 1], GL_REPEAT
 uniform vec3 eyeNoise;                        // fract(eye / noisePeriod): the eye in noise coordinates
 uniform float invNoisePeriod;                 // 1/m
-uniform sampler3D lightVolume;                // the clouds' light grids, one slot each: optical depth (sigma_t m)
-                                              // to the sun, straight up and straight down (rgb)
-uniform float lightSize;                      // voxels per side of a grid
-uniform vec3 invLightTexels;                  // 1 / the light texture's size in texels
 uniform vec3 sunDirection;                    // unit, towards the sun
 uniform vec3 sunIrradiance;                   // sun.color * sun.intensity
-uniform vec3 skyUpper;                        // the sky's mean radiance over the upper hemisphere
-uniform vec3 ground;                          // sky.ground
-uniform float reduction;                      // 1 - albedo hg_g: the similarity-reduced extinction's factor
 uniform float hgG, albedo;
 
 const float kPi = 3.14159265;
@@ -40,7 +34,6 @@ const float kFar = 1e30;
 vec3 dir;           // unit world direction of the ray
 float transmittance = 1.0;
 vec3 radiance = vec3(0.0);
-float cosSun;       // d . sun
 int steps = 0;
 bool finished() { return transmittance < kTransmittanceCut || steps >= maxSteps; }
 
@@ -126,18 +119,14 @@ float extinctionAt(float l) {
     return sigma;
 }
 
-// One segment [l0, l1] with its extinction at the midpoint: Algorithm 3.
+// One segment [l0, l1] with its extinction at the midpoint: Algorithm 3, with the light of
+// the cloud's radiance grid (cloud_light.glsl) as the in-scattered radiance.
 void shade(RmCloud c, float l0, float l1) {
     float mid = 0.5 * (l0 + l1);
     float sigma = extinctionAt(mid);
     if (sigma <= 0.0) return;
     float dT = exp(-sigma * (l1 - l0));
-    // Precomputed light: optical depths to the sun, up and down, trilinear in the cloud's grid.
-    vec3 u = (dir * mid - c.lightMin.xyz) * c.lightScale.xyz;
-    vec3 texel = clamp(u * lightSize, vec3(0.5), vec3(lightSize - 0.5)) + c.lightSlot.xyz;
-    vec3 tau = textureLod(lightVolume, texel * invLightTexels, 0.0).rgb;
-    vec3 inScatter = rmInScatter(sunIrradiance, skyUpper, ground, cosSun, hgG, reduction, tau.x, tau.y, tau.z);
-    radiance += transmittance * (1.0 - dT) * albedo * inScatter;
+    radiance += transmittance * (1.0 - dT) * cloudSourceAt(c.range.z, dir * mid, dir, sunDirection, hgG, sunIrradiance, albedo);
     transmittance *= dT;
 }
 
@@ -195,7 +184,6 @@ void main() {
             tEnd = min(tEnd, zEye / cosF);
         }
     }
-    cosSun = dot(dir, sunDirection);
     // No component of dir exactly 0 in the slab test (0 * inf would be NaN).
     vec3 invDir = 1.0 / vec3(abs(dir.x) < 1e-20 ? 1e-20 : dir.x, abs(dir.y) < 1e-20 ? 1e-20 : dir.y,
                              abs(dir.z) < 1e-20 ? 1e-20 : dir.z);

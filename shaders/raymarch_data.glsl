@@ -16,10 +16,7 @@ struct RmEllipsoid {
 struct RmCloud {
     vec4 boxMin;        // xyz: the cloud's box (raymarchCloudBox), camera-relative
     vec4 boxMax;
-    vec4 lightMin;      // xyz: the light grid's box minimum, camera-relative
-    vec4 lightScale;    // xyz: 1 / the light grid's box extent (1/m)
-    vec4 lightSlot;     // xyz: the grid's first texel in the light texture
-    ivec4 range;        // x: first ellipsoid, y: count
+    ivec4 range;        // x: first ellipsoid, y: count, z: the scene cloud (its radiance grid)
 };
 layout(std430, binding = 0) readonly buffer RmEllipsoids { RmEllipsoid ellipsoids[]; };
 layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };

@@ -17,8 +17,26 @@ struct Tile {
     vec4 rayCentre;     // xyz: camera-relative direction through the tile's centre (unnormalised, m)
     vec4 rayX;          // xyz: its change per unit of tile clip x (tile clip space [-1,1]^2)
     vec4 rayY;          // xyz: its change per unit of tile clip y
+    vec4 skyChroma;     // rgb: the sky light's colour at the ellipsoid (model::skyChroma)
 };
 layout(std430, binding = 0) readonly buffer Tiles { Tile tiles[]; };
 
 mat3 tileAxes(Tile t) { return mat3(t.axes0.xyz, t.axes1.xyz, t.axes2.xyz); }
 vec3 toUnit(Tile t, vec3 v) { return vec3(dot(t.unit0.xyz, v), dot(t.unit1.xyz, v), dot(t.unit2.xyz, v)); }
+
+// The atlas's light scalars (green, blue): as they are in a float atlas; x / (1 + x) in an
+// 8-bit one (ATLAS_UNORM8), which holds only [0, 1] (forward-scattered sunlight exceeds 1).
+float encodeLight(float x) {
+#ifdef ATLAS_UNORM8
+    return x / (1.0 + x);
+#else
+    return x;
+#endif
+}
+float decodeLight(float e) {
+#ifdef ATLAS_UNORM8
+    return e / max(1.0 - e, 1.0 / 255.0);
+#else
+    return e;
+#endif
+}

@@ -62,14 +62,14 @@ class EllipsoidGLTest : public test::EglTest {};
 
 // The tiled GPU path against the exact CPU evaluation of the same model. What separates
 // them: each ellipsoid resampled from its power-of-two tile onto its screen rectangle
-// (bilinear), the radial falloff from a 256^2 texture instead of the closed form, the sun
-// light and the noise coordinates per vertex (interpolated) instead of per pixel, the
-// sun's transmittance from a 32^3 light volume instead of exact, and half floats in the
-// atlas. Measured on llvmpipe: 35.2 (flythrough) to 44.3 dB at 160 px with the default
-// meshes (8 slices up to 64 px tiles). 33 dB leaves room for drivers that filter with
-// fewer bits, and still fails if a term of eq. (2), the colour, the order or the
-// fly-through is wrong (an object wrongly covered by cloud gave 29.6 dB on example.json;
-// a wrong term costs more).
+// (bilinear), the light of each chord and the noise coordinates per vertex (interpolated)
+// instead of per pixel, the radiance grid in half floats, and half floats in the atlas.
+// Measured on llvmpipe: 33.1 (flythrough, the eye near the cloud: its light changes fast
+// across each puff, from the sunward glow to the shadowed core) to 41.7 dB at 160 px with
+// the default meshes (8 slices up to 64 px tiles); the old, flat light measured 35.2-44.3.
+// 31 dB leaves room for drivers that filter with fewer bits, and still fails if a term of
+// eq. (2), the colour, the order or the fly-through is wrong (an object wrongly covered by
+// cloud gave 29.6 dB on example.json; a wrong term costs more).
 TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
     for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"}) {
         const Scene scene = sharedScene(name);
@@ -77,8 +77,8 @@ TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
         const Image exact = clamped(renderExact(scene));
         const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
         std::printf("[ figure ] %-16s GPU vs gardner-exact PSNR %.1f dB\n", name, db);
-        EXPECT_GT(db, 33.0) << name;
-        if (db <= 33.0) {
+        EXPECT_GT(db, 31.0) << name;
+        if (db <= 31.0) {
             save(std::string("ellipsoid_gpu_") + name, gpu);
             save(std::string("ellipsoid_exact_") + name, exact);
         }
@@ -399,7 +399,9 @@ TEST_F(EllipsoidGLTest, FlyThroughHidesWhatIsBehindCloudOnly) {
         // The box's centre pixel: behind ~150 m of cloud at density up to 1 (tau ~ 5).
         const Image background = renderOpaqueCpu(s, view);
         const int cx = s.camera.width / 2, cy = s.camera.height / 2;
-        EXPECT_GT(img.at(cx, cy, 1), 0.5f) << "box not hidden by the cloud in front of it";  // cloud is white-ish, box red
+        // The cloud is grey to blue-white, the box red: not red there, and lit.
+        EXPECT_LT(img.at(cx, cy, 0) - img.at(cx, cy, 1), 0.03f) << "box not hidden by the cloud in front of it";
+        EXPECT_GT(img.at(cx, cy, 1), 0.15f) << "the cloud in front of the box is not lit";
         // The box's ends, outside the ellipsoid: visible (red), like the background.
         const int ex = int(s.camera.width * 0.5 + 0.5 * s.camera.width * (190.0 / 400.0) / view.tanHalfX);
         EXPECT_NEAR(img.at(ex, cy, 0), background.at(ex, cy, 0), 0.02) << "box end covered";

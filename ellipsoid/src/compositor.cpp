@@ -4,6 +4,7 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/fingerprint.hpp"
 #include "nephele/frame_depth.hpp"
+#include "nephele/cloud_light_textures.hpp"
 #include "nephele/light_cache.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/packer.hpp"
@@ -37,8 +38,9 @@ struct GpuTile {
     float rayCentre[4];
     float rayX[4];
     float rayY[4];
+    float skyChroma[4];
 };
-static_assert(sizeof(GpuTile) == 15 * 16 + 64);
+static_assert(sizeof(GpuTile) == 16 * 16 + 64);
 
 void put(float* out, const Vec3& v, double w = 0) {
     out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
@@ -77,12 +79,6 @@ void checkPow2(const char* what, int v) {
     if (v < 1 || (v & (v - 1)) != 0) throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
 }
 
-// A fingerprint of what the light volumes depend on: the clouds, the medium (extinction,
-// and albedo and g through the reduced extinction) and the sun.
-std::uint64_t lightKey(const Scene& scene, int size) {
-    return Fingerprint().add(size).add(scene.sun.direction).addMedium(scene.medium).addClouds(scene.clouds).value();
-}
-
 }  // namespace
 
 struct FramePlan {
@@ -102,17 +98,14 @@ struct EllipsoidRenderer::Impl {
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
-    Texture falloff, noise, light;
+    Texture falloff, noise;
     Sampler linearClamp;
-    std::uint64_t lightKeyValue = 0;
-    CloudLightCache lightCache;
-    int lightClouds = 0;
-    glm::ivec3 lightGrid{1, 1, 1};      // slots of the clouds' light volumes in the 3D texture
-    Buffer tiles, lightBoxes, order;
-    std::size_t tilesCapacity = 0, orderCapacity = 0, lightBoxCapacity = 0;
-    std::vector<float> lightBoxWorld;   // per cloud: min (xyz, 0), extent (xyz, 0), world
+    CloudRadianceCache lightCache;      // the clouds' radiance grids
+    CloudLightTextures lightTextures;   // ... on the GPU
+    Buffer tiles, order;
+    std::size_t tilesCapacity = 0, orderCapacity = 0;
     // The atlas: one layer per pass.
-    Texture atlasTerms;  // rgba: T2 (1 - g), sunLight, modulation / 2, eq. (2)
+    Texture atlasTerms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
     int atlasW = 0, atlasH = 0, atlasLayers = 0;
     std::vector<Framebuffer> layerFbos;
     FrameDepth depth;  // copy of the frame's depth (fraction mode)
@@ -154,26 +147,29 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.minTile > s.maxTile) throw std::invalid_argument("minTile must not exceed maxTile");
     if (s.tessellation != 0 && (s.tessellation < 4 || s.tessellation > 256))
         throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
-    if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
+    validate(s.light);
     if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
     if (s.order == CompositeOrder::PerPixel)
         throw std::invalid_argument("order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
     if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
     Impl& m = *impl_;
+    // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
+    const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
     // Only the programs these settings use (llvmpipe compiles each in tens of milliseconds).
     if (s.geometry == TileGeometry::Mesh) {
-        const std::string falloffTexture = s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "";
+        const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + unorm8;
         m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                                 falloffTexture);
         m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                                    falloffTexture + "#define CUT 1\n");
     } else {
-        m.tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}});
+        m.tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+                                   unorm8);
         m.tileRayCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                                      "#define CUT 1\n");
+                                      unorm8 + "#define CUT 1\n");
     }
     m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
-    const std::string fused = s.colourMatrixPass ? "" : "#define FUSED 1\n";
+    const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
     m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
     if (s.order == CompositeOrder::Weighted) {
         m.compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
@@ -285,6 +281,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         return a.pass != b.pass ? a.pass < b.pass : group(a) < group(b);
     });
 
+    // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
+    const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light);
+
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     std::vector<GpuTile>& gpu = out.gpu;
     gpu.resize(placements.size());
@@ -317,6 +316,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
         put(t.params, Vec3(p.crossesNear ? 1.0 : 0.0, double(e.cloud), 0.0));
         put(t.noiseOffset, e.noiseOffset);
+        put(t.skyChroma, Vec3(model::skyChroma(glm::vec3(light[e.cloud].sample(e.shape.center).skyTau))));
         slot[tp.id] = int(k);
         m.lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
         stats.tilePixels += std::int64_t(tp.size) * tp.size;
@@ -329,49 +329,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     // ---- Resources.
     uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
     uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
-    const int lightSize = s.lightVolume;
-    if (lightSize > 0) {
-        const std::uint64_t key = lightKey(scene, lightSize);
-        if (!m.light || key != m.lightKeyValue) {
-            // Clouds that only moved (wind, near-LOD cells) keep their volumes: see light_cache.hpp.
-            const std::vector<CloudLight> lights = m.lightCache.lights(scene, lightSize);
-            m.lightClouds = int(lights.size());
-            // The clouds' volumes side by side in one 3D texture: a grid of gx * gy * gz slots.
-            GLint max3d = 0;
-            glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
-            const int perAxis = std::max(1, int(max3d) / lightSize);
-            const int clouds = std::max(m.lightClouds, 1);
-            const int gx = std::min(perAxis, int(std::ceil(std::sqrt(double(clouds)))));
-            const int gy = std::min(perAxis, (clouds + gx - 1) / gx);
-            const int gz = (clouds + gx * gy - 1) / (gx * gy);
-            if (gz > perAxis)
-                throw GlError("light volumes: " + std::to_string(clouds) + " clouds of " + std::to_string(lightSize) +
-                              "^3 voxels do not fit GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower lightVolume");
-            m.lightGrid = glm::ivec3(gx, gy, gz);
-            m.light = Texture::create(GL_TEXTURE_3D);
-            glTextureStorage3D(m.light.id(), 1, GL_R16F, gx * lightSize, gy * lightSize, gz * lightSize);
-            for (int c = 0; c < m.lightClouds; ++c)
-                glTextureSubImage3D(m.light.id(), 0, (c % gx) * lightSize, (c / gx % gy) * lightSize,
-                                    (c / (gx * gy)) * lightSize, lightSize, lightSize, lightSize, GL_RED, GL_FLOAT,
-                                    lights[c].transmittance.data());
-            m.lightKeyValue = key;
-            // Boxes are camera-relative, so they are rewritten below every frame.
-            m.lightBoxCapacity = 0;
-            m.lightBoxes = Buffer();
-            std::vector<float> boxes;
-            for (const CloudLight& l : lights) {
-                boxes.insert(boxes.end(), {float(l.boxMin.x), float(l.boxMin.y), float(l.boxMin.z), 0.0f});
-                boxes.insert(boxes.end(), {float(l.boxExtent.x), float(l.boxExtent.y), float(l.boxExtent.z), 0.0f});
-            }
-            m.lightBoxWorld = boxes;
-        }
-        std::vector<float> rel = m.lightBoxWorld;
-        for (std::size_t c = 0; c < rel.size(); c += 8)
-            for (int k = 0; k < 3; ++k) rel[c + k] = float(double(m.lightBoxWorld[c + k]) - view.eye[k]);
-        uploadDynamic(m.lightBoxes, m.lightBoxCapacity, rel.data(), rel.size() * sizeof(float));
-    } else {
-        uploadDynamic(m.lightBoxes, m.lightBoxCapacity, nullptr, 16);
-    }
+    m.lightTextures.update(light, view.eye);
 
     if (m.atlasW != atlasW || m.atlasH != atlasH || m.atlasLayers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
@@ -412,11 +370,9 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const std::vector<int>& order = plan.order;
     const int atlasW = plan.atlasW, atlasH = plan.atlasH;
     const int frameW = view.camera.width, frameH = view.camera.height;
-    const int lightSize = s.lightVolume;
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     GlStateGuard guard;
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.lightBoxes.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
     glDisable(GL_SCISSOR_TEST);
     glDisable(GL_DEPTH_TEST);
@@ -429,7 +385,6 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const glm::vec2 atlasSize(atlasW, atlasH);
 
     // ---- The tile passes.
-    const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
     for (const Program* tp : {&m.tile, &m.tileCut, &m.tileRay, &m.tileRayCut}) {
         if (!*tp) continue;  // not used by these settings
         tp->set("atlasSize", atlasSize);
@@ -437,21 +392,18 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         tp->set("nearClip", float(view.camera.nearClip));
         tp->set("falloff", 0);
         tp->set("noiseVolume", 1);
-        tp->set("lightVolume", 2);
+        m.lightTextures.bind(*tp);
+        tp->set("hgG", float(scene.medium.hgG));
         tp->set("eyeNoise", glm::vec3(glm::fract(view.eye / prepared.noisePeriod)));
         tp->set("noisePeriod", float(prepared.noisePeriod));
         tp->set("noiseAmp", float(scene.medium.noise));
-        tp->set("lightSize", lightSize);
-        tp->set("lightGrid", glm::vec3(m.lightGrid));
         tp->set("sunDirection", glm::vec3(scene.sun.direction));
         tp->set("foldAtlas", s.instanced ? 1 : 0);
     }
     glBindTextureUnit(0, m.falloff.id());
     glBindTextureUnit(1, m.noise.id());
-    glBindTextureUnit(2, lightSize > 0 ? m.light.id() : 0);
     glBindSampler(0, 0);
     glBindSampler(1, 0);
-    glBindSampler(2, m.linearClamp.id());
 
     glm::mat4 colourMatrix(0.0f);
     colourMatrix[0][3] = 1.0f / model::kTranslucence;  // column 0 (red) -> row 3 (alpha)
@@ -572,8 +524,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
                                  : (fraction ? m.compositeFraction : m.composite);
     cp.set("atlasTerms", 3);
-    cp.set("sunRadiance", glm::vec3(sunRadiance));
-    cp.set("ambient", glm::vec3(cloudAmbient(scene.sky)));
+    cp.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
     cp.set("albedo", float(scene.medium.albedo));
     cp.set("sceneDepth", 5);
     cp.set("atlasSize", atlasSize);

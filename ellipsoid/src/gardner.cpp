@@ -14,55 +14,20 @@
 
 namespace nephele {
 
-namespace {
-
-// Optical depth / extinction from `from` towards the sun (to infinity) through a cloud.
-double depthToSun(const Cloud& cloud, const Vec3& from, const Vec3& sunDir) {
-    double sum = 0;
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        const glm::dmat3 m = ellipsoidToUnit(e);
-        const glm::vec3 o(m * (from - e.center)), d(m * sunDir);
-        sum += e.density * model::segmentDepth(o, d, 0.0f, 1e30f);
+glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
+                     const glm::vec3& dUnit, float tStart, float sigma) {
+    glm::vec2 sum(0.0f);
+    for (int k = 0; k < model::kChordSamples; ++k) {
+        const float t = model::chordSampleDepth(oUnit, dUnit, tStart, sigma, k, model::kChordSamples);
+        const RadianceSample r = sampleRadiance(grid, eye + double(t) * d);
+        sum += glm::vec2(model::lightScalars(r.sunDiffuse, r.skyTau, r.skyFlux, glm::vec3(d),
+                                             glm::vec3(scene.sun.direction), float(scene.medium.hgG)));
     }
-    return sum;
+    return sum / float(model::kChordSamples);
 }
 
-CloudLight makeLight(const Scene& scene, const Cloud& cloud, int size) {
-    CloudLight light;
-    light.size = size;
-    Vec3 lo(INFINITY), hi(-INFINITY);
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
-        lo = glm::min(lo, e.center - half);
-        hi = glm::max(hi, e.center + half);
-    }
-    if (cloud.ellipsoids.empty()) lo = hi = Vec3(0.0);
-    light.boxMin = lo;
-    light.boxExtent = glm::max(hi - lo, Vec3(1e-3));
-    light.transmittance.assign(std::size_t(size) * size * size, 1.0f);
-    parallelFor(size, [&](int z) {
-        for (int y = 0; y < size; ++y)
-            for (int x = 0; x < size; ++x) {
-                const Vec3 p = light.boxMin + (Vec3(x, y, z) + 0.5) / double(size) * light.boxExtent;
-                light.transmittance[(std::size_t(z) * size + y) * size + x] = float(cloudSunLight(scene, cloud, p));
-            }
-    });
-    return light;
-}
-
-}  // namespace
-
-double reducedExtinction(const Medium& m) { return m.extinction * (1.0 - m.albedo * m.hgG); }
-
-double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& point) {
-    return std::exp(-reducedExtinction(scene.medium) * depthToSun(cloud, point, scene.sun.direction));
-}
-
-double cloudSunLight(const Scene& scene, const Cloud& cloud, const Vec3& point) {
-    const Medium& m = scene.medium;
-    const double reflectance = model::diffuseReflectance(float(m.albedo), float(m.hgG));
-    return reflectance / std::max(m.albedo, 1e-6) * sunTransmittance(scene, cloud, point);
+glm::vec3 ellipsoidSkyChroma(const CloudRadiance& grid, const Ellipsoid& e) {
+    return model::skyChroma(glm::vec3(sampleRadiance(grid, e.center).skyTau));
 }
 
 Vec3 environmentMean(const Sky& sky) {
@@ -122,12 +87,6 @@ double weightReferenceDepth(const PreparedClouds& prepared, const View& view) {
     return std::max({nearest, view.camera.nearClip, double(model::kWeightNearDepth)});
 }
 
-std::vector<CloudLight> makeCloudLights(const Scene& scene, int size) {
-    std::vector<CloudLight> lights;
-    for (const Cloud& cloud : scene.clouds) lights.push_back(makeLight(scene, cloud, size));
-    return lights;
-}
-
 namespace {
 
 // The distance along a camera ray to the near plane and to the first opaque surface or the far plane.
@@ -143,12 +102,15 @@ RayRange rayRange(const Scene& scene, const View& view, const Vec3& d) {
 }  // namespace
 
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noiseVolume,
-                         const NoiseSettings& noiseSettings, CompositeOrder order, float weightExponent) {
+                         const NoiseSettings& noiseSettings, CompositeOrder order, float weightExponent,
+                         const RadianceGridSettings& lightSettings) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     const float amp = float(scene.medium.noise);
-    const Vec3 sunRadiance = scene.sun.color * scene.sun.intensity / std::numbers::pi;
-    // As the compositor's composite pass sets it (ellipsoid/src/compositor.cpp); see cloudAmbient.
-    const Vec3 ambient = cloudAmbient(scene.sky);
+    const glm::vec3 sunIrradiance(scene.sun.color * scene.sun.intensity);
+    std::vector<CloudRadiance> grids;
+    for (const Cloud& cloud : scene.clouds) grids.push_back(computeCloudRadiance(scene, cloud, lightSettings));
+    std::vector<glm::vec3> chroma;  // per prepared ellipsoid
+    for (const PreparedEllipsoid& p : prepared.ellipsoids) chroma.push_back(ellipsoidSkyChroma(grids[p.cloud], p.shape));
     const float weightReference = float(weightReferenceDepth(prepared, view));
     Image image(view.camera.width, view.camera.height, 4);
     struct Layer { float depth, alpha; glm::vec3 color; };
@@ -162,7 +124,8 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
             layers.clear();
             Vec3 weightedColor(0.0);  // Weighted: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
             double weightSum = 0, transmittance = 1;
-            for (const PreparedEllipsoid& p : prepared.ellipsoids) {
+            for (std::size_t pi = 0; pi < prepared.ellipsoids.size(); ++pi) {
+                const PreparedEllipsoid& p = prepared.ellipsoids[pi];
                 const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
                 // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
                 const float tStart = p.projection.crossesNear ? float(range.tNear) : 0.0f;
@@ -172,7 +135,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const glm::vec3 dn = du / len;
                 const float tc = -glm::dot(o, dn);
                 const float h = std::sqrt(std::max(0.0f, 1.0f - glm::dot(o + tc * dn, o + tc * dn)));
-                const float tIn = (tc - h) / len, tOut = (tc + h) / len;
+                const float tOut = (tc + h) / len;
                 const float tShade = model::shadeDepth(o, du, tStart);
                 const Vec3 shadePoint = view.eye + double(tShade) * d;
                 const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
@@ -186,12 +149,12 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                     alpha = model::opacityInFront(alpha, front, depth);
                 }
                 if (alpha <= 0) continue;
-                Vec3 normal = -d;
-                if (tIn > tStart) normal = glm::normalize(glm::transpose(p.unit) * Vec3(o + tIn * len * dn));
-                const float light = model::sunLight(float(cloudSunLight(scene, scene.clouds[p.cloud], shadePoint)),
-                                                    float(glm::dot(normal, scene.sun.direction)));
-                const glm::vec3 c = model::cloudColor(glm::vec3(sunRadiance), light, glm::vec3(ambient),
-                                                      float(scene.medium.albedo), model::noiseModulation(amp, n));
+                // The light of the chord (per pixel here; the compositor's meshes evaluate it per vertex).
+                const CloudRadiance& grid = grids[p.cloud];
+                const glm::vec2 light = chordLight(grid, scene, view.eye, d, o, du, tStart, float(p.sigma));
+                const glm::vec3 c = model::sourceFromScalars(glm::vec3(light, 0.0f), sunIrradiance, chroma[pi],
+                                                             float(scene.medium.albedo)) *
+                                    model::noiseModulation(amp, n);
                 if (order == CompositeOrder::PerPixel) {
                     layers.push_back({tShade, alpha, c});
                     continue;

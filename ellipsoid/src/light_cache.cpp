@@ -7,9 +7,11 @@ namespace nephele {
 namespace {
 
 // The cloud's shape relative to its first ellipsoid, and everything else its light depends on.
-std::uint64_t relativeKey(const Scene& scene, const Cloud& cloud, int size) {
+std::uint64_t relativeKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s) {
     Fingerprint f;
-    f.add(size).add(scene.sun.direction).addMedium(scene.medium).add(cloud.ellipsoids.size());
+    f.add(s.size).add(s.sunPhotons).add(s.skyPhotons).add(s.smoothing).add(s.seed);
+    f.add(scene.sun.direction).add(scene.sky.zenith).add(scene.sky.horizon).add(scene.sky.ground);
+    f.addMedium(scene.medium).add(cloud.ellipsoids.size());
     const Vec3 anchor = cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center;
     // Offsets rounded to a millimetre: (c + d) - (a + d) differs from c - a in the last bits.
     for (const Ellipsoid& e : cloud.ellipsoids) {
@@ -21,13 +23,14 @@ std::uint64_t relativeKey(const Scene& scene, const Cloud& cloud, int size) {
 
 }  // namespace
 
-std::vector<CloudLight> CloudLightCache::lights(const Scene& scene, int size, int* computed) {
+std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& settings,
+                                                       int* computed) {
     std::unordered_map<std::uint64_t, Entry> used;
-    std::vector<CloudLight> out;
+    std::vector<PlacedRadiance> out;
     out.reserve(scene.clouds.size());
     int made = 0;
     for (const Cloud& cloud : scene.clouds) {
-        const std::uint64_t key = relativeKey(scene, cloud, size);
+        const std::uint64_t key = relativeKey(scene, cloud, settings);
         const Vec3 anchor = cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center;
         auto it = used.find(key);
         if (it == used.end()) {
@@ -36,17 +39,12 @@ std::vector<CloudLight> CloudLightCache::lights(const Scene& scene, int size, in
                 it = used.emplace(key, std::move(old->second)).first;
                 entries_.erase(old);
             } else {
-                Scene one;  // the light of one cloud depends on the sun, the medium and that cloud only
-                one.sun = scene.sun;
-                one.medium = scene.medium;
-                one.clouds = {cloud};
-                it = used.emplace(key, Entry{std::move(makeCloudLights(one, size).front()), anchor}).first;
+                auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, cloud, settings));
+                it = used.emplace(key, Entry{std::move(grid), anchor}).first;
                 ++made;
             }
         }
-        CloudLight light = it->second.light;
-        light.boxMin += anchor - it->second.anchor;
-        out.push_back(std::move(light));
+        out.push_back({it->second.grid, anchor - it->second.anchor});
     }
     entries_ = std::move(used);
     if (computed) *computed = made;

@@ -1,5 +1,5 @@
 // The ray-marcher's host side: the pseudo-spheroid density on the CPU, the no-duplicate
-// tracing of Algorithm 2, and the illumination pass that fills the per-cloud light grids.
+// tracing of Algorithm 2 (the tests check the GPU against them).
 #include "nephele/raymarch.hpp"
 
 #include "nephele/gardner_model.hpp"
@@ -135,68 +135,6 @@ double marchDensityNdt(const Medium& medium, const Cloud& cloud, const Vec3& o, 
                        const NoiseVolume* noise, double noisePeriod, double stopDepth) {
     return marchNdt(prepare(cloud), std::max(medium.noise, 0.0), o, glm::normalize(dir), step, noise, noisePeriod,
                     stopDepth);
-}
-
-namespace {
-
-// Optical depth (sigma_t times metres, dimensionless) from x along unit dir to infinity
-// through the format's field of `cloud`, closed form per ellipsoid.
-double exactDepth(const Medium& medium, const Cloud& cloud, const Vec3& x, const Vec3& dir) {
-    double sum = 0;
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        if (e.density <= 0) continue;
-        const glm::dmat3 m = ellipsoidToUnit(e);
-        sum += e.density * model::segmentDepth(glm::vec3(m * (x - e.center)), glm::vec3(m * dir), 0.0f, 1e30f);
-    }
-    return medium.extinction * sum;
-}
-
-}  // namespace
-
-Vec3 raymarchLightDepths(const Scene& scene, const Cloud& cloud, const Vec3& x) {
-    const Medium& m = scene.medium;
-    return Vec3(exactDepth(m, cloud, x, scene.sun.direction), exactDepth(m, cloud, x, Vec3(0, 0, 1)),
-                exactDepth(m, cloud, x, Vec3(0, 0, -1)));
-}
-
-std::vector<CloudLight> makeRaymarchLights(const Scene& scene, const RaymarchSettings& settings, const NoiseVolume* noise) {
-    const Medium& medium = scene.medium;
-    if (medium.noise > 0 && !noise) throw std::invalid_argument("makeRaymarchLights: medium.noise > 0 needs the noise volume");
-    const double period = raymarchNoisePeriod(medium, raymarchNoiseSettings(settings));
-    // Past this optical depth every octave of the sun term (the weakest attenuation is
-    // a^(octaves-1) = 1/64: exp(-1000 / 64) < 2e-7) and the sky weight have died out: stop marching.
-    const double stopDepth = medium.extinction > 0 ? 1000.0 / medium.extinction : 1e300;
-    const int size = settings.lightGrid;
-    const Vec3 dirs[3] = {scene.sun.direction, Vec3(0, 0, 1), Vec3(0, 0, -1)};
-    std::vector<CloudLight> lights;
-    for (const Cloud& cloud : scene.clouds) {
-        CloudLight light;
-        light.size = size;
-        light.channels = 3;
-        Vec3 lo, hi;
-        if (!raymarchCloudBox(cloud, medium, lo, hi)) lo = hi = Vec3(0.0);
-        light.boxMin = lo;
-        light.boxExtent = glm::max(hi - lo, Vec3(1e-3));
-        light.transmittance.assign(std::size_t(size) * size * size * 3, 0.0f);
-        const std::vector<UnitEllipsoid> ells = prepare(cloud);
-        parallelFor(size, [&](int z) {
-            for (int y = 0; y < size; ++y)
-                for (int x = 0; x < size; ++x) {
-                    const Vec3 p = light.boxMin + (Vec3(x, y, z) + 0.5) / double(size) * light.boxExtent;
-                    float* out = &light.transmittance[((std::size_t(z) * size + y) * size + x) * 3];
-                    for (int k = 0; k < 3; ++k) {
-                        const double depth =
-                            medium.noise > 0
-                                ? medium.extinction * marchNdt(ells, medium.noise, p, dirs[k], settings.step, noise, period,
-                                                               stopDepth)
-                                : exactDepth(medium, cloud, p, dirs[k]);
-                        out[k] = float(std::min(depth, 60000.0));  // within half float
-                    }
-                }
-        });
-        lights.push_back(std::move(light));
-    }
-    return lights;
 }
 
 }  // namespace nephele

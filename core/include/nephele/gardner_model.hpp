@@ -8,12 +8,14 @@ namespace nephele::model {
 using glm::clamp;
 using glm::dot;
 using glm::exp;
+using glm::log;
 using glm::length;
 using glm::max;
 using glm::min;
 using glm::pow;
 using glm::sqrt;
 using glm::vec3;
+using glm::vec4;
 #define MODEL_FN inline
 #include "../../../shaders/gardner_model.glsl"
 #undef MODEL_FN

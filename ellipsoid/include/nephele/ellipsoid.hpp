@@ -40,7 +40,7 @@ enum class TileGeometry {
               // Gouraud-lit (sun light and noise coordinates per vertex), the opacity per pixel
     Polygon,  // an octagon circumscribing the silhouette (the whole tile when cut by the near plane),
               // every term of the model per pixel from the pixel's ray: about 10 dB closer to
-              // gardner-exact, and on llvmpipe about 25% slower (a light-volume lookup per pixel)
+              // gardner-exact, and on llvmpipe slower (the light's grid lookups per pixel)
 };
 enum class FlyThrough {
     Fraction,  // an object inside an ellipsoid is covered by the fraction of the ellipsoid's
@@ -61,7 +61,7 @@ struct EllipsoidSettings {
     int tessellation = 0;       // slices of the ellipsoid mesh (Mesh geometry); 0 = adapted to the tile size
     int atlasMegabytes = 256;   // memory for the atlas layers (one per pass, 8 bytes a pixel at f16); when
                                 // the passes need more, the largest tiles are halved until they fit
-    int lightVolume = 32;       // per-cloud sun transmittance grid (voxels per side); 0 = no self-shadowing
+    RadianceGridSettings light; // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
     bool colourMatrixPass = false;  // true: the colour matrix in a pass of its own per atlas layer (the
                                     // paper's copy); false: the composite applies it as it reads the atlas
                                     // (the same image: filtering is linear), one pass less per tile pixel

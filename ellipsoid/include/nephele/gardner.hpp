@@ -4,12 +4,14 @@
 // The model (shaders/gardner_model.glsl, shared by GPU and CPU): each ellipsoid's opacity
 // follows eq. (2) of Elinas & Stuerzlinger with T1, T2, D derived from the medium so that
 // with medium.noise = 0 it is exactly 1 - exp(-tau) of the format's density field; its
-// colour is the sun (attenuated through the whole cloud: a light volume per cloud) and
-// the sky, modulated by the same fBm noise. Ellipsoids are composited back to front by
-// the distance of their centres from the eye.
+// colour is the light its chord sends to the eye (shaders/cloud_light.glsl: the sun's single
+// scattering, and the diffuse light of the sun and of the sky from the cloud's radiance grid,
+// nephele/cloud_radiance.hpp), modulated by the same fBm noise. Ellipsoids are composited
+// back to front by the distance of their centres from the eye.
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/cloud_radiance.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/image.hpp"
 #include "nephele/noise.hpp"
@@ -19,15 +21,6 @@
 #include <vector>
 
 namespace nephele {
-
-// The sun's transmittance through one cloud, sampled on a size^3 grid over the cloud's
-// bounding box (texel centres at min + (i + 0.5) / size * extent), for the GPU.
-struct CloudLight {
-    Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world
-    int size = 0;
-    int channels = 1;                  // values per voxel (the ray-marcher's grids hold 3, see raymarch.hpp)
-    std::vector<float> transmittance;  // x fastest, `channels` values per voxel
-};
 
 struct PreparedEllipsoid {
     int cloud = 0, index = 0;          // where it is in scene.clouds
@@ -61,36 +54,28 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
 // (tRef / max(tShade, tRef))^k are at most 1; only their ratios reach the image; tRef keeps
 // them within float range (model::compositeWeight).
 double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
-// The per-cloud light volumes (size^3 voxels each); they depend on the clouds and the sun only.
-std::vector<CloudLight> makeCloudLights(const Scene& scene, int size);
+// The light an ellipsoid's chord sends to the eye, per unit of the sun's irradiance and of the
+// sky's chroma (model::lightScalars averaged over model::kChordSamples points of the chord
+// beyond tStart, weighted by what the eye sees of them): x = sun, y = sky. The ray is
+// o' + t d' in the ellipsoid's unit space from the eye at `eye`, d its unit world direction.
+glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
+                     const glm::vec3& dUnit, float tStart, float sigma);
 
-// The extinction the sunlight sees inside a cloud, 1/m: clouds scatter strongly forward,
-// so multiply scattered light keeps going; by the similarity relation (van de Hulst) its
-// attenuation is that of sigma_t (1 - albedo g).
-double reducedExtinction(const Medium& medium);
-
-// Exact sun transmittance at a world point through one cloud (no grid), with the
-// reduced extinction.
-double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& point);
-
-// What the light volume holds at a world point (see shaders/gardner_model.glsl, "Colour"):
-// R / albedo times sunTransmittance(), R = model::diffuseReflectance(albedo, hg_g), so that
-// the model's albedo factor turns it into the cloud's diffuse reflectance of the sunlight.
-double cloudSunLight(const Scene& scene, const Cloud& cloud, const Vec3& point);
+// The sky light's colour at an ellipsoid (model::skyChroma of the grid's fluence at its centre):
+// one per ellipsoid, as the compositor's tiles carry it.
+glm::vec3 ellipsoidSkyChroma(const CloudRadiance& grid, const Ellipsoid& e);
 
 // Mean radiance of the environment over the whole sphere of directions: the format's sky over
 // the upper hemisphere ((zenith + horizon) / 2 there), the ground colour over the lower one.
 Vec3 environmentMean(const Sky& sky);
 
-// The ambient term of the Gardner colour: environmentMean(sky). Skylight enters a cloud from
-// every side and, the cloud absorbing little (albedo ~0.99 over a few scattering events),
-// leaves it nearly as bright: the cloud shows about the mean of what surrounds it (the path
-// tracer shows 0.9-1.0 of it on the shared scenes, against 1 for the half-sum of zenith and
-// horizon used before, which ignored the dark ground below and made the clouds blue).
+// The layered sky's ambient term: environmentMean(sky). Skylight enters a cloud from every
+// side and, the cloud absorbing little, leaves it nearly as bright: about the mean of what
+// surrounds it.
 Vec3 cloudAmbient(const Sky& sky);
 
 // `--method gardner-exact`: the model per pixel in float, exact ray-ellipsoid geometry and
-// falloff, exact light transmittance, no tiles and no 8-bit buffers, over the opaque
+// falloff, the light of every pixel's chord (no per-vertex light), no tiles and no 8-bit buffers, over the opaque
 // background (objects inside clouds are covered only by the matter in front of them).
 // RGBA: rgb linear radiance, a = cloud opacity.
 // Order: PerEllipsoid composites whole ellipsoids back to front by centre distance, as the
@@ -104,9 +89,11 @@ Vec3 cloudAmbient(const Sky& sky);
 // position, so it cannot pop. `weightExponent` is k (Weighted only).
 // Opacity is the same in every order ("over" of opacities commutes); only colour differs.
 enum class CompositeOrder { PerEllipsoid, PerPixel, Weighted };
+// The clouds' radiance grids are computed with `light` (as the compositor's, so that the two
+// agree).
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
                          const NoiseSettings& noiseSettings, CompositeOrder order = CompositeOrder::PerEllipsoid,
-                         float weightExponent = model::kWeightExponent);
+                         float weightExponent = model::kWeightExponent, const RadianceGridSettings& light = {});
 
 // The physics: per pixel 1 - exp(-sum of the ellipsoids' optical depths) along the ray
 // (closed form per ellipsoid), up to the nearest opaque object. Grey image.

@@ -31,28 +31,13 @@
 //               with the reference's anchoring x / (noise_scale * 8)). Candidates are the
 //               ellipsoids inflated by (1 + kappa), the largest radius the noise can reach.
 //
-// Lighting (Algorithm 3, with the light model of shaders/raymarch_model.glsl, shared with the
-// tests as C++ in nephele/raymarch_model.hpp): along the eye ray, per unit length,
-//   in-scattered radiance = sigma_s(x) * (E_sun * sum_k b^k HG(cos theta, c^k hg_g) exp(-a^k tau_sun(x))
-//                                        + mix(ground, skyUpper, wUp(x))),
-// E_sun = sun.color * sun.intensity, cos theta = d . sun (d the eye ray's direction),
-// sigma_s = albedo * sigma_t, tau_sun the optical depth to the sun. Octave k = 0 is single
-// scattering; k = 1..3 (a = 1/4, b = 1/2, c = 0.85) approximate multiple scattering (Wrenninge et al.
-// 2013; Hillaire 2016), without which a cloud lit from above or the side is nearly black but
-// for the sky. The environment term is the mean of what surrounds the cloud: skyUpper =
-// (zenith + horizon) / 2, the sky's mean over the upper hemisphere, and the ground, weighted
-// wUp = 1/2 + (T'up - T'down) / 4 with T' the similarity-reduced transmittance (extinction
-// sigma_t (1 - albedo hg_g)) straight up and straight down: 3/4 sky at the top, 1/4 at the
-// bottom, and a uniform environment returned exactly (the white furnace). A sample's segment
-// of length dl adds T * (1 - exp(-sigma_t dl)) * albedo * (that) (Algorithm 3, line 14, with the
-// exact exp instead of the first two Maclaurin terms) and multiplies T by exp(-sigma_t dl).
-// The three optical depths (to the sun, up, down) are read (trilinear) from a per-cloud
-// lightGrid^3 voxel grid over the cloud's box (RGB half floats), precomputed on the CPU (the
-// paper's illumination pass) and cached: recomputed only when the clouds, the sun direction,
-// the medium or the settings it depends on change:
-//   noise == 0: closed form per ellipsoid (raymarchLightDepths);
-//   noise  > 0: marched through the pseudo-spheroids with the no-duplicate tracing of
-//               Algorithm 2, with a fixed step `step`.
+// Lighting (Algorithm 3): a segment of length dl adds T * (1 - exp(-sigma_t dl)) * S(x, d) and
+// multiplies T by exp(-sigma_t dl) (the exact exp instead of the paper's first two Maclaurin
+// terms), with S the source of Nephele's one light model (shaders/cloud_light.glsl, shared
+// with the compositor and gardner-exact): the sun's single scattering and the diffuse light of
+// the sun and of the sky from the cloud's radiance grid (nephele/cloud_radiance.hpp), read at
+// every step. The grids are kept while the clouds only move (nephele/light_cache.hpp). With
+// noise the grid is that of the smooth field.
 // Opaque objects: with opaqueDepth the march ends at the opaque surface (a copy of the
 // frame's depth), so an object inside a cloud is covered only by the matter in front of it.
 #pragma once
@@ -72,15 +57,14 @@ struct RaymarchSettings {
     double step = 25;          // m, base step along the ray, > 0
     double lodDistance = 4000; // m: the step grows as step * (1 + distance / lodDistance) (the paper's
                                // distance-dependent LOD); 0 = fixed step
-    int lightGrid = 32;        // voxels per side of each cloud's precomputed light grid (optical depths), 2..128
+    RadianceGridSettings light;  // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
     int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
     int maxSteps = 2048;       // per pixel, a safety cap, >= 1
 };
 
 struct RaymarchStats {
     int ellipsoids = 0, clouds = 0;  // in the scene
-    double lightPrecomputeMs = 0;    // CPU time of the light grids in this call; 0 when the
-                                     // cached grids were reused
+    int lightGridsComputed = 0;      // radiance grids computed in this call (0 when all were kept)
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
@@ -102,19 +86,6 @@ bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& 
 // `noise` may then be null).
 double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& x, const NoiseVolume* noise,
                           double noisePeriod);
-
-// The illumination pass: per cloud, a settings.lightGrid^3 grid over raymarchCloudBox (texel
-// centres at min + (i + 0.5) / size * extent) of three optical depths per voxel (channels = 3):
-// to the sun, straight up, straight down (medium.extinction times density times metres).
-// medium.noise == 0: the closed form per ellipsoid (raymarchLightDepths). medium.noise > 0:
-// marched with the no-duplicate tracing of Algorithm 2 (step settings.step), through the field
-// of raymarchExtinction; `noise` must then be the volume of raymarchNoiseSettings.
-std::vector<CloudLight> makeRaymarchLights(const Scene& scene, const RaymarchSettings& settings,
-                                           const NoiseVolume* noise);
-// The three values of a light-grid voxel at world point x for medium.noise == 0, exactly:
-// optical depth (medium.extinction times density times metres) to the sun, straight up
-// (+z) and straight down (-z), through `cloud`.
-Vec3 raymarchLightDepths(const Scene& scene, const Cloud& cloud, const Vec3& x);
 
 // The optical depth / extinction (density x metres) along o + l dir, l in [0, infinity), through
 // the pseudo-spheroids of `cloud`, marched with Algorithm 2's no-duplicate tracing at step

@@ -1,0 +1,63 @@
+// The light inside one cloud, precomputed on a grid over the cloud's box from the cloud's real
+// shape: what every fast method (the compositor, gardner-exact, the ray-marcher and the near
+// LOD) reads to light the format's density field as the path tracer does. The model that reads
+// it is shaders/cloud_light.glsl.
+//
+// Per voxel (x fastest; texel centres at boxMin + (i + 0.5) / size * boxExtent), three vec4,
+// the layout of the GPU's three RGBA16F 3D textures:
+//   sunDiffuse = (phi1 xyz, phi0): the sunlight scattered at least once in the cloud, by its
+//                fluence phi0 (integral of the radiance over the sphere) and net flux phi1
+//                (integral of radiance times the direction it travels), per unit irradiance;
+//   skyTau     = (phi0 r, g, b, tauSun): the fluence of the sky's and the ground's light
+//                (scattered or not), per colour channel, and the optical depth sigma_t * m from
+//                the voxel centre to the sun (closed form through the cloud's ellipsoids);
+//   skyFlux    = (phi1 xyz, c20) of that light's luminance: its net flux and its integral
+//                against the zonal spherical harmonic Y20.
+// The diffuse light is found by tracing photons from the sun and from the sky and the ground
+// through the cloud's extinction (voxelised), with the path tracer's physics (the same
+// extinction, albedo and Henyey-Greenstein phase), scored by track length, then lightly
+// smoothed. Only the cloud's own matter counts: other clouds neither shadow nor light it.
+//
+// The grid depends on the cloud's ellipsoids relative to each other, the sun's direction, the
+// sky, the medium and the settings only: a cloud that moves keeps it (see light_cache.hpp).
+#pragma once
+
+#include "nephele/scene.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace nephele {
+
+struct RadianceGridSettings {
+    int size = 32;              // voxels per side of the cloud's box, 4..128
+    int sunPhotons = 1 << 17;   // photons traced from the sun per cloud, 0..2^26
+    int skyPhotons = 1 << 17;   // photons traced from the sky and the ground per cloud, 0..2^26
+    int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
+    unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
+};
+
+struct CloudRadiance {
+    Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world (the cloud's axis-aligned box)
+    int size = 0;
+    std::vector<glm::vec4> sunDiffuse, skyTau, skyFlux;  // size^3 each, see above
+    double computeMs = 0;               // wall time it took
+
+    std::size_t voxels() const { return std::size_t(size) * size * size; }
+};
+
+// Throws std::invalid_argument naming the setting that is out of range.
+void validate(const RadianceGridSettings& settings);
+
+// The grid of `cloud` for the scene's sun, sky and medium. Deterministic for a seed, whatever
+// the thread count. An empty cloud gives a 1 m box with no light.
+CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {});
+
+// The three texels at a world point, trilinear between voxel centres and clamped to the
+// outermost ones, as the GPU's GL_LINEAR, clamp-to-edge 3D textures read them.
+struct RadianceSample {
+    glm::vec4 sunDiffuse{0.0f}, skyTau{0.0f}, skyFlux{0.0f};
+};
+RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world);
+
+}  // namespace nephele

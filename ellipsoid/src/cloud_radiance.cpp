@@ -1,0 +1,403 @@
+// The per-cloud radiance grid (nephele/cloud_radiance.hpp): the cloud's extinction voxelised
+// on the grid, the sun's optical depth in closed form, and the diffuse light by photons traced
+// through the voxelised extinction with the path tracer's physics, scored by track length.
+#include "nephele/cloud_radiance.hpp"
+
+#include "nephele/gardner_model.hpp"
+#include "nephele/parallel.hpp"
+#include "nephele/projection.hpp"
+
+#include <glm/gtc/matrix_access.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace nephele {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// PCG32 (O'Neill 2014), as the path tracer's (reference/src/tracking.hpp).
+class Rng {
+public:
+    explicit Rng(std::uint64_t seed) : state_(0), inc_((mix(seed) << 1) | 1u) {
+        next();
+        state_ += mix(seed ^ 0x5DEECE66Dull);
+        next();
+    }
+    std::uint32_t next() {
+        const std::uint64_t old = state_;
+        state_ = old * 6364136223846793005ull + inc_;
+        const auto x = std::uint32_t(((old >> 18) ^ old) >> 27);
+        const auto rot = std::uint32_t(old >> 59);
+        return (x >> rot) | (x << ((32u - rot) & 31u));
+    }
+    double uniform() { return (next() + 0.5) * 0x1.0p-32; }  // (0, 1)
+
+private:
+    static std::uint64_t mix(std::uint64_t x) {
+        x += 0x9E3779B97F4A7C15ull;
+        x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+        x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+        return x ^ (x >> 31);
+    }
+    std::uint64_t state_, inc_;
+};
+
+// An orthonormal basis about unit w (Duff et al. 2017).
+void basis(const Vec3& w, Vec3& u, Vec3& v) {
+    const double sign = std::copysign(1.0, w.z), a = -1 / (sign + w.z), b = w.x * w.y * a;
+    u = Vec3(1 + sign * w.x * w.x * a, sign * b, -sign * w.x);
+    v = Vec3(b, sign + w.y * w.y * a, -w.y);
+}
+
+// A direction about w with the Henyey-Greenstein distribution of its angle to w.
+Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
+    const double xi = rng.uniform(), phi = 2 * kPi * rng.uniform();
+    double c;
+    if (std::fabs(g) < 1e-4) {
+        c = 1 - 2 * xi;
+    } else {
+        const double s = (1 - g * g) / (1 - g + 2 * g * xi);
+        c = std::clamp((1 + g * g - s * s) / (2 * g), -1.0, 1.0);
+    }
+    const double sn = std::sqrt(std::max(0.0, 1 - c * c));
+    Vec3 u, v;
+    basis(w, u, v);
+    return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
+}
+
+// The box of the cloud's ellipsoids.
+void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
+    lo = Vec3(INFINITY), hi = Vec3(-INFINITY);
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        lo = glm::min(lo, e.center - half);
+        hi = glm::max(hi, e.center + half);
+    }
+    if (cloud.ellipsoids.empty()) lo = hi = Vec3(0.0);
+}
+
+// The voxel grid a photon walks: extinction per voxel (1/m), world box.
+struct Grid {
+    int n = 0;
+    Vec3 lo{0.0}, cell{1.0};  // m
+    std::vector<float> sigma;
+
+    std::size_t index(int x, int y, int z) const { return (std::size_t(z) * n + y) * n + x; }
+};
+
+// Mean extinction over each voxel: the exact field at 2x2x2 points per voxel, each ellipsoid
+// over the voxels of its box only.
+std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& g) {
+    std::vector<float> sigma(std::size_t(g.n) * g.n * g.n, 0.0f);
+    struct Shape { glm::dmat3 unit; Vec3 centre; double sigma; glm::ivec3 lo, hi; };
+    std::vector<Shape> shapes;
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        if (!(e.density > 0)) continue;
+        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        const glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((e.center - half - g.lo) / g.cell)), 0, g.n - 1);
+        const glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((e.center + half - g.lo) / g.cell)), 0, g.n - 1);
+        shapes.push_back({ellipsoidToUnit(e), e.center, scene.medium.extinction * e.density, lo, hi});
+    }
+    parallelFor(g.n, [&](int z) {
+        for (const Shape& e : shapes) {
+            if (z < e.lo.z || z > e.hi.z) continue;
+            for (int y = e.lo.y; y <= e.hi.y; ++y)
+                for (int x = e.lo.x; x <= e.hi.x; ++x) {
+                    double sum = 0;
+                    for (int k = 0; k < 8; ++k) {
+                        const Vec3 sub(0.25 + 0.5 * (k & 1), 0.25 + 0.5 * ((k >> 1) & 1), 0.25 + 0.5 * (k >> 2));
+                        const Vec3 u = e.unit * (g.lo + (Vec3(x, y, z) + sub) * g.cell - e.centre);
+                        const double q = glm::dot(u, u);
+                        if (q < 1) sum += (1 - q) * (1 - q);
+                    }
+                    sigma[g.index(x, y, z)] += float(e.sigma * sum / 8);
+                }
+        }
+    });
+    return sigma;
+}
+
+// Walks the photon (x, w) through the grid: free flight by exact sampling in each voxel's
+// constant extinction, scoring weight * length into the voxels crossed. Returns false when it
+// leaves the box, else moves x to the collision.
+template <class Score>
+bool flight(const Grid& g, Vec3& x, const Vec3& w, Rng& rng, Score&& score) {
+    double tau = -std::log(rng.uniform());
+    Vec3 p = (x - g.lo) / g.cell;  // voxel units
+    int cell[3], step[3];
+    double tNext[3], tDelta[3];
+    for (int k = 0; k < 3; ++k) {
+        cell[k] = std::clamp(int(std::floor(p[k])), 0, g.n - 1);
+        if (w[k] > 0) {
+            step[k] = 1;
+            tDelta[k] = g.cell[k] / w[k];
+            tNext[k] = (cell[k] + 1 - p[k]) * g.cell[k] / w[k];
+        } else if (w[k] < 0) {
+            step[k] = -1;
+            tDelta[k] = -g.cell[k] / w[k];
+            tNext[k] = (p[k] - cell[k]) * g.cell[k] / -w[k];
+        } else {
+            step[k] = 0;
+            tDelta[k] = tNext[k] = INFINITY;
+        }
+    }
+    double t = 0;
+    for (;;) {
+        const int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
+        const double length = std::max(tNext[axis] - t, 0.0);
+        const std::size_t i = g.index(cell[0], cell[1], cell[2]);
+        const double s = g.sigma[i];
+        if (s * length >= tau) {  // collides in this voxel
+            const double l = tau / s;
+            score(i, l);
+            x += (t + l) * w;
+            return true;
+        }
+        score(i, length);
+        tau -= s * length;
+        t = tNext[axis];
+        cell[axis] += step[axis];
+        if (cell[axis] < 0 || cell[axis] >= g.n) return false;
+        tNext[axis] += tDelta[axis];
+    }
+}
+
+// Where a ray from outside enters the box [lo, hi] along w: false if it misses.
+bool enterBox(const Vec3& lo, const Vec3& hi, Vec3& x, const Vec3& w) {
+    double t0 = 0, t1 = INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        if (std::fabs(w[k]) < 1e-300) {
+            if (x[k] < lo[k] || x[k] > hi[k]) return false;
+            continue;
+        }
+        double a = (lo[k] - x[k]) / w[k], b = (hi[k] - x[k]) / w[k];
+        if (a > b) std::swap(a, b);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+    }
+    if (t0 >= t1) return false;
+    x += (t0 + 1e-9 * (t1 - t0)) * w;
+    return true;
+}
+
+constexpr int kBatches = 8;      // photon batches: a fixed split, so the result is thread-count free
+constexpr int kMaxBounces = 4096;
+
+// Sums per-batch tallies in batch order: the result does not depend on the threads.
+void sumBatches(const std::vector<std::vector<glm::vec4>>& batches, std::vector<glm::vec4>& out) {
+    for (const auto& b : batches)
+        for (std::size_t i = 0; i < out.size(); ++i) out[i] += b[i];
+}
+
+// The launch of a beam of photons along unit `travel` over the grid's box: a square of side
+// 2R across the beam, upstream of the box's bounding sphere (radius R).
+struct Beam {
+    Vec3 centre, u, v, travel;
+    double radius;
+    Beam(const Grid& g, const Vec3& w) : travel(w) {
+        const Vec3 hi = g.lo + g.cell * double(g.n);
+        centre = 0.5 * (g.lo + hi);
+        radius = 0.5 * glm::length(hi - g.lo);
+        basis(w, u, v);
+    }
+    // A point of the square at (a, b) in [0, 1)^2, moved to where it enters the box (false: misses).
+    bool launch(const Grid& g, double a, double b, Vec3& x) const {
+        x = centre + (2 * a - 1) * radius * u + (2 * b - 1) * radius * v - 2 * radius * travel;
+        return enterBox(g.lo, g.lo + g.cell * double(g.n), x, travel);
+    }
+    double area() const { return 4 * radius * radius; }
+};
+
+// Sun photons, stratified over the beam's square (a jittered m x m grid). The first flight ends
+// at the first scattering, which single scattering accounts for exactly; every later flight is
+// scored: fluence and net flux, per unit irradiance.
+void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& out) {
+    out.assign(g.sigma.size(), glm::vec4(0.0f));
+    if (s.sunPhotons == 0) return;
+    const Beam beam(g, -scene.sun.direction);
+    const int side = std::max(1, int(std::sqrt(double(s.sunPhotons))));
+    const int total = side * side, perBatch = (total + kBatches - 1) / kBatches;
+    const double power = beam.area() / total;
+    const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
+    std::vector<std::vector<glm::vec4>> tallies(kBatches);
+    parallelFor(kBatches, [&](int b) {
+        Rng rng(std::uint64_t(s.seed) * 0x9E3779B97F4A7C15ull + std::uint64_t(b) * 2 + 1);
+        std::vector<glm::vec4>& tally = tallies[b];
+        tally.assign(g.sigma.size(), glm::vec4(0.0f));
+        for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
+            Vec3 x, w = beam.travel;
+            if (!beam.launch(g, (j % side + rng.uniform()) / side, (j / side + rng.uniform()) / side, x)) continue;
+            if (!flight(g, x, w, rng, [](std::size_t, double) {})) continue;
+            double weight = power;
+            for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
+                weight *= albedo;
+                w = sampleHg(w, hg, rng);
+                const glm::vec4 dir(glm::vec3(w), 1.0f);
+                if (!flight(g, x, w, rng, [&](std::size_t i, double l) { tally[i] += float(weight * l) * dir; })) break;
+                if (weight < 1e-3 * power) {  // Russian roulette
+                    if (rng.uniform() < 0.5) break;
+                    weight *= 2;
+                }
+            }
+        }
+    });
+    sumBatches(tallies, out);
+}
+
+// The format's environment radiance seen looking along unit v.
+Vec3 skyRadianceAlong(const Sky& sky, const Vec3& v) {
+    return v.z >= 0 ? sky.horizon + (sky.zenith - sky.horizon) * v.z : sky.ground;
+}
+
+// Sky and ground photons: directions on a spherical Fibonacci lattice (one per photon, the
+// lattice turned at random per seed), each from a random point of its beam's square, carrying
+// the environment's radiance from where it comes. Every flight is scored (the unscattered
+// skylight inside the cloud is part of this light): rgb fluence, luminance flux and c20.
+void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& rgb,
+              std::vector<glm::vec4>& flux) {
+    rgb.assign(g.sigma.size(), glm::vec4(0.0f));
+    flux.assign(g.sigma.size(), glm::vec4(0.0f));
+    if (s.skyPhotons == 0) return;
+    const int total = s.skyPhotons, perBatch = (total + kBatches - 1) / kBatches;
+    const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
+    const double turn = 2 * kPi * Rng(s.seed ^ 0xABCDEFull).uniform();
+    std::vector<std::vector<glm::vec4>> tallyRgb(kBatches), tallyFlux(kBatches);
+    parallelFor(kBatches, [&](int b) {
+        Rng rng(std::uint64_t(s.seed) * 0xC2B2AE3D27D4EB4Full + std::uint64_t(b) * 2 + 1);
+        tallyRgb[b].assign(g.sigma.size(), glm::vec4(0.0f));
+        tallyFlux[b].assign(g.sigma.size(), glm::vec4(0.0f));
+        for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
+            const double cz = 1 - 2 * (j + 0.5) / total, phi = turn + j * 2.399963229728653, sz = std::sqrt(1 - cz * cz);
+            Vec3 w(sz * std::cos(phi), sz * std::sin(phi), cz);
+            const Beam beam(g, w);
+            Vec3 x;
+            if (!beam.launch(g, rng.uniform(), rng.uniform(), x)) continue;
+            // Radiance L from a direction of solid angle 4 pi / total through the square.
+            Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * kPi * beam.area() / total);
+            for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
+                const glm::vec3 c(weight), dir(w);
+                const float lum = glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f));
+                const glm::vec4 f(lum * dir, lum * 0.3153916f * (3 * dir.z * dir.z - 1));
+                const bool hit = flight(g, x, w, rng, [&](std::size_t i, double l) {
+                    tallyRgb[b][i] += glm::vec4(c * float(l), 0.0f);
+                    tallyFlux[b][i] += f * float(l);
+                });
+                if (!hit) break;
+                weight *= albedo;
+                w = sampleHg(w, hg, rng);
+                if (lum < 1e-4f) {  // Russian roulette
+                    if (rng.uniform() < 0.5) break;
+                    weight *= 2;
+                }
+            }
+        }
+    });
+    sumBatches(tallyRgb, rgb);
+    sumBatches(tallyFlux, flux);
+}
+
+// The sun's optical depth at the voxel centres, closed form through every ellipsoid.
+void sunDepths(const Scene& scene, const Cloud& cloud, const Grid& g, std::vector<glm::vec4>& skyTau) {
+    std::vector<glm::dmat3> units;
+    for (const Ellipsoid& e : cloud.ellipsoids) units.push_back(ellipsoidToUnit(e));
+    parallelFor(g.n, [&](int z) {
+        for (int y = 0; y < g.n; ++y)
+            for (int x = 0; x < g.n; ++x) {
+                const Vec3 p = g.lo + (Vec3(x, y, z) + 0.5) * g.cell;
+                double tau = 0;
+                for (std::size_t i = 0; i < units.size(); ++i) {
+                    const Ellipsoid& e = cloud.ellipsoids[i];
+                    if (!(e.density > 0)) continue;
+                    tau += e.density * model::segmentDepth(glm::vec3(units[i] * (p - e.center)),
+                                                           glm::vec3(units[i] * scene.sun.direction), 0.0f, 1e30f);
+                }
+                skyTau[g.index(x, y, z)].w = float(scene.medium.extinction * tau);
+            }
+    });
+}
+// [1 2 1] along each axis, clamped at the box's faces.
+void smooth(std::vector<glm::vec4>& f, int n) {
+    std::vector<glm::vec4> tmp(f.size());
+    auto at = [n](int x, int y, int z) { return (std::size_t(z) * n + y) * n + x; };
+    for (int axis = 0; axis < 3; ++axis) {
+        for (int z = 0; z < n; ++z)
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x) {
+                    int c[3] = {x, y, z}, lo[3] = {x, y, z}, hi[3] = {x, y, z};
+                    lo[axis] = std::max(c[axis] - 1, 0);
+                    hi[axis] = std::min(c[axis] + 1, n - 1);
+                    tmp[at(x, y, z)] = 0.25f * f[at(lo[0], lo[1], lo[2])] + 0.5f * f[at(x, y, z)] + 0.25f * f[at(hi[0], hi[1], hi[2])];
+                }
+        f.swap(tmp);
+    }
+}
+
+}  // namespace
+
+void validate(const RadianceGridSettings& s) {
+    if (s.size < 4 || s.size > 128) throw std::invalid_argument("radiance grid size must be 4..128 voxels");
+    if (s.sunPhotons < 0 || s.sunPhotons > (1 << 26)) throw std::invalid_argument("radiance grid sunPhotons must be 0..2^26");
+    if (s.skyPhotons < 0 || s.skyPhotons > (1 << 26)) throw std::invalid_argument("radiance grid skyPhotons must be 0..2^26");
+    if (s.smoothing < 0 || s.smoothing > 8) throw std::invalid_argument("radiance grid smoothing must be 0..8 passes");
+}
+
+CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s) {
+    validate(s);
+    const auto start = std::chrono::steady_clock::now();
+    CloudRadiance out;
+    out.size = s.size;
+    Vec3 lo, hi;
+    cloudBox(cloud, lo, hi);
+    out.boxMin = lo;
+    out.boxExtent = glm::max(hi - lo, Vec3(1.0));
+    Grid g;
+    g.n = s.size;
+    g.lo = out.boxMin;
+    g.cell = out.boxExtent / double(s.size);
+    g.sigma = voxelise(scene, cloud, g);
+    traceSun(scene, g, s, out.sunDiffuse);
+    traceSky(scene, g, s, out.skyTau, out.skyFlux);
+    const float perVolume = float(1 / (g.cell.x * g.cell.y * g.cell.z));  // track length per volume: fluence
+    for (std::size_t i = 0; i < out.voxels(); ++i) {
+        out.sunDiffuse[i] *= perVolume;
+        out.skyTau[i] *= perVolume;
+        out.skyFlux[i] *= perVolume;
+    }
+    for (int k = 0; k < s.smoothing; ++k) {
+        smooth(out.sunDiffuse, s.size);
+        smooth(out.skyTau, s.size);
+        smooth(out.skyFlux, s.size);
+    }
+    sunDepths(scene, cloud, g, out.skyTau);  // after smoothing: exact at the voxel centres
+    out.computeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return out;
+}
+
+RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
+    RadianceSample r;
+    const int n = grid.size;
+    if (n == 0) return r;
+    const Vec3 p = glm::clamp((world - grid.boxMin) / grid.boxExtent * double(n) - 0.5, Vec3(0.0), Vec3(n - 1));
+    const glm::ivec3 i0 = glm::min(glm::ivec3(p), glm::ivec3(n - 2));
+    const glm::vec3 f = glm::vec3(p - Vec3(i0));
+    for (int c = 0; c < 8; ++c) {
+        const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
+        const glm::vec3 t = glm::mix(glm::vec3(1.0f) - f, f, glm::vec3(o));
+        const std::size_t i = (std::size_t(i0.z + o.z) * n + (i0.y + o.y)) * n + (i0.x + o.x);
+        const float w = t.x * t.y * t.z;
+        r.sunDiffuse += w * grid.sunDiffuse[i];
+        r.skyTau += w * grid.skyTau[i];
+        r.skyFlux += w * grid.skyFlux[i];
+    }
+    return r;
+}
+
+}  // namespace nephele

@@ -1,0 +1,45 @@
+// The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): three
+// RGBA16F 3D textures holding every cloud's grid in a slot of its own, and per cloud three
+// vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid extent (1/m), 0), (the slot's
+// first texel, 0). Read with GL_LINEAR, clamped to the slot's outermost voxel centres, as
+// sampleRadiance() reads them on the CPU.
+layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
+uniform sampler3D lightSunDiffuse;  // (phi1 xyz, phi0) of the sun's scattered light, per unit irradiance
+uniform sampler3D lightSkyTau;      // (sky fluence rgb, optical depth to the sun)
+uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
+uniform float lightGridSize;        // voxels per side of a slot
+uniform vec3 lightInvTexels;        // 1 / the textures' size in texels
+
+// The two light scalars (model::lightScalars) at camera-relative point `rel` of cloud `cloud`
+// for the view direction d.
+vec3 lightTexel(int cloud, vec3 rel) {
+    vec3 u = (rel - cloudLightBoxes[3 * cloud].xyz) * cloudLightBoxes[3 * cloud + 1].xyz;
+    vec3 texel = clamp(u * lightGridSize, vec3(0.5), vec3(lightGridSize - 0.5)) + cloudLightBoxes[3 * cloud + 2].xyz;
+    return texel * lightInvTexels;
+}
+vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
+    vec3 uvw = lightTexel(cloud, rel);
+    return lightScalars(textureLod(lightSunDiffuse, uvw, 0.0), textureLod(lightSkyTau, uvw, 0.0),
+                        textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
+}
+
+// S(x, d) of cloud `cloud` at camera-relative point `rel` (cloud_light.glsl), the sky light
+// coloured by the fluence's own colour there.
+vec3 cloudSourceAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g, vec3 sunIrradiance, float albedo) {
+    vec3 uvw = lightTexel(cloud, rel);
+    vec4 skyTau = textureLod(lightSkyTau, uvw, 0.0);
+    vec3 scalars = lightScalars(textureLod(lightSunDiffuse, uvw, 0.0), skyTau, textureLod(lightSkyFlux, uvw, 0.0), d,
+                                sunDirection, g);
+    return sourceFromScalars(scalars, sunIrradiance, skyChroma(skyTau.rgb), albedo);
+}
+
+// The mean light scalars of an ellipsoid's chord beyond tStart (as chordLight() in gardner.cpp):
+// the ray o' + t d' in its unit space, d its unit camera-relative direction, sigma its extinction.
+vec2 chordLightAt(int cloud, vec3 oUnit, vec3 dUnit, vec3 d, float tStart, float sigma, vec3 sunDirection, float g) {
+    vec2 sum = vec2(0.0);
+    for (int k = 0; k < kChordSamples; ++k) {
+        float t = chordSampleDepth(oUnit, dUnit, tStart, sigma, k, kChordSamples);
+        sum += cloudLightAt(cloud, t * d, d, sunDirection, g).xy;
+    }
+    return sum / float(kChordSamples);
+}
