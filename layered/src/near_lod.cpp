@@ -156,7 +156,7 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
         c.valid = true, c.seed = layer.seed, c.lightKey = key, c.base = layer.base, c.thickness = layer.thickness;
         c.coverage = layer.coverage, c.density = layer.density;
 
-        const Vec2 drift = t * layer.wind;
+        const Vec2 drift = layerDrift(layer, t);
         const Vec2 e = Vec2(eye.x, eye.y) - drift;  // the eye in pattern coordinates
         // Spawn points lie within jitter cells of their cell's centre.
         const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)), i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
