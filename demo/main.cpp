@@ -45,6 +45,8 @@ struct SceneArgs {
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
+    std::string frustum;                       // --frustum L,R,B,T
+    double yawOffset = 0, pitchOffset = 0;     // --yaw-offset, --pitch-offset (degrees)
     std::string cache;
     bool noCache = false;
 };
@@ -76,6 +78,13 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(CLI::IsMember({"back-to-front", "weighted"}));
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
+        ->capture_default_str();
+    cmd->add_option("--frustum", a.frustum,
+                    "A display channel's off-axis frustum L,R,B,T: the tangents of its edges at unit distance (overrides "
+                    "the camera's fov_y)");
+    cmd->add_option("--yaw-offset", a.yawOffset, "A display channel's rotation about the eye: yaw, degrees, positive right")
+        ->capture_default_str();
+    cmd->add_option("--pitch-offset", a.pitchOffset, "A display channel's rotation about the eye: pitch, degrees, positive up")
         ->capture_default_str();
     cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
@@ -119,6 +128,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     ro.scene = a.scene;
     ro.method = parseMethod(a.method);
     ro.backend = parseBackend(a.backend);
+    ro.channel = parseChannel(a.frustum, a.yawOffset, a.pitchOffset);
     if (a.widthOpt->count()) ro.width = a.width;
     if (a.heightOpt->count()) ro.height = a.height;
     if (a.scaleOpt->count()) ro.scale = a.scale;
