@@ -94,14 +94,17 @@ View makeView(const ViewDesc& d) {
 
 ColorTarget colorTargetOf(const ViewDesc& d) {
     if (d.color != ColorTarget::Auto) return d.color;
+    // A window's framebuffer: drivers report sRGB-capable visuals as GL_SRGB whatever the window
+    // asked for (Mesa), so linear unless the host says Srgb8.
+    if (d.framebuffer == 0) return ColorTarget::Unorm8;
     auto drain = [] {  // bounded: a lost context reports errors forever
         for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {}
     };
     drain();
     GLint type = GL_NONE, encoding = GL_LINEAR, component = GL_UNSIGNED_NORMALIZED;
-    const GLenum attachment = d.framebuffer == 0 ? GL_BACK_LEFT : GL_COLOR_ATTACHMENT0;
+    const GLenum attachment = GL_COLOR_ATTACHMENT0;
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
-    if (glGetError() != GL_NO_ERROR || type == GL_NONE) return ColorTarget::Unorm8;  // e.g. no back buffer
+    if (glGetError() != GL_NO_ERROR || type == GL_NONE) return ColorTarget::Unorm8;  // no colour attachment
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
     drain();

@@ -2,6 +2,7 @@
 
 #include "nephele/frame_depth.hpp"
 #include "nephele/gl_state.hpp"
+#include "nephele/host_view.hpp"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -86,7 +87,9 @@ OpaquePass::OpaquePass() {
 
 void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) const {
     HostStateScope scope;
-    bindFrame(HostFrame{framebuffer}, view);
+    HostFrame frame{framebuffer};
+    frame.srgb = colorTargetOf(viewDescOf(view, framebuffer)) == ColorTarget::Srgb8;
+    bindFrame(frame, view);
     glDisable(GL_BLEND);
     glDepthMask(GL_TRUE);
     glStencilMask(0xFF);

@@ -10,7 +10,9 @@ namespace nephele {
 
 // What the frame's colour attachment 0 holds; Nephele blends linear radiance into it.
 enum class ColorTarget {
-    Auto,    // asked of the framebuffer (its attachment's component type and colour encoding)
+    Auto,    // a framebuffer object: asked of its attachment (component type, colour encoding); the
+             // default framebuffer (a window): Unorm8, since drivers report sRGB-capable visuals as
+             // sRGB whatever the window asked for (say Srgb8 for an sRGB window)
     Float,   // a float format (HDR: tone-map after Nephele)
     Unorm8,  // 8-bit linear: each blend clamps to [0, 1]
     Srgb8,   // an sRGB format: Nephele enables GL_FRAMEBUFFER_SRGB while it writes, so that
