@@ -242,7 +242,8 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, quick = false, noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, weatherMode = false, quick = false, noCache = false;
+    WeatherBenchOptions wbo;
     LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
@@ -252,6 +253,8 @@ int main(int argc, char** argv) {
     bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
     bench->add_flag("--layered", layeredMode,
                     "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_flag("--weather", weatherMode,
+                    "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
     bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
@@ -328,8 +331,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker and --layered are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(weatherMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --weather are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -352,6 +355,16 @@ int main(int argc, char** argv) {
             if (quick && !widthGiven && bench->count("--height") == 0) lbo.width = 320, lbo.height = 180;
             lbo.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
             return runLayeredBench(lbo);
+        }
+        if (weatherMode) {
+            wbo.outDir = bo.outDir, wbo.readme = bo.readme, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
+            wbo.quick = quick;
+            if (bench->count("--frames") > 0) wbo.frames = bo.frames;
+            if (bench->count("--fps") > 0) wbo.fps = flo.fps;
+            if (widthGiven) wbo.width = bo.width, wbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
+            if (bench->count("--height") > 0) wbo.height = bo.height;
+            if (quick && !widthGiven) wbo.width = 320, wbo.height = 180;
+            return runWeatherBench(wbo);
         }
         if (flickerMode) {
             flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;

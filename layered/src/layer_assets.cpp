@@ -4,13 +4,15 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include "nephele/parallel.hpp"
+
 #include <algorithm>
 
 namespace nephele {
 
 namespace {
 constexpr std::size_t kCapacity = 12;  // entries kept (a lighting volume is 8 MB at the default size)
-constexpr int kWorkerNice = 10;        // the worker yields to the frame (Linux: niceness is per thread)
+constexpr int kWorkerNice = 19;        // the worker yields to the frame (Linux: niceness is per thread)
 }  // namespace
 
 LayerAssets::LayerAssets(LayeredSettings settings) : settings_(std::move(settings)) {}
@@ -95,6 +97,7 @@ void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
 
 void LayerAssets::run() {
     setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), kWorkerNice);
+    const ParallelLimit oneCore(1);  // the lighting's parallelFor: this thread alone
     std::unique_lock lock(mutex_);
     for (;;) {
         changed_.wait(lock, [&] { return stop_ || !queue_.empty(); });

@@ -3,6 +3,7 @@
 #include "nephele/gl_state.hpp"
 #include "layer_assets.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -100,7 +101,9 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
     // The first update after prepare() makes every cell in reach; later ones spread them.
     std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? kCellsPerUpdate : 0);
     frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
+    const auto t0 = std::chrono::steady_clock::now();
     stats.lightVolumes = clouds_.updateLights(frame_);
+    stats.lightMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.backgroundJobs = assets_->pending();
     return stats;
 }

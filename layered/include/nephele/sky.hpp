@@ -51,6 +51,7 @@ struct SkyStats {
 struct SkyUpdateStats {
     NearLodStats nearLod;  // what the near LOD spawned and retired
     int lightVolumes = 0;  // clouds' light volumes computed (new near clouds, a new sun)
+    double lightMs = 0;    // wall time of that (EllipsoidRenderer::updateLights), ms
     int layers = 0;        // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running
 };
