@@ -395,3 +395,26 @@ TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
     sky.update(10.0, weather, view.eye);  // then it moves with the new wind
     EXPECT_GT(compareImages(draw(), before, 1.0).meanAbs, 1e-3);
 }
+
+// With wind every near cloud moves each frame; a cloud that only moved keeps its light volume
+// and its slot in the light texture: a windy frame computes and uploads none.
+TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    const Weather weather = Weather::of(scene);
+    ASSERT_GT(glm::length(weather.layers.at(1).layer.wind), 0);
+    HostTarget target(96, 64);
+    sky.update(0.5, weather, view.eye);
+    const Image first = frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); });
+    const SkyUpdateStats up = sky.update(0.2, weather, view.eye);  // 2.5 m of drift: no cell enters or leaves
+    ASSERT_EQ(up.nearLod.generated + up.nearLod.retired, 0);
+    ASSERT_GT(up.nearLod.clouds, 0);
+    EXPECT_EQ(up.lightVolumes, 0);
+    SkyStats st;
+    const Image second = frameOf(scene, view, target, [&] { st = sky.draw(viewDescOf(view, target.fbo.id())); });
+    EXPECT_EQ(st.ellipsoids.lightUploads, 0);
+    EXPECT_EQ(st.layered.uploads, 0);
+    EXPECT_GT(compareImages(second, first, 1.0).meanAbs, 1e-6) << "the clouds should have moved";
+}
