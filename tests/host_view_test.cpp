@@ -269,3 +269,22 @@ TEST(WeatherTest, BadControlsNameTheLayerAndTheField) {
     c.baseElevation = INFINITY;
     EXPECT_NE(message(c).find("base elevation"), std::string::npos) << message(c);
 }
+
+TEST(WeatherTest, ValidateNamesTheLayerAndTheField) {
+    Scene s;
+    Layer l;
+    l.base = 1000, l.thickness = 300;
+    s.layers.push_back(l);
+    Weather w = Weather::of(s);
+    EXPECT_NO_THROW(w.validate());
+    w.layers.at(1).layer.thickness = -5;
+    try {
+        w.validate();
+        ADD_FAILURE() << "a negative thickness passed";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("layer 1: thickness"), std::string::npos) << e.what();
+    }
+    w = Weather::of(s);
+    w.sun.direction = Vec3(0.0);
+    EXPECT_THROW(w.validate(), std::invalid_argument);
+}

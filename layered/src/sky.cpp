@@ -75,10 +75,12 @@ void SkyRenderer::prepare(const Scene& scene) {
 SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3& eye) {
     if (!prepared_) throw std::logic_error("SkyRenderer::update: call prepare(scene) first");
     if (!(dt >= 0 && std::isfinite(dt))) throw std::invalid_argument("SkyRenderer::update: dt must be a finite number >= 0 s");
+    weather.validate();
     SkyUpdateStats stats;
     time_ += dt;
     // The layers: each one's drift integrated with the wind it has now (continuous when it changes).
     scene_.sun = weather.sun;
+    scene_.sun.direction = glm::normalize(weather.sun.direction);
     scene_.sky = weather.sky;
     scene_.layers.clear();
     for (const auto& [id, l] : weather.layers) {

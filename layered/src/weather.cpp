@@ -65,6 +65,23 @@ void Weather::apply(const CloudLayerControl& c) {
     l.layer.nearLod = look.nearLod;
 }
 
+void Weather::validate() const {
+    const double sun = glm::length(this->sun.direction);
+    if (!(std::isfinite(sun) && sun > 0.5 && sun < 2))
+        throw std::invalid_argument("weather: the sun direction must be a unit vector (towards the sun)");
+    for (const auto& [id, l] : layers) {
+        const Layer& y = l.layer;
+        auto bad = [&](const std::string& what) {
+            throw std::invalid_argument("weather, layer " + std::to_string(id) + ": " + what);
+        };
+        if (!(y.thickness > 0 && std::isfinite(y.thickness))) bad("thickness must be > 0 m");
+        if (!(y.extent > 0 && std::isfinite(y.extent))) bad("extent must be > 0 m");
+        if (!(y.coverage >= 0 && y.coverage <= 1)) bad("coverage must be in [0, 1]");
+        if (!(y.density >= 0 && y.density <= 1)) bad("density must be in [0, 1]");
+        if (!(std::isfinite(y.base) && std::isfinite(y.wind.x) && std::isfinite(y.wind.y))) bad("base and wind must be finite");
+    }
+}
+
 std::vector<Layer> Weather::enabledLayers() const {
     std::vector<Layer> out;
     for (const auto& [id, l] : layers)

@@ -28,9 +28,10 @@ struct ViewDesc {
     glm::ivec4 viewport{0, 0, 0, 0};  // x, y, width, height of the channel in `framebuffer` (pixels, lower left)
     GLuint framebuffer = 0;      // the host's (0 = the default framebuffer): colour attachment 0 gets rgb
                                  // radiance "over" and alpha accumulating the cloud opacity
-    GLuint depthTexture = 0;     // the host's depth as a texture, sampled instead of a copy of
-                                 // `framebuffer`'s depth (it may be that attachment itself: Nephele never
-                                 // writes the host's depth); texel (x, y) = framebuffer pixel (x, y)
+    GLuint depthTexture = 0;     // the host's depth as a single-sample 2D texture, sampled instead of a
+                                 // copy of `framebuffer`'s depth (it may be that attachment itself: Nephele
+                                 // never writes the host's depth); texel (x, y) = framebuffer pixel (x, y).
+                                 // A multisampled depth is copied (resolved) from the framebuffer instead
     bool hasDepth = true;        // false: no depth at all (the clouds cover everything in the frame)
     ColorTarget color = ColorTarget::Auto;
 };

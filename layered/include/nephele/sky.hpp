@@ -77,7 +77,8 @@ public:
     // LOD around `eye` (the first update after prepare() makes all its cells; later ones at most
     // kCellsPerUpdate, nearest first) and the clouds' light volumes, and queues what a changed
     // layer needs on the worker thread (until it is done, the layer is drawn with the lighting it had).
-    // Throws std::logic_error before prepare(), std::invalid_argument for a bad dt.
+    // Throws std::logic_error before prepare(), std::invalid_argument for a bad dt or weather
+    // (Weather::validate).
     SkyUpdateStats update(double dtSeconds, const Weather& weather, const Vec3& eye);
     // Per display channel, after the host drew its terrain and aircraft into the frame: every
     // cloud of the current weather over the channel's viewport (ViewDesc: the host's matrices,

@@ -69,6 +69,10 @@ struct Weather {
     void apply(const CloudLayerControl& control);
     // The enabled layers in id order: the scene's `layers`.
     std::vector<Layer> enabledLayers() const;
+    // Throws std::invalid_argument naming the layer id and the field for what a scene file
+    // could not hold (thickness or extent <= 0, coverage or density outside [0, 1], a non-finite
+    // base or wind) or a sun direction that is not a direction. SkyRenderer::update calls it.
+    void validate() const;
 };
 
 }  // namespace nephele
