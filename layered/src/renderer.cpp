@@ -230,7 +230,19 @@ LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move
 
 LayeredRenderer::~LayeredRenderer() = default;
 
-void LayeredRenderer::prepare() { impl_->reduced.prepare(); }
+void LayeredRenderer::prepare() {
+    HostStateScope scope;
+    impl_->reduced.prepare();
+    // llvmpipe builds its mipmap generation per texture kind at the first use: 150 ms for the
+    // lighting volume's (measured), then 6 ms per refill. Build both kinds now.
+    for (const auto& [target, format] : {std::pair{GL_TEXTURE_3D, GL_RGBA8}, std::pair{GL_TEXTURE_2D, GL_RG32F}}) {
+        Texture t = Texture::create(target);
+        if (target == GL_TEXTURE_3D) glTextureStorage3D(t.id(), 2, format, 2, 2, 2);
+        else glTextureStorage2D(t.id(), 2, format, 2, 2);
+        glGenerateTextureMipmap(t.id());
+    }
+    check("preparing the layered sky");
+}
 
 void LayeredRenderer::shareAssets(std::shared_ptr<LayerAssets> assets) { impl_->assets = std::move(assets); }
 

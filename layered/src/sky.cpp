@@ -1,6 +1,7 @@
 #include "nephele/sky.hpp"
 
 #include "nephele/gl_state.hpp"
+#include "nephele/opaque.hpp"
 #include "layer_assets.hpp"
 
 #include <chrono>
@@ -69,6 +70,7 @@ void SkyRenderer::prepare(const Scene& scene) {
     }
     assets_->setBackground(true);
     clouds_.updateLights(scene);
+    warmUp(scene);
     prepared_ = true;
 }
 
@@ -125,6 +127,19 @@ SkyStats SkyRenderer::draw(const ViewDesc& desc) {
     if (!scene_.layers.empty()) stats.layered = layered_->render(scene_, view, frame, time_);
     stats.ellipsoids = clouds_.render(frame_, view, frame);
     return stats;
+}
+
+// One draw of the scene off-screen, so that the driver builds its variants of the programs
+// (llvmpipe compiles a program's code at its first draw) and the layers' textures are uploaded.
+void SkyRenderer::warmUp(const Scene& scene) {
+    Camera camera = scene.camera;
+    camera.width = camera.height = 64;
+    const View view = makeView(camera);
+    FrameTarget target(64, 64);
+    HostFrame frame;
+    frame.framebuffer = target.framebuffer();
+    if (!scene.layers.empty()) layered_->render(scene, view, frame, 0);
+    clouds_.render(scene, view, frame);
 }
 
 int SkyRenderer::backgroundJobs() const { return assets_->pending(); }

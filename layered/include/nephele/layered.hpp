@@ -255,8 +255,8 @@ public:
     // (layerDrift) and lightning.
     LayeredStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
     LayeredStats render(const Scene& scene, const View& view, const HostFrame& frame, double timeSeconds);
-    // Builds every shader variant now (the upsampling per shadowing-layer count), so that no
-    // frame compiles one.
+    // Builds every shader variant now (the upsampling per shadowing-layer count) and the
+    // driver's mipmap generation for the layers' textures, so that no frame builds one.
     void prepare();
     // Takes its lighting volumes and modulation textures from `assets` (SkyRenderer's, shared
     // with the near LOD and computed in the background) instead of its own (synchronous).

@@ -68,8 +68,9 @@ public:
 
     // ---- The host API.
     // Takes the scene (its explicit clouds, medium, sky, objects are not drawn; its sun and layers
-    // are the weather until the first update), compiles every shader, and makes the lighting of
-    // its layers and its clouds' light volumes: the one call that waits. Time starts at 0.
+    // are the weather until the first update), compiles every shader (and draws the scene once
+    // off-screen, so that the driver builds its variants), and makes the lighting of its layers
+    // and its clouds' light volumes: the one call that waits. Time starts at 0.
     void prepare(const Scene& scene);
     // Once per frame, before the channels draw: advances the time by dtSeconds (>= 0: wind,
     // lightning), takes the weather (sun, sky, cloud layers by CIGI layer id; a layer's drift is
@@ -100,6 +101,7 @@ public:
 
 private:
     void makeLayered();
+    void warmUp(const Scene& scene);
     SkySettings settings_;
     EllipsoidRenderer clouds_;
     std::shared_ptr<LayerAssets> assets_;
