@@ -403,7 +403,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     m.atlas = &atlas;
     if (atlas.layers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
-        atlas.layers = packed.passes;
+        // Grown by half at least (within the memory budget), so that clouds growing frame by
+        // frame (a layer's near cells made again, thicker) do not remake it every frame.
+        atlas.layers = std::max(packed.passes, std::min(maxPasses, (3 * atlas.layers + 1) / 2));
         atlas.terms = Texture::create(GL_TEXTURE_2D_ARRAY);
         glTextureStorage3D(atlas.terms.id(), 1, termsFormat, atlasW, atlasH, atlas.layers);
         atlas.fbos.clear();

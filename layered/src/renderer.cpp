@@ -258,7 +258,7 @@ const ModulationTexture* LayeredRenderer::modulation(int index) const {
 void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const Layer& layer, const LayeredSettings& s,
                                        LayeredStats& stats) {
     std::shared_ptr<const LightingVolume> light = assets->lighting(lightingParameters(scene.medium, layer));
-    if (!light || !(light->parameters == lightingParameters(scene.medium, layer))) stats.pendingLayers += 1;
+    if (!light) stats.pendingLayers += 1;  // its job runs: drawn with the volume it had, if any
     if (light && light != r.light) {
         const LightingSettings& ls = s.lighting;
         if (!r.lightTexture) {
