@@ -71,4 +71,19 @@ struct LayeredBenchOptions {
 };
 int runLayeredBench(const LayeredBenchOptions& options);
 
+// `bench --weather`: frame times along a flight while the weather changes (coverage, base,
+// thickness, wind, the sun), SkyRenderer's update + draw against the one-call render().
+struct WeatherBenchOptions {
+    std::string outDir = "docs";  // weather_bench.csv, weather_bench.md, weather_bench.png
+    std::string readme;           // when set, its "weather bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    int frames = 240;             // frames of the flight
+    double fps = 30;              // frames per second of simulated time
+    double speed = 60;            // m/s along the scene camera's heading
+    int width = 1280, height = 720;
+    bool quick = false;           // 24 frames, small lighting volumes (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runWeatherBench(const WeatherBenchOptions& options);
+
 }  // namespace nephele::cli
