@@ -1,20 +1,20 @@
 // The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): three
 // RGBA16F 3D textures holding every cloud's grid in a slot of its own, and per cloud three
 // vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid extent (1/m), 0), (the slot's
-// first texel, 0). Read with GL_LINEAR, clamped to the slot's outermost voxel centres, as
+// first texel, the grid's voxels per side: a slot holds the largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost voxel centres, as
 // sampleRadiance() reads them on the CPU.
 layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
 uniform sampler3D lightSunDiffuse;  // (phi1 xyz, phi0) of the sun's scattered light, per unit irradiance
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, optical depth to the sun)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
-uniform float lightGridSize;        // voxels per side of a slot
 uniform vec3 lightInvTexels;        // 1 / the textures' size in texels
 
 // The two light scalars (model::lightScalars) at camera-relative point `rel` of cloud `cloud`
 // for the view direction d.
 vec3 lightTexel(int cloud, vec3 rel) {
     vec3 u = (rel - cloudLightBoxes[3 * cloud].xyz) * cloudLightBoxes[3 * cloud + 1].xyz;
-    vec3 texel = clamp(u * lightGridSize, vec3(0.5), vec3(lightGridSize - 0.5)) + cloudLightBoxes[3 * cloud + 2].xyz;
+    vec4 slot = cloudLightBoxes[3 * cloud + 2];
+    vec3 texel = clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz;
     return texel * lightInvTexels;
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {

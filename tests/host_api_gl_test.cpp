@@ -129,6 +129,8 @@ TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
     const SkyUpdateStats up = host.update(1.5, Weather::of(scene), view.eye);
     EXPECT_GT(up.nearLod.clouds, 0);
     EXPECT_EQ(up.nearLod.pending, 0);  // the first update makes every cell
+    EXPECT_GT(up.lightStandIns, 0);    // ... whose radiance grids come from the worker
+    host.waitForBackgroundWork();      // render() waits for them: so must the comparison
     const Image drawn = frameOf(scene, view, b, [&] { host.draw(viewDescOf(view, b.fbo.id())); });
     EXPECT_EQ(drawn.pixels, rendered.pixels);
 }
@@ -215,6 +217,7 @@ TEST_F(HostApiGLTest, ViewportOffsetAndTheHostsDepthTexture) {
     SkyRenderer sky(testSettings());
     sky.prepare(scene);
     sky.update(0.25, Weather::of(scene), view.eye);
+    sky.waitForBackgroundWork();  // the near clouds' grids: every draw below with the same ones
     HostTarget alone(96, 64), big(160, 112);
     const Image reference = frameOf(scene, view, alone, [&] { sky.draw(viewDescOf(view, alone.fbo.id())); });
     View placed = view;
@@ -383,6 +386,7 @@ TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
     sky.prepare(scene);
     Weather weather = Weather::of(scene);
     sky.update(30.0, weather, view.eye);
+    sky.waitForBackgroundWork();  // the near clouds' grids
     HostTarget target(96, 64);
     auto draw = [&] { return frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); }); };
     const Image before = draw();
@@ -397,8 +401,8 @@ TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
     EXPECT_GT(compareImages(draw(), before, 1.0).meanAbs, 1e-3);
 }
 
-// With wind every near cloud moves each frame; a cloud that only moved keeps its light volume
-// and its slot in the light texture: a windy frame computes and uploads none.
+// With wind every near cloud moves each frame; a cloud that only moved keeps its radiance grid
+// and its slot in the light textures: a windy frame computes and uploads none.
 TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
     const Scene scene = testScene(96, 64);
     const View view = makeView(scene.camera);
@@ -408,6 +412,7 @@ TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
     ASSERT_GT(glm::length(weather.layers.at(1).layer.wind), 0);
     HostTarget target(96, 64);
     sky.update(0.5, weather, view.eye);
+    sky.waitForBackgroundWork();  // the near clouds' grids, made on the worker, taken now
     const Image first = frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); });
     const SkyUpdateStats up = sky.update(0.2, weather, view.eye);  // 2.5 m of drift: no cell enters or leaves
     ASSERT_EQ(up.nearLod.generated + up.nearLod.retired, 0);
@@ -418,4 +423,31 @@ TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
     EXPECT_EQ(st.ellipsoids.lightUploads, 0);
     EXPECT_EQ(st.layered.uploads, 0);
     EXPECT_GT(compareImages(second, first, 1.0).meanAbs, 1e-6) << "the clouds should have moved";
+}
+
+// A new sun: update() makes no radiance grid itself. The clouds keep the old grids (the old
+// diffuse light, with the new sun's single scattering) until the worker's are ready; then the
+// next update takes them and the image changes again.
+TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    Weather weather = Weather::of(scene);
+    sky.update(0.0, weather, view.eye);
+    sky.waitForBackgroundWork();
+    HostTarget target(96, 64);
+    auto draw = [&] { return frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); }); };
+    const Image before = draw();
+    weather.sun.direction = glm::normalize(Vec3(-0.6, 0.3, 0.4));
+    const SkyUpdateStats up = sky.update(0.0, weather, view.eye);
+    EXPECT_EQ(up.lightVolumes, 0);
+    EXPECT_GT(up.lightStandIns, 0);
+    const Image during = draw();
+    sky.waitForBackgroundWork();
+    const SkyUpdateStats later = sky.update(0.0, weather, view.eye);
+    EXPECT_EQ(later.lightStandIns, 0);
+    const Image after = draw();
+    EXPECT_GT(compareImages(during, before, 1.0).meanAbs, 1e-4) << "the new sun's single scattering shows at once";
+    EXPECT_GT(compareImages(after, during, 1.0).meanAbs, 1e-5) << "then the new grids";
 }

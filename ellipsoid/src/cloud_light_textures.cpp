@@ -39,8 +39,8 @@ void CloudLightTextures::upload(const CloudRadiance& grid, int slot) {
     for (int i = 0; i < 6; ++i) glPixelStorei(kUnpack[i], i == 0 ? 4 : 0);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
     for (int k = 0; k < 3; ++k)
-        glTextureSubImage3D(textures_[k].id(), 0, origin.x, origin.y, origin.z, size_, size_, size_, GL_RGBA, GL_FLOAT,
-                            data[k]->data());
+        glTextureSubImage3D(textures_[k].id(), 0, origin.x, origin.y, origin.z, grid.size, grid.size, grid.size, GL_RGBA,
+                            GL_FLOAT, data[k]->data());
     for (int i = 0; i < 6; ++i) glPixelStorei(kUnpack[i], saved[i]);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, GLuint(unpackBuffer));
     resident_[&grid] = slot;
@@ -52,9 +52,11 @@ int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed) {
     std::vector<std::shared_ptr<const CloudRadiance>> inUse;
     for (const PlacedRadiance& p : placed)
         if (std::find(inUse.begin(), inUse.end(), p.grid) == inUse.end()) inUse.push_back(p.grid);
-    const int size = placed.empty() ? 4 : placed.front().grid->size;
+    // A slot holds the largest grid in use; smaller ones (the template) fill a corner of theirs.
+    int size = 4;
+    for (const auto& g : inUse) size = std::max(size, g->size);
     const int capacity = slots_.x * slots_.y * slots_.z;
-    if (size != size_ || int(inUse.size()) > capacity || !textures_[0]) {
+    if (size > size_ || int(inUse.size()) > capacity || !textures_[0]) {
         size_ = size;
         grow(std::max({int(inUse.size()), 2 * capacity, 1}));
     }
@@ -81,11 +83,11 @@ void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, con
     // Camera-relative (float precision stays at the eye).
     std::vector<float> boxes;
     for (const PlacedRadiance& p : placed) {
-        const Vec3 lo = p.boxMin() - eye, inv = 1.0 / p.grid->boxExtent;
+        const Vec3 lo = p.lo - eye, inv = 1.0 / p.extent;
         const int slot = resident_.at(p.grid.get());
         const glm::ivec3 origin = glm::ivec3(slot % slots_.x, slot / slots_.x % slots_.y, slot / (slots_.x * slots_.y)) * size_;
         boxes.insert(boxes.end(), {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y), float(inv.z), 0.0f,
-                                   float(origin.x), float(origin.y), float(origin.z), 0.0f});
+                                   float(origin.x), float(origin.y), float(origin.z), float(p.grid->size)});
     }
     uploadDynamic(boxes_, boxesCapacity_, boxes.data(), boxes.size() * sizeof(float));
 }
@@ -98,7 +100,6 @@ void CloudLightTextures::bind(const Program& program) const {
         glBindSampler(kFirstUnit + k, sampler_.id());
         program.set(names[k], int(kFirstUnit + k));
     }
-    program.set("lightGridSize", float(size_));
     program.set("lightInvTexels", glm::vec3(1.0 / (glm::dvec3(slots_) * double(size_))));
 }
 

@@ -71,18 +71,6 @@ Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
     return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
 }
 
-// The box of the cloud's ellipsoids.
-void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
-    lo = Vec3(INFINITY), hi = Vec3(-INFINITY);
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
-        lo = glm::min(lo, e.center - half);
-        hi = glm::max(hi, e.center + half);
-    }
-    if (cloud.ellipsoids.empty()) lo = hi = Vec3(0.0);
-}
-
 // The voxel grid a photon walks: extinction per voxel (1/m), world box.
 struct Grid {
     int n = 0;
@@ -191,10 +179,12 @@ bool enterBox(const Vec3& lo, const Vec3& hi, Vec3& x, const Vec3& w) {
 constexpr int kBatches = 8;      // photon batches: a fixed split, so the result is thread-count free
 constexpr int kMaxBounces = 4096;
 
-// Sums per-batch tallies in batch order: the result does not depend on the threads.
+// Sums per-batch tallies in batch order: the result does not depend on the threads. Batches
+// skipped by a cancel are empty.
 void sumBatches(const std::vector<std::vector<glm::vec4>>& batches, std::vector<glm::vec4>& out) {
     for (const auto& b : batches)
-        for (std::size_t i = 0; i < out.size(); ++i) out[i] += b[i];
+        if (b.size() == out.size())
+            for (std::size_t i = 0; i < out.size(); ++i) out[i] += b[i];
 }
 
 // The launch of a beam of photons along unit `travel` over the grid's box: a square of side
@@ -345,11 +335,23 @@ void smooth(std::vector<glm::vec4>& f, int n) {
 
 }  // namespace
 
+void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
+    lo = Vec3(INFINITY), hi = Vec3(-INFINITY);
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        lo = glm::min(lo, e.center - half);
+        hi = glm::max(hi, e.center + half);
+    }
+    if (cloud.ellipsoids.empty()) lo = hi = Vec3(0.0);
+}
+
 void validate(const RadianceGridSettings& s) {
     if (s.size < 4 || s.size > 128) throw std::invalid_argument("radiance grid size must be 4..128 voxels");
     if (s.sunPhotons < 0 || s.sunPhotons > (1 << 26)) throw std::invalid_argument("radiance grid sunPhotons must be 0..2^26");
     if (s.skyPhotons < 0 || s.skyPhotons > (1 << 26)) throw std::invalid_argument("radiance grid skyPhotons must be 0..2^26");
     if (s.smoothing < 0 || s.smoothing > 8) throw std::invalid_argument("radiance grid smoothing must be 0..8 passes");
+    if (!(s.megabytes >= 1 && s.megabytes <= 65536)) throw std::invalid_argument("radiance grid megabytes must be 1..65536");
 }
 
 CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s,

@@ -108,9 +108,12 @@ struct EllipsoidRenderer::Impl {
     std::size_t tilesCapacity = 0, orderCapacity = 0;
     std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
 
-    int lightUploads = 0;    // light volume slots uploaded since the last render (stats)
-    int lightsComputed = 0;  // light volumes computed since the last render (stats)
-    void updateLights(const EllipsoidSettings& s, const Scene& scene);
+    int lightUploads = 0;    // grids uploaded since the last render (stats)
+    int lightsComputed = 0;  // grids made since the last render (stats)
+    RadianceUpdateStats lightStats;  // the last update's
+    bool lightsDriven = false;  // a host calls updateLights(): render() never waits for a grid
+    void updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye, bool background,
+                      bool takeFinished = true);
 
     // The atlas: one layer per pass; one per atlas size (the frame's by default), kept.
     struct Atlas {
@@ -250,15 +253,17 @@ int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSi
 
 }  // namespace
 
-// The clouds' light volumes for `scene`, side by side in one 3D texture (cloud c in slot c).
-// Recomputed only when the clouds, the medium or the sun changed; clouds that only moved
-// (wind, near-LOD cells) keep their volumes (light_cache.hpp). Slots whose volume did not
-// change are not uploaded again, and the texture is made again only when the clouds outgrow
-// it (its slots are a power of two), so a windy frame uploads nothing.
-void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Scene& scene) {
-    int computed = 0;
-    light = lightCache.update(scene, s.light, &computed);
-    lightsComputed += computed;
+// The clouds' radiance grids for `scene` (light_cache.hpp), made now or on the worker
+// (`background`, a stand-in meanwhile); clouds that only moved (wind, near-LOD cells) keep
+// theirs. Grids already on the GPU are not uploaded again, so a windy frame uploads nothing.
+void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye,
+                                           bool background, bool takeFinished) {
+    RadianceGridSettings g = s.light;
+    g.background = g.background || background;
+    RadianceUpdateStats stats;
+    light = lightCache.update(scene, g, eye, &stats, takeFinished);
+    if (takeFinished) lightStats = stats;  // the host's update, not a channel's draw
+    lightsComputed += stats.computed;
     lightUploads += lightTextures.update(light);
 }
 
@@ -308,7 +313,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     });
 
     // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
-    m.updateLights(s, scene);
+    // Driven by a host's updateLights(), the grids change only there: every channel of a frame
+    // draws with the same ones.
+    m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
     const std::vector<PlacedRadiance>& light = m.light;
 
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
@@ -383,11 +390,20 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     return out;
 }
 
-int EllipsoidRenderer::updateLights(const Scene& scene) {
+int EllipsoidRenderer::updateLights(const Scene& scene, const Vec3* eye) {
     HostStateScope scope;  // the uploads
-    impl_->updateLights(settings_, scene);
+    impl_->lightsDriven = true;
+    impl_->updateLights(settings_, scene, eye, true);
     return std::exchange(impl_->lightsComputed, 0);
 }
+
+void EllipsoidRenderer::waitForLights(const Scene& scene) {
+    impl_->lightCache.waitIdle();
+    HostStateScope scope;
+    impl_->updateLights(settings_, scene, nullptr, true);
+}
+
+RadianceUpdateStats EllipsoidRenderer::lightStats() const { return impl_->lightStats; }
 
 EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
     HostFrame frame;
@@ -405,6 +421,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     EllipsoidStats stats = plan.stats;
     stats.lightVolumes = std::exchange(m.lightsComputed, 0);
     stats.lightUploads = std::exchange(m.lightUploads, 0);
+    stats.lightPending = m.lightStats.pending;
+    stats.lightStandIns = m.lightStats.standIns;
     if (plan.order.empty()) {
         m.lastTiles.clear();
         stats.tilesMs = timer.lap();

@@ -1,17 +1,34 @@
 #include "nephele/light_cache.hpp"
 
 #include "nephele/fingerprint.hpp"
+#include "nephele/parallel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_set>
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 namespace nephele {
 
 namespace {
 
-// The cloud's shape relative to its first ellipsoid, and everything else its light depends on.
-std::uint64_t relativeKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s) {
+// What a grid depends on besides the cloud's shape: the sun's direction, the sky, the medium.
+void addLight(Fingerprint& f, const Scene& scene) {
+    f.add(scene.sun.direction).add(scene.sky.zenith).add(scene.sky.horizon).add(scene.sky.ground);
+    f.addMedium(scene.medium);
+}
+
+// The cloud's shape relative to its first ellipsoid, and the grid's settings.
+std::uint64_t shapeKey(const Cloud& cloud, const RadianceGridSettings& s) {
     Fingerprint f;
     f.add(s.size).add(s.sunPhotons).add(s.skyPhotons).add(s.smoothing).add(s.seed);
-    f.add(scene.sun.direction).add(scene.sky.zenith).add(scene.sky.horizon).add(scene.sky.ground);
-    f.addMedium(scene.medium).add(cloud.ellipsoids.size());
+    f.add(cloud.ellipsoids.size());
     const Vec3 anchor = cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center;
     // Offsets rounded to a millimetre: (c + d) - (a + d) differs from c - a in the last bits.
     for (const Ellipsoid& e : cloud.ellipsoids) {
@@ -21,34 +38,211 @@ std::uint64_t relativeKey(const Scene& scene, const Cloud& cloud, const Radiance
     return f.value();
 }
 
+std::uint64_t lightKey(const Scene& scene, std::uint64_t shape) {
+    Fingerprint f;
+    f.add(shape);
+    addLight(f, scene);
+    return f.value();
+}
+
+// The cloud's optical size: its volume-weighted extinction times half its box's mean side.
+double opticalSize(const Scene& scene, const Cloud& cloud, const Vec3& extent) {
+    double sum = 0, volume = 0;
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        const double v = e.radii.x * e.radii.y * e.radii.z;
+        sum += v * e.density, volume += v;
+    }
+    const double density = volume > 0 ? sum / volume : 0;
+    return scene.medium.extinction * density * 0.5 * std::cbrt(extent.x * extent.y * extent.z);
+}
+
+// The share of the smaller of two boxes inside the other.
+double overlap(const Vec3& loA, const Vec3& extA, const Vec3& loB, const Vec3& extB) {
+    const Vec3 d = glm::max(glm::min(loA + extA, loB + extB) - glm::max(loA, loB), Vec3(0.0));
+    const double smaller = std::min(extA.x * extA.y * extA.z, extB.x * extB.y * extB.z);
+    return smaller > 0 ? d.x * d.y * d.z / smaller : 0;
+}
+
 }  // namespace
 
-std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& settings,
-                                                       int* computed) {
-    std::unordered_map<std::uint64_t, Entry> used;
-    std::vector<PlacedRadiance> out;
-    out.reserve(scene.clouds.size());
-    int made = 0;
-    for (const Cloud& cloud : scene.clouds) {
-        const std::uint64_t key = relativeKey(scene, cloud, settings);
-        const Vec3 anchor = cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center;
-        auto it = used.find(key);
-        if (it == used.end()) {
-            auto old = entries_.find(key);
-            if (old != entries_.end()) {
-                it = used.emplace(key, std::move(old->second)).first;
-                entries_.erase(old);
-            } else {
-                auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, cloud, settings));
-                it = used.emplace(key, Entry{std::move(grid), anchor}).first;
-                ++made;
-            }
+CloudRadianceCache::~CloudRadianceCache() {
+    {
+        std::lock_guard lock(mutex_);
+        stop_ = true;
+        cancel_ = true;
+    }
+    wake_.notify_all();
+    if (worker_.joinable()) worker_.join();
+}
+
+// A sphere of 100 m radius whose optical radius is the cloud's (to a quarter octave), lit by
+// the scene's sun and sky: cheap (8^3 voxels, 4096 photons each), made once per sun and size.
+std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene& scene, const Cloud& cloud,
+                                                                     const RadianceGridSettings& s) {
+    Vec3 lo, hi;
+    cloudBox(cloud, lo, hi);
+    const double tau = opticalSize(scene, cloud, glm::max(hi - lo, Vec3(1.0)));
+    const int step = tau > 0 ? std::clamp(int(std::lround(4 * std::log2(tau))), -12, 36) : -12;
+    Fingerprint f;
+    f.add(step).add(s.seed);
+    addLight(f, scene);
+    auto& slot = templates_[f.value()];
+    if (slot) return slot;
+    if (templates_.size() > 64) templates_.clear(), slot = nullptr;  // suns of long ago
+    Scene sphere;
+    sphere.sun = scene.sun, sphere.sky = scene.sky, sphere.medium = scene.medium;
+    Cloud c;
+    Ellipsoid e;
+    e.radii = Vec3(100.0);
+    e.density = scene.medium.extinction > 0 ? std::exp2(step / 4.0) / (scene.medium.extinction * 100.0) : 0.0;
+    c.ellipsoids.push_back(e);
+    RadianceGridSettings small = s;
+    small.size = std::min(8, s.size);
+    small.sunPhotons = small.skyPhotons = 4096;
+    auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(sphere, c, small));
+    templates_[f.value()] = grid;
+    return grid;
+}
+
+std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye,
+                                                       RadianceUpdateStats* statsOut, bool takeFinished) {
+    RadianceUpdateStats stats;
+    if (takeFinished) {  // What the worker finished since the last call.
+        std::lock_guard lock(mutex_);
+        for (Finished& f : finished_) {
+            stats.workerMs += f.entry.grid->computeMs;
+            entries_[f.key] = std::move(f.entry);
+            ++stats.computed;
         }
-        out.push_back({it->second.grid, anchor - it->second.anchor});
+        finished_.clear();
+    }
+    const std::size_t n = scene.clouds.size();
+    struct Want {
+        std::uint64_t shape = 0, key = 0;
+        Vec3 lo{0.0}, extent{1.0};
+        double priority = 1;
+    };
+    std::vector<Want> wants(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        Want& w = wants[i];
+        w.shape = shapeKey(scene.clouds[i], s);
+        w.key = lightKey(scene, w.shape);
+        Vec3 hi;
+        cloudBox(scene.clouds[i], w.lo, hi);
+        w.extent = glm::max(hi - w.lo, Vec3(1.0));
+        if (eye) {  // its size on screen: 1 inside, falling as 1 / distance outside
+            const double r = 0.5 * glm::length(w.extent);
+            const double d = glm::length(glm::max(glm::max(w.lo - *eye, *eye - (w.lo + w.extent)), Vec3(0.0)));
+            w.priority = r / (r + d);
+        }
+        if (entries_.count(w.key)) w.priority *= 1.5;  // a kept grid stays kept at the budget's edge
+    }
+    // The budget: the grids of the clouds largest on screen (clouds of one shape share one).
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return wants[a].priority > wants[b].priority; });
+    const std::size_t maxGrids = std::max<std::size_t>(1, std::size_t(s.megabytes * 1048576.0 / double(radianceGridBytes(s.size))));
+    std::unordered_set<std::uint64_t> own;
+    for (std::size_t i : order)
+        if (own.size() < maxGrids || own.count(wants[i].key)) own.insert(wants[i].key);
+
+    std::unordered_map<std::uint64_t, std::uint64_t> byShape;  // shape -> key of its last grid
+    for (const auto& [key, e] : entries_) byShape[e.shape] = key;
+    std::unordered_map<std::uint64_t, Entry> used;
+    std::vector<PlacedRadiance> out(n);
+    std::vector<Job> jobs;
+    std::unordered_set<std::uint64_t> missing;
+    for (std::size_t i : order) {
+        const Want& w = wants[i];
+        PlacedRadiance& p = out[i];
+        p.lo = w.lo, p.extent = w.extent;
+        const bool owned = own.count(w.key) > 0;
+        auto exact = used.find(w.key);
+        if (exact == used.end() && owned)
+            if (auto it = entries_.find(w.key); it != entries_.end()) exact = used.emplace(w.key, it->second).first;
+        if (exact != used.end() && owned) {
+            p.grid = exact->second.grid;
+            continue;
+        }
+        if (owned && !s.background) {  // made now
+            const Entry e{std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, scene.clouds[i], s)), w.shape};
+            p.grid = used.emplace(w.key, e).first->second.grid;
+            ++stats.computed;
+            continue;
+        }
+        p.exact = false;
+        ++stats.standIns;
+        if (!owned) {
+            ++stats.overBudget;
+        } else if (missing.insert(w.key).second) {
+            Job job{w.key, w.shape, w.priority, Scene{}, s};
+            job.scene.sun = scene.sun, job.scene.sky = scene.sky, job.scene.medium = scene.medium;
+            job.scene.clouds = {scene.clouds[i]};
+            jobs.push_back(std::move(job));
+        }
+        if (auto it = byShape.find(w.shape); it != byShape.end() && owned) {
+            p.grid = used.emplace(it->second, entries_.at(it->second)).first->second.grid;  // kept while it stands in
+        } else if (i < previous_.size() && owned && previous_[i].grid &&
+                   overlap(previous_[i].lo, previous_[i].extent, w.lo, w.extent) > 0.5) {
+            p.grid = previous_[i].grid;
+        } else {
+            p.grid = templateFor(scene, scene.clouds[i], s);
+        }
     }
     entries_ = std::move(used);
-    if (computed) *computed = made;
+    previous_ = out;
+    schedule(std::move(jobs));
+    {
+        std::lock_guard lock(mutex_);
+        stats.pending = int(queue_.size()) + (running_ != 0 ? 1 : 0);
+    }
+    if (statsOut) *statsOut = stats;
     return out;
+}
+
+// The worker's queue becomes `jobs` (what is still missing, by priority); a grid in progress
+// that is no longer wanted is cancelled.
+void CloudRadianceCache::schedule(std::vector<Job> jobs) {
+    {
+        std::lock_guard lock(mutex_);
+        const bool runningWanted =
+            std::any_of(jobs.begin(), jobs.end(), [&](const Job& j) { return j.key == running_; });
+        if (running_ != 0 && !runningWanted) cancel_ = true;
+        std::erase_if(jobs, [&](const Job& j) { return j.key == running_; });
+        queue_ = std::move(jobs);
+        if (!queue_.empty() && !worker_.joinable()) worker_ = std::thread([this] { work(); });
+    }
+    wake_.notify_all();
+}
+
+void CloudRadianceCache::work() {
+#ifdef __linux__
+    // Below the frame's threads: the grids come a little later, the frames stay on time.
+    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 10);
+#endif
+    ParallelLimit one(1);  // one core: the other stays the renderer's
+    std::unique_lock lock(mutex_);
+    for (;;) {
+        wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (stop_) return;
+        auto best = std::max_element(queue_.begin(), queue_.end(),
+                                     [](const Job& a, const Job& b) { return a.priority < b.priority; });
+        Job job = std::move(*best);
+        queue_.erase(best);
+        running_ = job.key;
+        cancel_ = false;
+        lock.unlock();
+        auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings, &cancel_));
+        lock.lock();
+        running_ = 0;
+        if (!cancel_ && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
+        if (queue_.empty()) idle_.notify_all();
+    }
+}
+
+void CloudRadianceCache::waitIdle() {
+    std::unique_lock lock(mutex_);
+    idle_.wait(lock, [&] { return stop_ || (queue_.empty() && running_ == 0); });
 }
 
 }  // namespace nephele

@@ -81,7 +81,8 @@ void SkyRenderer::prepare(const Scene& scene) {
         assets_->modulation(layer.seed);
     }
     assets_->setBackground(true);
-    clouds_.updateLights(scene);
+    clouds_.updateLights(scene, &scene.camera.position);
+    clouds_.waitForLights(scene);  // the explicit clouds lit from the first frame
     warmUp(scene);
     prepared_ = true;
 }
@@ -118,7 +119,10 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
     std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? kCellsPerUpdate : 0);
     frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
     const auto t0 = std::chrono::steady_clock::now();
-    stats.lightVolumes = clouds_.updateLights(frame_);
+    stats.lightVolumes = clouds_.updateLights(frame_, &eye);
+    const RadianceUpdateStats light = clouds_.lightStats();
+    stats.lightPending = light.pending;
+    stats.lightStandIns = light.standIns;
     stats.lightMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.backgroundJobs = assets_->pending();
     return stats;
@@ -156,6 +160,9 @@ void SkyRenderer::warmUp(const Scene& scene) {
 
 int SkyRenderer::backgroundJobs() const { return assets_->pending(); }
 
-void SkyRenderer::waitForBackgroundWork() { assets_->wait(); }
+void SkyRenderer::waitForBackgroundWork() {
+    assets_->wait();
+    clouds_.waitForLights(frame_);
+}
 
 }  // namespace nephele

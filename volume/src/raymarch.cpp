@@ -106,7 +106,10 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     HostStateScope scope;  // before the uploads
     if (kappa > 0) m.ensureNoise(s);
     // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
-    const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light, &stats.lightGridsComputed);
+    RadianceUpdateStats lightStats;
+    const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light, &view.eye, &lightStats);
+    stats.lightGridsComputed = lightStats.computed;
+    stats.lightStandIns = lightStats.standIns;
     m.lightTextures.update(light);
     m.lightTextures.setBoxes(light, view.eye);
 

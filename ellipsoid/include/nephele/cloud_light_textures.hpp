@@ -20,7 +20,7 @@ public:
     static constexpr GLuint kBoxesBinding = 3;  // shader storage binding of cloudLightBoxes
     static constexpr GLuint kFirstUnit = 6;     // texture units of the three grids: 6, 7, 8
 
-    // Makes the grids of `placed` (one per scene cloud, all of one size) resident, uploading
+    // Makes the grids of `placed` (one per scene cloud) resident, uploading
     // only grids that are new. Returns how many grids were uploaded. Throws GlError when the
     // slots would exceed GL_MAX_3D_TEXTURE_SIZE.
     int update(const std::vector<PlacedRadiance>& placed);

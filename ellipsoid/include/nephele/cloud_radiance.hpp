@@ -36,7 +36,16 @@ struct RadianceGridSettings {
     int skyPhotons = 1 << 17;   // photons traced from the sky and the ground per cloud, 0..2^26
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
     unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
+    // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
+    // past it (the smallest on screen first) are lit by a stand-in (nephele/light_cache.hpp).
+    double megabytes = 256;
+    // Make missing grids on a worker thread, a stand-in lighting the cloud meanwhile, instead of
+    // before the frame (a host's frame loop; SkyRenderer::update() always does).
+    bool background = false;
 };
+
+// Bytes one grid of `size`^3 voxels holds: 3 vec4 of floats on the CPU, 3 RGBA16F on the GPU.
+inline std::size_t radianceGridBytes(int size) { return std::size_t(size) * size * size * (3 * 16 + 3 * 8); }
 
 struct CloudRadiance {
     Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world (the cloud's axis-aligned box)
@@ -49,6 +58,9 @@ struct CloudRadiance {
 
 // Throws std::invalid_argument naming the setting that is out of range.
 void validate(const RadianceGridSettings& settings);
+
+// The axis-aligned box of the cloud's ellipsoids (m, world); the point 0 for an empty cloud.
+void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 
 // The grid of `cloud` for the scene's sun, sky and medium. Deterministic for a seed, whatever
 // the thread count. An empty cloud gives a 1 m box with no light. With `cancel`, the work

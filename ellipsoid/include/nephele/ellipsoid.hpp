@@ -24,6 +24,7 @@
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/light_cache.hpp"
 #include "nephele/scene.hpp"
 #include "nephele/shader.hpp"
 
@@ -98,8 +99,10 @@ struct EllipsoidStats {
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
     std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
-    int lightVolumes = 0;       // clouds' radiance grids computed for this frame (new or changed clouds, a new sun or sky)
+    int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
+    int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)
+    int lightStandIns = 0;      // clouds lit by a stand-in meanwhile, or past the grids' memory budget
     // With EllipsoidSettings::timings, the wall time of each part (ms, gl::PartTimer); else 0.
     double tilesMs = 0;      // projection, packing, light grids and the tile passes
     double compositeMs = 0;  // the tiles composited over the frame (with the weighted resolve)
@@ -131,11 +134,17 @@ public:
     // The same into a host's frame: the view's viewport and depth convention, the frame's
     // depth as the host gave it (or a copy), its sRGB encoding. frame.hasDepth is opaqueDepth.
     EllipsoidStats render(const Scene& scene, const View& view, const HostFrame& frame);
-    // Brings the clouds' light volumes up to date for `scene` (what render() does first when the
-    // clouds, the medium or the sun changed), so that a later render() of it computes none:
-    // SkyRenderer::update() calls it once per frame, before the channels draw. Returns how many
-    // volumes it computed.
-    int updateLights(const Scene& scene);
+    // A host's frame loop (SkyRenderer::update() calls it once per frame, before the channels
+    // draw): brings the clouds' radiance grids up to date for `scene` without waiting. Missing
+    // grids (new or changed clouds, a new sun or sky) are made on a worker thread, largest on
+    // screen from `eye` first, and a stand-in lights their clouds meanwhile (light_cache.hpp).
+    // From then on render() never waits for a grid either. Returns how many grids it took from
+    // the worker.
+    int updateLights(const Scene& scene, const Vec3* eye = nullptr);
+    // Waits for the worker's grids of `scene` and takes them (a loading screen, a test).
+    void waitForLights(const Scene& scene);
+    // The last light update's figures: grids pending on the worker, stand-ins, over budget.
+    RadianceUpdateStats lightStats() const;
 
     // The bench's floor for the same frame: the same tiles, passes and CPU work, but only
     // the unavoidable pixel work: each tile's pixels blended once per pass, and each tile's

@@ -2,39 +2,103 @@
 // they depend on stays. A cloud's light does not change when the cloud is translated (the sun
 // is directional and the sky the same everywhere), so a cloud drifting with the wind, or a
 // near-LOD cell that stays near, keeps its grid, moved with it.
+//
+// Grids are made either before the frame (waiting: a still image, a test) or progressively on
+// one worker thread (RadianceGridSettings::background: a host's frame loop), nearest clouds
+// first. Until its grid is ready a cloud is lit by a stand-in, and no frame waits:
+//   1. the last grid of the same shape (the sun, the sky or the medium changed): the old light
+//      serves until the new one is ready;
+//   2. else the grid the same cloud had in the last call, if the cloud still overlaps it (a
+//      cloud of a weather change that grew or shrank);
+//   3. else the template: a sphere of the cloud's optical size, lit by the scene's sun and sky
+//      (a small grid, made in a few ms and kept), stretched onto the cloud's box.
+// A memory budget (RadianceGridSettings::megabytes) bounds the grids kept: past it, the clouds
+// smallest on screen keep the template until they come nearer.
 #pragma once
 
 #include "nephele/cloud_radiance.hpp"
 
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
 namespace nephele {
 
-// A cloud's grid where the cloud is now: world = the grid's world coordinates + offset.
+// A grid where a cloud is now: the grid's box stretched onto the cloud's box (an exact grid's
+// box is the cloud's own, moved with it).
 struct PlacedRadiance {
     std::shared_ptr<const CloudRadiance> grid;
-    Vec3 offset{0.0};
-    Vec3 boxMin() const { return grid->boxMin + offset; }
-    RadianceSample sample(const Vec3& world) const { return sampleRadiance(*grid, world - offset); }
+    Vec3 lo{0.0}, extent{1.0};  // the cloud's box (m, world) the grid covers
+    bool exact = true;          // this cloud's own grid (false: a stand-in)
+    Vec3 boxMin() const { return lo; }
+    RadianceSample sample(const Vec3& world) const {
+        return sampleRadiance(*grid, grid->boxMin + (world - lo) / extent * grid->boxExtent);
+    }
+};
+
+struct RadianceUpdateStats {
+    int computed = 0;     // grids made in this call, or finished on the worker since the last call
+    int pending = 0;      // grids queued or being made on the worker
+    int standIns = 0;     // clouds lit by a stand-in in this call
+    int overBudget = 0;   // of those, clouds past the memory budget (the template until they come nearer)
+    double workerMs = 0;  // the worker's time for the grids it finished since the last call
 };
 
 class CloudRadianceCache {
 public:
-    // One grid per scene cloud, computing only those of clouds that are not a translation of
-    // a cloud of the previous call (same ellipsoids relative to the cloud's first one, same sun
-    // direction, sky, medium and settings). Grids not used by this call are dropped.
-    // `computed` (optional) receives how many were computed.
-    std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings, int* computed = nullptr);
+    CloudRadianceCache() = default;
+    ~CloudRadianceCache();  // stops the worker (its grid in progress is cancelled)
+    CloudRadianceCache(const CloudRadianceCache&) = delete;
+    CloudRadianceCache& operator=(const CloudRadianceCache&) = delete;
+
+    // One placed grid per scene cloud (see above). Clouds that are a translation of a cloud of
+    // an earlier call (same ellipsoids relative to its first one, same sun direction, sky,
+    // medium and settings) keep its grid. Grids no call uses any more are dropped. `eye`
+    // (optional) ranks the clouds for the budget and the worker: the largest on screen first.
+    // Without `takeFinished` the worker's new grids wait for a later call (the channels of one
+    // frame draw with the same grids).
+    std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings, const Vec3* eye = nullptr,
+                                       RadianceUpdateStats* stats = nullptr, bool takeFinished = true);
+    // Blocks until the worker has nothing left to do (tests, benches, a host's loading screen);
+    // the next update() uses what it made.
+    void waitIdle();
 
 private:
     struct Entry {
         std::shared_ptr<const CloudRadiance> grid;
-        Vec3 anchor{0.0};  // the cloud's first ellipsoid's centre when the grid was computed
+        std::uint64_t shape = 0;  // the key without the sun, sky and medium
     };
+    struct Job {
+        std::uint64_t key = 0, shape = 0;
+        double priority = 0;
+        Scene scene;  // the sun, the sky, the medium and the one cloud
+        RadianceGridSettings settings;
+    };
+    struct Finished {
+        std::uint64_t key = 0;
+        Entry entry;
+    };
+    std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s);
+    void schedule(std::vector<Job> jobs);
+    void work();
+
     std::unordered_map<std::uint64_t, Entry> entries_;
+    std::unordered_map<std::uint64_t, std::shared_ptr<const CloudRadiance>> templates_;
+    std::vector<PlacedRadiance> previous_;  // the last call's result, by cloud index
+
+    std::mutex mutex_;  // guards what follows (shared with the worker)
+    std::condition_variable wake_, idle_;
+    std::vector<Job> queue_;
+    std::uint64_t running_ = 0;  // key of the grid the worker makes (0: none)
+    std::atomic<bool> cancel_{false};
+    std::vector<Finished> finished_;
+    bool stop_ = false;
+    std::thread worker_;
 };
 
 }  // namespace nephele

@@ -54,8 +54,10 @@ struct SkyStats {
 
 struct SkyUpdateStats {
     NearLodStats nearLod;  // what the near LOD spawned and retired
-    int lightVolumes = 0;  // clouds' light volumes computed (new near clouds, a new sun)
-    double lightMs = 0;    // wall time of that (EllipsoidRenderer::updateLights), ms
+    int lightVolumes = 0;  // clouds' radiance grids finished on the worker since the last update
+    int lightPending = 0;  // grids still being made there (new near clouds, a new sun)
+    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (nephele/light_cache.hpp)
+    double lightMs = 0;    // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
     int layers = 0;        // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running
 };
@@ -91,8 +93,9 @@ public:
     // bad ViewDesc (makeView), std::logic_error before prepare().
     SkyStats draw(const ViewDesc& view);
     double time() const { return time_; }
-    // Background jobs queued or running; waitForBackgroundWork() blocks until there are none
-    // (tests and benches; a host never needs to).
+    // Background jobs queued or running (layers' lighting and modulation); waitForBackgroundWork()
+    // blocks until there are none, and until the clouds' radiance grids are made (tests and
+    // benches; a host never needs to).
     int backgroundJobs() const;
     void waitForBackgroundWork();
 
