@@ -206,6 +206,7 @@ struct ReferenceInfo {
     std::string noise, caseName;
     double relNoise = 0, seconds = 0;
     int traced = 0;  // path traces computed in this run (0: all from the cache)
+    int spp = 0;     // the sun part's samples per pixel it took
 };
 
 // One method's error on one case split by light (noise 0).
@@ -360,6 +361,13 @@ std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const Opa
     return out;
 }
 
+// "64–1024": the range of the references' samples per pixel.
+std::string sppRange(const std::vector<ReferenceInfo>& info) {
+    int lo = 0, hi = 0;
+    for (const ReferenceInfo& i : info) lo = lo ? std::min(lo, i.spp) : i.spp, hi = std::max(hi, i.spp);
+    return lo == hi ? std::to_string(hi) : std::to_string(lo) + "–" + std::to_string(hi);
+}
+
 }  // namespace
 
 int runAccuracyBench(const AccuracyOptions& o) {
@@ -373,8 +381,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::vector<Config> configs = sweep(o.quick);
     ReferenceSettings refSettings;
     refSettings.spp = o.referenceSpp;
+    refSettings.pieceSpp = std::min(refSettings.pieceSpp, std::max(1, o.referenceSpp / 2));
     refSettings.skySpp = std::max(2, o.referenceSpp / 4);
-    refSettings.singleSpp = std::max(1, o.referenceSpp / 8);
+    refSettings.singleSpp = std::max(1, o.referenceSpp / 16);
     refSettings.block = o.block;
     refSettings.cacheDir = o.cacheDir;
     std::vector<ReferenceInfo> refInfo;
@@ -404,11 +413,12 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 if (noiseMode == "scene" && scene.medium.noise == 0) continue;
                 const View view = makeView(scene.camera);
                 const bool objects = !scene.objects.empty();
-                std::cerr << "bench: accuracy: " << c0.name << ", noise " << scene.medium.noise << ": reference ("
-                          << refSettings.spp << " spp, cached)...\n";
+                std::cerr << "bench: accuracy: " << c0.name << ", noise " << scene.medium.noise << ": reference (to "
+                          << fmt("%.0f%%", 100 * refSettings.targetNoise) << " noise, at most " << refSettings.spp
+                          << " spp, cached)...\n";
                 const Reference reference = makeReference(scene, view, noise, refSettings);
                 const Image& referenceBlocks = reference.total;
-                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced});
+                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced, reference.spp});
                 if (noiseMode == "0")
                     for (ComponentRow& row : measureComponents(scene, view, reference, noise, ns, opaque, o.block)) {
                         row.caseName = c0.name;
@@ -527,10 +537,11 @@ int runAccuracyBench(const AccuracyOptions& o) {
        << o.width << " px wide (the camera inside the cloud at " << o.width / 2 << "); error = RMSE of linear RGB, "
        << "after averaging " << o.block << "×" << o.block << " pixel blocks, over the blocks where either image has "
           "cloud (α > 0.02), relative to the reference's mean radiance there (no exposure fit: a colour calibration "
-          "error counts). The reference is `--method pathtrace`, the sun's light ("
-       << refSettings.spp << " spp) and the sky's and the ground's (" << refSettings.skySpp
-       << " spp) traced apart and summed, each as two halves of independent seeds: its own noise, half the RMSE "
-          "between the halves, is "
+          "error counts). The reference is `--method pathtrace`, the sun's light and the sky's and the ground's "
+          "traced apart and summed (the sky with a quarter of the sun's samples), in pieces of "
+       << refSettings.pieceSpp << " spp of independent seeds added until the noise of their mean, measured by their "
+          "spread, is at most " << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has "
+       << refSettings.spp << " spp (" << sppRange(refInfo) << " spp per case here): its own noise is "
        << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
        << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0 and "
        << fmt("%.1f%%", refCount[1] ? 100 * refNoise[1] / refCount[1] : 0) << " (at most " << fmt("%.1f%%", 100 * refWorst[1])

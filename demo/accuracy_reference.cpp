@@ -3,6 +3,7 @@
 #include "nephele/opaque.hpp"
 #include "nephele/pathtrace.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -102,19 +103,38 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
     };
     const Scene sun = sunOnly(scene), sky = skyOnly(scene);
     const int bounces = PathTraceSettings{}.maxBounces;
-    const Image sunA = trace(sun, s.spp / 2, bounces, 1), sunB = trace(sun, s.spp / 2, bounces, 2);
-    const Image skyA = trace(sky, s.skySpp / 2, bounces, 1), skyB = trace(sky, s.skySpp / 2, bounces, 2);
+    // Pieces of independent seeds, added until the mean's noise is below the target: the
+    // spread of the pieces measures it (the noise of a mean of m: their RMS spread / sqrt(m - 1)).
+    const int piece = std::clamp(s.pieceSpp, 1, std::max(1, s.spp / 2));
+    const int skyPiece = std::max(1, piece * s.skySpp / std::max(1, s.spp));
+    const int maxPieces = std::max(2, s.spp / piece);
+    std::vector<Image> pieces;  // sun + sky, each piece
     Reference r;
-    r.sun = sunA;
-    r.sky = skyA;
-    for (std::size_t i = 0; i < r.sun.pixels.size(); ++i) {
-        r.sun.pixels[i] = 0.5f * (sunA.pixels[i] + sunB.pixels[i]);
-        r.sky.pixels[i] = 0.5f * (skyA.pixels[i] + skyB.pixels[i]);
+    auto addPiece = [&] {
+        const unsigned seed = unsigned(pieces.size()) + 1;
+        const Image a = trace(sun, piece, bounces, seed), b = trace(sky, skyPiece, bounces, seed);
+        pieces.push_back(add(a, b));
+        const float w = 1.0f / float(pieces.size());  // running means
+        if (pieces.size() == 1) r.sun = a, r.sky = b;
+        for (std::size_t i = 0; i < r.sun.pixels.size(); ++i) {
+            r.sun.pixels[i] += w * (a.pixels[i] - r.sun.pixels[i]);
+            r.sky.pixels[i] += w * (b.pixels[i] - r.sky.pixels[i]);
+        }
+    };
+    for (;;) {
+        while (pieces.size() < 2) addPiece();
+        r.total = add(r.sun, r.sky);
+        const double norm = cloudMean(r.total);
+        double spread = 0;
+        for (const Image& p : pieces) spread += std::pow(rmseOver(p, r.total, r.total, r.total, norm), 2);
+        const double m = double(pieces.size());
+        r.noise = std::sqrt(spread / m / (m - 1));
+        if (r.noise <= s.targetNoise || int(pieces.size()) >= maxPieces) break;
+        const int want = int(std::ceil(1.1 * m * std::pow(r.noise / s.targetNoise, 2)));
+        while (int(pieces.size()) < std::clamp(want, int(m) + 1, maxPieces)) addPiece();
     }
-    r.total = add(r.sun, r.sky);
-    r.single = trace(sun, s.singleSpp, 0, 3);
-    // The mean of two independent halves: its noise is half the RMSE of their difference.
-    r.noise = 0.5 * rmseOver(add(sunA, skyA), add(sunB, skyB), r.total, r.total, cloudMean(r.total));
+    r.spp = piece * int(pieces.size());
+    r.single = trace(sun, s.singleSpp, 0, 1000);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.traced = int(detail::pathTracedImagesComputed() - before);
     return r;

@@ -29,12 +29,17 @@ double relativeRmse(const Image& a, const Image& b);
 struct Reference {
     Image total, sun, sky, single;  // RGBA block means; a = cloud opacity (the sun part's)
     double noise = 0;               // relative RMSE of `total` from its own Monte Carlo noise
+    int spp = 0;                    // samples per pixel of the sun part it took
     double seconds = 0;             // wall time of the path traces (near 0 when all were cached)
     int traced = 0;                 // path-traced images computed (not from the cache)
 };
 struct ReferenceSettings {
-    int spp = 512;            // samples per pixel of the sun part, in two halves of independent seeds
-    int skySpp = 128;         // of the sky part (smoother: skylight comes from every side), likewise
+    // The sun part in pieces of `pieceSpp` samples per pixel of independent seeds, added until
+    // the noise of their mean (measured by their spread) is at most `targetNoise`, or `spp`.
+    int spp = 1024;
+    int pieceSpp = 32;
+    double targetNoise = 0.02;
+    int skySpp = 256;         // the sky part's samples per `spp` (smoother: skylight comes from every side)
     int singleSpp = 64;       // of the sun's single scattering (bounces 0)
     int block = 4;
     std::string cacheDir;     // "" = no cache

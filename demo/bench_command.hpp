@@ -33,7 +33,7 @@ struct AccuracyOptions {
     std::string scenesDir = "data/scenes";
     std::string cacheDir;         // path-traced references are cached here ("" = none)
     int width = 320;              // px: every case is rendered this wide (aspect kept)
-    int referenceSpp = 512;       // samples per pixel of the reference's sun part (the sky part: a quarter)
+    int referenceSpp = 1024;      // at most, samples per pixel of the reference's sun part (the sky part: a quarter)
     int block = 4;                // errors are measured on block x block pixel means (averages the
                                   // reference's noise down by `block`)
     int frames = 5;               // timed frames per GPU setting (median)

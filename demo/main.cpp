@@ -269,7 +269,7 @@ int main(int argc, char** argv) {
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
-    bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
+    bench->add_option("--spp", ao.referenceSpp, "--accuracy: the most samples per pixel of the reference (it stops at 2% noise)")
         ->check(CLI::Range(1, 1048576))->capture_default_str();
     bench->add_option("--fps", flo.fps, "--flicker: frames per second of scene time")
         ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
