@@ -44,6 +44,15 @@ struct RadianceGridSettings {
     bool background = false;
 };
 
+// What an update of the clouds' grids did (nephele/light_cache.hpp; EllipsoidRenderer::lightStats).
+struct RadianceUpdateStats {
+    int computed = 0;     // grids made in this call, or finished on the worker since the last call
+    int pending = 0;      // grids queued or being made on the worker
+    int standIns = 0;     // clouds lit by a stand-in in this call
+    int overBudget = 0;   // of those, clouds past the memory budget (the template until they come nearer)
+    double workerMs = 0;  // the worker's time for the grids it finished since the last call
+};
+
 // Bytes one grid of `size`^3 voxels holds: 3 vec4 of floats on the CPU, 3 RGBA16F on the GPU.
 inline std::size_t radianceGridBytes(int size) { return std::size_t(size) * size * size * (3 * 16 + 3 * 8); }
 

@@ -21,10 +21,10 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/cloud_radiance.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl.hpp"
-#include "nephele/light_cache.hpp"
 #include "nephele/scene.hpp"
 #include "nephele/shader.hpp"
 

@@ -41,14 +41,6 @@ struct PlacedRadiance {
     }
 };
 
-struct RadianceUpdateStats {
-    int computed = 0;     // grids made in this call, or finished on the worker since the last call
-    int pending = 0;      // grids queued or being made on the worker
-    int standIns = 0;     // clouds lit by a stand-in in this call
-    int overBudget = 0;   // of those, clouds past the memory budget (the template until they come nearer)
-    double workerMs = 0;  // the worker's time for the grids it finished since the last call
-};
-
 class CloudRadianceCache {
 public:
     CloudRadianceCache() = default;
