@@ -218,7 +218,7 @@ void CloudRadianceCache::schedule(std::vector<Job> jobs) {
 void CloudRadianceCache::work() {
 #ifdef __linux__
     // Below the frame's threads: the grids come a little later, the frames stay on time.
-    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 10);
+    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 19);  // as the layers' lighting jobs: they share
 #endif
     ParallelLimit one(1);  // one core: the other stays the renderer's
     std::unique_lock lock(mutex_);
