@@ -34,8 +34,16 @@ std::string limitValueText(const Limit& limit) {
 std::string limitText(const Limit& limit) { return "'" + std::string(limit.name) + "' (" + limitValueText(limit) + ")"; }
 
 std::string limitsHelp() {
-    std::string s = "Limits (a scene or file past one is rejected with a message naming it; data/scene-format.md):";
-    for (const Limit& l : allLimits()) s += " " + std::string(l.name) + (l.minimum ? " >= " : " <= ") + limitValueText(l) + ";";
+    std::string s = "Limits (a scene or file past one is rejected with a message naming it; see data/scene-format.md):";
+    std::size_t lineStart = 0;
+    for (const Limit& l : allLimits()) {
+        const std::string one = std::string(l.name) + (l.minimum ? " >= " : " <= ") + limitValueText(l) + ";";
+        if (s.size() - lineStart + 1 + one.size() > 90) {  // wrapped for a terminal
+            s += "\n ";
+            lineStart = s.size() - 1;
+        }
+        s += " " + one;
+    }
     s.back() = '.';
     return s;
 }
