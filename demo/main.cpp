@@ -5,6 +5,7 @@
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
+#include "nephele/limits.hpp"
 #include "nephele/log.hpp"
 #include "nephele/scene.hpp"
 
@@ -200,6 +201,7 @@ int main(int argc, char** argv) {
     installConsoleLogging();
     CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
     app.set_version_flag("--version", "nephele 0.1.0");
+    app.footer(limitsHelp());
     app.require_subcommand(1);
 
     RenderOptions ro;
