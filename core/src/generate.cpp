@@ -290,6 +290,12 @@ ObjMesh readObj(const std::string& file, std::uint64_t* bytes) {
 Cloud generateMesh(const Generator& g, GenerateStats* stats) {
     std::uint64_t bytes = 0;
     const detail::ObjMesh mesh = detail::readObj(g.resolvedPath, &bytes);
+    Cloud cloud = detail::meshCloud(mesh, g, stats);
+    if (stats) stats->objBytes = bytes;
+    return cloud;
+}
+
+Cloud detail::meshCloud(const ObjMesh& mesh, const Generator& g, GenerateStats* stats) {
     const glm::dmat3 M = rotationFromDegrees(g.rotationDeg);
     std::vector<Vec3> v(mesh.vertices.size());
     for (size_t i = 0; i < v.size(); ++i) v[i] = g.position + g.scale * (M * mesh.vertices[i]);
@@ -340,7 +346,6 @@ Cloud generateMesh(const Generator& g, GenerateStats* stats) {
         stats->name = g.name;
         stats->placed = static_cast<int>(mesh.triangles.size());
         stats->degenerate = degenerate;
-        stats->objBytes = bytes;
         stats->kept = static_cast<int>(cloud.ellipsoids.size());
     }
     return cloud;

@@ -144,17 +144,19 @@ Image readPng(const std::string& path) {
         png_set_expand(png);
         png_set_strip_16(png);
         png_set_packing(png);
+        png_set_interlace_handling(png);  // Adam7: libpng merges the passes into whole rows
         png_read_update_info(png, info);
         const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
         const std::size_t rowBytes = png_get_rowbytes(png, info);
         checkClaimedSize(path, w, h, std::uint64_t(rowBytes + 1) * h, file.size, true);
         image = Image(int(w), int(h), int(png_get_channels(png, info)));
-        std::vector<png_byte> row(rowBytes);
-        for (int y = 0; y < image.height; ++y) {
-            png_read_row(png, row.data(), nullptr);
-            for (int i = 0; i < image.width * image.channels; ++i)
-                image.pixels[std::size_t(y) * image.width * image.channels + i] = row[i] / 255.0f;
-        }
+        std::vector<png_byte> bytes(rowBytes * h);
+        std::vector<png_bytep> rows(h);
+        for (png_uint_32 y = 0; y < h; ++y) rows[y] = bytes.data() + rowBytes * y;
+        png_read_image(png, rows.data());
+        const std::size_t rowValues = std::size_t(image.width) * image.channels;
+        for (png_uint_32 y = 0; y < h; ++y)
+            for (std::size_t i = 0; i < rowValues; ++i) image.pixels[y * rowValues + i] = rows[y][i] / 255.0f;
     } catch (...) {
         png_destroy_read_struct(&png, &info, nullptr);
         throw;

@@ -27,4 +27,7 @@ ObjMesh parseObj(std::string_view text, const std::string& file);
 // and parses it. *bytes (optional) receives its size. Throws ObjError.
 ObjMesh readObj(const std::string& file, std::uint64_t* bytes = nullptr);
 
+// The ellipsoids of `mesh` under g's transform (generateMesh without the file).
+Cloud meshCloud(const ObjMesh& mesh, const Generator& g, GenerateStats* stats = nullptr);
+
 }  // namespace nephele::detail
