@@ -107,6 +107,7 @@ struct EllipsoidRenderer::Impl {
     std::uint64_t lightKeyValue = 0;
     CloudLightCache lightCache;
     int lightClouds = 0;
+    int lightSize = 0;                  // voxels per side of the volumes in `light` (see lightVolumeSize)
     glm::ivec3 lightGrid{1, 1, 1};      // slots of the clouds' light volumes in the 3D texture
     Buffer tiles, lightBoxes, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0, lightBoxCapacity = 0;
@@ -155,6 +156,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
         throw std::invalid_argument("tessellation must be 0 (adaptive) or 4..256 slices");
     if (s.lightVolume < 0 || s.lightVolume > 128) throw std::invalid_argument("lightVolume must be 0..128");
     if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
+    if (s.lightMegabytes < 1) throw std::invalid_argument("lightMegabytes must be at least 1");
     if (s.order == CompositeOrder::PerPixel)
         throw std::invalid_argument("order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
     if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
@@ -221,6 +223,14 @@ EllipsoidRenderer::~EllipsoidRenderer() = default;
 namespace {
 
 
+// The light volumes' side: settings.lightVolume, halved while `clouds` volumes of 2 bytes a
+// voxel need more than settings.lightMegabytes (at least 2 voxels a side).
+int lightVolumeSize(const EllipsoidSettings& s, std::size_t clouds) {
+    int size = s.lightVolume;
+    while (size > 2 && double(clouds) * size * size * size * 2 > s.lightMegabytes * 1048576.0) size /= 2;
+    return size;
+}
+
 int meshSlices(const EllipsoidSettings& s, int tileSize) {
     if (s.tessellation > 0) return s.tessellation;
     // Vertex work is a large share of a frame on llvmpipe (the light volume is read per vertex):
@@ -273,6 +283,13 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         if (out.packed.passes <= maxPasses || limit <= minTile) break;
     }
     const PackResult& packed = out.packed;
+    GLint maxLayers = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+    if (packed.passes > maxLayers)
+        throw GlError("ellipsoid atlas: " + std::to_string(prepared.ellipsoids.size()) + " visible ellipsoids need " +
+                      std::to_string(packed.passes) + " passes of " + std::to_string(atlasW) + "x" + std::to_string(atlasH) +
+                      " even with " + std::to_string(minTile) + " px tiles, more than GL's " + std::to_string(maxLayers) +
+                      " atlas layers; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
     std::vector<TilePlacement>& placements = out.placements;
@@ -326,7 +343,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     // ---- Resources.
     uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
     uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
-    const int lightSize = s.lightVolume;
+    const int lightSize = lightVolumeSize(s, scene.clouds.size());
+    stats.lightVolume = lightSize;
+    m.lightSize = lightSize;
     if (lightSize > 0) {
         const std::uint64_t key = lightKey(scene, lightSize);
         if (!m.light || key != m.lightKeyValue) {
@@ -404,7 +423,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const std::vector<int>& order = plan.order;
     const int atlasW = plan.atlasW, atlasH = plan.atlasH;
     const int frameW = view.camera.width, frameH = view.camera.height;
-    const int lightSize = s.lightVolume;
+    const int lightSize = m.lightSize;
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     GlStateGuard guard;
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());

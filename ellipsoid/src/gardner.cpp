@@ -6,6 +6,8 @@
 #include "nephele/opaque.hpp"
 #include "nephele/parallel.hpp"
 
+#include "sun_depth.hpp"
+
 #include <glm/gtc/matrix_access.hpp>
 
 #include <algorithm>
@@ -27,6 +29,12 @@ double depthToSun(const Cloud& cloud, const Vec3& from, const Vec3& sunDir) {
     return sum;
 }
 
+// What the light volume holds for an optical depth (/ extinction) towards the sun: see cloudSunLight.
+double sunLightFromDepth(const Medium& m, double depth) {
+    const double reflectance = model::diffuseReflectance(float(m.albedo), float(m.hgG));
+    return reflectance / std::max(m.albedo, 1e-6) * std::exp(-reducedExtinction(m) * depth);
+}
+
 CloudLight makeLight(const Scene& scene, const Cloud& cloud, int size) {
     CloudLight light;
     light.size = size;
@@ -41,11 +49,12 @@ CloudLight makeLight(const Scene& scene, const Cloud& cloud, int size) {
     light.boxMin = lo;
     light.boxExtent = glm::max(hi - lo, Vec3(1e-3));
     light.transmittance.assign(std::size_t(size) * size * size, 1.0f);
+    const detail::SunDepthIndex index(cloud, scene.sun.direction);  // the same sums, only over what each ray meets
     parallelFor(size, [&](int z) {
         for (int y = 0; y < size; ++y)
             for (int x = 0; x < size; ++x) {
                 const Vec3 p = light.boxMin + (Vec3(x, y, z) + 0.5) / double(size) * light.boxExtent;
-                light.transmittance[(std::size_t(z) * size + y) * size + x] = float(cloudSunLight(scene, cloud, p));
+                light.transmittance[(std::size_t(z) * size + y) * size + x] = float(sunLightFromDepth(scene.medium, index.depth(p)));
             }
     });
     return light;
@@ -60,9 +69,7 @@ double sunTransmittance(const Scene& scene, const Cloud& cloud, const Vec3& poin
 }
 
 double cloudSunLight(const Scene& scene, const Cloud& cloud, const Vec3& point) {
-    const Medium& m = scene.medium;
-    const double reflectance = model::diffuseReflectance(float(m.albedo), float(m.hgG));
-    return reflectance / std::max(m.albedo, 1e-6) * sunTransmittance(scene, cloud, point);
+    return sunLightFromDepth(scene.medium, depthToSun(cloud, point, scene.sun.direction));
 }
 
 Vec3 environmentMean(const Sky& sky) {
@@ -150,6 +157,10 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
     // As the compositor's composite pass sets it (ellipsoid/src/compositor.cpp); see cloudAmbient.
     const Vec3 ambient = cloudAmbient(scene.sky);
     const float weightReference = float(weightReferenceDepth(prepared, view));
+    // cloudSunLight of each cloud, indexed once: per hit it sums only what the sun ray meets.
+    std::vector<detail::SunDepthIndex> sunDepth;
+    sunDepth.reserve(scene.clouds.size());
+    for (const Cloud& c : scene.clouds) sunDepth.emplace_back(c, scene.sun.direction);
     Image image(view.camera.width, view.camera.height, 4);
     struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
@@ -188,7 +199,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 if (alpha <= 0) continue;
                 Vec3 normal = -d;
                 if (tIn > tStart) normal = glm::normalize(glm::transpose(p.unit) * Vec3(o + tIn * len * dn));
-                const float light = model::sunLight(float(cloudSunLight(scene, scene.clouds[p.cloud], shadePoint)),
+                const float light = model::sunLight(float(sunLightFromDepth(scene.medium, sunDepth[p.cloud].depth(shadePoint))),
                                                     float(glm::dot(normal, scene.sun.direction)));
                 const glm::vec3 c = model::cloudColor(glm::vec3(sunRadiance), light, glm::vec3(ambient),
                                                       float(scene.medium.albedo), model::noiseModulation(amp, n));

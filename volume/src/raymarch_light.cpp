@@ -97,6 +97,12 @@ double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3
 
 }  // namespace
 
+int raymarchLightSize(const RaymarchSettings& settings, std::size_t clouds) {
+    int size = settings.lightGrid;
+    while (size > 2 && double(clouds) * size * size * size * 6 > settings.lightMegabytes * 1048576.0) size /= 2;
+    return size;
+}
+
 NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings) {
     NoiseSettings n;
     n.octaves = settings.octaves;
@@ -166,7 +172,7 @@ std::vector<CloudLight> makeRaymarchLights(const Scene& scene, const RaymarchSet
     // Past this optical depth every octave of the sun term (the weakest attenuation is
     // a^(octaves-1) = 1/64: exp(-1000 / 64) < 2e-7) and the sky weight have died out: stop marching.
     const double stopDepth = medium.extinction > 0 ? 1000.0 / medium.extinction : 1e300;
-    const int size = settings.lightGrid;
+    const int size = raymarchLightSize(settings, scene.clouds.size());
     const Vec3 dirs[3] = {scene.sun.direction, Vec3(0, 0, 1), Vec3(0, 0, -1)};
     std::vector<CloudLight> lights;
     for (const Cloud& cloud : scene.clouds) {

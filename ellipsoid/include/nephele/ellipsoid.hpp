@@ -61,6 +61,9 @@ struct EllipsoidSettings {
     int atlasMegabytes = 256;   // memory for the atlas layers (one per pass, 8 bytes a pixel at f16); when
                                 // the passes need more, the largest tiles are halved until they fit
     int lightVolume = 32;       // per-cloud sun transmittance grid (voxels per side); 0 = no self-shadowing
+    int lightMegabytes = 64;    // memory for the clouds' light volumes (2 bytes a voxel on the GPU); when the
+                                // clouds need more, their side is halved until they fit (2 at the least),
+                                // so that time and memory stay bounded with tens of thousands of clouds
     bool colourMatrixPass = false;  // true: the colour matrix in a pass of its own per atlas layer (the
                                     // paper's copy); false: the composite applies it as it reads the atlas
                                     // (the same image: filtering is linear), one pass less per tile pixel
@@ -91,6 +94,8 @@ struct EllipsoidStats {
     int visible = 0;            // after culling
     int passes = 0;
     int maxTile = 0;            // the largest tile size used (below settings.maxTile when memory bound)
+    int lightVolume = 0;        // voxels per side of the light volumes used (below settings.lightVolume
+                                // when settings.lightMegabytes bounds them)
     int drawCalls = 0;          // draws issued by the compositor for this frame
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas

@@ -73,6 +73,9 @@ struct RaymarchSettings {
     double lodDistance = 4000; // m: the step grows as step * (1 + distance / lodDistance) (the paper's
                                // distance-dependent LOD); 0 = fixed step
     int lightGrid = 32;        // voxels per side of each cloud's precomputed light grid (optical depths), 2..128
+    int lightMegabytes = 64;   // memory for the light grids (6 bytes a voxel on the GPU); when the clouds need
+                               // more, the grids' side is halved until they fit (2 at the least), which bounds
+                               // the illumination pass's time too
     int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
     int maxSteps = 2048;       // per pixel, a safety cap, >= 1
 };
@@ -103,7 +106,11 @@ bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& 
 double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& x, const NoiseVolume* noise,
                           double noisePeriod);
 
-// The illumination pass: per cloud, a settings.lightGrid^3 grid over raymarchCloudBox (texel
+// The side of the light grids for `clouds` clouds: settings.lightGrid, halved while the grids
+// need more than settings.lightMegabytes (at least 2).
+int raymarchLightSize(const RaymarchSettings& settings, std::size_t clouds);
+
+// The illumination pass: per cloud, a raymarchLightSize^3 grid over raymarchCloudBox (texel
 // centres at min + (i + 0.5) / size * extent) of three optical depths per voxel (channels = 3):
 // to the sun, straight up, straight down (medium.extinction times density times metres).
 // medium.noise == 0: the closed form per ellipsoid (raymarchLightDepths). medium.noise > 0:
