@@ -234,7 +234,8 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, quick = false, noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, scaleMode = false, quick = false, noCache = false;
+    ScaleBenchOptions sbo;
     LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
@@ -244,6 +245,9 @@ int main(int argc, char** argv) {
     bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
     bench->add_flag("--layered", layeredMode,
                     "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_flag("--scale", scaleMode,
+                    "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
+    bench->add_option("--scale-counts", sbo.counts, "--scale: ellipsoid counts")->capture_default_str();
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
     bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
@@ -252,7 +256,7 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
     bench->add_option("--cache", benchCache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
     bench->add_flag("--no-cache", noCache, "--accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered/--scale: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
     CompareOptions co;
@@ -320,8 +324,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker and --layered are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(scaleMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --scale are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -344,6 +348,18 @@ int main(int argc, char** argv) {
             if (quick && !widthGiven && bench->count("--height") == 0) lbo.width = 320, lbo.height = 180;
             lbo.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
             return runLayeredBench(lbo);
+        }
+        if (scaleMode) {
+            sbo.outDir = bo.outDir, sbo.readme = bo.readme, sbo.backend = bo.backend;
+            if (quick) sbo.counts = {100, 1000}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+            if (widthGiven) sbo.width = bo.width;
+            if (bench->count("--height") > 0) sbo.height = bo.height;
+            for (int c : sbo.counts)
+                if (c < 1 || double(c) > limits::kEllipsoids.value) {
+                    std::cerr << "nephele: --scale-counts: " << c << " is out of range 1.." << limitValueText(limits::kEllipsoids) << "\n";
+                    return 2;
+                }
+            return runScaleBench(sbo);
         }
         if (flickerMode) {
             flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;

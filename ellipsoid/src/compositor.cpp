@@ -13,6 +13,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -413,8 +414,10 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
 EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
     Impl& m = *impl_;
     const EllipsoidSettings& s = settings_;
+    const auto start = std::chrono::steady_clock::now();
     const FramePlan plan = m.plan(s, scene, view);
     EllipsoidStats stats = plan.stats;
+    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (plan.order.empty()) return stats;
     const PreparedClouds& prepared = plan.prepared;
     const PackResult& packed = plan.packed;

@@ -224,6 +224,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     Impl& m = *impl_;
     const RaymarchSettings& s = settings_;
     RaymarchStats stats;
+    const auto start = std::chrono::steady_clock::now();
     stats.clouds = int(scene.clouds.size());
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     if (stats.ellipsoids == 0) return stats;
@@ -284,6 +285,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     p.set("useDepth", opaqueDepth ? 1 : 0);
     p.set("sceneDepth", 2);
     p.set("tilesX", bins.tilesX);
+    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     p.set("stepBase", float(s.step));
     p.set("invLod", s.lodDistance > 0 ? float(1.0 / s.lodDistance) : 0.0f);
     p.set("maxSteps", s.maxSteps);

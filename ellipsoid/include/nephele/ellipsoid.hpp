@@ -100,6 +100,8 @@ struct EllipsoidStats {
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
     std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
+    double planMs = 0;          // CPU time of this call before its first draw (projection, packing, light
+                                // volumes when they changed, uploads), wall ms
 };
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.

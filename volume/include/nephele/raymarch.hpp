@@ -84,6 +84,7 @@ struct RaymarchStats {
     int ellipsoids = 0, clouds = 0;  // in the scene
     double lightPrecomputeMs = 0;    // CPU time of the light grids in this call; 0 when the
                                      // cached grids were reused
+    double planMs = 0;               // wall ms of this call before its draw (light grids included)
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
