@@ -351,7 +351,7 @@ int main(int argc, char** argv) {
         }
         if (scaleMode) {
             sbo.outDir = bo.outDir, sbo.readme = bo.readme, sbo.backend = bo.backend;
-            if (quick) sbo.counts = {100, 1000}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+            if (quick) sbo.counts = {16, 160}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
             if (widthGiven) sbo.width = bo.width;
             if (bench->count("--height") > 0) sbo.height = bo.height;
             for (int c : sbo.counts)

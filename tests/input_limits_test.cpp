@@ -3,6 +3,8 @@
 // Each case checks that the message names the file, the JSON path and the limit, and that
 // time and memory stay bounded: CPU-time ceilings far above the linear cost (a quadratic
 // step is 10-100x over them), and runs of the command line under `ulimit -v`.
+#include "cli_run.hpp"
+
 #include "nephele/generate.hpp"
 #include "nephele/image.hpp"
 #include "nephele/limits.hpp"
@@ -13,10 +15,8 @@
 
 #include <sys/resource.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -515,6 +515,20 @@ TEST_F(HostileFileTest, PngBombsFailBeforeAllocating) {
     EXPECT_THROW(readPfm(shortPfm), ImageError);
 }
 
+// Found while making the fuzzer's seeds: an Adam7 PNG read as if it were not interlaced
+// (the rows of its first pass, no error). Pixel (x, y) of the seed is (80x, 80y, 128).
+TEST(ImageReadTest, InterlacedPngReadsEveryPass) {
+    const Image image = readPng(NEPHELE_SOURCE_DIR "/tests/fuzz/corpus/png/rgb8_adam7.png");
+    ASSERT_EQ(image.width, 3);
+    ASSERT_EQ(image.height, 3);
+    for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 3; ++x) {
+            EXPECT_EQ(image.at(x, y, 0), float(80 * x) / 255.0f) << x << " " << y;
+            EXPECT_EQ(image.at(x, y, 1), float(80 * y) / 255.0f) << x << " " << y;
+            EXPECT_EQ(image.at(x, y, 2), 128.0f / 255.0f) << x << " " << y;
+        }
+}
+
 TEST_F(HostileFileTest, ShaderIncludesReadLongLinesWithoutRecursion) {
     const std::string spaces(50000, ' ');
     write("a.frag", "// a\n" + spaces + "\n  #  include   \"b.glsl\"  \n" + spaces + "x\n#include \"b.glsl\" trailing\n");
@@ -532,24 +546,8 @@ TEST_F(HostileFileTest, ShaderIncludesReadLongLinesWithoutRecursion) {
 
 // ---------------------------------------------------------------- the command line, memory-bounded
 
-struct BoundedRun {
-    int code = -1;
-    std::string output;
-};
-
-// `nephele ARGS` with its address space capped at `megabytes` and killed after `seconds`.
-BoundedRun runBounded(const std::string& args, int megabytes, int seconds) {
-    const std::string cmd = "ulimit -v " + std::to_string(megabytes * 1024) + "; timeout -s KILL " +
-                            std::to_string(seconds) + " " + NEPHELE_BINARY + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    BoundedRun r;
-    if (!pipe) return r;
-    std::array<char, 512> buf;
-    while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
-    const int status = pclose(pipe);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return r;
-}
+using test::BoundedRun;
+using test::runBounded;
 
 TEST_F(HostileFileTest, CommandLineFailsClearlyWithinBoundedMemoryAndTime) {
     const std::string deep = write("deep.json", R"({"cloudscene": 1, "_": )" + std::string(200000, '[') + std::string(200000, ']') + "}");

@@ -52,10 +52,10 @@ struct Invalid {
 
 [[noreturn]] void fail(Path path, std::string fault) { throw Invalid{std::move(path), std::move(fault)}; }
 
-// A key or string as a message shows it: control characters escaped, at most 64 characters.
-std::string printable(std::string_view s) {
+// A key or string as a message shows it: control characters escaped, at most `max` characters.
+std::string printable(std::string_view s, std::size_t max = 256) {
     std::string out;
-    for (const char c : s.substr(0, 64)) {
+    for (const char c : s.substr(0, max)) {
         if (static_cast<unsigned char>(c) >= 0x20 && c != 0x7f) {
             out += c;
             continue;
@@ -64,11 +64,11 @@ std::string printable(std::string_view s) {
         std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned char>(c));
         out += buf;
     }
-    return s.size() > 64 ? out + "..." : out;
+    return s.size() > max ? out + "..." : out;
 }
 
 Path member(const Path& path, std::string_view key) {
-    return path.empty() ? printable(key) : path + "." + printable(key);
+    return path.empty() ? printable(key, 64) : path + "." + printable(key, 64);
 }
 Path element(const Path& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
 
