@@ -5,6 +5,7 @@
 // Per phase: wall ms and the process's peak resident memory (VmHWM, reset before each phase
 // through /proc/self/clear_refs; llvmpipe's GPU memory is process memory). The growth
 // exponent is the least-squares slope of log(ms) against log(count).
+// Peak memory is of the whole process: the loaded scene and the other renderers' caches count.
 #include "bench_command.hpp"
 
 #include "bench_util.hpp"
@@ -26,6 +27,7 @@
 #include <iostream>
 #include <sstream>
 
+#include <malloc.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -62,7 +64,11 @@ std::string sceneJson(const Scene& s) {
 }
 
 // The process's peak resident memory since resetPeak(), MB (VmHWM of /proc/self/status).
-void resetPeak() { std::ofstream("/proc/self/clear_refs") << "5"; }
+// malloc_trim first hands freed memory back, so that a phase's peak is what lives then.
+void resetPeak() {
+    ::malloc_trim(0);
+    std::ofstream("/proc/self/clear_refs") << "5";
+}
 double peakMb() {
     std::ifstream status("/proc/self/status");
     std::string line;
