@@ -6,6 +6,7 @@
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
+#include "nephele/limits.hpp"
 #include "nephele/log.hpp"
 #include "nephele/scene.hpp"
 
@@ -219,6 +220,7 @@ int main(int argc, char** argv) {
     installConsoleLogging();
     CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
     app.set_version_flag("--version", "nephele 0.1.0");
+    app.footer(limitsHelp());
     app.require_subcommand(1);
 
     RenderOptions ro;
@@ -254,8 +256,9 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, weatherMode = false, quick = false, noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, weatherMode = false, scaleMode = false, quick = false, noCache = false;
     WeatherBenchOptions wbo;
+    ScaleBenchOptions sbo;
     LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
@@ -267,6 +270,9 @@ int main(int argc, char** argv) {
                     "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
     bench->add_flag("--weather", weatherMode,
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
+    bench->add_flag("--scale", scaleMode,
+                    "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
+    bench->add_option("--scale-counts", sbo.counts, "--scale: ellipsoid counts")->capture_default_str();
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
     bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
@@ -275,7 +281,7 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
     bench->add_option("--cache", benchCache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
     bench->add_flag("--no-cache", noCache, "--accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered/--scale: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 
     CompareOptions co;
@@ -344,8 +350,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(weatherMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --weather are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(weatherMode) + int(scaleMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker, --layered, --weather and --scale are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -378,6 +384,18 @@ int main(int argc, char** argv) {
             if (bench->count("--height") > 0) wbo.height = bo.height;
             if (quick && !widthGiven) wbo.width = 320, wbo.height = 180;
             return runWeatherBench(wbo);
+        }
+        if (scaleMode) {
+            sbo.outDir = bo.outDir, sbo.readme = bo.readme, sbo.backend = bo.backend;
+            if (quick) sbo.counts = {16, 160}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+            if (widthGiven) sbo.width = bo.width;
+            if (bench->count("--height") > 0) sbo.height = bo.height;
+            for (int c : sbo.counts)
+                if (c < 1 || double(c) > limits::kEllipsoids.value) {
+                    std::cerr << "nephele: --scale-counts: " << c << " is out of range 1.." << limitValueText(limits::kEllipsoids) << "\n";
+                    return 2;
+                }
+            return runScaleBench(sbo);
         }
         if (flickerMode) {
             flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;

@@ -16,7 +16,7 @@ uniform vec3 rayCentre, rightScaled, upScaled;  // the view: d = normalize(rayCe
 uniform float nearClip, farClip;              // m
 uniform int useDepth;                         // 1: end the rays at the opaque depth
 uniform sampler2D sceneDepth;                 // the frame's depth (view_frame.glsl)
-uniform int cloudCount;
+uniform int tilesX;                           // screen tiles per row (RM_TILE pixels each)
 uniform float stepBase;                       // m, RaymarchSettings::step
 uniform float invLod;                         // 1 / lodDistance (1/m), 0 = fixed step
 uniform int maxSteps;
@@ -189,14 +189,20 @@ void main() {
 
     // The clouds front to back: batches of the nearest MAX_CLOUD_HITS by box entry (insertion
     // sort), each batch after the last cloud of the previous one in (entry, index) order.
+    // Only the clouds binned to this pixel's tile (and those every pixel tests) can meet its
+    // ray; the order they are tested in does not matter (entry, then index, decides).
     vec2 hitT[MAX_CLOUD_HITS];
     int hitIndex[MAX_CLOUD_HITS];
     float lastEntry = -kFar;
     int lastIndex = -1;
+    ivec2 tileXY = viewPixel() / RM_TILE;
+    int tile = 1 + tileXY.y * tilesX + tileXY.x;
+    int everywhere = tileFirst[0], first = tileFirst[tile], count = everywhere + tileFirst[tile + 1] - first;
     for (;;) {
         int n = 0;
         bool more = false;
-        for (int c = 0; c < cloudCount; ++c) {
+        for (int k = 0; k < count; ++k) {
+            int c = tileClouds[k < everywhere ? k : first + k - everywhere];
             vec2 t = slab(clouds[c].boxMin.xyz, clouds[c].boxMax.xyz, invDir);
             t.x = max(t.x, tStart);
             t.y = min(t.y, tEnd);

@@ -15,6 +15,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -296,6 +297,13 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         if (out.packed.passes <= maxPasses || limit <= minTile) break;
     }
     const PackResult& packed = out.packed;
+    GLint maxLayers = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+    if (packed.passes > maxLayers)
+        throw GlError("ellipsoid atlas: " + std::to_string(prepared.ellipsoids.size()) + " visible ellipsoids need " +
+                      std::to_string(packed.passes) + " passes of " + std::to_string(atlasW) + "x" + std::to_string(atlasH) +
+                      " even with " + std::to_string(minTile) + " px tiles, more than GL's " + std::to_string(maxLayers) +
+                      " atlas layers; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
     std::vector<TilePlacement>& placements = out.placements;
@@ -401,8 +409,10 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     const EllipsoidSettings& s = settings_;
     HostStateScope scope;  // before the plan: it uploads
     PartTimer timer(s.timings);
+    const auto start = std::chrono::steady_clock::now();
     const FramePlan plan = m.plan(s, scene, view);
     EllipsoidStats stats = plan.stats;
+    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     stats.lightVolumes = std::exchange(m.lightsComputed, 0);
     stats.lightUploads = std::exchange(m.lightUploads, 0);
     if (plan.order.empty()) {

@@ -65,6 +65,7 @@ struct RaymarchSettings {
 struct RaymarchStats {
     int ellipsoids = 0, clouds = 0;  // in the scene
     int lightGridsComputed = 0;      // radiance grids computed in this call (0 when all were kept)
+    double planMs = 0;               // wall ms of this call before its draw (light grids included)
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
