@@ -83,7 +83,7 @@ void validate(const RaymarchSettings& s) {
         throw std::invalid_argument("raymarch lodDistance must be >= 0 m (0 = fixed step)");
     if (s.lightGrid < 2 || s.lightGrid > 128) throw std::invalid_argument("raymarch lightGrid must be 2..128");
     if (s.octaves < 1 || s.octaves > 8) throw std::invalid_argument("raymarch octaves must be 1..8");
-    if (s.maxSteps < 1) throw std::invalid_argument("raymarch maxSteps must be >= 1");
+    if (s.maxSteps < 1 || s.maxSteps > 65536) throw std::invalid_argument("raymarch maxSteps must be 1..65536");
 }
 
 RaymarchRenderer::RaymarchRenderer(const RaymarchSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
