@@ -75,6 +75,7 @@ void validate(const LayeredSettings& s) {
     if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
     if (s.downsample < 1 || s.downsample > 4) bad("downsample must be 1..4, got " + std::to_string(s.downsample));
     if (!std::isfinite(s.eyeScatterHeight) || !std::isfinite(s.glowHeight)) bad("eyeScatterHeight and glowHeight must be finite");
+    if (s.resourceMegabytes < 1 || s.resourceMegabytes > 65536) bad("resourceMegabytes must be 1..65536");
 }
 
 double nearFade(const LayeredSettings& s, double horizontal) {

@@ -2,6 +2,8 @@
 // (nephele/near_lod.hpp).
 #include "nephele/near_lod.hpp"
 
+#include "shared_resources.hpp"
+
 #include "nephele/generate.hpp"
 
 #include <algorithm>
@@ -117,8 +119,8 @@ struct NearLod::LayerCache {
     double base = 0, thickness = 0, coverage = 0, density = 0;
     unsigned seed = 0;
     LightingParameters lightKey;
-    ModulationTexture modulation;
-    LightingVolume light;
+    std::shared_ptr<const ModulationTexture> modulation;  // shared with the layered sky (shared_resources.hpp)
+    std::shared_ptr<const LightingVolume> light;
     std::map<std::pair<std::int64_t, std::int64_t>, NearCell> cells;
 };
 
@@ -144,10 +146,10 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
             c.cells.clear();
             continue;
         }
-        if (!c.valid || c.seed != layer.seed) c.modulation = makeModulation(layered_.modulation, layer.seed);
+        if (!c.valid || c.seed != layer.seed) c.modulation = detail::sharedModulation(layered_.modulation, layer.seed);
         const LightingParameters key = lightingParameters(scene.medium, layer);
         const bool newLight = !c.valid || !(c.lightKey == key);
-        if (newLight) c.light = lightingCached(layered_.lighting, key, layered_.cacheDir);
+        if (newLight) c.light = detail::sharedLighting(layered_.lighting, key, layered_.cacheDir);
         if (newLight || c.seed != layer.seed || c.base != layer.base || c.coverage != layer.coverage ||
             c.density != layer.density) {
             st.retired += int(c.cells.size());
@@ -171,7 +173,7 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
                     c.cells.erase(old);
                 } else {
                     next.emplace(std::make_pair(i, j),
-                                 makeNearCell(scene, int(li), i, j, settings_, c.modulation, layered_.modulation, c.light));
+                                 makeNearCell(scene, int(li), i, j, settings_, *c.modulation, layered_.modulation, *c.light));
                     ++st.generated;
                 }
             }

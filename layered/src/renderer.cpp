@@ -6,6 +6,8 @@
 #include "nephele/shader.hpp"
 #include "reduced_target.hpp"
 #include "shadow_pass.hpp"
+#include "shared_resources.hpp"
+#include "nephele/resources.hpp"
 #include "nephele/frame_depth.hpp"
 
 #include <algorithm>
@@ -16,13 +18,18 @@ namespace nephele {
 using namespace gl;
 
 namespace {
+// One lighting volume or modulation texture and its GL texture, shared by every scene layer
+// with the same parameters (shared_resources.hpp; the CPU copy is shared with the near LOD).
+template <class T>
+struct SharedTexture {
+    std::shared_ptr<const T> data;
+    Texture texture;
+};
+
+// What scene layer i draws with: its lighting volume and its modulation.
 struct LayerResources {
-    LightingParameters lightKey;
-    unsigned seed = 0;
-    bool valid = false;
-    LightingVolume light;
-    ModulationTexture modulation;
-    Texture lightTexture, modulationTexture;
+    const SharedTexture<LightingVolume>* light = nullptr;
+    const SharedTexture<ModulationTexture>* modulation = nullptr;
 };
 
 int mipLevels(int size) {
@@ -37,7 +44,14 @@ glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
 struct LayeredRenderer::Impl {
     Program program, programGlow;  // the layer shader without and with city glow (CITY_GLOW)
     IndexedMesh annulus, quad;
-    std::vector<LayerResources> layers;
+    std::vector<std::unique_ptr<SharedTexture<LightingVolume>>> lights;        // distinct, in use
+    std::vector<std::unique_ptr<SharedTexture<ModulationTexture>>> modulations;
+    std::vector<LayerResources> layers;  // per scene layer, into the two above
+
+    // Per scene layer, the shared volumes and textures (made, loaded or found); drops those no
+    // layer uses any more. Throws ResourceError when the distinct ones need more memory than
+    // LayeredSettings::resourceMegabytes allows. Returns the ms spent precomputing lighting.
+    double updateResources(const Scene& scene, const LayeredSettings& s);
     Medium medium;  // the medium the lighting volumes were made for
     ShadowPass shadows;
     ReducedTarget reduced;  // LayeredSettings::downsample > 1
@@ -130,11 +144,100 @@ LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move
 LayeredRenderer::~LayeredRenderer() = default;
 
 const LightingVolume* LayeredRenderer::lighting(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].light : nullptr;
+    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].light->data.get() : nullptr;
 }
 const ModulationTexture* LayeredRenderer::modulation(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].modulation
-                                                                                         : nullptr;
+    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].modulation->data.get() : nullptr;
+}
+
+namespace {
+
+// The 3D texture of a lighting volume, with mipmaps (checked: a driver may refuse its size).
+Texture uploadLighting(const LightingVolume& v) {
+    const LightingSettings& ls = v.settings;
+    checkTextureSize("the layered lighting volume", ls.width, ls.height, ls.depth);
+    Texture t = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(t.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width, ls.height, ls.depth);
+    checkAllocation("the layered lighting volume's texture", v.texels.size() * 8 / 7);
+    glTextureSubImage3D(t.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE, v.texels.data());
+    glGenerateTextureMipmap(t.id());
+    // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+Texture uploadModulation(const ModulationTexture& m) {
+    const int n = m.size;
+    Texture t = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(t.id(), mipLevels(n), GL_RG32F, n, n);
+    checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 8 * 4 / 3);
+    glTextureSubImage2D(t.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, m.texels.data());
+    glGenerateTextureMipmap(t.id());
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    return t;
+}
+
+// The entry of `pool` holding `data`, made (uploaded) when there is none.
+template <class T, class Upload>
+const SharedTexture<T>* findOrUpload(std::vector<std::unique_ptr<SharedTexture<T>>>& pool, std::shared_ptr<const T> data,
+                                     Upload&& upload) {
+    for (const auto& e : pool)
+        if (e->data == data) return e.get();
+    pool.push_back(std::make_unique<SharedTexture<T>>(SharedTexture<T>{data, upload(*data)}));
+    return pool.back().get();
+}
+
+// Drops the entries of `pool` that no layer in `used` points to.
+template <class T>
+void dropUnused(std::vector<std::unique_ptr<SharedTexture<T>>>& pool, const std::vector<const SharedTexture<T>*>& used) {
+    std::erase_if(pool, [&](const auto& e) { return std::find(used.begin(), used.end(), e.get()) == used.end(); });
+}
+
+}  // namespace
+
+double LayeredRenderer::Impl::updateResources(const Scene& scene, const LayeredSettings& s) {
+    // The budget first, from the distinct parameters alone: nothing is made for a scene over it.
+    std::vector<LightingParameters> keys;
+    std::vector<unsigned> seeds;
+    for (const Layer& layer : scene.layers) {
+        const LightingParameters key = lightingParameters(scene.medium, layer);
+        if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
+        if (std::find(seeds.begin(), seeds.end(), layer.seed) == seeds.end()) seeds.push_back(layer.seed);
+    }
+    // A volume kept: its RGBA8 texels on the CPU and on the GL with mipmaps (8/7).
+    const LightingSettings& ls = s.lighting;
+    const std::uint64_t volumeBytes = std::uint64_t(ls.width) * std::uint64_t(ls.height) * std::uint64_t(ls.depth) * 9;
+    const std::uint64_t need = keys.size() * volumeBytes + seeds.size() * nephele::detail::modulationBytes(s.modulation);
+    if (need > (std::uint64_t(s.resourceMegabytes) << 20))
+        throw ResourceError("layered sky: the scene's " + std::to_string(scene.layers.size()) + " layers need " +
+                            std::to_string(keys.size()) + " lighting volumes (one per thickness) and " +
+                            std::to_string(seeds.size()) + " modulation textures (one per seed), " + formatBytes(need) +
+                            ", over the budget of " + std::to_string(s.resourceMegabytes) +
+                            " MB (LayeredSettings::resourceMegabytes); layers that share a thickness and a seed share them");
+    double ms = 0;
+    std::vector<LayerResources> next(scene.layers.size());
+    for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+        const Layer& layer = scene.layers[i];
+        double computed = 0;
+        auto volume = nephele::detail::sharedLighting(s.lighting, lightingParameters(scene.medium, layer), s.cacheDir, &computed);
+        ms += computed;
+        next[i].light = findOrUpload(lights, std::move(volume), uploadLighting);
+        next[i].modulation = findOrUpload(modulations, nephele::detail::sharedModulation(s.modulation, layer.seed), uploadModulation);
+    }
+    layers = std::move(next);
+    std::vector<const SharedTexture<LightingVolume>*> usedLights;
+    std::vector<const SharedTexture<ModulationTexture>*> usedModulations;
+    for (const LayerResources& r : layers) usedLights.push_back(r.light), usedModulations.push_back(r.modulation);
+    dropUnused(lights, usedLights);
+    dropUnused(modulations, usedModulations);
+    return ms;
 }
 
 
@@ -148,45 +251,8 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     GlStateGuard guard;
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    // ---- Per layer resources, rebuilt only when what they depend on changes.
-    m.layers.resize(scene.layers.size());
-    for (std::size_t i = 0; i < scene.layers.size(); ++i) {
-        const Layer& layer = scene.layers[i];
-        LayerResources& r = m.layers[i];
-        const LightingParameters key = lightingParameters(scene.medium, layer);
-        if (!r.valid || !(r.lightKey == key)) {
-            r.light = lightingCached(s.lighting, key, s.cacheDir);
-            stats.precomputeMs += r.light.precomputeMs;
-            const LightingSettings& ls = s.lighting;
-            r.lightTexture = Texture::create(GL_TEXTURE_3D);
-            glTextureStorage3D(r.lightTexture.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width,
-                               ls.height, ls.depth);
-            glTextureSubImage3D(r.lightTexture.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE,
-                                r.light.texels.data());
-            glGenerateTextureMipmap(r.lightTexture.id());
-            // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
-            r.lightKey = key;
-        }
-        if (!r.valid || r.seed != layer.seed) {
-            r.modulation = makeModulation(s.modulation, layer.seed);
-            const int n = r.modulation.size;
-            r.modulationTexture = Texture::create(GL_TEXTURE_2D);
-            glTextureStorage2D(r.modulationTexture.id(), mipLevels(n), GL_RG32F, n, n);
-            glTextureSubImage2D(r.modulationTexture.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, r.modulation.texels.data());
-            glGenerateTextureMipmap(r.modulationTexture.id());
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-            r.seed = layer.seed;
-        }
-        r.valid = true;
-    }
+    // ---- Per layer resources, shared by layers of the same parameters, made only when new.
+    stats.precomputeMs += m.updateResources(scene, s);
     check("uploading the layered sky's textures");
 
     // ---- A copy of the frame's depth (0 without one), for the shadows and the upsampling.
@@ -202,7 +268,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     const std::vector<int> shadowing = s.shadows ? ShadowPass::shadowingLayers(scene) : std::vector<int>{};
     const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;
     std::vector<GLuint> modulationTextures;
-    for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
+    for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulation->texture.id());
     stats.shadowLayers = int(shadowing.size());
     if (!fuseShadows)
         stats.shadowDrawCalls = m.shadows.draw(scene, view, framebuffer, frameDepth, t, shadowing, modulationTextures,
@@ -298,11 +364,11 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         p.set("steepTan", float(std::sqrt(layer.thickness / n / s.lod0Spacing)));
         p.set("extent", float(layer.extent));
         p.set("fadeStart", float(layer.extent * (1 - s.extentFade)));
-        p.set("eyePeak", float(r.light.eyeScatterPeak));
-        p.set("eyeCosPhi", float(std::min(r.light.eyeScatterCosPhi, 1.0 - 1e-6)));
+        p.set("eyePeak", float(r.light->data->eyeScatterPeak));
+        p.set("eyeCosPhi", float(std::min(r.light->data->eyeScatterCosPhi, 1.0 - 1e-6)));
         p.set("glow", layer.cityGlow ? glm::vec3(layer.cityGlow->color * layer.cityGlow->strength) : glm::vec3(0));
-        glBindTextureUnit(0, r.lightTexture.id());
-        glBindTextureUnit(1, r.modulationTexture.id());
+        glBindTextureUnit(0, r.light->texture.id());
+        glBindTextureUnit(1, r.modulation->texture.id());
         glUseProgram(layer.cityGlow ? m.programGlow.id() : m.program.id());
 
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
@@ -359,7 +425,7 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
         p.set("thickness", float(layer.thickness));
         p.set("layerCount", n);
         p.set("firstAbove", firstAnnulusAbove(layer, n, view.eye.z));
-        glBindTextureUnit(1, m.layers[li].modulationTexture.id());
+        glBindTextureUnit(1, m.layers[li].modulation->texture.id());
         drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
     }
     check("drawing the layered bench's floor");

@@ -209,6 +209,10 @@ struct LayeredSettings {
     LightingSettings lighting;
     ModulationSettings modulation;
     std::string cacheDir;         // lighting volumes are cached here ("" = not cached)
+    int resourceMegabytes = 1024; // memory for the layers' lighting volumes and modulation textures (CPU and
+                                  // GL): layers of the same thickness (and medium) share a volume, of the same
+                                  // seed a modulation; a scene whose distinct ones need more is refused
+                                  // (ResourceError) before anything is made. 1..65536
 };
 // Throws std::invalid_argument naming the setting.
 void validate(const LayeredSettings& settings);
