@@ -127,15 +127,16 @@ struct EllipsoidRenderer::Impl {
         // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
         accum = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(accum.id(), 1, GL_RGBA32F, w, h);
+        checkAllocation("the weighted composite's RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
         reveal = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(reveal.id(), 1, GL_R32F, w, h);
+        checkAllocation("the weighted composite's R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
         weightedFbo = Framebuffer::create();
         glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT0, accum.id(), 0);
         glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT1, reveal.id(), 0);
         const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
         glNamedFramebufferDrawBuffers(weightedFbo.id(), 2, buffers);
-        if (glCheckNamedFramebufferStatus(weightedFbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw GlError("weighted composite: framebuffer incomplete");
+        checkFramebuffer(weightedFbo.id(), "the weighted composite's target");
         weightedW = w;
         weightedH = h;
     }
@@ -347,6 +348,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
             m.lightGrid = glm::ivec3(gx, gy, gz);
             m.light = Texture::create(GL_TEXTURE_3D);
             glTextureStorage3D(m.light.id(), 1, GL_R16F, gx * lightSize, gy * lightSize, gz * lightSize);
+            checkAllocation("the ellipsoid light volumes",
+                            std::uint64_t(gx * lightSize) * std::uint64_t(gy * lightSize) * std::uint64_t(gz * lightSize) * 2);
             for (int c = 0; c < m.lightClouds; ++c)
                 glTextureSubImage3D(m.light.id(), 0, (c % gx) * lightSize, (c / gx % gy) * lightSize,
                                     (c / (gx * gy)) * lightSize, lightSize, lightSize, lightSize, GL_RED, GL_FLOAT,
@@ -376,13 +379,17 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         m.atlasW = atlasW;
         m.atlasH = atlasH;
         m.atlasTerms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, m.atlasLayers);
         glTextureStorage3D(m.atlasTerms.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
+        checkAllocation("the ellipsoid atlas (" + std::to_string(atlasW) + "x" + std::to_string(atlasH) + ", " +
+                            std::to_string(m.atlasLayers) + " layers)",
+                        std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(m.atlasLayers) *
+                            (termsFormat == GL_RGBA16F ? 8 : 4));
         m.layerFbos.clear();
         for (int l = 0; l < m.atlasLayers; ++l) {
             Framebuffer fbo = Framebuffer::create();
             glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, m.atlasTerms.id(), 0, l);
-            if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-                throw GlError("ellipsoid atlas: framebuffer incomplete");
+            checkFramebuffer(fbo.id(), "the ellipsoid atlas");
             m.layerFbos.push_back(std::move(fbo));
         }
     }

@@ -25,12 +25,14 @@ glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int di
     if (size != size_ || fbo_.id() == 0) {
         color_ = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(color_.id(), 1, GL_RGBA16F, size.x, size.y);
+        checkAllocation("the layered sky's reduced RGBA16F target", std::uint64_t(size.x) * std::uint64_t(size.y) * 8);
         glTextureParameteri(color_.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTextureParameteri(color_.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
         glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         depth_ = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(depth_.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
+        checkAllocation("the layered sky's reduced depth", std::uint64_t(size.x) * std::uint64_t(size.y) * 4);
         glTextureParameteri(depth_.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTextureParameteri(depth_.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         glTextureParameteri(depth_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -38,9 +40,7 @@ glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int di
         fbo_ = Framebuffer::create();
         glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
         glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_ATTACHMENT, depth_.id(), 0);
-        const GLenum status = glCheckNamedFramebufferStatus(fbo_.id(), GL_FRAMEBUFFER);
-        if (status != GL_FRAMEBUFFER_COMPLETE)
-            throw GlError("layered sky: reduced target incomplete (status 0x" + std::to_string(status) + ")");
+        checkFramebuffer(fbo_.id(), "the layered sky's reduced target");
         size_ = size;
     }
     full_ = glm::ivec2(width, height);

@@ -135,6 +135,8 @@ void RaymarchRenderer::Impl::updateLight(const Scene& scene, const RaymarchSetti
     lightSlots = glm::ivec3(gx, gy, gz);
     light = Texture::create(GL_TEXTURE_3D);
     glTextureStorage3D(light.id(), 1, GL_RGB16F, gx * size, gy * size, gz * size);
+    checkAllocation("the ray-marcher's light grids",
+                    std::uint64_t(gx * size) * std::uint64_t(gy * size) * std::uint64_t(gz * size) * 6);
     for (int c = 0; c < int(grids.size()); ++c)
         glTextureSubImage3D(light.id(), 0, (c % gx) * size, (c / gx % gy) * size, (c / (gx * gy)) * size, size, size, size,
                             GL_RGB, GL_FLOAT, grids[c].transmittance.data());
