@@ -60,8 +60,12 @@ Prepared prepare(const FlythroughOptions& o) {
         throw UsageError(o.render.scene + ": path: a fly-through needs a `path` of at least two keyframes");
     p.frames = frameCount(p.scene.path.front().t, p.scene.path.back().t, o.fps);
     if (o.referenceDir.empty()) return p;
-    std::ifstream in(fs::path(o.referenceDir) / "flythrough.json");
-    if (!in) throw UsageError("--reference-dir: no flythrough.json in '" + o.referenceDir + "'");
+    const fs::path summary = fs::path(o.referenceDir) / "flythrough.json";
+    std::error_code ec;
+    // A regular file of a summary's size: a FIFO or a device there would block or never end.
+    if (!fs::is_regular_file(summary, ec) || fs::file_size(summary, ec) > (1u << 20))
+        throw UsageError("--reference-dir: no flythrough.json (a regular file of at most 1 MB) in '" + o.referenceDir + "'");
+    std::ifstream in(summary);
     p.reference = nlohmann::json::parse(in, nullptr, false);
     if (p.reference.is_discarded() || !p.reference.is_object() || !p.reference.contains("mean_change") ||
         !p.reference["mean_change"].is_number())

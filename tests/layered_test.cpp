@@ -2,15 +2,12 @@
 // scattering recurrences on known cases, the 8-bit vector encoding, the lighting file, the
 // modulation texture and the near-LOD hook.
 #include "nephele/layered.hpp"
-#include "nephele/log.hpp"
-
-#include <sys/stat.h>
+#include "cache_test_util.hpp"
 
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <filesystem>
 #include <fstream>
 
@@ -315,29 +312,21 @@ TEST(LayeredTest, DamagedOrSpecialCacheFilesAreRebuiltWithAWarning) {
     std::filesystem::path file;
     for (const auto& e : std::filesystem::directory_iterator(dir)) file = e.path();
     ASSERT_FALSE(file.empty());
-    std::vector<std::string> warnings;
-    const LogCallback before = setLogCallback([&](LogLevel level, std::string_view m) {
-        if (level == LogLevel::Warning) warnings.emplace_back(m);
-    });
-    auto damage = [&](const char* what, const std::function<void()>& how) {
-        how();
-        warnings.clear();
+    test::WarningCapture log;
+    auto expectRebuilt = [&](const char* what) {
+        log.warnings.clear();
         const LightingVolume again = lightingCached(s, p, dir);
         EXPECT_GT(again.precomputeMs, 0) << what << ": the damaged file was used";
         EXPECT_EQ(again.texels, good.texels) << what;
-        ASSERT_FALSE(warnings.empty()) << what;
-        EXPECT_NE(warnings[0].find(file.filename().string()), std::string::npos) << warnings[0];
+        ASSERT_FALSE(log.warnings.empty()) << what;
+        EXPECT_NE(log.warnings[0].find(file.filename().string()), std::string::npos) << log.warnings[0];
     };
-    damage("last 4 KiB overwritten", [&] {
-        std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
-        f.seekp(-4096, std::ios::end);
-        f << std::string(4096, '\x5a');
-    });
-    damage("truncated", [&] { std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2); });
-    std::filesystem::remove(file);
-    ASSERT_EQ(::mkfifo(file.c_str(), 0600), 0);
-    damage("a FIFO", [] {});  // would block forever if opened as a file
+    test::overwriteTail(file, 4096, '\x5a');
+    expectRebuilt("last 4 KiB overwritten");
+    std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2);
+    expectRebuilt("truncated");
+    ASSERT_TRUE(test::replaceWithFifo(file));
+    expectRebuilt("a FIFO");  // would block forever if opened as a file
     EXPECT_TRUE(std::filesystem::is_fifo(file));  // left alone: not a file to replace
-    setLogCallback(before);
     std::filesystem::remove_all(dir);
 }

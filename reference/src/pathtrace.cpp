@@ -29,6 +29,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include <time.h>
+
 namespace nephele {
 
 namespace detail {
@@ -423,25 +425,46 @@ void tracePixels(const World& world, const View& view, int spp, int maxBounces, 
 
 constexpr int kPilotStride = 8;  // the estimate traces every 8th pixel of every 8th row
 constexpr int kPilotSpp = 2;     // at up to 2 samples
+constexpr double kMinPilotSamples = 8192;  // a denser grid below this
 
-// Seconds the full render would take: a pilot over a sparse grid of pixels, each row timed
-// where it runs (so that starting threads does not count), scaled by the samples it stands for
-// and shared among the threads the render will use.
+// CPU time of the calling thread (s): what a piece of work costs, whatever else the machine runs.
+double threadCpuSeconds() {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// Seconds the full render would take on an otherwise idle machine: a pilot over a sparse grid
+// of pixels, each row's CPU time measured on the thread that ran it (a busy machine's
+// preemption and thread start-up do not count: a 100 ms stall of a 1 ms row would be scaled
+// by the pilot's 1/683), scaled by the samples it stands for and shared among the threads the
+// render will use.
 double pilotSeconds(const World& world, const View& view, const PathTraceSettings& s) {
     const int width = view.camera.width, height = view.camera.height;
     const int spp = std::min(s.spp, kPilotSpp);
+    // A denser grid for small renders: at least kMinPilotSamples (or all of them), so that
+    // what a first call costs once (page faults, lazy binding) is not scaled up with the rest.
+    auto samples = [&](int stride) {
+        return double((height + stride - 1) / stride) * ((width + stride - 1) / stride) * spp;
+    };
+    int stride = kPilotStride;
+    while (stride > 1 && samples(stride) < std::min(kMinPilotSamples, double(width) * height * spp)) stride /= 2;
     Image scratch(width, height, 4);
-    const int rows = (height + kPilotStride - 1) / kPilotStride;
+    {
+        Workspace ws;  // warm-up, untimed
+        tracePixels(world, view, spp, s.maxBounces, s.seed, height / 2, stride, scratch, ws);
+    }
+    const int rows = (height + stride - 1) / stride;
     std::vector<double> rowSeconds(std::size_t(rows), 0.0);
     parallelFor(rows, [&](int r) {
-        const auto start = std::chrono::steady_clock::now();
+        const double start = threadCpuSeconds();
         Workspace ws;
-        tracePixels(world, view, spp, s.maxBounces, s.seed, r * kPilotStride, kPilotStride, scratch, ws);
-        rowSeconds[std::size_t(r)] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        tracePixels(world, view, spp, s.maxBounces, s.seed, r * stride, stride, scratch, ws);
+        rowSeconds[std::size_t(r)] = threadCpuSeconds() - start;
     });
     double seconds = 0;
     for (double v : rowSeconds) seconds += v;
-    const double traced = double(rows) * ((width + kPilotStride - 1) / kPilotStride) * spp;
+    const double traced = samples(stride);
     const int threads = std::max(1, std::min<int>(height, int(std::thread::hardware_concurrency())));
     return seconds * (double(width) * height * s.spp) / traced / threads;
 }

@@ -51,9 +51,9 @@ struct PathTraceSettings {
     bool progress = false;  // report progress through nephele::reportProgress (nephele/log.hpp)
 };
 
-// Seconds renderPathTraced would take here for these settings: a pilot render of every 8th
-// pixel of every 8th row at up to 2 spp, timed and scaled (about 1/64 of a 2-spp render's
-// cost). renderPathTraced logs this estimate (LogLevel::Info) before renders of at least 10^6
+// Seconds renderPathTraced would take here for these settings on an otherwise idle machine
+// (all cores): a pilot render of every 8th pixel of every 8th row at up to 2 spp, its CPU
+// time scaled (about 1/64 of a 2-spp render's cost). renderPathTraced logs this estimate (LogLevel::Info) before renders of at least 10^6
 // samples that it expects to take 2 s or more. Throws as renderPathTraced.
 double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise);
 
