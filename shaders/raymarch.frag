@@ -132,8 +132,12 @@ void shade(RmCloud c, float l0, float l1) {
     transmittance *= dT;
 }
 
-// The paper's distance-dependent LOD (Algorithm 1, line 50): longer steps farther away.
-float stepAt(float l) { return stepBase * (1.0 + l * invLod); }
+// The paper's distance-dependent LOD (Algorithm 1, line 50): longer steps farther away. Never
+// under minStep (set per cloud: its span over maxSteps, so that the march crosses it whatever
+// the step asked for) nor under 2^-20 of the distance, so that a step always moves l in float
+// (a tiny step or a far cloud would otherwise mark time until maxSteps).
+float minStep = 0.0;
+float stepAt(float l) { return max(max(stepBase * (1.0 + l * invLod), minStep), l * (1.0 / 1048576.0)); }
 
 // One cloud over [tMin, tMax]: the sorted candidates marched front to back with the
 // no-duplicate tracing of Algorithm 2 (lambda only moves forward: overlaps are marched once,
@@ -142,6 +146,7 @@ float stepAt(float l) { return stepBase * (1.0 + l * invLod); }
 void marchCloud(RmCloud c, float tMin, float tMax) {
     float r2 = (1.0 + kappa) * (1.0 + kappa);
     float lambda = tMin;
+    minStep = (tMax - tMin) / float(maxSteps);
     for (;;) {
         getCandidates(c, tMin, tMax, lambda, r2);
         if (candCount == 0) return;

@@ -25,5 +25,6 @@ layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };
 // tileClouds[tileFirst[t] .. tileFirst[t + 1]); the first tileFirst[0] entries are the clouds
 // every pixel tests (boxes that reach behind the near plane).
 #define RM_TILE 16
-layout(std430, binding = 3) readonly buffer RmTileFirst { int tileFirst[]; };
-layout(std430, binding = 4) readonly buffer RmTileClouds { int tileClouds[]; };
+// (Bindings 5 and 6: 3 is cloud_light_grid.glsl's boxes; raymarch.cpp binds these two.)
+layout(std430, binding = 5) readonly buffer RmTileFirst { int tileFirst[]; };
+layout(std430, binding = 6) readonly buffer RmTileClouds { int tileClouds[]; };

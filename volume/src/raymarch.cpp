@@ -139,7 +139,7 @@ void validate(const RaymarchSettings& s) {
         throw std::invalid_argument("raymarch lodDistance must be >= 0 m (0 = fixed step)");
     validate(s.light);
     if (s.octaves < 1 || s.octaves > 8) throw std::invalid_argument("raymarch octaves must be 1..8");
-    if (s.maxSteps < 1) throw std::invalid_argument("raymarch maxSteps must be >= 1");
+    if (s.maxSteps < 1 || s.maxSteps > 65536) throw std::invalid_argument("raymarch maxSteps must be 1..65536");
 }
 
 RaymarchRenderer::RaymarchRenderer(const RaymarchSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
@@ -251,8 +251,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
 
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.ellipsoids.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.clouds.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, m.tileFirst.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, m.tileClouds.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, m.tileFirst.id());  // raymarch_data.glsl's bindings
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, m.tileClouds.id());
     glBindTextureUnit(0, kappa > 0 ? m.noise.id() : 0);
     glBindTextureUnit(2, depth.texture);
     glBindSampler(0, 0);
