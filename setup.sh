@@ -14,6 +14,7 @@ PKGS=(
   libpng-dev                                           # PNG output
   libgtest-dev googletest                              # tests
   python3-matplotlib                                   # bench charts (/usr/bin/python3)
+  clang libclang-rt-14-dev                             # the libFuzzer harness (tests/fuzz/smoke.sh)
 )
 missing=()
 for p in "${PKGS[@]}"; do

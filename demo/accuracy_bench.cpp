@@ -637,7 +637,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
-        runPlot("plot_accuracy.py", {csvPath, o.outDir, when});
+        runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str());
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";

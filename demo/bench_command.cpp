@@ -246,7 +246,8 @@ int runBench(const BenchOptions& o) {
         return 1;
     }
     try {
-        runPlot("plot_bench.py", {csvPath, pngPath, when});
+        runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.outDir,
+                {"ellipsoid_bench.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "ellipsoid bench", md.str());
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";

@@ -86,4 +86,16 @@ struct WeatherBenchOptions {
 };
 int runWeatherBench(const WeatherBenchOptions& options);
 
+// `bench --scale`: load, plan and draw time and peak memory of each fast method (and the CPU
+// model at a thumbnail size) from 10^4 to 10^6 ellipsoids, and the growth exponent.
+struct ScaleBenchOptions {
+    std::string outDir = "docs";  // scale_bench.csv, scale_bench.md
+    std::string readme;           // when set, its "scale bench" section is replaced
+    std::vector<int> counts{10000, 100000, 1000000};
+    int width = 1280, height = 720;
+    int exactWidth = 64;          // gardner-exact's image width (px; the height keeps the aspect)
+    GlBackend backend = GlBackend::Egl;
+};
+int runScaleBench(const ScaleBenchOptions& options);
+
 }  // namespace nephele::cli

@@ -85,6 +85,16 @@ namespace {
 std::string beginMarker(const std::string& tag) { return "<!-- BEGIN GENERATED: " + tag + " -->"; }
 std::string endMarker(const std::string& tag) { return "<!-- END GENERATED: " + tag + " -->"; }
 
+// Writes `text` to the path it is given; throws if the stream fails (a full disk).
+OutputFiles::Writer textWriter(const std::string& text) {
+    return [&text](const std::string& p) {
+        std::ofstream out(p, std::ios::binary | std::ios::trunc);
+        out << text;
+        out.close();
+        if (!out) throw std::runtime_error(p + ": write failed");
+    };
+}
+
 std::string readText(const std::string& path) {
     std::ifstream in(path);
     if (!in) throw std::runtime_error("cannot read '" + path + "'");
@@ -131,25 +141,46 @@ void replaceGeneratedSection(const std::string& readme, const std::string& tag, 
         throw std::runtime_error(readme + " has no '" + begin + "' ... '" + end + "' section");
     s = s.substr(0, b + begin.size()) + "\n" + markdown + s.substr(e);
     OutputFiles files;
-    files.add(readme, [&](const std::string& p) { std::ofstream(p) << s; });
+    files.add(readme, textWriter(s), "--readme");
     files.commit();
 }
 
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts) {
     OutputFiles files;
-    for (const auto& [path, text] : pathsAndTexts)
-        files.add(path, [&text](const std::string& p) { std::ofstream(p) << text; });
+    for (const auto& [path, text] : pathsAndTexts) files.add(path, textWriter(text), "--out-dir");
     files.commit();
 }
 
-void runPlot(const std::string& scriptName, const std::vector<std::string>& args) {
+void runPlot(const std::string& scriptName, const std::vector<std::string>& args, const std::string& outDir,
+             const std::vector<std::string>& charts) {
+    // The script draws into a temporary folder of its own; the charts then go into place
+    // under the output policy (output_files.hpp), all or nothing.
+    const std::string temp = makePartial((fs::path(outDir) / "charts").string(), true);
+    struct Remove {
+        std::string dir;
+        ~Remove() {
+            std::error_code ec;
+            fs::remove_all(dir, ec);
+        }
+    } removeTemp{temp};
     // Appended piece by piece: "literal " + string trips a GCC 12 -Wrestrict false positive.
     std::string cmd = "/usr/bin/python3 ";
     cmd += shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/demo/" + scriptName);
-    for (const std::string& a : args) cmd += ' ', cmd += shellQuote(a);
+    for (std::string a : args) {
+        if (a.rfind(kChartsFolder, 0) == 0) a = temp + a.substr(std::string(kChartsFolder).size());
+        cmd += ' ', cmd += shellQuote(a);
+    }
     if (std::system(cmd.c_str()) != 0)
         throw std::runtime_error("the chart (" + scriptName +
                                  ") failed: it needs /usr/bin/python3 with python3-matplotlib (./setup.sh installs it)");
+    OutputFiles files;
+    for (const std::string& name : charts)
+        files.add((fs::path(outDir) / name).string(),
+                  [from = fs::path(temp) / name](const std::string& p) {
+                      fs::copy_file(from, p, fs::copy_options::overwrite_existing);
+                  },
+                  "--out-dir");
+    files.commit();
 }
 
 }  // namespace nephele::cli

@@ -38,8 +38,12 @@ bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, c
 // Writes each (path, text) all or nothing (OutputFiles): on failure none is left. Throws.
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts);
 
-// Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib). Throws with a
-// message naming the package when it fails.
-void runPlot(const std::string& scriptName, const std::vector<std::string>& args);
+// Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
+// which a leading kChartsFolder stands for a temporary folder the script draws into; the files
+// `charts` it drew there are then written to outDir (output_files.hpp's policy, all or
+// nothing). Throws with a message naming the package when the script fails.
+inline constexpr const char* kChartsFolder = "{charts}";
+void runPlot(const std::string& scriptName, const std::vector<std::string>& args, const std::string& outDir,
+             const std::vector<std::string>& charts);
 
 }  // namespace nephele::cli

@@ -45,13 +45,14 @@ struct Outcome {
     std::vector<double> changes;
 };
 
-std::vector<Image> renderSequence(const Sequence& s, const RenderOptions& o, double& msPerFrame) {
+// The sequence's frame-to-frame changes (frames are not kept: one in memory at a time).
+std::vector<double> renderSequence(const Sequence& s, const RenderOptions& o, double& msPerFrame) {
     FrameRenderer renderer(o);
-    std::vector<Image> frames;
+    FrameChanges changes;
     const auto t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < s.frames; ++k) frames.push_back(renderer.render(s.scene, s.t0 + k / s.fps).color);
+    for (int k = 0; k < s.frames; ++k) changes.add(renderer.render(s.scene, s.t0 + k / s.fps).color);
     msPerFrame = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / s.frames;
-    return frames;
+    return changes.changes();
 }
 
 }  // namespace
@@ -70,7 +71,7 @@ int runFlickerBench(const FlickerOptions& o) {
             s.scene.camera.height = std::max(1, int(std::lround(o.width / aspect)));
             s.fps = o.quick ? 0.5 : o.fps;
             s.t0 = s.scene.path.front().t;
-            s.frames = int(std::floor((s.scene.path.back().t - s.t0) * s.fps + 1e-9)) + 1;
+            s.frames = frameCount(s.t0, s.scene.path.back().t, s.fps);
             sequences.push_back(std::move(s));
         }
     } catch (const std::exception& e) {
@@ -121,8 +122,7 @@ int runFlickerBench(const FlickerOptions& o) {
                 std::cerr << "bench: flicker: " << s.name << ", " << r.method << " " << r.setting << " (" << s.frames
                           << " frames at " << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
                 Outcome out{s.name, r.method, r.setting, s.frames};
-                const std::vector<Image> frames = renderSequence(s, r.options, out.msPerFrame);
-                out.changes = frameChanges(frames);
+                out.changes = renderSequence(s, r.options, out.msPerFrame);
                 if (reference.empty()) reference = out.changes;  // the first run is the reference
                 for (std::size_t k = 0; k < out.changes.size(); ++k) {
                     out.meanChange += out.changes[k] / out.changes.size();
@@ -185,7 +185,7 @@ int runFlickerBench(const FlickerOptions& o) {
     const std::string pngPath = (fs::path(o.outDir) / "flicker.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, md.str()}});
-        runPlot("plot_flicker.py", {seriesPath, pngPath, when});
+        runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.outDir, {"flicker.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str());
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";

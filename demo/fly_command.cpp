@@ -1,5 +1,6 @@
 #include "fly_command.hpp"
 #include "fly_app.hpp"
+#include "cli_checks.hpp"
 #include "output_files.hpp"
 
 #include "nephele/context.hpp"
@@ -12,18 +13,24 @@ namespace nephele::fly {
 
 CLI::App* addFlyCommand(CLI::App& app, FlyOptions& o) {
     CLI::App* cmd = app.add_subcommand("fly", "Fly through a scene in a window, or record a scripted flight");
-    cmd->add_option("scene", o.scene, "Scene file (default: data/scenes/showcase.json)");
-    cmd->add_option("--method", o.method, "auto|ellipsoid|raymarch|layered (switch live with M)")->capture_default_str();
+    cmd->add_option("scene", o.scene, "Scene file (default: data/scenes/showcase.json)")->check(cli::nonEmptyPath());
+    cmd->add_option("--method", o.method, "auto|ellipsoid|raymarch|layered (switch live with M)")
+        ->capture_default_str();
     cmd->add_option("--width", o.width, "Window width (default 1280), or recorded frame width (default the camera's)")
-        ->check(CLI::Range(1, 16384));
+        ->check(cli::within(1, 16384));
     cmd->add_option("--height", o.height, "Window height (default 720), or recorded frame height (default the camera's)")
-        ->check(CLI::Range(1, 16384));
+        ->check(cli::within(1, 16384));
     cmd->add_option("--render-scale", o.renderScale, "Draw frames at this fraction of the window (faster), (0, 1]")
-        ->check(CLI::Range(0.05, 1.0))->capture_default_str();
-    cmd->add_option("--script", o.script, "Flight to play (keyframes or recorded inputs, JSON); needs --record");
-    cmd->add_option("--record", o.record, "Folder (new or empty) for the frames, frames.csv, flight.json and flight.mp4");
-    cmd->add_option("--record-input", o.recordInput, "Write the interactive flight's inputs to this file (a --script)");
-    cmd->add_option("--fps", o.fps, "Recording the scene's path (no --script): frames per second")->capture_default_str();
+        ->check(cli::within(0.05, 1.0))->capture_default_str();
+    cmd->add_option("--script", o.script, "Flight to play (keyframes or recorded inputs, JSON); needs --record")
+        ->check(cli::nonEmptyPath());
+    cmd->add_option("--record", o.record, "Folder (new or empty) for the frames, frames.csv, flight.json and flight.mp4")
+        ->check(cli::nonEmptyPath());
+    cmd->add_option("--record-input", o.recordInput, "Write the interactive flight's inputs to this file (a --script)")
+        ->check(cli::nonEmptyPath());
+    cmd->add_option("--fps", o.fps, "Recording the scene's path (no --script): frames per second")
+        ->check(cli::within(0.001, 1000))
+        ->capture_default_str();
     cmd->add_flag("--headless", o.headless, "Record without a window (EGL)");
     cmd->add_flag("!--no-video", o.video, "Do not write flight.mp4 (written when ffmpeg is installed)");
     return cmd;

@@ -1,12 +1,12 @@
 #include "flythrough_command.hpp"
 
+#include "output_files.hpp"
+
+#include "nephele/log.hpp"
 #include "nephele/metrics.hpp"
 
 #include <nlohmann/json.hpp>
 
-#include <unistd.h>
-
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,87 +17,113 @@ namespace fs = std::filesystem;
 
 namespace nephele::cli {
 
-std::vector<double> frameChanges(const std::vector<Image>& frames) {
-    std::vector<double> out;
-    for (std::size_t k = 1; k < frames.size(); ++k) out.push_back(meanClampedDifference(frames[k - 1], frames[k]));
-    return out;
+int frameCount(double t0, double t1, double fps) {
+    const double frames = std::floor((t1 - t0) * fps + 1e-9) + 1;  // in double: no int overflow
+    if (!(frames >= 1 && frames <= kMaxFrames)) {
+        char text[160];
+        std::snprintf(text, sizeof text, "--fps %g: the path (t from %g to %g s) makes %.6g frames; at most %d", fps, t0,
+                      t1, frames, kMaxFrames);
+        throw UsageError(text);
+    }
+    return int(frames);
 }
 
-double meanFrameChange(const std::vector<Image>& frames) {
-    const std::vector<double> c = frameChanges(frames);
-    double sum = 0;
-    for (double v : c) sum += v;
-    return c.empty() ? 0 : sum / double(c.size());
+void FrameChanges::add(const Image& frame) {
+    if (!last_.empty()) changes_.push_back(meanClampedDifference(last_, frame));
+    last_ = frame;
 }
+
+double FrameChanges::mean() const {
+    double sum = 0;
+    for (double v : changes_) sum += v;
+    return changes_.empty() ? 0 : sum / double(changes_.size());
+}
+
+namespace {
+
+// What runFlythrough checks before it renders anything: the out-dir, the scene, the reference.
+struct Prepared {
+    Scene scene;
+    std::string outDir;  // resolved (output_files.hpp)
+    nlohmann::json reference;
+    int frames = 0;
+};
+
+Prepared prepare(const FlythroughOptions& o) {
+    Prepared p;
+    if (!(o.fps >= 0.001 && o.fps <= 1000)) throw UsageError("--fps must be in 0.001..1000");
+    p.outDir = resolveOutput("--out-dir", o.outDir, /*folder=*/true);
+    p.scene = loadScene(o.render.scene);
+    applySize(p.scene, o.render);
+    checkFrameMemory(p.scene, o.render);
+    if (p.scene.path.size() < 2)
+        throw UsageError(o.render.scene + ": path: a fly-through needs a `path` of at least two keyframes");
+    p.frames = frameCount(p.scene.path.front().t, p.scene.path.back().t, o.fps);
+    if (o.referenceDir.empty()) return p;
+    const fs::path summary = fs::path(o.referenceDir) / "flythrough.json";
+    std::error_code ec;
+    // A regular file of a summary's size: a FIFO or a device there would block or never end.
+    if (!fs::is_regular_file(summary, ec) || fs::file_size(summary, ec) > (1u << 20))
+        throw UsageError("--reference-dir: no flythrough.json (a regular file of at most 1 MB) in '" + o.referenceDir + "'");
+    std::ifstream in(summary);
+    p.reference = nlohmann::json::parse(in, nullptr, false);
+    if (p.reference.is_discarded() || !p.reference.is_object() || !p.reference.contains("mean_change") ||
+        !p.reference["mean_change"].is_number())
+        throw UsageError("--reference-dir: '" + o.referenceDir + "/flythrough.json' is not a fly-through summary");
+    if (p.reference.value("frames", -1) != p.frames || p.reference.value("width", -1) != p.scene.camera.width ||
+        p.reference.value("height", -1) != p.scene.camera.height)
+        throw UsageError("--reference-dir: the reference has other frames or another size");
+    return p;
+}
+
+// Renders every frame into `folder` (streamed: one frame in memory at a time) and returns the summary.
+nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const fs::path& folder) {
+    const double t0 = p.scene.path.front().t;
+    FrameRenderer renderer(o.render);
+    FrameChanges changes;
+    for (int k = 0; k < p.frames; ++k) {
+        const Frame f = renderer.render(p.scene, t0 + k / o.fps);
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%04d.png", k);
+        writePng((folder / name).string(), f.color, Encoding::Srgb);
+        changes.add(f.color);
+        reportProgress("flythrough", double(k + 1) / p.frames);
+    }
+    nlohmann::json summary = {{"scene", o.render.scene}, {"method", methodName(o.render.method)},
+                              {"fps", o.fps},           {"frames", p.frames},
+                              {"width", p.scene.camera.width}, {"height", p.scene.camera.height},
+                              {"mean_change", changes.mean()}};
+    if (!p.reference.empty()) {
+        summary["reference_mean_change"] = p.reference["mean_change"];
+        summary["flicker_index"] = changes.mean() - p.reference["mean_change"].get<double>();
+    }
+    std::ofstream out(folder / "flythrough.json");
+    out << summary.dump() << "\n";
+    out.close();
+    if (!out) throw std::runtime_error((folder / "flythrough.json").string() + ": write failed");
+    return summary;
+}
+
+}  // namespace
 
 int runFlythrough(const FlythroughOptions& o) {
-    Scene scene;
-    nlohmann::json reference;
-    std::error_code ec;
+    Prepared p;
     try {
-        if (!(std::isfinite(o.fps) && o.fps > 0 && o.fps <= 1000)) throw UsageError("--fps must be in (0, 1000]");
-        if (fs::exists(o.outDir) && !(fs::is_directory(o.outDir) && fs::is_empty(o.outDir, ec)))
-            throw UsageError("--out-dir '" + o.outDir + "' exists and is not an empty folder");
-        const fs::path parent = fs::absolute(o.outDir).parent_path();
-        if (!fs::is_directory(parent)) throw UsageError("--out-dir: folder '" + parent.string() + "' does not exist");
-        scene = loadScene(o.render.scene);
-        applySize(scene, o.render);
-        if (scene.path.size() < 2)
-            throw UsageError(o.render.scene + ": path: a fly-through needs a `path` of at least two keyframes");
-        if (!o.referenceDir.empty()) {
-            std::ifstream in(fs::path(o.referenceDir) / "flythrough.json");
-            if (!in) throw UsageError("--reference-dir: no flythrough.json in '" + o.referenceDir + "'");
-            reference = nlohmann::json::parse(in, nullptr, false);
-            if (reference.is_discarded() || !reference.contains("mean_change"))
-                throw UsageError("--reference-dir: '" + o.referenceDir + "/flythrough.json' is not a fly-through summary");
-        }
+        p = prepare(o);
     } catch (const std::exception& e) {
         return reportError(e, "preparing the fly-through");
     }
-
-    const double t0 = scene.path.front().t, t1 = scene.path.back().t;
-    const int count = int(std::floor((t1 - t0) * o.fps + 1e-9)) + 1;
-    if (count > 100000) {
-        std::cerr << "nephele: the path at --fps " << o.fps << " makes " << count << " frames (at most 100000)\n";
-        return 2;
-    }
-    if (!reference.empty() && (reference.value("frames", -1) != count || reference.value("width", -1) != scene.camera.width ||
-                               reference.value("height", -1) != scene.camera.height)) {
-        std::cerr << "nephele: --reference-dir: the reference has other frames or another size\n";
-        return 2;
-    }
-    // Frames go to a temporary folder beside the target, renamed into place at the end.
-    const fs::path out = fs::absolute(o.outDir);
-    const fs::path temp = out.string() + ".partial-" + std::to_string(::getpid());
-    std::vector<Image> frames;
+    std::string temp;
     try {
-        fs::create_directories(temp);
-        FrameRenderer renderer(o.render);
-        for (int k = 0; k < count; ++k) {
-            const Frame f = renderer.render(scene, t0 + k / o.fps);
-            char name[32];
-            std::snprintf(name, sizeof name, "frame_%04d.png", k);
-            writePng((temp / name).string(), f.color, Encoding::Srgb);
-            frames.push_back(f.color);
-            std::cerr << "\rnephele: frame " << k + 1 << "/" << count << std::flush;
-        }
-        std::cerr << "\n";
-        nlohmann::json summary = {{"scene", o.render.scene}, {"method", methodName(o.render.method)},
-                                  {"fps", o.fps},           {"frames", count},
-                                  {"width", scene.camera.width}, {"height", scene.camera.height},
-                                  {"mean_change", meanFrameChange(frames)}};
-        if (!reference.empty()) {
-            summary["reference_mean_change"] = reference["mean_change"];
-            summary["flicker_index"] = summary["mean_change"].get<double>() - reference["mean_change"].get<double>();
-        }
-        std::ofstream(temp / "flythrough.json") << summary.dump() << "\n";
-        if (fs::exists(out)) fs::remove(out);
-        fs::rename(temp, out);
+        removeStalePartials(p.outDir);
+        temp = makePartial(p.outDir, /*folder=*/true);
+        const nlohmann::json summary = renderFrames(o, p, temp);
+        renameIntoPlace(temp, p.outDir, /*folder=*/true);
         std::cout << summary.dump() << "\n";
     } catch (const std::exception& e) {
-        fs::remove_all(temp, ec);
-        std::cerr << "\nnephele: fly-through failed: " << e.what() << "\n";
-        return 1;
+        std::error_code ec;
+        if (!temp.empty()) fs::remove_all(temp, ec);
+        return reportError(e, "the fly-through");
     }
     return 0;
 }

@@ -224,7 +224,9 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         return 1;
     }
     try {
-        runPlot("plot_layered.py", {csvPath, pngPath, when, std::to_string(o.width) + "x" + std::to_string(o.height)});
+        runPlot("plot_layered.py",
+                {csvPath, std::string(kChartsFolder) + "/layered_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
+                o.outDir, {"layered_bench.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "layered bench", md.str());
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";

@@ -1,12 +1,15 @@
 // The `nephele` command-line tool.
 #include "bench_command.hpp"
+#include "cli_checks.hpp"
 #include "compare_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
+#include "nephele/limits.hpp"
 #include "nephele/log.hpp"
+#include "nephele/resources.hpp"
 #include "nephele/scene.hpp"
 
 #include <CLI/CLI.hpp>
@@ -31,6 +34,8 @@ std::string defaultCacheDir(const std::string& option) {
     return !option.empty() ? option : env && *env ? env : home ? std::string(home) + "/.cache/nephele" : "";
 }
 
+const CLI::Validator kPath = nonEmptyPath();
+
 // The options `render` and `flythrough` share, as typed on the command line.
 struct SceneArgs {
     std::string scene, method = "auto", backend = "egl";
@@ -54,17 +59,22 @@ struct SceneArgs {
 };
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
-    cmd->add_option("scene", a.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required();
-    cmd->add_option("--method", a.method, "auto|ellipsoid|layered|raymarch|pathtrace|gardner-exact")->capture_default_str();
-    a.widthOpt = cmd->add_option("--width", a.width, "Image width in pixels (overrides the camera)");
-    a.heightOpt = cmd->add_option("--height", a.height, "Image height in pixels (overrides the camera)");
-    a.scaleOpt = cmd->add_option("--scale", a.scale, "Scale the camera's image size")->excludes(a.widthOpt)->excludes(a.heightOpt);
+    cmd->add_option("scene", a.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required()->check(kPath);
+    cmd->add_option("--method", a.method, "auto|ellipsoid|layered|raymarch|pathtrace|gardner-exact")
+        ->check(CLI::IsMember({"auto", "ellipsoid", "layered", "raymarch", "pathtrace", "gardner-exact"}))
+        ->capture_default_str();
+    a.widthOpt = cmd->add_option("--width", a.width, "Image width in pixels (overrides the camera)")->check(within(1, kMaxImageSize));
+    a.heightOpt = cmd->add_option("--height", a.height, "Image height in pixels (overrides the camera)")->check(within(1, kMaxImageSize));
+    a.scaleOpt = cmd->add_option("--scale", a.scale, "Scale the camera's image size (the result 1..16384 px)")
+                     ->check(within(1e-4, kMaxImageSize))
+                     ->excludes(a.widthOpt)
+                     ->excludes(a.heightOpt);
     cmd->add_option("--gl", a.backend, "OpenGL backend: egl (headless) or osmesa")
         ->check(CLI::IsMember({"egl", "osmesa"}))
         ->capture_default_str();
-    cmd->add_option("--min-tile", a.minTile, "Ellipsoid tiles: smallest size (px, power of two)")->capture_default_str();
-    cmd->add_option("--max-tile", a.maxTile, "Ellipsoid tiles: largest size (px, power of two)")->capture_default_str();
-    cmd->add_option("--atlas", a.atlas, "Ellipsoid atlas size WxH (default: the image size)");
+    cmd->add_option("--min-tile", a.minTile, "Ellipsoid tiles: smallest size (px, a power of two)")->check(within(1, 16384))->capture_default_str();
+    cmd->add_option("--max-tile", a.maxTile, "Ellipsoid tiles: largest size (px, a power of two)")->check(within(1, 16384))->capture_default_str();
+    cmd->add_option("--atlas", a.atlas, "Ellipsoid atlas size WxH, 1..16384 each (default: the image size)");
     cmd->add_option("--precision", a.precision, "Ellipsoid atlas precision: f16 or u8 (the paper's 8 bits)")
         ->check(CLI::IsMember({"f16", "u8"}))
         ->capture_default_str();
@@ -82,41 +92,55 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(CLI::IsMember({"mesh", "polygon"}))
         ->capture_default_str();
     cmd->add_option("--frustum", a.frustum,
-                    "A display channel's off-axis frustum L,R,B,T: the tangents of its edges at unit distance (overrides "
-                    "the camera's fov_y)");
+                    "A display channel's off-axis frustum L,R,B,T: the tangents of its edges at unit distance, each in "
+                    "-100..100, L < R, B < T (overrides the camera's fov_y)");
     cmd->add_option("--yaw-offset", a.yawOffset, "A display channel's rotation about the eye: yaw, degrees, positive right")
+        ->check(within(-360, 360))
         ->capture_default_str();
     cmd->add_option("--pitch-offset", a.pitchOffset, "A display channel's rotation about the eye: pitch, degrees, positive up")
+        ->check(within(-90, 90))
         ->capture_default_str();
-    cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
+    cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->check(within(0.1, 10000))->capture_default_str();
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
+        ->check(within(0, 1e7))
         ->capture_default_str();
     cmd->add_option("--light-grid", a.light.size, "Compositor, gardner-exact, ray-marcher: voxels per side of each cloud's radiance grid")
-        ->check(CLI::Range(4, 128))->capture_default_str();
+        ->check(within(4, 128))
+        ->capture_default_str();
     cmd->add_option("--photons", a.light.sunPhotons,
                     "Compositor, gardner-exact, ray-marcher: photons traced per cloud from the sun, and as many from the sky")
-        ->check(CLI::Range(0, 1 << 24))->capture_default_str();
-    cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->capture_default_str();
-    cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(CLI::Range(2, 1024))->capture_default_str();
+        ->check(within(0, 1 << 24))
+        ->capture_default_str();
+    cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->check(within(1, 8))->capture_default_str();
+    cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(within(2, 1024))->capture_default_str();
     a.lod0RadiusOpt = cmd->add_option("--lod0-radius", a.layered.lod0Radius,
                                       "Layered sky: radius of the billboard disc (m; 0 = none; default 1500, auto "
-                                      "--near-radius + --blend-band + " + std::to_string(int(kAutoLod0Margin)) + ")");
-    cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")->capture_default_str();
+                                      "--near-radius + --blend-band + " + std::to_string(int(kAutoLod0Margin)) +
+                                      "; at most 4096 x --lod0-spacing)")
+                          ->check(within(0, 1e6));
+    cmd->add_option("--lod0-spacing", a.layered.lod0Spacing, "Layered sky: distance between billboard slices (m)")
+        ->check(within(1, 1e5))
+        ->capture_default_str();
     cmd->add_option("--layer-downsample", a.layered.downsample,
                     "Layered sky: draw the layers at 1/D of the resolution, upsampled with the depth (1 = full)")
-        ->check(CLI::Range(1, 4))->capture_default_str();
+        ->check(within(1, 4))->capture_default_str();
     cmd->add_flag("!--no-cloud-shadows", a.layered.shadows, "Layered sky: no cloud shadows on the ground and objects");
-    cmd->add_option("--light-size", a.lightSize, "Layered sky: lighting texture WxHxD (the paper's 256x256x32)")->capture_default_str();
+    cmd->add_option("--light-size", a.lightSize,
+                    "Layered sky: lighting texture WxHxD, 2..2048 each (the paper's 256x256x32; GL 4.5 guarantees "
+                    "3D textures of 2048)")
+        ->capture_default_str();
     a.nearRadiusOpt = cmd->add_option("--near-radius", a.layered.nearRadius,
                                       "Layered sky: no layer within this distance of the eye (m; auto: near_lod layers are "
-                                      "ellipsoid cumulus there; default 0, auto " + std::to_string(int(kAutoNearRadius)) + ")");
+                                      "ellipsoid cumulus there; default 0, auto " + std::to_string(int(kAutoNearRadius)) + ")")
+                          ->check(within(0, 1e5));
     a.blendBandOpt = cmd->add_option("--blend-band", a.layered.blendBand,
                                      "Layered sky: the layer fades in across this band beyond --near-radius (m; default 0, auto " +
-                                         std::to_string(int(kAutoBlendBand)) + ")");
-    cmd->add_option("--spp", a.pathtrace.spp, "Path tracer: samples per pixel")->check(CLI::Range(1, 1 << 20))->capture_default_str();
-    cmd->add_option("--bounces", a.pathtrace.maxBounces, "Path tracer: scattering events per path")->check(CLI::Range(0, 10000))->capture_default_str();
-    cmd->add_option("--seed", a.pathtrace.seed, "Path tracer: random seed")->capture_default_str();
-    cmd->add_option("--cache", a.cache, "Path tracer: cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
+                                         std::to_string(int(kAutoBlendBand)) + ")")
+                         ->check(within(0, 1e5));
+    cmd->add_option("--spp", a.pathtrace.spp, "Path tracer: samples per pixel")->check(within(1, 1 << 20))->capture_default_str();
+    cmd->add_option("--bounces", a.pathtrace.maxBounces, "Path tracer: scattering events per path")->check(within(0, 10000))->capture_default_str();
+    cmd->add_option("--seed", a.pathtrace.seed, "Path tracer: random seed")->check(within(0, 4294967295.0))->capture_default_str();
+    cmd->add_option("--cache", a.cache, "Path tracer: cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")->check(kPath);
     cmd->add_flag("--no-cache", a.noCache, "Path tracer: do not read or write the cache");
     cmd->add_option("--exact-order", a.exactOrder,
                     "gardner-exact: ellipsoid (whole ellipsoids back to front, as the tiles), pixel (per-pixel depth "
@@ -178,20 +202,35 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     {
         LightingSettings& ls = ro.layered.lighting;
         char x1 = 0, x2 = 0, extra = 0;
+        const int m = kMaxLightingSize;
         if (std::sscanf(a.lightSize.c_str(), "%d%c%d%c%d%c", &ls.width, &x1, &ls.height, &x2, &ls.depth, &extra) != 5 ||
-            x1 != 'x' || x2 != 'x' || ls.width < 2 || ls.height < 2 || ls.depth < 2 || ls.width > 4096 || ls.height > 4096 ||
-            ls.depth > 1024)
-            throw UsageError("--light-size must be WxHxD with sizes 2..4096 x 2..4096 x 2..1024, got '" + a.lightSize + "'");
+            x1 != 'x' || x2 != 'x' || ls.width < 2 || ls.height < 2 || ls.depth < 2 || ls.width > m || ls.height > m ||
+            ls.depth > m)
+            throw UsageError("--light-size must be WxHxD with sizes 2.." + std::to_string(m) + " each, got '" + a.lightSize + "'");
+        if (ro.method == Method::Auto || ro.method == Method::Layered) {
+            const std::uint64_t need = lightingBytes(ls), have = availableMemoryBytes();
+            if (need > have)
+                throw ResourceError("--light-size " + a.lightSize + ": the lighting volume needs " + formatBytes(need) +
+                                 " of memory, more than the " + formatBytes(have) + " available");
+        }
     }
     ro.layered.cacheDir = ro.cacheDir;
     if (ro.method == Method::Auto) {
         if (!a.nearRadiusOpt->count()) ro.layered.nearRadius = kAutoNearRadius;
         if (!a.blendBandOpt->count()) ro.layered.blendBand = kAutoBlendBand;
         if (!a.lod0RadiusOpt->count()) ro.layered.lod0Radius = ro.layered.nearRadius + ro.layered.blendBand + kAutoLod0Margin;
-        validate(ro.nearLod, ro.layered);  // std::invalid_argument -> exit 2
     }
-    validate(ro.layered);  // std::invalid_argument -> exit 2
-    validate(ro.raymarch);  // std::invalid_argument -> exit 2
+    // The one limit two flags share (the billboard slices), named by the flags that set it.
+    const double slices = ro.layered.lod0Radius / ro.layered.lod0Spacing;
+    if (slices > kMaxBillboardSlices)
+        throw UsageError((a.lod0RadiusOpt->count() ? "--lod0-radius " : "--lod0-radius (auto: --near-radius + --blend-band + 1000 = ") +
+                         rangeNumber(ro.layered.lod0Radius) + (a.lod0RadiusOpt->count() ? "" : ")") + " / --lod0-spacing " +
+                         rangeNumber(ro.layered.lod0Spacing) + " makes " + rangeNumber(std::ceil(slices)) +
+                         " billboard slices; at most " + std::to_string(kMaxBillboardSlices));
+    // Ranges above keep these from failing; they stay as the library's own guard.
+    if (ro.method == Method::Auto) validate(ro.nearLod, ro.layered);  // std::invalid_argument -> exit 2
+    validate(ro.layered);
+    validate(ro.raymarch);
 }
 
 }  // namespace
@@ -215,85 +254,154 @@ void installConsoleLogging() {
     });
 }
 
-int main(int argc, char** argv) {
-    installConsoleLogging();
-    CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
-    app.set_version_flag("--version", "nephele 0.1.0");
-    app.require_subcommand(1);
+namespace {
 
-    RenderOptions ro;
-    SceneArgs renderArgs;
-    CLI::App* render = app.add_subcommand("render", "Render a scene to a PNG (headless)");
-    addSceneOptions(render, renderArgs);
-    render->add_option("-o,--output", ro.output, "Output PNG (sRGB, 8-bit)")->required();
-    render->add_option("--alpha", ro.alpha, "Also write the cloud opacity as an 8-bit grey PNG");
-    render->add_option("--pfm", ro.pfm, "Also write linear float RGB as PFM");
-    render->add_option("--density-alpha", ro.densityAlpha,
-                       "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against");
-    render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")->capture_default_str();
-
-    FlythroughOptions fo;
-    SceneArgs flyArgs;
-    CLI::App* fly = app.add_subcommand("flythrough", "Render the scene's camera path to numbered PNG frames");
-    addSceneOptions(fly, flyArgs);
-    fly->add_option("--out-dir", fo.outDir, "Folder for the frames and flythrough.json (new or empty)")->required();
-    fly->add_option("--fps", fo.fps, "Frames per second of scene time")->capture_default_str();
-    fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index");
-
-    fly::FlyOptions flyo;
-    CLI::App* flyCmd = fly::addFlyCommand(app, flyo);
-
+// `bench` and its modes, as typed on the command line.
+struct BenchArgs {
     BenchOptions bo;
-    std::string benchGl = "egl";
-    CLI::App* bench = app.add_subcommand("bench", "Time the ellipsoid compositor against its floor and baseline");
-    bench->add_option("--out-dir", bo.outDir, "Folder for the CSV, the markdown table and the chart")->capture_default_str();
-    bench->add_option("--readme", bo.readme, "Also replace the generated bench section of this README");
-    bench->add_option("--counts", bo.counts, "Ellipsoid counts")->capture_default_str();
-    bench->add_option("--frames", bo.frames, "Measured frames per point (median)")->check(CLI::Range(1, 1000))->capture_default_str();
-    bench->add_option("--width", bo.width, "Frame width")->check(CLI::Range(16, 16384))->capture_default_str();
-    bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
-    bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
-    bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, weatherMode = false, quick = false, noCache = false;
-    WeatherBenchOptions wbo;
+    std::string gl = "egl", cache;
+    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, quick = false, noCache = false;
     LayeredBenchOptions lbo;
+    WeatherBenchOptions wbo;
+    ScaleBenchOptions sbo;
     AccuracyOptions ao;
     FlickerOptions flo;
-    std::string benchCache;
-    bench->add_flag("--accuracy", accuracyMode,
+    CLI::App* cmd = nullptr;
+};
+
+void addBenchOptions(CLI::App* bench, BenchArgs& b) {
+    b.cmd = bench;
+    bench->add_option("--out-dir", b.bo.outDir, "Folder for the CSV, the markdown table and the chart")->check(kPath)->capture_default_str();
+    bench->add_option("--readme", b.bo.readme, "Also replace the generated bench section of this README")->check(kPath);
+    bench->add_option("--counts", b.bo.counts, "Ellipsoid counts")->check(within(1, 1000000))->capture_default_str();
+    bench->add_option("--frames", b.bo.frames, "Measured frames per point (median)")->check(within(1, 1000))->capture_default_str();
+    bench->add_option("--width", b.bo.width, "Frame width")->check(within(16, kMaxImageSize))->capture_default_str();
+    bench->add_option("--height", b.bo.height, "Frame height")->check(within(16, kMaxImageSize))->capture_default_str();
+    bench->add_flag("!--no-exact", b.bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
+    bench->add_option("--scenes", b.bo.scenesDir, "Folder of the shared scenes")->check(kPath)->capture_default_str();
+    bench->add_flag("--accuracy", b.accuracy,
                     "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
-    bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
-    bench->add_flag("--layered", layeredMode,
-                    "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
-    bench->add_flag("--weather", weatherMode,
+    bench->add_flag("--flicker", b.flicker, "Instead: frame-to-frame change along camera paths against the exact model");
+    bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_flag("--weather", b.weather,
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
-    bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
-    bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
-    bench->add_option("--spp", ao.referenceSpp, "--accuracy: the most samples per pixel of the reference (it stops at 2% noise)")
-        ->check(CLI::Range(1, 1048576))->capture_default_str();
-    bench->add_option("--fps", flo.fps, "--flicker: frames per second of scene time")
-        ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
-    bench->add_option("--cache", benchCache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)");
-    bench->add_flag("--no-cache", noCache, "--accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", quick, "--accuracy/--flicker/--layered: a minimal run (one scene, defaults; for tests)");
-    bench->add_option("--gl", benchGl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
+    bench->add_flag("--scale", b.scale,
+                    "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
+    bench->add_option("--scale-counts", b.sbo.counts, "--scale: ellipsoid counts")
+        ->check(within(1, limits::kEllipsoids.value))
+        ->capture_default_str();
+    bench->add_option("--layer-counts", b.lbo.counts, "--layered: annuli per layer (N)")->check(within(2, 1024))->capture_default_str();
+    bench->add_option("--extents", b.lbo.extents, "--layered: layer extents (m)")->check(within(1000, 1e6))->capture_default_str();
+    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference (it stops at 2% noise)")
+        ->check(within(1, 1 << 20))
+        ->capture_default_str();
+    bench->add_option("--fps", b.flo.fps, "--flicker, --weather: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
+    bench->add_option("--cache", b.cache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
+        ->check(kPath);
+    bench->add_flag("--no-cache", b.noCache, "--accuracy: do not read or write the reference cache");
+    bench->add_flag("--quick", b.quick, "--accuracy/--flicker/--layered/--weather/--scale: a minimal run (one scene, defaults; for tests)");
+    bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
+}
 
-    CompareOptions co;
-    CLI::App* compare = app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
-    compare->add_option("a", co.a, "Image A (.png sRGB or .pfm linear)")->required();
-    compare->add_option("b", co.b, "Image B, the reference")->required();
-    compare->add_option("--alpha-a", co.alphaA, "A's cloud opacity (grey .png or .pfm)");
-    compare->add_option("--alpha-b", co.alphaB, "B's cloud opacity (grey .png or .pfm)");
+int runBenchArgs(BenchArgs& b) {
+    b.bo.backend = parseBackend(b.gl);
+    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) > 1) {
+        std::cerr << "nephele: bench: --accuracy, --flicker, --layered, --weather and --scale are separate runs; give one\n";
+        return 2;
+    }
+    const BenchOptions& bo = b.bo;
+    const bool widthGiven = b.cmd->count("--width") > 0, heightGiven = b.cmd->count("--height") > 0;
+    if (b.accuracy) {
+        AccuracyOptions& ao = b.ao;
+        ao.outDir = bo.outDir, ao.readme = bo.readme, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
+        ao.backend = bo.backend, ao.quick = b.quick;
+        if (widthGiven) ao.width = bo.width;
+        if (!b.noCache) ao.cacheDir = defaultCacheDir(b.cache);
+        return runAccuracyBench(ao);
+    }
+    if (b.layered) {
+        LayeredBenchOptions& lbo = b.lbo;
+        lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
+        lbo.backend = bo.backend, lbo.quick = b.quick;
+        if (widthGiven) lbo.width = bo.width;
+        if (heightGiven) lbo.height = bo.height;
+        if (widthGiven != heightGiven) {  // one alone keeps the 16:9 aspect
+            if (widthGiven) lbo.height = std::max(16, int(std::lround(lbo.width * 9.0 / 16.0)));
+            else lbo.width = std::max(16, int(std::lround(lbo.height * 16.0 / 9.0)));
+        }
+        if (b.quick && !widthGiven && !heightGiven) lbo.width = 320, lbo.height = 180;
+        lbo.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
+        return runLayeredBench(lbo);
+    }
+    if (b.weather) {
+        WeatherBenchOptions& wbo = b.wbo;
+        wbo.outDir = bo.outDir, wbo.readme = bo.readme, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
+        wbo.quick = b.quick;
+        if (b.cmd->count("--frames") > 0) wbo.frames = bo.frames;
+        if (b.cmd->count("--fps") > 0) wbo.fps = b.flo.fps;
+        if (widthGiven) wbo.width = bo.width, wbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
+        if (heightGiven) wbo.height = bo.height;
+        if (b.quick && !widthGiven) wbo.width = 320, wbo.height = 180;
+        return runWeatherBench(wbo);
+    }
+    if (b.scale) {
+        ScaleBenchOptions& sbo = b.sbo;
+        sbo.outDir = bo.outDir, sbo.readme = bo.readme, sbo.backend = bo.backend;
+        if (b.quick) sbo.counts = {16, 160}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+        if (widthGiven) sbo.width = bo.width;
+        if (heightGiven) sbo.height = bo.height;
+        return runScaleBench(sbo);
+    }
+    if (b.flicker) {
+        FlickerOptions& flo = b.flo;
+        flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;
+        flo.backend = bo.backend, flo.quick = b.quick;
+        if (widthGiven) flo.width = bo.width;
+        return runFlickerBench(flo);
+    }
+    return runBench(bo);
+}
 
-    std::string infoGl = "egl";
-    CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
-    info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
-    std::string infoScene;
-    info->add_option("scene", infoScene,
-                     "Instead: load this scene and print its clouds and what each `generate` entry made");
+// `info SCENE`: load the scene and print what it holds (no GL).
+int runInfoScene(const std::string& file) {
+    try {
+        const Scene scene = loadScene(file);
+        size_t ellipsoids = 0;
+        for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
+        std::cout << scene.file << ": " << scene.clouds.size() << " clouds, " << ellipsoids << " ellipsoids\n";
+        for (const GenerateStats& g : scene.generated)
+            std::cout << "generate " << g.name << ": placed " << g.placed << ", pruned " << g.prunedHollow << " hollow / "
+                      << g.prunedContained << " contained"
+                      << (g.degenerate ? ", " + std::to_string(g.degenerate) + " degenerate skipped" : "") << ", kept "
+                      << g.kept << "\n";
+        return 0;
+    } catch (const SceneError& e) {
+        std::cerr << "nephele: " << e.what() << "\n";
+        return 2;
+    }
+}
 
+// `info`: make a context and print what it is.
+int runInfoContext(const std::string& gl) {
+    try {
+        ContextOptions co;
+        co.backend = parseBackend(gl);
+        co.visible = false;
+        auto ctx = Context::create(co);
+        std::cout << backendName(co.backend) << ": " << ctx->description() << "\n";
+        return 0;
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: " << e.what() << "\n";
+        return 1;
+    }
+}
+
+// Parses the command line: -1 to go on, else the exit code (help, version: 0; a bad argument:
+// 2, with CLI11's message after "nephele: ").
+int parse(CLI::App& app, int argc, char** argv) {
     try {
         app.parse(argc, argv);
+        return -1;
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
@@ -301,99 +409,87 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        app.exit(e);
+        std::cerr << "nephele: " << e.what() << " (--help lists every option and its range)\n";
         return 2;
     }
-    if (*flyCmd) return flyo.cacheDir = defaultCacheDir(""), fly::runFly(flyo);
+}
 
-    if (*info && !infoScene.empty()) {
-        try {
-            const Scene scene = loadScene(infoScene);
-            size_t ellipsoids = 0;
-            for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
-            std::cout << scene.file << ": " << scene.clouds.size() << " clouds, " << ellipsoids << " ellipsoids\n";
-            for (const GenerateStats& g : scene.generated)
-                std::cout << "generate " << g.name << ": placed " << g.placed << ", pruned " << g.prunedHollow
-                          << " hollow / " << g.prunedContained << " contained"
-                          << (g.degenerate ? ", " + std::to_string(g.degenerate) + " degenerate skipped" : "")
-                          << ", kept " << g.kept << "\n";
-            return 0;
-        } catch (const SceneError& e) {
-            std::cerr << "nephele: " << e.what() << "\n";
-            return 2;
-        }
-    }
-    if (*info) {
-        try {
-            ContextOptions co;
-            co.backend = parseBackend(infoGl);
-            co.visible = false;
-            auto ctx = Context::create(co);
-            std::cout << backendName(co.backend) << ": " << ctx->description() << "\n";
-            return 0;
-        } catch (const std::exception& e) {
-            std::cerr << "nephele: " << e.what() << "\n";
-            return 1;
-        }
-    }
+int run(int argc, char** argv) {
+    CLI::App app{"Nephele: cloud rendering for flight and helicopter simulators"};
+    app.set_version_flag("--version", "nephele 0.1.0");
+    app.footer(limitsHelp());
+    app.require_subcommand(1);
+
+    RenderOptions ro;
+    SceneArgs renderArgs;
+    CLI::App* render = app.add_subcommand("render", "Render a scene to a PNG (headless)");
+    addSceneOptions(render, renderArgs);
+    render->add_option("-o,--output", ro.output, "Output PNG (sRGB, 8-bit)")->required()->check(kPath);
+    render->add_option("--alpha", ro.alpha, "Also write the cloud opacity as an 8-bit grey PNG")->check(kPath);
+    render->add_option("--pfm", ro.pfm, "Also write linear float RGB as PFM")->check(kPath);
+    render->add_option("--density-alpha", ro.densityAlpha,
+                       "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against")
+        ->check(kPath);
+    render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")
+        ->check(within(-1e9, 1e9))
+        ->capture_default_str();
+
+    FlythroughOptions fo;
+    SceneArgs flyArgs;
+    CLI::App* fly = app.add_subcommand("flythrough", "Render the scene's camera path to numbered PNG frames");
+    addSceneOptions(fly, flyArgs);
+    fly->add_option("--out-dir", fo.outDir, "Folder for the frames and flythrough.json (new or empty)")->required()->check(kPath);
+    fly->add_option("--fps", fo.fps, "Frames per second of scene time (at most " + std::to_string(kMaxFrames) + " frames)")
+        ->check(within(0.001, 1000))
+        ->capture_default_str();
+    fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index")->check(kPath);
+
+    fly::FlyOptions flyo;
+    CLI::App* flyCmd = fly::addFlyCommand(app, flyo);
+
+    BenchArgs benchArgs;
+    addBenchOptions(app.add_subcommand("bench", "Time the ellipsoid compositor against its floor and baseline"), benchArgs);
+
+    CompareOptions co;
+    CLI::App* compare = app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
+    compare->add_option("a", co.a, "Image A (.png sRGB or .pfm linear)")->required()->check(kPath);
+    compare->add_option("b", co.b, "Image B, the reference")->required()->check(kPath);
+    compare->add_option("--alpha-a", co.alphaA, "A's cloud opacity (grey .png or .pfm)")->check(kPath);
+    compare->add_option("--alpha-b", co.alphaB, "B's cloud opacity (grey .png or .pfm)")->check(kPath);
+
+    std::string infoGl = "egl";
+    CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
+    info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
+    std::string infoScene;
+    info->add_option("scene", infoScene, "Instead: load this scene and print its clouds and what each `generate` entry made")
+        ->check(kPath);
+
+    if (const int code = parse(app, argc, argv); code >= 0) return code;
+    if (*flyCmd) return flyo.cacheDir = defaultCacheDir(""), fly::runFly(flyo);
+    if (*info) return infoScene.empty() ? runInfoContext(infoGl) : runInfoScene(infoScene);
     if (*compare) return runCompare(co);
-    if (*bench) {
-        for (int c : bo.counts)
-            if (c < 1 || c > 1000000) {
-                std::cerr << "nephele: --counts: " << c << " is out of range 1..1000000\n";
-                return 2;
-            }
-        bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(weatherMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --weather are separate runs; give one\n";
-            return 2;
-        }
-        const bool widthGiven = bench->count("--width") > 0;
-        if (accuracyMode) {
-            ao.outDir = bo.outDir, ao.readme = bo.readme, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
-            ao.backend = bo.backend, ao.quick = quick;
-            if (widthGiven) ao.width = bo.width;
-            if (!noCache) ao.cacheDir = defaultCacheDir(benchCache);
-            return runAccuracyBench(ao);
-        }
-        if (layeredMode) {
-            lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
-            lbo.backend = bo.backend, lbo.quick = quick;
-            if (widthGiven) lbo.width = bo.width;
-            if (bench->count("--height") > 0) lbo.height = bo.height;
-            if (widthGiven != (bench->count("--height") > 0)) {  // one alone keeps the 16:9 aspect
-                if (widthGiven) lbo.height = std::max(16, int(std::lround(lbo.width * 9.0 / 16.0)));
-                else lbo.width = std::max(16, int(std::lround(lbo.height * 16.0 / 9.0)));
-            }
-            if (quick && !widthGiven && bench->count("--height") == 0) lbo.width = 320, lbo.height = 180;
-            lbo.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
-            return runLayeredBench(lbo);
-        }
-        if (weatherMode) {
-            wbo.outDir = bo.outDir, wbo.readme = bo.readme, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
-            wbo.quick = quick;
-            if (bench->count("--frames") > 0) wbo.frames = bo.frames;
-            if (bench->count("--fps") > 0) wbo.fps = flo.fps;
-            if (widthGiven) wbo.width = bo.width, wbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
-            if (bench->count("--height") > 0) wbo.height = bo.height;
-            if (quick && !widthGiven) wbo.width = 320, wbo.height = 180;
-            return runWeatherBench(wbo);
-        }
-        if (flickerMode) {
-            flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;
-            flo.backend = bo.backend, flo.quick = quick;
-            if (widthGiven) flo.width = bo.width;
-            return runFlickerBench(flo);
-        }
-        return runBench(bo);
-    }
+    if (*benchArgs.cmd) return runBenchArgs(benchArgs);
     try {
         if (*fly) applySceneArgs(flyArgs, fo.render);
         else applySceneArgs(renderArgs, ro);
     } catch (const std::exception& e) {
-        std::cerr << "nephele: " << e.what() << "\n";
-        return 2;
+        return reportError(e, "checking the settings");
     }
     if (*fly) return runFlythrough(fo);
     return runRender(ro);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    installConsoleLogging();
+    // The last word on what escaped the commands' own handling: a message and exit 1, never an abort.
+    try {
+        return run(argc, argv);
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "nephele: out of memory (std::bad_alloc); lower the image size or the settings that size the work\n");
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nephele: %s\n", e.what());
+    }
+    return 1;
 }

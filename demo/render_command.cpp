@@ -6,6 +6,7 @@
 #include "nephele/gl.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/resources.hpp"
 
 #include <unistd.h>
 
@@ -19,7 +20,7 @@ namespace {
 constexpr std::pair<Method, const char*> kMethods[] = {
     {Method::Auto, "auto"},           {Method::Ellipsoid, "ellipsoid"}, {Method::Layered, "layered"},
     {Method::Raymarch, "raymarch"},   {Method::Pathtrace, "pathtrace"}, {Method::GardnerExact, "gardner-exact"}};
-constexpr int kMaxSize = 16384;
+constexpr int kMaxSize = kMaxImageSize;
 }  // namespace
 
 Method parseMethod(const std::string& name) {
@@ -88,9 +89,43 @@ void applySize(Scene& scene, const RenderOptions& o) {
     if (o.height && !o.width) cam.width = check("--height", *o.height * aspect);
 }
 
+std::uint64_t frameBytes(const Scene& scene, const RenderOptions& o) {
+    const std::uint64_t pixels = std::uint64_t(scene.camera.width) * std::uint64_t(scene.camera.height);
+    // Read back and out: two RGBA floats (the read-back and its flip), RGB and alpha floats,
+    // the 8-bit PNG rows; the exact opacity when asked for.
+    std::uint64_t perPixel = 16 + 16 + 12 + 4 + 4 + (o.densityAlpha.empty() ? 0 : 4);
+    std::uint64_t fixed = 64 << 20;  // shaders, meshes, noise and light volumes: tens of MB
+    switch (o.method) {
+        case Method::Pathtrace:
+        case Method::GardnerExact: break;  // CPU: the image itself is the read-back's RGBA
+        case Method::Raymarch: perPixel += 20 + 4; break;  // GL frame (RGBA32F + depth), depth copy
+        case Method::Layered: perPixel += 20 + 4 + 12; fixed += lightingBytes(o.layered.lighting); break;
+        case Method::Auto: perPixel += 20 + 4 + 12; fixed += lightingBytes(o.layered.lighting); [[fallthrough]];
+        case Method::Ellipsoid:
+            perPixel += 20 + 4 + 20;  // GL frame, depth copy, the weighted composite's targets
+            fixed += std::uint64_t(o.ellipsoid.atlasMegabytes) << 20;
+            break;
+    }
+    return pixels * perPixel + fixed;
+}
+
+void checkFrameMemory(const Scene& scene, const RenderOptions& o) {
+    const std::uint64_t need = frameBytes(scene, o), have = availableMemoryBytes();
+    if (need > have)
+        throw ResourceError(std::string(o.width || o.height || o.scale ? "--width/--height/--scale: " : "") + "a " +
+                            std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
+                            " frame with --method " + methodName(o.method) + " needs about " + formatBytes(need) +
+                            " of memory, more than the " + formatBytes(have) + " available");
+}
+
 int reportError(const std::exception& e, const std::string& doing) {
     const bool badInput = dynamic_cast<const SceneError*>(&e) || dynamic_cast<const UsageError*>(&e) ||
                           dynamic_cast<const std::invalid_argument*>(&e);
+    if (dynamic_cast<const std::bad_alloc*>(&e)) {
+        std::cerr << "nephele: " << doing << " failed: out of memory (std::bad_alloc); lower the image size or the "
+                  << "settings that size the work\n";
+        return 1;
+    }
     std::cerr << "nephele: " << (badInput ? "" : doing + " failed: ") << e.what() << "\n";
     return badInput ? 2 : 1;
 }
@@ -166,16 +201,18 @@ int runRender(const RenderOptions& o) {
     Scene scene;
     Frame frame;
     OutputFiles files;  // written only after the frame rendered, all or nothing
-    files.add(o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); });
-    if (!o.alpha.empty()) files.add(o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); });
-    if (!o.pfm.empty()) files.add(o.pfm, [&](const std::string& p) { writePfm(p, frame.color); });
+    files.add(o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); }, "-o");
+    if (!o.alpha.empty()) files.add(o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); }, "--alpha");
+    if (!o.pfm.empty()) files.add(o.pfm, [&](const std::string& p) { writePfm(p, frame.color); }, "--pfm");
     if (!o.densityAlpha.empty())
-        files.add(o.densityAlpha, [&](const std::string& p) { writePng(p, frame.densityAlpha, Encoding::Linear); });
+        files.add(o.densityAlpha, [&](const std::string& p) { writePng(p, frame.densityAlpha, Encoding::Linear); },
+                  "--density-alpha");
     try {
         if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
         files.checkPaths();
         scene = loadScene(o.scene);
         applySize(scene, o);
+        checkFrameMemory(scene, o);
         frame = renderFrame(scene, o);
     } catch (const std::exception& e) {
         return reportError(e, "rendering");

@@ -25,6 +25,9 @@ public:
     using std::runtime_error::runtime_error;
 };
 
+// Image sizes, per side: GL 4.5's least GL_MAX_TEXTURE_SIZE and GL_MAX_FRAMEBUFFER_WIDTH.
+inline constexpr int kMaxImageSize = 16384;
+
 enum class Method { Auto, Ellipsoid, Layered, Raymarch, Pathtrace, GardnerExact };
 Method parseMethod(const std::string& name);  // throws UsageError
 const char* methodName(Method m);
@@ -68,7 +71,8 @@ struct Frame {
 };
 
 // Prints the error on stderr and returns the exit code: 2 for bad input (SceneError,
-// UsageError, std::invalid_argument), else 1, with "DOING failed: " before the message.
+// UsageError, std::invalid_argument), else 1, with "DOING failed: " before the message
+// (std::bad_alloc is said as running out of memory).
 int reportError(const std::exception& e, const std::string& doing);
 
 // Renders frames with one method, keeping the GL context and renderers between frames
@@ -94,6 +98,11 @@ private:
 
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).
 void applySize(Scene& scene, const RenderOptions& options);
+// About the memory one frame of the scene camera's size takes with options.method (the GL
+// frame, the method's targets, the read-back and the output images), in bytes.
+std::uint64_t frameBytes(const Scene& scene, const RenderOptions& options);
+// Throws ResourceError naming the size flags when frameBytes() is over the memory available.
+void checkFrameMemory(const Scene& scene, const RenderOptions& options);
 // Renders the scene at options.time with options.method. Throws UsageError for what this
 // build cannot render, ContextError / GlError for runtime failures.
 Frame renderFrame(const Scene& scene, const RenderOptions& options);

@@ -16,7 +16,7 @@ uniform vec3 rayCentre, rightScaled, upScaled;  // the view: d = normalize(rayCe
 uniform float nearClip, farClip;              // m
 uniform int useDepth;                         // 1: end the rays at the opaque depth
 uniform sampler2D sceneDepth;                 // the frame's depth (view_frame.glsl)
-uniform int cloudCount;
+uniform int tilesX;                           // screen tiles per row (RM_TILE pixels each)
 uniform float stepBase;                       // m, RaymarchSettings::step
 uniform float invLod;                         // 1 / lodDistance (1/m), 0 = fixed step
 uniform int maxSteps;
@@ -132,8 +132,12 @@ void shade(RmCloud c, float l0, float l1) {
     transmittance *= dT;
 }
 
-// The paper's distance-dependent LOD (Algorithm 1, line 50): longer steps farther away.
-float stepAt(float l) { return stepBase * (1.0 + l * invLod); }
+// The paper's distance-dependent LOD (Algorithm 1, line 50): longer steps farther away. Never
+// under minStep (set per cloud: its span over maxSteps, so that the march crosses it whatever
+// the step asked for) nor under 2^-20 of the distance, so that a step always moves l in float
+// (a tiny step or a far cloud would otherwise mark time until maxSteps).
+float minStep = 0.0;
+float stepAt(float l) { return max(max(stepBase * (1.0 + l * invLod), minStep), l * (1.0 / 1048576.0)); }
 
 // One cloud over [tMin, tMax]: the sorted candidates marched front to back with the
 // no-duplicate tracing of Algorithm 2 (lambda only moves forward: overlaps are marched once,
@@ -142,6 +146,7 @@ float stepAt(float l) { return stepBase * (1.0 + l * invLod); }
 void marchCloud(RmCloud c, float tMin, float tMax) {
     float r2 = (1.0 + kappa) * (1.0 + kappa);
     float lambda = tMin;
+    minStep = (tMax - tMin) / float(maxSteps);
     for (;;) {
         getCandidates(c, tMin, tMax, lambda, r2);
         if (candCount == 0) return;
@@ -189,14 +194,20 @@ void main() {
 
     // The clouds front to back: batches of the nearest MAX_CLOUD_HITS by box entry (insertion
     // sort), each batch after the last cloud of the previous one in (entry, index) order.
+    // Only the clouds binned to this pixel's tile (and those every pixel tests) can meet its
+    // ray; the order they are tested in does not matter (entry, then index, decides).
     vec2 hitT[MAX_CLOUD_HITS];
     int hitIndex[MAX_CLOUD_HITS];
     float lastEntry = -kFar;
     int lastIndex = -1;
+    ivec2 tileXY = viewPixel() / RM_TILE;
+    int tile = 1 + tileXY.y * tilesX + tileXY.x;
+    int everywhere = tileFirst[0], first = tileFirst[tile], count = everywhere + tileFirst[tile + 1] - first;
     for (;;) {
         int n = 0;
         bool more = false;
-        for (int c = 0; c < cloudCount; ++c) {
+        for (int k = 0; k < count; ++k) {
+            int c = tileClouds[k < everywhere ? k : first + k - everywhere];
             vec2 t = slab(clouds[c].boxMin.xyz, clouds[c].boxMax.xyz, invDir);
             t.x = max(t.x, tStart);
             t.y = min(t.y, tEnd);

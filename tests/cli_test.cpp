@@ -4,10 +4,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <cmath>
 #include <fstream>
@@ -39,8 +43,9 @@ CliRun run(const std::string& args) {
 class CliTest : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir_ = fs::temp_directory_path() /
-               ("nephele_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        // The process id too: other checkouts on the machine run the same tests at the same time.
+        dir_ = fs::temp_directory_path() / ("nephele_cli_" + std::to_string(::getpid()) + "_" +
+                                            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
         fs::remove_all(dir_);
         fs::create_directories(dir_);
     }
@@ -445,4 +450,243 @@ TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
     }
     EXPECT_TRUE(found);
     EXPECT_EQ(run("bench --flicker --accuracy --out-dir " + path("x")).code, 2);
+}
+
+// ---- Outputs, ranges and runaway work (issue #14).
+namespace {
+
+// Runs the command line without a shell and returns its exit code, output and peak memory.
+struct Spawned {
+    int code = -1;
+    std::string output;
+    long maxRssKb = 0;
+};
+// `asanOptions` are appended to ASAN_OPTIONS for the child (only a sanitizer build reads them).
+Spawned spawn(const std::vector<std::string>& args, const std::string& asanOptions = "") {
+    int fds[2];
+    if (::pipe(fds) != 0) return {};
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        if (!asanOptions.empty()) {
+            const char* before = std::getenv("ASAN_OPTIONS");
+            ::setenv("ASAN_OPTIONS", ((before && *before ? std::string(before) + ":" : std::string()) + asanOptions).c_str(), 1);
+        }
+        ::dup2(fds[1], 1), ::dup2(fds[1], 2);
+        ::close(fds[0]), ::close(fds[1]);
+        std::vector<char*> argv{const_cast<char*>(NEPHELE_BINARY)};
+        for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+        argv.push_back(nullptr);
+        ::execv(NEPHELE_BINARY, argv.data());
+        ::_exit(127);
+    }
+    ::close(fds[1]);
+    Spawned r;
+    char buf[512];
+    for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, std::size_t(n));
+    ::close(fds[0]);
+    int status = 0;
+    struct rusage usage {};
+    ::wait4(pid, &status, 0, &usage);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.maxRssKb = usage.ru_maxrss;
+    return r;
+}
+
+// The identity of what is at a path, to prove that a run left it untouched.
+struct Identity {
+    dev_t dev, rdev;
+    ino_t ino;
+    mode_t mode;
+    bool operator==(const Identity&) const = default;
+};
+Identity identity(const std::string& path) {
+    struct stat st {};
+    ::lstat(path.c_str(), &st);
+    return {st.st_dev, st.st_rdev, st.st_ino, st.st_mode};
+}
+
+// The process id of a process that has ended (a child, waited for): its temporaries are stale.
+long deadPid() {
+    const pid_t pid = ::fork();
+    if (pid == 0) ::_exit(0);
+    ::waitpid(pid, nullptr, 0);
+    return long(pid);
+}
+
+}  // namespace
+
+// Outputs are regular files: a device (the system's /dev/null, directly and through a link),
+// a FIFO and a folder at an output path are refused by flag with exit 2, before any work, and
+// are left exactly as they were (as root too: the rename used to replace them).
+TEST_F(CliTest, OutputsAreWrittenAsRegularFilesOnly) {
+    const std::string scene = write("good.json", kGood);
+    ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+    fs::create_directories(path("folder"));
+    fs::create_symlink("/dev/null", path("to_null.png"));
+    const Identity null = identity("/dev/null"), fifo = identity(path("fifo")), folder = identity(path("folder"));
+    struct Case {
+        std::string flag, target, says;
+    };
+    for (const Case& c : {Case{"-o", "/dev/null", "'/dev/null' is a character device"},
+                          Case{"-o", path("to_null.png"), "leads to '/dev/null', which is a character device"},
+                          Case{"--alpha", path("fifo"), "is a FIFO"}, Case{"--pfm", path("folder"), "is a folder"},
+                          Case{"--density-alpha", "/dev/null", "is a character device"}}) {
+        std::vector<std::string> args{"render", scene, "--method", "gardner-exact", "--width", "32"};
+        if (c.flag != "-o") args.insert(args.end(), {"-o", path("out.png")});
+        args.insert(args.end(), {c.flag, c.target});
+        const Spawned r = spawn(args);
+        EXPECT_EQ(r.code, 2) << c.flag << " " << c.target << "\n" << r.output;
+        EXPECT_NE(r.output.find("nephele: " + c.flag + ": "), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(c.says), std::string::npos) << r.output;
+    }
+    EXPECT_TRUE(identity("/dev/null") == null) << "/dev/null was replaced";
+    EXPECT_TRUE(identity(path("fifo")) == fifo);
+    EXPECT_TRUE(identity(path("folder")) == folder);
+    EXPECT_TRUE(fs::is_symlink(path("to_null.png")));
+    expectNoOutputs({"good.json", "fifo", "folder", "to_null.png"});
+}
+
+// A symlink is written through: the file it points to is replaced (atomically) and the link
+// stays; a dangling link creates its target. An empty path is a clear error.
+TEST_F(CliTest, SymlinksAreWrittenThroughAndEmptyPathsRefused) {
+    const std::string scene = write("good.json", kGood);
+    write("target.png", "old");
+    fs::create_symlink("target.png", path("link.png"));
+    fs::create_symlink("created.png", path("dangling.png"));
+    Spawned r = spawn({"render", scene, "--method", "gardner-exact", "--width", "32", "-o", path("link.png"), "--alpha",
+                       path("dangling.png")});
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::is_symlink(path("link.png")));
+    EXPECT_TRUE(fs::is_symlink(path("dangling.png")));
+    EXPECT_EQ(readPng(path("target.png")).width, 32);
+    EXPECT_EQ(readPng(path("created.png")).channels, 1);
+    for (const char* flag : {"-o", "--alpha", "--pfm"}) {
+        std::vector<std::string> args{"render", scene, "--width", "32", "-o", path("x.png"), flag, ""};
+        if (std::string(flag) == "-o") args.resize(args.size() - 2), args.back() = "";
+        r = spawn(args);
+        EXPECT_EQ(r.code, 2) << flag << r.output;
+        EXPECT_NE(r.output.find("the path is empty"), std::string::npos) << r.output;
+        EXPECT_EQ(r.output.rfind("nephele: ", 0), 0u) << r.output;  // CLI11's own messages carry the prefix
+    }
+    EXPECT_FALSE(fs::exists(path("x.png")));
+}
+
+// A killed run leaves TARGET.partial-PID-XXXXXX (a file, or a fly-through's folder); a later run
+// removes those of dead processes, keeps a folder without Nephele's marker (not ours to remove)
+// and its own outputs come out whole.
+TEST_F(CliTest, StaleTemporariesOfKilledRunsAreRemovedSafely) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/flythrough.json";
+    const std::string dead = std::to_string(deadPid());
+    write("out.png.partial-" + dead + "-Ab12Cd", "half a png");
+    fs::create_directories(path("frames.partial-" + dead + "-Xy34Zw"));
+    write("frames.partial-" + dead + "-Xy34Zw/.nephele-partial", "");
+    write("frames.partial-" + dead + "-Xy34Zw/frame_0000.png", "half");
+    fs::create_directories(path("frames.partial-" + dead + "-NoMark"));  // not made by Nephele
+    Spawned r = spawn({"render", scene, "--method", "gardner-exact", "--width", "32", "-o", path("out.png")});
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = spawn({"flythrough", scene, "--out-dir", path("frames"), "--fps", "0.25", "--width", "32"});
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_FALSE(fs::exists(path("out.png.partial-" + dead + "-Ab12Cd")));
+    EXPECT_FALSE(fs::exists(path("frames.partial-" + dead + "-Xy34Zw")));
+    EXPECT_TRUE(fs::exists(path("frames.partial-" + dead + "-NoMark")));
+    EXPECT_FALSE(fs::exists(path("frames/.nephele-partial")));
+    EXPECT_EQ(readPng(path("frames/frame_0005.png")).width, 32);
+    expectNoOutputs({"out.png", "frames", "frames.partial-" + dead + "-NoMark"});
+}
+
+// Fly-through frames are streamed to disk: peak memory does not grow with the frame count
+// (101 frames of 320x240 held as float RGB were 74 MB more than 21 of them).
+TEST_F(CliTest, FlythroughStreamsFramesInBoundedMemory) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/flythrough.json";  // t from 0 to 20 s
+    // Under AddressSanitizer freed blocks wait in a quarantine of up to 256 MB, which would
+    // grow with the frames even though they are freed: none for this measurement.
+    const std::string noQuarantine = "quarantine_size_mb=0";
+    const Spawned few = spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("few"), "--fps", "1", "--width", "320"},
+                              noQuarantine);
+    const Spawned many = spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("many"), "--fps", "5", "--width", "320"},
+                               noQuarantine);
+    ASSERT_EQ(few.code, 0) << few.output;
+    ASSERT_EQ(many.code, 0) << many.output;
+    EXPECT_TRUE(fs::exists(path("many/frame_0100.png")));
+    std::printf("[ figure ] flythrough peak RSS: 21 frames %ld MB, 101 frames %ld MB\n", few.maxRssKb / 1024, many.maxRssKb / 1024);
+    // 25 MB: a third of the growth frames held in memory would cause, well above allocator noise
+    // (the two runs measured within 1 MB of each other).
+    EXPECT_LT(many.maxRssKb - few.maxRssKb, 25 * 1024);
+}
+
+// A path of 10^7 s at 1000 fps would be 10^10 frames: refused by flag with the limit (the int
+// count overflowed: exit 0, "frames": -2147483647 and no frames).
+TEST_F(CliTest, FlythroughFrameCountIsCheckedAgainstItsLimit) {
+    const std::string scene = write("long.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
+      "path": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}, {"t": 1e7, "position": [0,1000,0], "look_at": [0,2000,0]}]})");
+    const Spawned r = spawn({"flythrough", scene, "--out-dir", path("frames"), "--fps", "1000"});
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--fps 1000: the path (t from 0 to 1e+07 s) makes 1e+10 frames; at most 100000"),
+              std::string::npos) << r.output;
+    expectNoOutputs({"long.json"});
+}
+
+// Every setting has a range, checked as it is parsed (exit 2, the flag named, NaN refused)
+// and shown in --help; values that pass but that the machine cannot hold are refused by flag
+// before any work (exit 1), and a flag's derived limit names the flags.
+TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
+    const std::string scene = write("good.json", kGood);
+    const std::vector<std::pair<std::string, std::string>> bad{
+        {"--width", "16385"},     {"--height", "0"},         {"--scale", "nan"},        {"--min-tile", "32768"},
+        {"--max-tile", "0"},      {"--step", "1e-30"},       {"--step", "inf"},         {"--lod-distance", "-1"},
+        {"--light-grid", "1"},    {"--octaves", "9"},        {"--layers", "1"},         {"--lod0-radius", "-5"},
+        {"--lod0-spacing", "0"},  {"--layer-downsample", "5"}, {"--near-radius", "1e308"}, {"--blend-band", "nan"},
+        {"--spp", "0"},           {"--bounces", "10001"},    {"--seed", "-1"},          {"--time", "nan"},
+        {"--time", "1e300"}};
+    for (const auto& [flag, value] : bad) {
+        const Spawned r = spawn({"render", scene, "-o", path("out.png"), flag, value});
+        EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
+        EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
+    }
+    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
+             {"--fps", "0"}, {"--fps", "1001"}}) {
+        const Spawned r = spawn({"flythrough", scene, "--out-dir", path("f"), flag, value});
+        EXPECT_EQ(r.code, 2) << r.output;
+        EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
+    }
+    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
+             {"--counts", "0"}, {"--frames", "1001"}, {"--width", "15"}, {"--layer-counts", "1"}, {"--extents", "nan"},
+             {"--fps", "0"}, {"--spp", "0"}}) {
+        const Spawned r = spawn({"bench", "--out-dir", path("b"), flag, value});
+        EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
+        EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
+    }
+    // The billboard slices, set by two or three flags, named by them.
+    Spawned r = spawn({"render", scene, "-o", path("out.png"), "--lod0-spacing", "1"});
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("--near-radius + --blend-band + 1000 = 4500) / --lod0-spacing 1 makes 4500 billboard slices; at most 4096"),
+              std::string::npos) << r.output;
+    // In range, but more than this machine holds: said before any work, by flag.
+    r = spawn({"render", scene, "-o", path("out.png"), "--light-size", "2048x2048x2048"});
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("--light-size 2048x2048x2048: the lighting volume needs 146 GB of memory"), std::string::npos)
+        << r.output;
+    EXPECT_EQ(spawn({"render", scene, "-o", path("out.png"), "--light-size", "4096x4096x1024"}).code, 2);
+    // --help shows the ranges.
+    r = spawn({"render", "--help"});
+    for (const char* range : {"1..16384", "0.1..10000", "2..2048 each", "1..1048576", "0..100000"})
+        EXPECT_NE(r.output.find(range), std::string::npos) << range;
+    expectNoOutputs({"good.json"});
+}
+
+// The documented largest size either renders or fails with a message that says why (the
+// driver's GL_OUT_OF_MEMORY: llvmpipe holds 1 GB a texture; or this machine's memory), exit 1
+// and no file; it was "framebuffer incomplete (status 0x36054)".
+TEST_F(CliTest, LargestImageRendersOrSaysWhyNot) {
+    const std::string scene = write("good.json", kGood);
+    const Spawned r = spawn({"render", scene, "--method", "ellipsoid", "-o", path("big.png"), "--width", "16384"});
+    if (r.code == 0) {
+        EXPECT_TRUE(fs::exists(path("big.png")));
+        return;
+    }
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_TRUE(r.output.find("(GL_OUT_OF_MEMORY)") != std::string::npos || r.output.find("of memory, more than") != std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("16384x12288"), std::string::npos) << r.output;
+    expectNoOutputs({"good.json"});
 }

@@ -2,9 +2,11 @@
 // scattering recurrences on known cases, the 8-bit vector encoding, the lighting file, the
 // modulation texture and the near-LOD hook.
 #include "nephele/layered.hpp"
+#include "cache_test_util.hpp"
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -147,7 +149,8 @@ TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
     LightingParameters thicker = p;
     thicker.thickness = 900;
     EXPECT_NE(message(path, s, thicker).find("thickness is 600, expected 900"), std::string::npos);
-    // Corrupt: bad magic, truncated texels.
+    // Corrupt: one byte changed, truncated, a missing file. The checksum catches the first two
+    // before anything in them is read.
     {
         std::string bytes;
         {
@@ -157,9 +160,9 @@ TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
         std::string bad = bytes;
         bad[0] = 'X';
         std::ofstream(tempPath("magic.bin"), std::ios::binary) << bad;
-        EXPECT_NE(message(tempPath("magic.bin"), s, p).find("bad magic"), std::string::npos);
+        EXPECT_NE(message(tempPath("magic.bin"), s, p).find("checksum mismatch"), std::string::npos);
         std::ofstream(tempPath("short.bin"), std::ios::binary) << bytes.substr(0, bytes.size() - 10);
-        EXPECT_NE(message(tempPath("short.bin"), s, p).find("truncated texels"), std::string::npos);
+        EXPECT_NE(message(tempPath("short.bin"), s, p).find("checksum mismatch"), std::string::npos);
         EXPECT_NE(message(tempPath("missing.bin"), s, p).find("cannot open"), std::string::npos);
     }
     // The cache: a second call loads what the first saved (precomputeMs 0 when loaded).
@@ -244,4 +247,86 @@ TEST(LayeredTest, BadSettingsAreRefusedByName) {
     LightingSettings ls = small();
     ls.depth = 1;
     EXPECT_THROW(precomputeLighting(ls, LightingParameters{}), std::invalid_argument);
+}
+
+// The closed form of a slice's particles (lightColumn) against the particles one by one
+// (forwardScatter and eyeScatter over each slice split into ceil(tau / 0.1) equal particles,
+// as the precomputation did before): the same light to round-off, from thin slices to thick.
+TEST(LayeredTest, LightColumnSumsEachSlicesParticlesInClosedForm) {
+    const double forward = forwardCoefficient(0.99, 0.85, 10), phase = cornetteShanks(1, 0.85);
+    for (const std::vector<double>& slices : {std::vector<double>{0.05, 0.0, 0.37, 1.3}, std::vector<double>{2.9, 0.8, 7.5},
+                                              std::vector<double>{0.1, 25.0, 0.2, 3.0}}) {
+        std::vector<double> particles;
+        std::vector<std::size_t> first;  // the first particle of each slice
+        for (double tau : slices) {
+            const int n = std::max(1, int(std::ceil(tau / 0.1)));
+            first.push_back(particles.size());
+            for (int m = 0; m < n; ++m) particles.push_back(tau / n);
+        }
+        const std::vector<double> inc = forwardScatter(particles, forward);
+        const double eye = eyeScatter(particles, inc, 0.99, phase);
+        std::vector<double> incident;
+        const double got = lightColumn(slices, forward, 0.99, phase, incident);
+        ASSERT_EQ(incident.size(), slices.size());
+        // Relative 1e-9: the closed form's logarithms and exponentials against a product of up
+        // to 250 factors, both in double.
+        EXPECT_NEAR(got, eye, 1e-9 * std::fabs(eye));
+        for (std::size_t k = 0; k < slices.size(); ++k) EXPECT_NEAR(incident[k], inc[first[k]], 1e-9 * inc[first[k]]) << k;
+    }
+}
+
+// Optical depth does not cost time or memory: one slice of tau 1e12 (a 1e9 m thick layer at
+// extinction 0.04 would have made 10^13 particles, 5 GB and minutes before) is one step, and
+// the light below it is gone; an extinction of 1e4 precomputes a volume like any other.
+TEST(LayeredTest, HugeOpticalDepthsCostNoMoreThanThinOnes) {
+    const double forward = forwardCoefficient(0.99, 0.85, 10), phase = cornetteShanks(1, 0.85);
+    std::vector<double> incident;
+    const double eye = lightColumn({1e12, 1e300, 5.0}, forward, 0.99, phase, incident);
+    EXPECT_TRUE(std::isfinite(eye));
+    EXPECT_EQ(incident[1], 0.0);  // nothing passes 1e12 of optical depth
+    EXPECT_EQ(incident[2], 0.0);
+    LightingSettings s = small();
+    LightingParameters p;
+    p.extinction = 1e4;
+    p.thickness = 1e9;
+    const auto start = std::chrono::steady_clock::now();
+    const LightingVolume v = precomputeLighting(s, p);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // 16x16x8 texels take milliseconds; 10 s leaves room for a loaded machine while the old
+    // per-particle loop needed over 120 s for less.
+    EXPECT_LT(seconds, 10.0);
+    for (int k = 0; k + 1 < s.depth; ++k) EXPECT_LE(glm::length(v.vectorAt(3, 3, k)), 2.0 / 255 + 1e-9) << k;  // dark below the top
+    EXPECT_TRUE(std::isfinite(v.eyeScatterPeak));
+}
+
+// A cache file damaged in its last 4 KiB, truncated, or replaced by a FIFO is not used: the
+// volume is computed again (the same texels), with a warning through the log callback, and a
+// FIFO in its place does not block the reader.
+TEST(LayeredTest, DamagedOrSpecialCacheFilesAreRebuiltWithAWarning) {
+    LightingSettings s = small();
+    s.width = s.height = 64;  // a file of over 4 KiB of texels
+    const LightingParameters p;
+    const std::string dir = tempPath("damaged_cache");
+    std::filesystem::remove_all(dir);
+    const LightingVolume good = lightingCached(s, p, dir);
+    std::filesystem::path file;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) file = e.path();
+    ASSERT_FALSE(file.empty());
+    test::WarningCapture log;
+    auto expectRebuilt = [&](const char* what) {
+        log.warnings.clear();
+        const LightingVolume again = lightingCached(s, p, dir);
+        EXPECT_GT(again.precomputeMs, 0) << what << ": the damaged file was used";
+        EXPECT_EQ(again.texels, good.texels) << what;
+        ASSERT_FALSE(log.warnings.empty()) << what;
+        EXPECT_NE(log.warnings[0].find(file.filename().string()), std::string::npos) << log.warnings[0];
+    };
+    test::overwriteTail(file, 4096, '\x5a');
+    expectRebuilt("last 4 KiB overwritten");
+    std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2);
+    expectRebuilt("truncated");
+    ASSERT_TRUE(test::replaceWithFifo(file));
+    expectRebuilt("a FIFO");  // would block forever if opened as a file
+    EXPECT_TRUE(std::filesystem::is_fifo(file));  // left alone: not a file to replace
+    std::filesystem::remove_all(dir);
 }

@@ -131,6 +131,39 @@ TEST(GlLayerGLTest, ErrorCheckNamesOperationAndError) {
     EXPECT_NO_THROW(check("after draining"));
 }
 
+// GL faults end in a message, never an abort: a framebuffer the driver refuses names its
+// status in hexadecimal (it printed "0x36054", a decimal, before), a frame over the driver's
+// maximum names the maximum, and a frame the driver cannot allocate names the bytes and
+// GL_OUT_OF_MEMORY (llvmpipe holds at most 1 GB a texture: 16384x16384 RGBA32F is 4.3 GB).
+TEST(GlLayerGLTest, AllocationAndFramebufferFaultsAreClearErrors) {
+    auto ctx = test::makeContext(GlBackend::Egl);
+    EXPECT_EQ(framebufferStatusName(36054), "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT (0x8CD6)");
+    EXPECT_EQ(framebufferStatusName(0x1234), "unknown status (0x1234)");
+    Framebuffer empty = Framebuffer::create();
+    try {
+        checkFramebuffer(empty.id(), "an empty framebuffer");
+        FAIL() << "no GlError";
+    } catch (const GlError& e) {
+        EXPECT_STREQ(e.what(), "an empty framebuffer: framebuffer incomplete: GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT (0x8CD7)");
+    }
+    GLint max = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max);
+    try {
+        FrameTarget tooWide(max + 1, 8);
+        FAIL() << "no GlError";
+    } catch (const GlError& e) {
+        EXPECT_NE(std::string(e.what()).find("GL_MAX_TEXTURE_SIZE " + std::to_string(max)), std::string::npos) << e.what();
+    }
+    try {
+        FrameTarget huge(16384, 16384);  // a driver that holds it passes; llvmpipe does not
+        SUCCEED() << "this driver holds a 4.3 GB RGBA32F texture";
+    } catch (const GlError& e) {
+        EXPECT_NE(std::string(e.what()).find("could not allocate 4.3 GB (GL_OUT_OF_MEMORY)"), std::string::npos) << e.what();
+    }
+    EXPECT_NO_THROW(checkAlways("after the faults"));  // nothing left pending
+    EXPECT_NO_THROW(FrameTarget(64, 48));               // and the context still works
+}
+
 TEST(GlLayerGLTest, HandlesAreMoveOnlyAndDelete) {
     static_assert(!std::is_copy_constructible_v<Buffer> && !std::is_copy_assignable_v<Buffer>);
     static_assert(std::is_nothrow_move_constructible_v<Buffer> && std::is_nothrow_move_assignable_v<Buffer>);

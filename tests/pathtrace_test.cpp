@@ -5,9 +5,12 @@
 #include "nephele/pathtrace.hpp"
 
 #include "../reference/src/tracking.hpp"
+#include "cache_test_util.hpp"
 
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
+#include "nephele/cache_file.hpp"
+#include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/projection.hpp"
 
@@ -15,11 +18,16 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <span>
+#include <thread>
 #include <numbers>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 using namespace nephele;
@@ -456,4 +464,165 @@ TEST(PathTraceTest, RejectsBadSettings) {
     const View view = makeView(scene.camera);
     EXPECT_THROW(renderPathTraced(scene, view, {.spp = 0}, nullptr), std::invalid_argument);
     EXPECT_THROW(renderPathTraced(scene, view, {.maxBounces = -1}, nullptr), std::invalid_argument);
+}
+
+// Graded majorants (detail::chordPieces) on an optically deep chord: they bound the field
+// everywhere, delta tracking's first collisions follow the exact distribution 1 - exp(-tau(t)),
+// and a free flight takes a few tentative collisions where uniform pieces took ~bound^(2/3).
+TEST(PathTraceTest, GradedMajorantsAreTightAndUnbiasedOnDeepChords) {
+    // A chord through the centre of a unit sphere (a = 1) from t = 0 to 2 m: u = t - 1.
+    const detail::Chord chord{0, 2, 1, 1, 1};
+    auto depth = [](double bound, double t) {  // integral of bound (1 - u^2)^2 du from u = -1
+        auto f = [](double u) { return u - 2 * u * u * u / 3 + std::pow(u, 5) / 5; };
+        return bound * (f(t - 1) - f(-1));
+    };
+    for (double bound : {2e4, 1e12}) {
+        auto sigma = [&](double t) { const double h = 1 - (t - 1) * (t - 1); return h > 0 ? bound * h * h : 0.0; };
+        std::vector<double> breaks;
+        std::vector<MajorantPiece> pieces;
+        detail::chordPieces(chord, bound, breaks, pieces);
+        EXPECT_GT(pieces.size(), std::size_t(detail::kPieces)) << "graded";
+        for (const MajorantPiece& p : pieces)  // the bound holds at 1000 points of each piece
+            for (int k = 0; k <= 1000; ++k) EXPECT_LE(sigma(p.t0 + (p.t1 - p.t0) * k / 1000), p.bound * (1 + 1e-12));
+        std::vector<std::pair<double, double>> events;
+        std::vector<MajorantSegment> segs;
+        detail::buildMajorant(pieces, events, segs);
+        detail::Pcg32 rng(99, 7);
+        long evaluations = 0;
+        auto counted = [&](double t) { ++evaluations; return sigma(t); };
+        const int n = 20000;
+        // At t where the exact CDF is 0.25, 0.5 and 0.75 (found by bisection on depth()).
+        double at[3];
+        for (int q = 0; q < 3; ++q) {
+            double lo = 0, hi = 1;
+            for (int it = 0; it < 200; ++it) {
+                const double mid = 0.5 * (lo + hi);
+                (1 - std::exp(-depth(bound, mid)) < 0.25 * (q + 1) ? lo : hi) = mid;
+            }
+            at[q] = lo;
+        }
+        int below[3] = {0, 0, 0};
+        for (int i = 0; i < n; ++i) {
+            const double t = detail::deltaTrack(segs, counted, rng);
+            for (int q = 0; q < 3; ++q) below[q] += t < at[q];
+        }
+        for (int q = 0; q < 3; ++q) {
+            // Binomial standard error sqrt(p (1 - p) / n) <= 0.0035; 4 of them.
+            EXPECT_NEAR(below[q] / double(n), 0.25 * (q + 1), 0.014) << "bound " << bound << ", quartile " << q + 1;
+        }
+        const double perFlight = double(evaluations) / n;
+        std::printf("[ figure ] bound %.0e: %zu pieces, %.1f tentative collisions per free flight\n", bound, pieces.size(),
+                    perFlight);
+        // Uniform pieces take about 10^3 (bound 2e4) and 10^8 (bound 1e12) per flight.
+        EXPECT_LT(perFlight, 20) << bound;
+    }
+}
+
+// Ratio tracking's Russian roulette below kRouletteBelow keeps it unbiased: on a homogeneous
+// slab of optical depth 26 (T = 5.1e-12, under the roulette's threshold) the mean estimate is
+// the exact transmittance. (A majorant of 10 sigma: ratio tracking's own relative variance is
+// exp(sigma^2 L / majorant) - 1, so a loose majorant keeps the error small enough to see a bias.)
+TEST(PathTraceTest, RatioTrackingRouletteIsUnbiased) {
+    const double sigma = 1, length = 26, exact = std::exp(-26.0);
+    const std::vector<MajorantSegment> segs{{0, length, 10 * sigma}};
+    detail::Pcg32 rng(5, 11);
+    const MeanAndError m = meanOf(200000, [&](int) { return detail::ratioTrack(segs, [&](double) { return sigma; }, rng); });
+    std::printf("[ figure ] roulette: exact %.3e, ratio %.3e +- %.1e\n", exact, m.mean, m.error);
+    EXPECT_NEAR(m.mean, exact, 4 * m.error);
+    EXPECT_LT(m.error, 0.03 * exact);  // the test can see a bias of a few percent
+}
+
+// Whatever Scene it is given, the path tracer ends in bounded time: densities of 1e12, an
+// extinction of 1e308 and the densest noisy medium render at 16x12 in well under the bound
+// (each took under 2 s here, 10^8 tentative collisions a free flight before), opaque where
+// the cloud is and finite everywhere; a noise it cannot bound is refused by name.
+TEST(PathTraceTest, HugeDensitiesFinishInBoundedTime) {
+    const NoiseVolume volume = makeNoiseVolume(16, 4, 2, 3);
+    struct Case {
+        const char* what;
+        double extinction, density, noise;
+    };
+    for (const Case& c : {Case{"density 1e12", 0.04, 1e12, 0}, Case{"extinction 1e308", 1e308, 1, 0},
+                          Case{"extinction 1e308, density 1e300", 1e308, 1e300, 0}, Case{"density 1e12, noise 1", 0.04, 1e12, 1}}) {
+        Scene scene = cloudScene(16, 12);
+        scene.medium.extinction = c.extinction;
+        scene.medium.noise = c.noise;
+        scene.clouds[0].ellipsoids[0].density = c.density;
+        const auto start = std::chrono::steady_clock::now();
+        const Image image = renderPathTraced(scene, makeView(scene.camera), {.spp = 4, .maxBounces = 32}, &volume);
+        const double took = seconds(start);
+        std::printf("[ figure ] %s: %.2f s\n", c.what, took);
+        EXPECT_LT(took, 60.0) << c.what;  // a bound for a loaded 2-core machine, not a performance claim
+        for (std::size_t i = 0; i < image.pixels.size(); ++i) ASSERT_TRUE(std::isfinite(image.pixels[i])) << c.what << " at " << i << ": " << image.pixels[i];
+        EXPECT_GT(image.at(8, 6, 3), 0.999f) << c.what;  // the cloud fills the centre: opaque
+    }
+    Scene scene = cloudScene(8, 6);
+    scene.medium.noise = 1e308;
+    try {
+        renderPathTraced(scene, makeView(scene.camera), {.spp = 1}, &volume);
+        ADD_FAILURE() << "noise 1e308 rendered";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("medium.noise"), std::string::npos) << e.what();
+    }
+}
+
+// The estimate comes before the work, from a pilot, and is in the right range: within a
+// factor of 3 of what the render costs. Both are CPU time shared among the render's threads
+// (the estimate is for an otherwise idle machine: wall time on a shared one would be longer).
+TEST(PathTraceTest, EstimatesItsTimeBeforeItStarts) {
+    const Scene scene = cloudScene(160, 120);  // about 0.2 s of CPU here: long enough to time
+    const View view = makeView(scene.camera);
+    const PathTraceSettings settings{.spp = 32};
+    const double estimate = estimatePathTraceSeconds(scene, view, settings, nullptr);
+    auto processCpu = [] {
+        rusage u{};
+        ::getrusage(RUSAGE_SELF, &u);
+        return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+    };
+    const double before = processCpu();
+    renderPathTraced(scene, view, settings, nullptr);
+    const int threads = std::max(1, std::min<int>(scene.camera.height, int(std::thread::hardware_concurrency())));
+    const double took = (processCpu() - before) / threads;
+    std::printf("[ figure ] estimated %.2f s, took %.2f s of CPU per thread\n", estimate, took);
+    EXPECT_GT(estimate, took / 3);
+    EXPECT_LT(estimate, took * 3);
+}
+
+// A cache file with its last 4 KiB overwritten, with a NaN, truncated or replaced by a FIFO
+// is never used: the image is rendered again (the same image), with a warning through the log
+// callback, and the FIFO does not block.
+TEST(PathTraceTest, DamagedCacheFilesAreRenderedAgainWithAWarning) {
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("nephele_pathtrace_damaged_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    const Scene scene = cloudScene(40, 30);  // 19 kB of floats
+    const View view = makeView(scene.camera);
+    const PathTraceSettings settings{.spp = 1};
+    const Image good = renderPathTracedCached(scene, view, settings, nullptr, dir.string());
+    std::filesystem::path file;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) file = e.path();
+    test::WarningCapture log;
+    auto expectRenderedAgain = [&](const char* what) {
+        log.warnings.clear();
+        const std::uint64_t computed = detail::pathTracedImagesComputed();
+        const Image again = renderPathTracedCached(scene, view, settings, nullptr, dir.string());
+        EXPECT_EQ(detail::pathTracedImagesComputed(), computed + 1) << what << ": the damaged file was used";
+        EXPECT_TRUE(again.pixels == good.pixels) << what;
+        ASSERT_FALSE(log.warnings.empty()) << what;
+        EXPECT_NE(log.warnings[0].find(file.filename().string()), std::string::npos) << log.warnings[0];
+    };
+    test::overwriteTail(file, 4096, '\x7f');
+    expectRenderedAgain("last 4 KiB overwritten");
+    // A NaN under a valid checksum (what a faulty writer would leave): the values are checked too.
+    std::string why;
+    std::string payload = *cache::read(file.string(), 1 << 20, why);
+    const float nan = NAN;
+    std::memcpy(payload.data() + payload.size() - 8 * sizeof(float), &nan, sizeof nan);
+    ASSERT_EQ(cache::write(file.string(), payload), "");
+    expectRenderedAgain("a NaN");
+    std::filesystem::resize_file(file, std::filesystem::file_size(file) - 100);
+    expectRenderedAgain("truncated");
+    ASSERT_TRUE(test::replaceWithFifo(file));
+    expectRenderedAgain("a FIFO");
+    std::filesystem::remove_all(dir);
 }

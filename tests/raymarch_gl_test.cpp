@@ -15,6 +15,7 @@
 #include "nephele/light_cache.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -416,11 +417,50 @@ TEST_F(RaymarchGLTest, CloudsBehindTheEyeLeaveTheFrameUntouched) {
 TEST_F(RaymarchGLTest, RejectsBadSettings) {
     for (auto change : {+[](RaymarchSettings& s) { s.step = 0; }, +[](RaymarchSettings& s) { s.lodDistance = -1; },
                         +[](RaymarchSettings& s) { s.light.size = 1; }, +[](RaymarchSettings& s) { s.octaves = 0; },
-                        +[](RaymarchSettings& s) { s.maxSteps = 0; }}) {
+                        +[](RaymarchSettings& s) { s.maxSteps = 0; }, +[](RaymarchSettings& s) { s.maxSteps = 1 << 20; },
+                        +[](RaymarchSettings& s) { s.step = NAN; }}) {
         RaymarchSettings s;
         change(s);
         EXPECT_THROW(RaymarchRenderer{s}, std::invalid_argument);
     }
+}
+
+// Runaway marches are bounded: a cloud of radius 1e9 m with noise (its light march took 10^7
+// steps a voxel: hung) and a step so small that adding it leaves the distance unchanged (it
+// marked time forever on the CPU, until maxSteps on the GPU) end in bounded time with an
+// opaque cloud, and the CPU march of such a step still integrates the closed form.
+TEST_F(RaymarchGLTest, HugeCloudsAndTinyStepsEndInBoundedTime) {
+    Scene scene = sharedScene("single.json");
+    scene.camera.width = 32, scene.camera.height = 24;
+    scene.medium.noise = 0.3;
+    Ellipsoid& e = scene.clouds[0].ellipsoids[0];
+    Scene huge = scene;
+    huge.clouds[0].ellipsoids = {e};
+    huge.clouds[0].ellipsoids[0].radii = Vec3(1e9);
+    huge.clouds[0].ellipsoids[0].center = scene.camera.position + (1e9 + 2000) * glm::normalize(scene.camera.direction);
+    struct Case {
+        const char* what;
+        const Scene& scene;
+        double step;
+    };
+    for (const Case& c : {Case{"radius 1e9", huge, 25.0}, Case{"step 1e-30", scene, 1e-30}}) {
+        RaymarchSettings s;
+        s.step = c.step;
+        s.light.size = 8;  // the light march's cost is per voxel: a small grid keeps the test short
+        const auto start = std::chrono::steady_clock::now();
+        const Image alpha = alphaOf(render(c.scene, s).rgba);
+        const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::printf("[ figure ] %s: %.2f s\n", c.what, took);
+        EXPECT_LT(took, 60.0) << c.what;  // a bound on a loaded 2-core machine, not a speed claim
+        EXPECT_GT(alpha.at(16, 12, 0), 0.99f) << c.what;  // the centre of the frame is cloud
+    }
+    // The CPU march along a radius of the 1e9 m sphere (noise 0: the closed form is r 8/15)
+    // at a step of 1e-300: 1024 steps at most, and midpoint quadrature is within 1e-5 there.
+    Medium m;
+    m.noise = 0;
+    Cloud sphere{"s", {Ellipsoid{Vec3(0.0), Vec3(1e9), Vec3(0.0), 1.0}}};
+    const double depth = marchDensityNdt(m, sphere, Vec3(0.0), Vec3(0, 0, 1), 1e-300, nullptr, 1.0);
+    EXPECT_NEAR(depth, 1e9 * 8.0 / 15.0, 1e-5 * 1e9);
 }
 
 // A host's window: the default framebuffer and its own depth buffer (GLFW under Xvfb).

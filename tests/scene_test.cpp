@@ -631,7 +631,8 @@ TEST(SceneGeneratorTest, Ranges) {
     EXPECT_TRUE(
         failsAt(scene(R"("generate": [{"type": "cumulus"}])"), "generate[0].center", "required key is missing"));
     EXPECT_TRUE(failsAt(cumulus(R"("count": 0)"), "generate[0].count", "must be in 1..100000, got 0"));
-    EXPECT_TRUE(failsAt(cumulus(R"("count": 100001)"), "generate[0].count", "must be in 1..100000"));
+    EXPECT_TRUE(failsAt(cumulus(R"("count": 100001)"), "generate[0].count",
+                        "100001 is over the limit 'ellipsoids per generate entry' (100000)"));
     EXPECT_TRUE(failsAt(cumulus(R"("seed": -3)"), "generate[0].seed", "must be in 0..4294967295"));
     EXPECT_TRUE(failsAt(cumulus(R"("density": -1)"), "generate[0].density", "must be >= 0"));
     EXPECT_TRUE(failsAt(cumulus(R"("sigma": [1, 0, 1])"), "generate[0].sigma[1]", "must be > 0"));
@@ -733,10 +734,11 @@ TEST(CameraAtTest, NoPathGivesTheSceneCamera) {
 }
 
 TEST(CameraAtTest, InterpolatesLinearlyAndClamps) {
-    const Scene s = parseScene(scene(R"("path": [
-        {"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 0]},
-        {"t": 10, "position": [100, 0, 0], "look_at": [100, 0, 10]},
-        {"t": 20, "position": [100, 0, 100], "look_at": [110, 0, 100]}])"),
+    // up [1, 1, 0]: keyframe 1 looks straight up, which the default up would not allow.
+    const Scene s = parseScene(R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [1, 1, 0]},
+        "path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 0]},
+                 {"t": 10, "position": [100, 0, 0], "look_at": [100, 0, 10]},
+                 {"t": 20, "position": [100, 0, 100], "look_at": [110, 0, 100]}]})",
                                "test.json");
     const Camera mid = cameraAt(s, 5);
     expectNear(mid.position, {50, 0, 0});

@@ -28,9 +28,11 @@ GLuint FrameDepth::copy(GLuint framebuffer, int x, int y, int width, int height)
     if (width_ != width || height_ != height || format_ != format) {
         texture_ = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(texture_.id(), 1, format, width, height);
+        checkAllocation("the copy of the frame's depth", std::uint64_t(width) * std::uint64_t(height) * (depthBits + stencilBits) / 8);
         fbo_ = Framebuffer::create();
         glNamedFramebufferTexture(fbo_.id(), stencilBits ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
                                   texture_.id(), 0);
+        checkFramebuffer(fbo_.id(), "the copy of the frame's depth");
         width_ = width, height_ = height, format_ = format;
     }
     glDisable(GL_SCISSOR_TEST);  // a blit obeys the scissor test

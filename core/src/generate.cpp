@@ -1,14 +1,18 @@
 // Expansion of `generate` entries into ellipsoid clouds (see nephele/generate.hpp).
 #include "nephele/generate.hpp"
 
+#include "nephele/limits.hpp"
+
+#include "input_file.hpp"
+#include "obj_reader.hpp"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <numeric>
 #include <random>
-#include <sstream>
 #include <string_view>
+#include <unordered_map>
 
 namespace nephele {
 
@@ -54,14 +58,63 @@ bool inHollowCore(const Vec3& offset, const Vec3& sigma) {
            std::abs(offset.z) < sigma.z / 3.0;
 }
 
+struct Placed {
+    Vec3 offset;    // m, from the cloud centre
+    double radius;  // m, before aspect
+};
+
+// Eq. 17's containment pruning, exact for ellipsoids sharing axes and aspect: in space scaled
+// by 1/aspect they are spheres. Visits the alive ones largest first and drops one inside any
+// kept one (containment is transitive, so comparing against the kept ones is the same as
+// against all). j is inside i only if |c_i - c_j| <= r_i - r_j <= rMax - rMin, so only the kept
+// ones in the 27 grid cells of that size around c_j are compared: linear in the count for a
+// Gaussian cloud (the full comparison took 27 s at count 100000), and the same answer.
+int pruneContained(const std::vector<Placed>& placed, const std::vector<size_t>& alive, const Vec3& aspect,
+                   std::vector<bool>& keep) {
+    std::vector<size_t> order = alive;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return placed[a].radius > placed[b].radius; });
+    if (order.empty()) return 0;
+    const double rMax = placed[order.front()].radius, rMin = placed[order.back()].radius;
+    const double cell = std::max(rMax - rMin, 1e-6 * rMax) * (1 + 1e-9);
+    // Cell indices are clamped to +-2^19: clamping keeps neighbours within one cell of each
+    // other, so the answer stays exact however far a hostile clamp range spreads the cloud.
+    auto cellOf = [&](const Vec3& c) {
+        return glm::i64vec3(glm::clamp(glm::floor(c / cell), Vec3(-524288.0), Vec3(524288.0)));
+    };
+    auto key = [](const glm::i64vec3& k) {
+        return std::uint64_t(k.x + 524289) << 42 | std::uint64_t(k.y + 524289) << 21 | std::uint64_t(k.z + 524289);
+    };
+    std::unordered_map<std::uint64_t, std::vector<size_t>> kept;
+    int contained = 0;
+    for (size_t j : order) {
+        const Vec3 cj = placed[j].offset / aspect;
+        const glm::i64vec3 home = cellOf(cj);
+        bool inside = false;
+        for (int dz = -1; dz <= 1 && !inside; ++dz)
+            for (int dy = -1; dy <= 1 && !inside; ++dy)
+                for (int dx = -1; dx <= 1 && !inside; ++dx) {
+                    const auto it = kept.find(key(home + glm::i64vec3(dx, dy, dz)));
+                    if (it == kept.end()) continue;
+                    for (size_t i : it->second)
+                        if (glm::length(placed[i].offset / aspect - cj) + placed[j].radius <= placed[i].radius) {
+                            inside = true;
+                            break;
+                        }
+                }
+        if (inside) {
+            keep[j] = false;
+            ++contained;
+        } else {
+            kept[key(home)].push_back(j);
+        }
+    }
+    return contained;
+}
+
 }  // namespace
 
 Cloud generateCumulus(const Generator& g, GenerateStats* stats) {
     Random rng(g.seed);
-    struct Placed {
-        Vec3 offset;    // m, from the cloud centre
-        double radius;  // m, before aspect
-    };
     std::vector<Placed> placed(static_cast<size_t>(g.count));
     for (Placed& p : placed) {
         // Eq. 14: three normal variates per ellipsoid (x, y from one pair, z from the next;
@@ -85,33 +138,7 @@ Cloud generateCumulus(const Generator& g, GenerateStats* stats) {
 
     std::vector<bool> keep(placed.size(), false);
     for (size_t i : alive) keep[i] = true;
-    int contained = 0;
-    if (g.pruneContained) {
-        // Eq. 17, exact for ellipsoids sharing axes and aspect: in space scaled by 1/aspect
-        // they are spheres. Visit largest first; drop one inside any kept one (containment is
-        // transitive, so comparing against the kept ones is the same as against all).
-        std::vector<size_t> order = alive;
-        std::stable_sort(order.begin(), order.end(),
-                         [&](size_t a, size_t b) { return placed[a].radius > placed[b].radius; });
-        std::vector<size_t> kept;
-        for (size_t j : order) {
-            const Vec3 cj = placed[j].offset / g.aspect;
-            bool inside = false;
-            for (size_t i : kept) {
-                const double dist = glm::length(placed[i].offset / g.aspect - cj);
-                if (dist + placed[j].radius <= placed[i].radius) {
-                    inside = true;
-                    break;
-                }
-            }
-            if (inside) {
-                keep[j] = false;
-                ++contained;
-            } else {
-                kept.push_back(j);
-            }
-        }
-    }
+    const int contained = g.pruneContained ? pruneContained(placed, alive, g.aspect, keep) : 0;
 
     Cloud cloud;
     cloud.name = g.name;
@@ -160,15 +187,9 @@ Vec3 degreesFromRotation(const glm::dmat3& R) {
 
 // ---------------------------------------------------------------- mesh
 
-namespace {
+namespace detail {
 
-struct ObjMesh {
-    std::vector<Vec3> vertices;
-    struct Triangle {
-        size_t a, b, c;  // 0-based vertex indices
-    };
-    std::vector<Triangle> triangles;
-};
+namespace {
 
 bool parseDouble(std::string_view s, double& v) {
     const char* end = s.data() + s.size();
@@ -176,8 +197,9 @@ bool parseDouble(std::string_view s, double& v) {
     return r.ec == std::errc() && r.ptr == end && std::isfinite(v);
 }
 
-std::vector<std::string_view> splitWords(std::string_view line) {
-    std::vector<std::string_view> words;
+// The words of a line, split at spaces, tabs and carriage returns.
+void splitWords(std::string_view line, std::vector<std::string_view>& words) {
+    words.clear();
     size_t i = 0;
     while (i < line.size()) {
         while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
@@ -186,62 +208,94 @@ std::vector<std::string_view> splitWords(std::string_view line) {
         if (j > i) words.push_back(line.substr(i, j - i));
         i = j;
     }
-    return words;
 }
 
-ObjMesh readObj(const std::string& file) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) throw ObjError(file, 0, "cannot be read");
-    ObjMesh mesh;
-    std::string line;
-    int lineNo = 0;
-    while (std::getline(in, line)) {
-        ++lineNo;
-        const size_t hash = line.find('#');
-        const std::vector<std::string_view> w = splitWords(std::string_view(line).substr(0, hash));
-        if (w.empty()) continue;
-        if (w[0] == "v") {
-            // x y z [w], optionally followed by r g b (a common extension): take x y z.
-            if (w.size() < 4)
-                throw ObjError(file, lineNo, "a 'v' line needs 3 coordinates, got " + std::to_string(w.size() - 1));
-            Vec3 v;
-            for (int k = 0; k < 3; ++k)
-                if (!parseDouble(w[1 + k], v[k]))
-                    throw ObjError(file, lineNo, "vertex coordinate " + std::to_string(k + 1) + " is not a finite number: '" +
-                                                     std::string(w[1 + k]) + "'");
-            mesh.vertices.push_back(v);
-        } else if (w[0] == "f") {
-            if (w.size() < 4)
-                throw ObjError(file, lineNo, "a face needs at least 3 vertices, got " + std::to_string(w.size() - 1));
-            std::vector<size_t> idx;
-            for (size_t k = 1; k < w.size(); ++k) {
-                const std::string_view ref = w[k].substr(0, w[k].find('/'));  // v, v/vt, v//vn, v/vt/vn
-                long long i = 0;
-                const auto r = std::from_chars(ref.data(), ref.data() + ref.size(), i);
-                if (ref.empty() || r.ec != std::errc() || r.ptr != ref.data() + ref.size() || i == 0)
-                    throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": '" + std::string(w[k]) +
-                                                     "' is not a vertex index (1-based, or negative from the end)");
-                const long long n = static_cast<long long>(mesh.vertices.size());
-                const long long resolved = i > 0 ? i - 1 : n + i;  // -1 = the last vertex so far
-                if (resolved < 0 || resolved >= n)
-                    throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": index " + std::to_string(i) +
-                                                     " is out of range (" + std::to_string(n) +
-                                                     " vertices defined so far)");
-                idx.push_back(static_cast<size_t>(resolved));
-            }
-            for (size_t k = 1; k + 1 < idx.size(); ++k) mesh.triangles.push_back({idx[0], idx[k], idx[k + 1]});
-        }
-        // Everything else (vn, vt, o, g, s, usemtl, mtllib, l, p, ...) does not shape the cloud.
+std::string quoted(std::string_view word) {
+    std::string s(word.substr(0, 40));
+    for (char& c : s)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    return "'" + s + (word.size() > 40 ? "...'" : "'");
+}
+
+void readVertex(const std::vector<std::string_view>& w, ObjMesh& mesh, const std::string& file, int lineNo) {
+    // x y z [w], optionally followed by r g b (a common extension): take x y z.
+    if (w.size() < 4)
+        throw ObjError(file, lineNo, "a 'v' line needs 3 coordinates, got " + std::to_string(w.size() - 1));
+    Vec3 v;
+    for (int k = 0; k < 3; ++k)
+        if (!parseDouble(w[1 + k], v[k]))
+            throw ObjError(file, lineNo, "vertex coordinate " + std::to_string(k + 1) + " is not a finite number: " +
+                                             quoted(w[1 + k]));
+    mesh.vertices.push_back(v);
+}
+
+void readFace(const std::vector<std::string_view>& w, ObjMesh& mesh, const std::string& file, int lineNo,
+              std::vector<size_t>& idx) {
+    if (w.size() < 4)
+        throw ObjError(file, lineNo, "a face needs at least 3 vertices, got " + std::to_string(w.size() - 1));
+    idx.clear();
+    for (size_t k = 1; k < w.size(); ++k) {
+        const std::string_view ref = w[k].substr(0, w[k].find('/'));  // v, v/vt, v//vn, v/vt/vn
+        long long i = 0;
+        const auto r = std::from_chars(ref.data(), ref.data() + ref.size(), i);
+        if (ref.empty() || r.ec != std::errc() || r.ptr != ref.data() + ref.size() || i == 0)
+            throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": " + quoted(w[k]) +
+                                             " is not a vertex index (1-based, or negative from the end)");
+        const long long n = static_cast<long long>(mesh.vertices.size());
+        const long long resolved = i > 0 ? i - 1 : n + i;  // -1 = the last vertex so far
+        if (resolved < 0 || resolved >= n)
+            throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": index " + std::to_string(i) +
+                                             " is out of range (" + std::to_string(n) + " vertices defined so far)");
+        idx.push_back(static_cast<size_t>(resolved));
     }
-    if (in.bad()) throw ObjError(file, lineNo, "read error");
-    if (mesh.triangles.empty()) throw ObjError(file, 0, "has no faces ('f' lines): nothing to make ellipsoids of");
-    return mesh;
+    if (double(mesh.triangles.size() + idx.size() - 2) > limits::kEllipsoidsPerEntry.value)
+        throw ObjError(file, lineNo, "more than " + limitValueText(limits::kEllipsoidsPerEntry) +
+                                         " triangles (one ellipsoid each), over the limit " +
+                                         limitText(limits::kEllipsoidsPerEntry));
+    for (size_t k = 1; k + 1 < idx.size(); ++k) mesh.triangles.push_back({idx[0], idx[k], idx[k + 1]});
 }
 
 }  // namespace
 
+ObjMesh parseObj(std::string_view text, const std::string& file) {
+    ObjMesh mesh;
+    std::vector<std::string_view> w;
+    std::vector<size_t> idx;
+    int lineNo = 0;
+    for (size_t start = 0; start < text.size();) {
+        const size_t end = std::min(text.find('\n', start), text.size());
+        const std::string_view line = text.substr(start, end - start);
+        start = end + 1;
+        ++lineNo;
+        splitWords(line.substr(0, line.find('#')), w);
+        if (w.empty()) continue;
+        if (w[0] == "v") readVertex(w, mesh, file, lineNo);
+        else if (w[0] == "f") readFace(w, mesh, file, lineNo, idx);
+        // Everything else (vn, vt, o, g, s, usemtl, mtllib, l, p, ...) does not shape the cloud.
+    }
+    if (mesh.triangles.empty()) throw ObjError(file, 0, "has no faces ('f' lines): nothing to make ellipsoids of");
+    return mesh;
+}
+
+ObjMesh readObj(const std::string& file, std::uint64_t* bytes) {
+    std::string text;
+    if (auto fault = readRegularFile(file, limits::kObjFileBytes, &text)) throw ObjError(file, 0, *fault);
+    if (auto fault = nulByteFault(text)) throw ObjError(file, 0, *fault);
+    if (bytes) *bytes = text.size();
+    return parseObj(text, file);
+}
+
+}  // namespace detail
+
 Cloud generateMesh(const Generator& g, GenerateStats* stats) {
-    const ObjMesh mesh = readObj(g.resolvedPath);
+    std::uint64_t bytes = 0;
+    const detail::ObjMesh mesh = detail::readObj(g.resolvedPath, &bytes);
+    Cloud cloud = detail::meshCloud(mesh, g, stats);
+    if (stats) stats->objBytes = bytes;
+    return cloud;
+}
+
+Cloud detail::meshCloud(const ObjMesh& mesh, const Generator& g, GenerateStats* stats) {
     const glm::dmat3 M = rotationFromDegrees(g.rotationDeg);
     std::vector<Vec3> v(mesh.vertices.size());
     for (size_t i = 0; i < v.size(); ++i) v[i] = g.position + g.scale * (M * mesh.vertices[i]);
@@ -262,7 +316,9 @@ Cloud generateMesh(const Generator& g, GenerateStats* stats) {
         // major * minor = |f1 x f2| (conjugate semi-diameters); this product keeps the minor
         // axis accurate for slivers, where mean - dev would cancel.
         const double major = std::sqrt(mean + dev), minor = major > 0 ? glm::length(glm::cross(f1, f2)) / major : 0.0;
-        if (!(major > 0) || !(minor > 1e-9 * major) || !(normalLength > 0)) {
+        const double smallest = limits::kSmallestRadius.value;  // thinner is no matter worth drawing
+        if (!(major > 0) || !(minor > 1e-9 * major) || !(normalLength > 0) || !(minor >= smallest) ||
+            !(g.thicknessRatio * minor >= smallest)) {
             ++degenerate;
             continue;
         }
@@ -299,7 +355,7 @@ Cloud generateMesh(const Generator& g, GenerateStats* stats) {
 
 namespace {
 
-std::string rewrite(const Generator& g) {
+std::string rewrite(const Generator& g, std::size_t maxSymbols) {
     std::string rule[256];
     bool hasRule[256] = {};
     for (const auto& [symbol, replacement] : g.rules) {
@@ -312,10 +368,12 @@ std::string rewrite(const Generator& g) {
         for (char c : s) {
             const unsigned char u = static_cast<unsigned char>(c);
             length += hasRule[u] ? rule[u].size() : 1;
-            if (length > kMaxLSystemSymbols)
+            if (length > maxSymbols)
                 throw std::length_error("rewriting " + std::to_string(it + 1) + " of " + std::to_string(g.iterations) +
-                                        " gives more than " + std::to_string(kMaxLSystemSymbols) +
-                                        " symbols; use fewer iterations or shorter rules");
+                                        " gives more than " + std::to_string(maxSymbols) + " symbols" +
+                                        (maxSymbols < kMaxLSystemSymbols ? " (what the scene's other L-systems left)" : "") +
+                                        ", over the limit " + limitText(limits::kLSystemSymbols) +
+                                        "; use fewer iterations or shorter rules");
         }
         std::string next;
         next.reserve(length);
@@ -340,12 +398,12 @@ void turn(Vec3& a, Vec3& b, double angle) {
 
 }  // namespace
 
-Cloud generateLSystem(const Generator& g, GenerateStats* stats) {
-    const std::string s = rewrite(g);
+Cloud generateLSystem(const Generator& g, GenerateStats* stats, std::size_t maxSymbols) {
+    const std::string s = rewrite(g, std::min(maxSymbols, kMaxLSystemSymbols));
     const size_t spheres = static_cast<size_t>(std::count(s.begin(), s.end(), 'F'));
     if (spheres > kMaxLSystemSpheres)
-        throw std::length_error("the rewritten string places " + std::to_string(spheres) + " spheres, more than " +
-                                std::to_string(kMaxLSystemSpheres) + "; use fewer iterations or shorter rules");
+        throw std::length_error("the rewritten string places " + std::to_string(spheres) + " spheres, over the limit " +
+                                limitText(limits::kEllipsoidsPerEntry) + "; use fewer iterations or shorter rules");
     struct Turtle {
         Vec3 position;
         Vec3 heading{1, 0, 0}, left{0, 1, 0}, up{0, 0, 1};  // heading x left = up
@@ -378,7 +436,12 @@ Cloud generateLSystem(const Generator& g, GenerateStats* stats) {
         case '\\': turn(t.left, t.up, angle); break;        // roll left about heading
         case '/': turn(t.left, t.up, -angle); break;        // roll right
         case '|': turn(t.heading, t.left, kPi); break;      // turn around
-        case '[': stack.push_back(t); break;
+        case '[':
+            if (double(stack.size()) >= limits::kLSystemDepth.value)
+                throw std::length_error("the rewritten string nests '[' deeper than the limit " +
+                                        limitText(limits::kLSystemDepth));
+            stack.push_back(t);
+            break;
         case ']':
             if (!stack.empty()) {
                 t = stack.back();
@@ -393,30 +456,94 @@ Cloud generateLSystem(const Generator& g, GenerateStats* stats) {
         stats->name = g.name;
         stats->placed = static_cast<int>(cloud.ellipsoids.size());
         stats->kept = stats->placed;
+        stats->symbols = static_cast<std::int64_t>(s.size());
     }
     return cloud;
 }
 
 // ---------------------------------------------------------------- scene
 
+namespace {
+
+std::string numberText(double v) {
+    char buf[64];
+    return std::string(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
+}
+std::string vectorText(const Vec3& v) {
+    return "[" + numberText(v.x) + ", " + numberText(v.y) + ", " + numberText(v.z) + "]";
+}
+
+// A generated cloud keeps the limits an explicit one is held to on load (scene.cpp).
+void checkGenerated(const Cloud& cloud, const Medium& medium, const std::string& file, const std::string& at) {
+    using namespace limits;
+    for (size_t k = 0; k < cloud.ellipsoids.size(); ++k) {
+        const Ellipsoid& e = cloud.ellipsoids[k];
+        auto fail = [&](const std::string& what) {
+            throw SceneError(file, at, "makes ellipsoid " + std::to_string(k) + " (centre " + vectorText(e.center) +
+                                           " m, radii " + vectorText(e.radii) + " m) " + what);
+        };
+        for (int a = 0; a < 3; ++a) {
+            if (!withinLimit(std::abs(e.center[a]), kCoordinate)) fail("beyond the limit " + limitText(kCoordinate));
+            if (!withinLimit(e.radii[a], kEllipsoidRadius)) fail("with a radius over the limit " + limitText(kEllipsoidRadius));
+            if (!withinLimit(e.radii[a], kSmallestRadius)) fail("with a radius under the limit " + limitText(kSmallestRadius));
+        }
+        const double tau = medium.extinction * e.density * (16.0 / 15.0) * std::max({e.radii.x, e.radii.y, e.radii.z});
+        if (!withinLimit(tau, kOpticalDepth))
+            fail("with an optical depth of " + numberText(tau) + ", over the limit " + limitText(kOpticalDepth));
+    }
+}
+
+// Expands one generator within what the scene has left of its budgets.
+Cloud expandOne(const Generator& g, std::size_t room, std::size_t symbolsLeft, GenerateStats& stats,
+                const std::string& file, const std::string& at) {
+    const std::string over = ", over the limit " + limitText(limits::kEllipsoids) + " with the scene's other ellipsoids";
+    try {
+        switch (g.type) {
+        case Generator::Type::Cumulus:
+            if (std::size_t(g.count) > room)
+                throw SceneError(file, at + ".count", "places " + std::to_string(g.count) + " ellipsoids; the scene has room for " +
+                                                          std::to_string(room) + " more" + over);
+            return generateCumulus(g, &stats);
+        case Generator::Type::Mesh: return generateMesh(g, &stats);
+        case Generator::Type::LSystem: return generateLSystem(g, &stats, symbolsLeft);
+        }
+    } catch (const ObjError& e) {
+        throw SceneError(file, at + ".path", e.what());
+    } catch (const std::length_error& e) {
+        throw SceneError(file, at, e.what());
+    }
+    return {};
+}
+
+}  // namespace
+
 std::vector<GenerateStats> expandGenerators(Scene& scene) {
+    std::size_t ellipsoids = 0, symbols = 0;
+    std::uint64_t objBytes = 0;
+    for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
+    for (const GenerateStats& s : scene.generated) symbols += std::size_t(s.symbols), objBytes += s.objBytes;
     std::vector<GenerateStats> result;
     for (size_t i = scene.generated.size(); i < scene.generators.size(); ++i) {
-        const Generator& g = scene.generators[i];
         const std::string at = "generate[" + std::to_string(i) + "]";
+        if (double(scene.clouds.size()) + 1 > limits::kClouds.value)
+            throw SceneError(scene.file, at, "makes cloud " + std::to_string(scene.clouds.size() + 1) +
+                                                 ", over the limit " + limitText(limits::kClouds));
+        const std::size_t room = std::size_t(limits::kEllipsoids.value) - std::min(ellipsoids, std::size_t(limits::kEllipsoids.value));
         GenerateStats stats;
-        Cloud cloud;
-        try {
-            switch (g.type) {
-            case Generator::Type::Cumulus: cloud = generateCumulus(g, &stats); break;
-            case Generator::Type::Mesh: cloud = generateMesh(g, &stats); break;
-            case Generator::Type::LSystem: cloud = generateLSystem(g, &stats); break;
-            }
-        } catch (const ObjError& e) {
-            throw SceneError(scene.file, at + ".path", e.what());
-        } catch (const std::length_error& e) {
-            throw SceneError(scene.file, at, e.what());
-        }
+        Cloud cloud = expandOne(scene.generators[i], room, std::size_t(limits::kLSystemSymbols.value) - symbols, stats,
+                                scene.file, at);
+        if (cloud.ellipsoids.size() > room)
+            throw SceneError(scene.file, at, "makes " + std::to_string(cloud.ellipsoids.size()) +
+                                                 " ellipsoids; the scene has room for " + std::to_string(room) +
+                                                 " more, over the limit " + limitText(limits::kEllipsoids) +
+                                                 " with the scene's other ellipsoids");
+        objBytes += stats.objBytes;
+        if (double(objBytes) > limits::kObjBytesPerScene.value)
+            throw SceneError(scene.file, at + ".path", "brings the OBJ data read to " + std::to_string(objBytes) +
+                                                           " bytes, over the limit " + limitText(limits::kObjBytesPerScene));
+        checkGenerated(cloud, scene.medium, scene.file, at);
+        ellipsoids += cloud.ellipsoids.size();
+        symbols += std::size_t(stats.symbols);
         scene.clouds.push_back(std::move(cloud));
         scene.generated.push_back(stats);
         result.push_back(stats);

@@ -1,5 +1,7 @@
 #include "nephele/gl.hpp"
 
+#include "nephele/resources.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -78,6 +80,62 @@ double PartTimer::lap() {
     const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
     last_ = now;
     return ms;
+}
+
+void checkAllocation(const std::string& what, std::uint64_t bytes) {
+    const GLenum first = glGetError();
+    if (first == GL_NO_ERROR) return;
+    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {
+    }
+    if (first == GL_OUT_OF_MEMORY)
+        throw GlError(what + ": the driver could not allocate " + formatBytes(bytes) +
+                      " (GL_OUT_OF_MEMORY); lower the image size or the setting that sizes it");
+    throw GlError(what + " (" + formatBytes(bytes) + "): " + errorName(first));
+}
+
+std::string framebufferStatusName(GLenum status) {
+    const char* name = "unknown status";
+    switch (status) {
+        case GL_FRAMEBUFFER_COMPLETE: name = "GL_FRAMEBUFFER_COMPLETE"; break;
+        case GL_FRAMEBUFFER_UNDEFINED: name = "GL_FRAMEBUFFER_UNDEFINED"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT: name = "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT: name = "GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER: name = "GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER: name = "GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER"; break;
+        case GL_FRAMEBUFFER_UNSUPPORTED: name = "GL_FRAMEBUFFER_UNSUPPORTED"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE: name = "GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE"; break;
+        case GL_FRAMEBUFFER_INCOMPLETE_LAYER_TARGETS: name = "GL_FRAMEBUFFER_INCOMPLETE_LAYER_TARGETS"; break;
+        case 0: name = "glCheckFramebufferStatus failed"; break;
+    }
+    char hex[16];
+    std::snprintf(hex, sizeof hex, "0x%04X", unsigned(status));
+    return std::string(name) + " (" + hex + ")";
+}
+
+void checkFramebuffer(GLuint framebuffer, const std::string& what) {
+    const GLenum status = glCheckNamedFramebufferStatus(framebuffer, GL_FRAMEBUFFER);
+    if (status == GL_FRAMEBUFFER_COMPLETE) return;
+    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {  // drained: the next check starts clean
+    }
+    throw GlError(what + ": framebuffer incomplete: " + framebufferStatusName(status) +
+                  (status == GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT ? " (the driver could not hold an attachment: lower the size)"
+                                                                  : ""));
+}
+
+void checkTextureSize(const std::string& what, int width, int height, int depth, int layers) {
+    GLint max = 0;
+    glGetIntegerv(depth > 0 ? GL_MAX_3D_TEXTURE_SIZE : GL_MAX_TEXTURE_SIZE, &max);
+    const int largest = std::max({width, height, depth});
+    std::string size = std::to_string(width) + "x" + std::to_string(height) + (depth > 0 ? "x" + std::to_string(depth) : "");
+    if (std::min(width, height) < 1 || largest > max)
+        throw GlError(what + ": a texture of " + size + " texels is outside this driver's " +
+                      (depth > 0 ? "GL_MAX_3D_TEXTURE_SIZE " : "GL_MAX_TEXTURE_SIZE ") + std::to_string(max));
+    if (layers > 0) {
+        glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max);
+        if (layers > max)
+            throw GlError(what + ": " + std::to_string(layers) + " layers are over this driver's GL_MAX_ARRAY_TEXTURE_LAYERS " +
+                          std::to_string(max));
+    }
 }
 
 namespace kind {

@@ -1,8 +1,15 @@
 #include "nephele/image.hpp"
 
+#include "nephele/limits.hpp"
+
+#include "input_file.hpp"
+
 #include <png.h>
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cstdint>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -40,7 +47,13 @@ void checkShape(const Image& image, const std::string& path) {
     auto* where = static_cast<std::string*>(png_get_error_ptr(png));
     throw ImageError(*where + ": " + message);
 }
-void pngWarning(png_structp, png_const_charp) {}
+// libpng reports a size over png_set_user_limits as a warning before a vaguer "Invalid IHDR
+// data": that warning is the error.
+void pngWarning(png_structp png, png_const_charp message) {
+    if (std::string(message).find("exceeds user limit") == std::string::npos) return;
+    auto* where = static_cast<std::string*>(png_get_error_ptr(png));
+    throw ImageError(*where + ": " + message + ", over the limit " + limitText(limits::kImageSide));
+}
 
 }  // namespace
 
@@ -83,8 +96,36 @@ void writePng(const std::string& path, const Image& image, Encoding encoding) {
     if (std::fflush(file.get()) != 0) throw ImageError(path + ": write failed: " + std::strerror(errno));
 }
 
+namespace {
+
+// What `bytes` of a file can hold: zlib's deflate expands at most 1032:1, so a PNG whose rows
+// need more than that is cut short (or a bomb aimed at the reader's memory); checked before
+// the image is allocated. A margin for the PNG's own headers keeps small files readable.
+bool fitsIn(std::uint64_t rawBytes, std::uint64_t fileBytes) { return rawBytes <= (fileBytes + 1024) * 1032; }
+
+// Checks a claimed image size against the limits and the file's size before allocating it.
+void checkClaimedSize(const std::string& path, std::uint64_t w, std::uint64_t h, std::uint64_t rawBytes,
+                      std::uint64_t fileBytes, bool compressed) {
+    const std::string size = std::to_string(w) + "x" + std::to_string(h);
+    if (double(w) > limits::kImageSide.value || double(h) > limits::kImageSide.value)
+        throw ImageError(path + ": claims " + size + " pixels, over the limit " + limitText(limits::kImageSide));
+    if (double(w) * double(h) > limits::kImagePixels.value)
+        throw ImageError(path + ": claims " + size + " pixels, over the limit " + limitText(limits::kImagePixels));
+    if (compressed ? !fitsIn(rawBytes, fileBytes) : rawBytes > fileBytes)
+        throw ImageError(path + ": claims " + size + " pixels, more than its " + std::to_string(fileBytes) +
+                         " bytes can hold (truncated or corrupt)");
+}
+
+detail::OpenedFile openImage(const std::string& path) {
+    detail::OpenedFile f = detail::openRegularFile(path, limits::kImageFileBytes);
+    if (!f.file) throw ImageError(path + ": " + f.fault);
+    return f;
+}
+
+}  // namespace
+
 Image readPng(const std::string& path) {
-    FilePtr file = openFile(path, "rb");
+    detail::OpenedFile file = openImage(path);
     std::string where = path;
     png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &where, pngError, pngWarning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
@@ -94,20 +135,28 @@ Image readPng(const std::string& path) {
     }
     Image image;
     try {
-        png_init_io(png, file.get());
+        png_init_io(png, file.file.get());
+        // libpng's own guards: the IHDR size, and ancillary chunks (text, ICC) that inflate.
+        png_set_user_limits(png, png_uint_32(limits::kImageSide.value), png_uint_32(limits::kImageSide.value));
+        png_set_chunk_malloc_max(png, 8 << 20);
+        png_set_chunk_cache_max(png, 1000);
         png_read_info(png, info);
         png_set_expand(png);
         png_set_strip_16(png);
         png_set_packing(png);
+        png_set_interlace_handling(png);  // Adam7: libpng merges the passes into whole rows
         png_read_update_info(png, info);
-        image = Image(int(png_get_image_width(png, info)), int(png_get_image_height(png, info)),
-                      int(png_get_channels(png, info)));
-        std::vector<png_byte> row(png_get_rowbytes(png, info));
-        for (int y = 0; y < image.height; ++y) {
-            png_read_row(png, row.data(), nullptr);
-            for (int i = 0; i < image.width * image.channels; ++i)
-                image.pixels[std::size_t(y) * image.width * image.channels + i] = row[i] / 255.0f;
-        }
+        const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+        const std::size_t rowBytes = png_get_rowbytes(png, info);
+        checkClaimedSize(path, w, h, std::uint64_t(rowBytes + 1) * h, file.size, true);
+        image = Image(int(w), int(h), int(png_get_channels(png, info)));
+        std::vector<png_byte> bytes(rowBytes * h);
+        std::vector<png_bytep> rows(h);
+        for (png_uint_32 y = 0; y < h; ++y) rows[y] = bytes.data() + rowBytes * y;
+        png_read_image(png, rows.data());
+        const std::size_t rowValues = std::size_t(image.width) * image.channels;
+        for (png_uint_32 y = 0; y < h; ++y)
+            for (std::size_t i = 0; i < rowValues; ++i) image.pixels[y * rowValues + i] = rows[y][i] / 255.0f;
     } catch (...) {
         png_destroy_read_struct(&png, &info, nullptr);
         throw;
@@ -130,18 +179,32 @@ void writePfm(const std::string& path, const Image& image) {
 }
 
 Image readPfm(const std::string& path) {
-    FilePtr file = openFile(path, "rb");
-    char kind[3] = {};
-    int w = 0, h = 0;
+    detail::OpenedFile file = openImage(path);
+    // The header: "PF" or "Pf", width, height, scale, each followed by one whitespace byte.
+    std::string words[4];
+    for (std::string& w : words) {
+        int c = std::fgetc(file.file.get());
+        while (c != EOF && std::isspace(c)) c = std::fgetc(file.file.get());
+        while (c != EOF && !std::isspace(c) && w.size() < 32) w += char(c), c = std::fgetc(file.file.get());
+        if (c == EOF || w.empty() || w.size() >= 32) throw ImageError(path + ": not a PFM file");
+    }
+    auto number = [&](const std::string& s, auto& v) {
+        const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+        if (r.ec != std::errc() || r.ptr != s.data() + s.size()) throw ImageError(path + ": not a PFM file");
+    };
+    long long w = 0, h = 0;
     double scale = 0;
-    if (std::fscanf(file.get(), "%2s %d %d %lf", kind, &w, &h, &scale) != 4 || std::fgetc(file.get()) == EOF)
-        throw ImageError(path + ": not a PFM file");
-    const int c = std::strcmp(kind, "PF") == 0 ? 3 : std::strcmp(kind, "Pf") == 0 ? 1 : 0;
-    if (c == 0 || w <= 0 || h <= 0 || scale >= 0) throw ImageError(path + ": unsupported PFM header (need little-endian PF or Pf)");
-    Image image(w, h, c);
+    number(words[1], w), number(words[2], h), number(words[3], scale);
+    const int c = words[0] == "PF" ? 3 : words[0] == "Pf" ? 1 : 0;
+    if (c == 0 || w <= 0 || h <= 0 || !(scale < 0))
+        throw ImageError(path + ": unsupported PFM header (need little-endian PF or Pf)");
+    const std::uint64_t header = std::uint64_t(std::ftell(file.file.get()));
+    checkClaimedSize(path, std::uint64_t(w), std::uint64_t(h), header + std::uint64_t(w) * h * c * sizeof(float),
+                     file.size, false);
+    Image image(int(w), int(h), c);
     const std::size_t row = std::size_t(w) * c;
-    for (int y = h - 1; y >= 0; --y)
-        if (std::fread(image.pixels.data() + y * row, sizeof(float), row, file.get()) != row)
+    for (long long y = h - 1; y >= 0; --y)
+        if (std::fread(image.pixels.data() + y * row, sizeof(float), row, file.file.get()) != row)
             throw ImageError(path + ": truncated PFM data");
     return image;
 }

@@ -13,21 +13,25 @@ namespace nephele {
 using namespace gl;
 
 FrameTarget::FrameTarget(int width, int height) : width_(width), height_(height) {
-    GLint maxSize = 0;
-    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
-    if (width < 1 || height < 1 || width > maxSize || height > maxSize)
-        throw GlError("frame of " + std::to_string(width) + "x" + std::to_string(height) +
-                      " pixels is outside this driver's 1.." + std::to_string(maxSize));
+    const std::string what = "the " + std::to_string(width) + "x" + std::to_string(height) + " frame";
+    checkTextureSize(what, width, height);
+    GLint maxWidth = 0, maxHeight = 0;
+    glGetIntegerv(GL_MAX_FRAMEBUFFER_WIDTH, &maxWidth);
+    glGetIntegerv(GL_MAX_FRAMEBUFFER_HEIGHT, &maxHeight);
+    if (width > maxWidth || height > maxHeight)
+        throw GlError(what + " is over this driver's GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT " + std::to_string(maxWidth) + "x" +
+                      std::to_string(maxHeight));
+    const std::uint64_t pixels = std::uint64_t(width) * std::uint64_t(height);
     color_ = Texture::create(GL_TEXTURE_2D);
     glTextureStorage2D(color_.id(), 1, GL_RGBA32F, width, height);
+    checkAllocation(what + "'s RGBA32F colour", pixels * 16);
     depth_ = Texture::create(GL_TEXTURE_2D);
     glTextureStorage2D(depth_.id(), 1, GL_DEPTH24_STENCIL8, width, height);
+    checkAllocation(what + "'s depth", pixels * 4);
     fbo_ = Framebuffer::create();
     glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
     glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_STENCIL_ATTACHMENT, depth_.id(), 0);
-    const GLenum status = glCheckNamedFramebufferStatus(fbo_.id(), GL_FRAMEBUFFER);
-    if (status != GL_FRAMEBUFFER_COMPLETE)
-        throw GlError("frame target: framebuffer incomplete (status 0x" + std::to_string(status) + ")");
+    checkFramebuffer(fbo_.id(), what);
     checkAlways("creating the frame target");
 }
 

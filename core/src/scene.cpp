@@ -6,6 +6,9 @@
 #include "nephele/scene.hpp"
 
 #include "nephele/generate.hpp"
+#include "nephele/limits.hpp"
+
+#include "input_file.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -49,7 +52,24 @@ struct Invalid {
 
 [[noreturn]] void fail(Path path, std::string fault) { throw Invalid{std::move(path), std::move(fault)}; }
 
-Path member(const Path& path, std::string_view key) { return path.empty() ? Path(key) : path + "." + std::string(key); }
+// A key or string as a message shows it: control characters escaped, at most `max` characters.
+std::string printable(std::string_view s, std::size_t max = 256) {
+    std::string out;
+    for (const char c : s.substr(0, max)) {
+        if (static_cast<unsigned char>(c) >= 0x20 && c != 0x7f) {
+            out += c;
+            continue;
+        }
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned char>(c));
+        out += buf;
+    }
+    return s.size() > max ? out + "..." : out;
+}
+
+Path member(const Path& path, std::string_view key) {
+    return path.empty() ? printable(key, 64) : path + "." + printable(key, 64);
+}
 Path element(const Path& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
 
 // Shortest text that reads back as the same double: "-3", "0.1", "100000", "1e+20".
@@ -60,7 +80,7 @@ std::string str(double v) {
                            : std::to_chars(buf, buf + sizeof buf, v).ptr;
     return std::string(buf, end);
 }
-std::string inQuotes(std::string_view s) { return "'" + std::string(s) + "'"; }
+std::string inQuotes(std::string_view s) { return "'" + printable(s) + "'"; }
 
 // What was found, for "expected X, got Y".
 std::string describe(const json& j) {
@@ -75,72 +95,7 @@ std::string describe(const json& j) {
     return j.type_name();  // "null"
 }
 
-// ---------------------------------------------------------------- file access
-
-struct FileCloser {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-};
-
-// Reads `file` into *text (or, with text == nullptr, only checks that it can be read).
-// Returns the fault, e.g. "cannot open: No such file or directory"; `label` goes after the verb.
-std::optional<std::string> readFile(const std::string& file, std::string* text, const std::string& label = "") {
-    const std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "rb"));
-    if (!f) return "cannot open" + label + ": " + std::strerror(errno);
-    char buf[1 << 16];
-    size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, f.get())) > 0 && text) text->append(buf, n);
-    if (std::ferror(f.get())) return "cannot read" + label + ": " + std::strerror(errno);
-    return std::nullopt;
-}
-
 // ---------------------------------------------------------------- JSON text
-
-// Follows the parser's events to know the JSON path of the value being parsed, and
-// rejects duplicate keys (nlohmann would silently keep the last one).
-class PathTracker {
-public:
-    bool operator()(json::parse_event_t event, const json& parsed) {
-        using E = json::parse_event_t;
-        switch (event) {
-        case E::object_start:
-        case E::array_start:
-            stack_.push_back(Frame{event == E::array_start, here(), "", 0, {}});
-            break;
-        case E::key: {
-            Frame& f = stack_.back();
-            f.key = parsed.get<std::string>();
-            if (!f.key.starts_with('_') && !f.keys.insert(f.key).second)
-                fail(here(), "duplicate key " + inQuotes(f.key));
-            break;
-        }
-        case E::object_end:
-        case E::array_end:
-            stack_.pop_back();
-            [[fallthrough]];
-        case E::value:  // one more element of the enclosing array is complete
-            if (!stack_.empty() && stack_.back().array) ++stack_.back().index;
-            break;
-        }
-        return true;  // keep everything
-    }
-
-    // The path of the value being parsed now.
-    Path here() const {
-        if (stack_.empty()) return "";
-        const Frame& f = stack_.back();
-        return f.array ? element(f.path, f.index) : f.key.empty() ? f.path : member(f.path, f.key);
-    }
-
-private:
-    struct Frame {
-        bool array = false;
-        Path path;
-        std::string key;                       // object: the current key
-        size_t index = 0;                      // array: elements completed so far
-        std::unordered_set<std::string> keys;  // object: keys seen so far
-    };
-    std::vector<Frame> stack_;
-};
 
 // nlohmann's "[json.exception.parse_error.101] parse error at line 3, column 5: syntax error
 // while parsing object key - invalid literal; ..." becomes
@@ -153,30 +108,132 @@ std::string syntaxFault(const std::string& what) {
     if (const size_t dash = detail.find(" - ");
         detail.starts_with("syntax error while parsing") && dash != std::string::npos)
         detail = detail.substr(dash + 3);
+    if (detail.size() > 200) detail = detail.substr(0, 200) + "...";  // "last read" may hold a whole long token
     return "syntax error " + s.substr(at, colon - at) + ": " + detail;
 }
 
-json parseJson(const std::string& text) {
-    if (text.find_first_not_of(" \t\r\n") == std::string::npos) fail("", "the file is empty");
-    PathTracker tracker;
-    try {
-        return json::parse(text, [&](int, json::parse_event_t e, json& v) { return tracker(e, v); });
-    } catch (const json::parse_error& e) {
-        fail("", syntaxFault(e.what()));
-    } catch (const json::out_of_range& e) {  // e.g. 1e400, which overflows a double to inf
-        const std::string what = e.what();
-        fail(tracker.here(), "not a finite number (" + what.substr(what.find("] ") + 2) + ")");
+// Builds the document from the parser's SAX events, in time and memory linear in the text:
+// it knows the JSON path of the value being parsed (a stack of one key or index per level,
+// turned into text only for a message), rejects duplicate keys (nlohmann would silently keep
+// the last one), nesting deeper than the limit and more values than the limit, and does not
+// keep comments (values of keys that begin with '_'), which nothing reads. (nlohmann's callback
+// parser, used before, rescanned the parent container at every object's end: quadratic in an
+// array's length.)
+class DocumentBuilder {
+public:
+    explicit DocumentBuilder(json& root) : root_(root) {}
+
+    bool null() { return put(nullptr); }
+    bool boolean(bool v) { return put(v); }
+    bool number_integer(json::number_integer_t v) { return put(v); }
+    bool number_unsigned(json::number_unsigned_t v) { return put(v); }
+    bool number_float(json::number_float_t v, const json::string_t&) { return put(v); }
+    bool string(json::string_t& v) { return put(std::move(v)); }
+    bool binary(json::binary_t&) { fail(here(), "binary values are not JSON text"); }
+    bool start_object(std::size_t) { return open(json::value_t::object); }
+    bool start_array(std::size_t) { return open(json::value_t::array); }
+    bool end_object() { return close(); }
+    bool end_array() { return close(); }
+    bool key(json::string_t& k) {
+        if (discarded_ > 0) return true;
+        Level& l = levels_.back();
+        comment_ = k.starts_with('_');
+        const bool duplicate = !comment_ && l.node->contains(k);
+        l.key = std::move(k);
+        if (duplicate) fail(here(), "duplicate key " + inQuotes(l.key));
+        return true;
     }
+    bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) {
+        const std::string what = e.what();
+        if (e.id == 406)  // out_of_range: a number such as 1e400 that overflows a double
+            fail(here(), "not a finite number (" + what.substr(what.find("] ") + 2) + ")");
+        fail("", syntaxFault(what));
+    }
+
+    // The path of the value being parsed now: an enclosing array's last element is the
+    // container being filled; the innermost array's next element is the value being parsed.
+    Path here() const {
+        Path p;
+        for (size_t i = 0; i < levels_.size(); ++i) {
+            const Level& l = levels_[i];
+            const size_t next = l.node->size() - (i + 1 < levels_.size() ? 1 : 0);
+            p = l.node->is_array() ? element(p, next) : l.key.empty() ? p : member(p, l.key);
+        }
+        return p;
+    }
+
+private:
+    struct Level {
+        json* node;       // the object or array being filled
+        std::string key;  // object: the key of the value being parsed
+    };
+
+    // Stores v where the parser is (the root, the next element, or the value of the current
+    // key) and returns it; null for a comment's value.
+    json* place(json&& v) {
+        if (discarded_ > 0 || std::exchange(comment_, false)) return nullptr;
+        if (double(++values_) > limits::kJsonValues.value)
+            fail(here(), "the document holds more values than the limit " + limitText(limits::kJsonValues));
+        if (levels_.empty()) {
+            root_ = std::move(v);
+            return &root_;
+        }
+        Level& l = levels_.back();
+        if (l.node->is_array()) {
+            auto& array = l.node->get_ref<json::array_t&>();
+            array.push_back(std::move(v));
+            return &array.back();
+        }
+        json& slot = (*l.node)[l.key];
+        slot = std::move(v);
+        return &slot;
+    }
+    template <class T>
+    bool put(T&& v) {
+        place(json(std::forward<T>(v)));
+        return true;
+    }
+    bool open(json::value_t type) {
+        if (double(levels_.size() + discarded_) >= limits::kNestingDepth.value)
+            fail(here(), "nested deeper than the limit " + limitText(limits::kNestingDepth));
+        if (json* node = place(json(type))) levels_.push_back({node, {}});
+        else ++discarded_;  // a comment's object or array: skipped to its end
+        return true;
+    }
+    bool close() {
+        if (discarded_ > 0) --discarded_;
+        else levels_.pop_back();
+        return true;
+    }
+
+    json& root_;
+    std::vector<Level> levels_;
+    std::size_t discarded_ = 0;  // open containers inside a comment
+    bool comment_ = false;       // the next value is a comment's
+    std::size_t values_ = 0;
+};
+
+json parseJson(const std::string& text) {
+    if (auto fault = detail::nulByteFault(text)) fail("", *fault);  // nlohmann would stop at a NUL
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos) fail("", "the file is empty");
+    json root;
+    DocumentBuilder builder(root);
+    json::sax_parse(text, &builder);
+    return root;
 }
 
 // ---------------------------------------------------------------- typed readers
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// An interval of accepted numbers; ends are open or closed.
+// An interval of accepted numbers (the format's rule; ends are open or closed), and the
+// project's limits on top of it (nephele/limits.hpp), reported as limits when hit.
 struct Range {
     double lo = -kInf, hi = kInf;
     bool loOpen = false, hiOpen = false;
+    const Limit* upper = nullptr;  // a Limit on the largest value (on |v| with `magnitude`)
+    const Limit* lower = nullptr;  // a minimum Limit
+    bool magnitude = false;
 
     bool contains(double v) const { return (loOpen ? v > lo : v >= lo) && (hiOpen ? v < hi : v <= hi); }
     std::string text() const {
@@ -190,20 +247,42 @@ constexpr Range above(double lo) { return {lo, kInf, true, false}; }
 constexpr Range inclusive(double lo, double hi) { return {lo, hi, false, false}; }
 constexpr Range exclusive(double lo, double hi) { return {lo, hi, true, true}; }
 constexpr Range halfOpen(double lo, double hi) { return {lo, hi, false, true}; }  // [lo, hi)
+constexpr Range capped(Range r, const Limit& limit) {
+    (limit.minimum ? r.lower : r.upper) = &limit;
+    return r;
+}
+constexpr Range coordinate() { return {-kInf, kInf, false, false, &limits::kCoordinate, nullptr, true}; }  // m
+constexpr Range timeOfDay() { return {-kInf, kInf, false, false, &limits::kTime, nullptr, true}; }        // s
+
+// Rejects v past `limit` ("2e+06 is over the limit 'ellipsoid radius' (100000 m)").
+void checkLimit(double v, const Path& p, const Limit& limit, bool magnitude = false) {
+    if (withinLimit(magnitude ? std::abs(v) : v, limit)) return;
+    fail(p, (magnitude ? "|" + str(v) + "|" : str(v)) + " is " + (limit.minimum ? "under" : "over") + " the limit " +
+                limitText(limit));
+}
+// Rejects a count past `limit` ("has 9 elements, over the limit 'layers' (8)").
+void checkCount(std::size_t n, const Path& p, const Limit& limit, const std::string& what = "elements") {
+    if (double(n) > limit.value)
+        fail(p, "has " + std::to_string(n) + " " + what + ", over the limit " + limitText(limit));
+}
 
 double readNumber(const json& j, const Path& p, Range r = {}) {
     if (!j.is_number()) fail(p, "expected a number, got " + describe(j));
     const double v = j.get<double>();
     if (!std::isfinite(v)) fail(p, "must be finite, got " + str(v));
     if (!r.contains(v)) fail(p, "must be " + r.text() + ", got " + str(v));
+    if (r.upper) checkLimit(v, p, *r.upper, r.magnitude);
+    if (r.lower) checkLimit(v, p, *r.lower);
     return v;
 }
 
-// An integer in lo..hi; a JSON float with an integral value (640.0) is accepted.
-long long readInteger(const json& j, const Path& p, long long lo, long long hi) {
+// An integer in lo..hi; a JSON float with an integral value (640.0) is accepted. With `limit`,
+// hi is that limit, and a value over it is reported as over the limit.
+long long readInteger(const json& j, const Path& p, long long lo, long long hi, const Limit* limit = nullptr) {
     if (!j.is_number()) fail(p, "expected an integer, got " + describe(j));
     const double v = j.get<double>();  // exact for every range used here (|v| < 2^53)
     if (!std::isfinite(v) || v != std::floor(v)) fail(p, "expected an integer, got " + str(v));
+    if (limit && v > static_cast<double>(hi)) checkLimit(v, p, *limit);
     if (v < static_cast<double>(lo) || v > static_cast<double>(hi))
         fail(p, "must be in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + str(v));
     return static_cast<long long>(v);
@@ -231,8 +310,8 @@ Vec3 unit(const Vec3& v, const Path& p, const std::string& zeroFault) {
 auto number(Range r = {}) {
     return [r](const json& j, const Path& p) { return readNumber(j, p, r); };
 }
-auto integer(long long lo, long long hi) {
-    return [lo, hi](const json& j, const Path& p) { return readInteger(j, p, lo, hi); };
+auto integer(long long lo, long long hi, const Limit* limit = nullptr) {
+    return [lo, hi, limit](const json& j, const Path& p) { return readInteger(j, p, lo, hi, limit); };
 }
 auto seed() { return integer(0, std::numeric_limits<std::uint32_t>::max()); }
 auto vec2() {
@@ -241,7 +320,8 @@ auto vec2() {
 auto vec3(Range r = {}) {
     return [r](const json& j, const Path& p) { return readVec<3>(j, p, r); };
 }
-auto color() { return vec3(atLeast(0)); }  // linear RGB, each component >= 0
+auto color() { return vec3(capped(atLeast(0), limits::kColour)); }  // linear RGB, each component >= 0
+auto intensity() { return number(capped(atLeast(0), limits::kIntensity)); }
 auto direction() {                         // non-zero, normalised
     return [](const json& j, const Path& p) { return unit(readVec<3>(j, p), p, "must not be the zero vector"); };
 }
@@ -254,7 +334,9 @@ auto boolean() {
 auto text() {
     return [](const json& j, const Path& p) {
         if (!j.is_string()) fail(p, "expected a string, got " + describe(j));
-        return j.get<std::string>();
+        const std::string& s = j.get_ref<const std::string&>();
+        if (s.find('\0') != std::string::npos) fail(p, "must not contain a NUL character (\\u0000), got " + inQuotes(s));
+        return s;
     };
 }
 template <class E>
@@ -277,9 +359,10 @@ std::string_view nameOf(Choices<E> choices, E value) {
 
 // An array read element by element; `read` takes (json, path) or (json, path, index).
 template <class F>
-auto listOf(F read) {
-    return [read](const json& j, const Path& p) {
+auto listOf(F read, const Limit* limit = nullptr) {
+    return [read, limit](const json& j, const Path& p) {
         if (!j.is_array()) fail(p, "expected an array, got " + describe(j));
+        if (limit) checkCount(j.size(), p, *limit);
         auto one = [&](size_t i) {
             if constexpr (std::is_invocable_v<F, const json&, const Path&, size_t>)
                 return read(j[i], element(p, i), i);
@@ -287,6 +370,7 @@ auto listOf(F read) {
                 return read(j[i], element(p, i));
         };
         std::vector<decltype(one(0))> out;
+        out.reserve(j.size());
         for (size_t i = 0; i < j.size(); ++i) out.push_back(one(i));
         return out;
     };
@@ -395,13 +479,13 @@ private:
 Camera readCamera(const json& j, const Path& p) {
     Obj o(j, p);
     Camera c;
-    c.position = o.req("position", vec3());
+    c.position = o.req("position", vec3(coordinate()));
     const json* lookAt = o.find("look_at");
     const json* dir = o.find("direction");
     if (lookAt && dir) fail(p, "has both 'look_at' and 'direction'; give exactly one");
     if (!lookAt && !dir) o.missing({"look_at", "direction"}, p, "needs 'look_at' or 'direction'");
     c.direction =
-        lookAt ? unit(readVec<3>(*lookAt, o.at("look_at")) - c.position, o.at("look_at"), "must differ from position")
+        lookAt ? unit(readVec<3>(*lookAt, o.at("look_at"), coordinate()) - c.position, o.at("look_at"), "must differ from position")
                : direction()(*dir, o.at("direction"));
     const bool hasUp = o.opt("up", c.up, vec3());
     const Vec3 up = unit(c.up, o.at("up"), "must not be the zero vector");
@@ -409,11 +493,11 @@ Camera readCamera(const json& j, const Path& p) {
         fail(o.at("up"), hasUp ? "is parallel to the view direction"
                                : "the default up [0, 0, 1] is parallel to the view direction; give another 'up'");
     o.opt("fov_y_deg", c.fovYDeg, number(exclusive(1, 179)));
-    o.opt("near", c.nearClip, number(above(0)));  // m
-    o.opt("far", c.farClip, number(above(0)));    // m
+    o.opt("near", c.nearClip, number(capped(above(0), limits::kSmallestNear)));  // m
+    o.opt("far", c.farClip, number(capped(above(0), limits::kFarClip)));          // m
     if (c.nearClip >= c.farClip) fail(o.at("near"), "must be < far (" + str(c.farClip) + "), got " + str(c.nearClip));
-    o.opt("width", c.width, integer(1, 16384));  // pixels
-    o.opt("height", c.height, integer(1, 16384));
+    o.opt("width", c.width, integer(1, std::int64_t(limits::kImageSide.value)));  // pixels
+    o.opt("height", c.height, integer(1, std::int64_t(limits::kImageSide.value)));
     o.finish();
     return c;
 }
@@ -423,7 +507,7 @@ Sun readSun(const json& j, const Path& p) {
     Sun s;
     o.opt("direction", s.direction, direction());
     o.opt("color", s.color, color());
-    o.opt("intensity", s.intensity, number(atLeast(0)));
+    o.opt("intensity", s.intensity, intensity());
     o.finish();
     return s;
 }
@@ -441,31 +525,41 @@ Sky readSky(const json& j, const Path& p) {
 Medium readMedium(const json& j, const Path& p) {
     Obj o(j, p);
     Medium m;
-    o.opt("extinction", m.extinction, number(atLeast(0)));  // 1/m
+    o.opt("extinction", m.extinction, number(capped(atLeast(0), limits::kExtinction)));  // 1/m
     o.opt("albedo", m.albedo, number(inclusive(0, 1)));
     o.opt("hg_g", m.hgG, number(exclusive(-1, 1)));
-    o.opt("noise", m.noise, number(atLeast(0)));
-    o.opt("noise_scale", m.noiseScale, number(above(0)));  // m
+    o.opt("noise", m.noise, number(capped(atLeast(0), limits::kNoiseAmplitude)));
+    o.opt("noise_scale", m.noiseScale,
+          number(capped(capped(above(0), limits::kNoiseScale), limits::kSmallestNoiseScale)));  // m
     o.finish();
     return m;
 }
 
-Ellipsoid readEllipsoid(const json& j, const Path& p) {
+// The optical depth through the ellipsoid's centre along its longest axis (the largest it has).
+double largestOpticalDepth(const Ellipsoid& e, const Medium& m) {
+    return m.extinction * e.density * (16.0 / 15.0) * std::max({e.radii.x, e.radii.y, e.radii.z});
+}
+
+Ellipsoid readEllipsoid(const json& j, const Path& p, const Medium& medium) {
     Obj o(j, p);
     Ellipsoid e;
-    e.center = o.req("center", vec3());
-    e.radii = o.req("radii", vec3(above(0)));  // m
+    e.center = o.req("center", vec3(coordinate()));
+    e.radii = o.req("radii", vec3(capped(capped(above(0), limits::kEllipsoidRadius), limits::kSmallestRadius)));  // m
     o.opt("rotation_deg", e.rotationDeg, vec3());
     o.opt("density", e.density, number(atLeast(0)));
+    if (const double tau = largestOpticalDepth(e, medium); !withinLimit(tau, limits::kOpticalDepth))
+        fail(o.at("density"), "gives an optical depth of " + str(tau) + " along the longest axis (medium.extinction " +
+                                  str(medium.extinction) + " x density " + str(e.density) +
+                                  " x 16/15 x the largest radius), over the limit " + limitText(limits::kOpticalDepth));
     o.finish();
     return e;
 }
 
-Cloud readCloud(const json& j, const Path& p, size_t index) {
+Cloud readCloud(const json& j, const Path& p, size_t index, const Medium& medium) {
     Obj o(j, p);
     Cloud c{"cloud" + std::to_string(index), {}};
     o.opt("name", c.name, text());
-    c.ellipsoids = o.req("ellipsoids", listOf(readEllipsoid));
+    c.ellipsoids = o.req("ellipsoids", listOf([&](const json& e, const Path& at) { return readEllipsoid(e, at, medium); }));
     o.finish();
     return c;
 }
@@ -513,8 +607,8 @@ Generator readGenerator(const json& j, const Path& p, size_t index, const std::f
     o.opt("density", g.density, number(atLeast(0)));
     switch (g.type) {
     case T::Cumulus:
-        g.center = o.req("center", vec3());
-        o.opt("count", g.count, integer(1, 100000));
+        g.center = o.req("center", vec3(coordinate()));
+        o.opt("count", g.count, integer(1, std::int64_t(limits::kEllipsoidsPerEntry.value), &limits::kEllipsoidsPerEntry));
         o.opt("sigma", g.sigma, vec3(above(0)));  // m
         o.opt("clamp_lo", g.clampLo, vec3());     // in units of sigma
         o.opt("clamp_hi", g.clampHi, vec3());
@@ -522,29 +616,32 @@ Generator readGenerator(const json& j, const Path& p, size_t index, const std::f
             if (!(g.clampLo[k] < g.clampHi[k]))
                 fail(element(o.at("clamp_hi"), k), "must be > clamp_lo[" + std::to_string(k) + "] (" +
                                                        str(g.clampLo[k]) + "), got " + str(g.clampHi[k]));
-        o.opt("max_radius", g.maxRadius, number(above(0)));  // m
+        o.opt("max_radius", g.maxRadius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
         o.opt("aspect", g.aspect, vec3(above(0)));
         o.opt("hollow", g.hollow, boolean());
         o.opt("prune_contained", g.pruneContained, boolean());
         break;
     case T::Mesh:
         g.path = o.req("path", text());
+        if (g.path.empty()) fail(o.at("path"), "must not be empty");
         g.resolvedPath = (sceneDir / g.path).string();
-        if (auto fault = readFile(g.resolvedPath, nullptr, " " + inQuotes(g.resolvedPath))) fail(o.at("path"), *fault);
-        o.opt("position", g.position, vec3());  // m
+        if (auto opened = detail::openRegularFile(g.resolvedPath, limits::kObjFileBytes, inQuotes(g.resolvedPath));
+            !opened.file)
+            fail(o.at("path"), opened.fault);
+        o.opt("position", g.position, vec3(coordinate()));  // m
         o.opt("scale", g.scale, number(above(0)));
         o.opt("rotation_deg", g.rotationDeg, vec3());
         o.opt("thickness_ratio", g.thicknessRatio, number(above(0)));
         break;
     case T::LSystem:
-        g.center = o.req("center", vec3());
+        g.center = o.req("center", vec3(coordinate()));
         g.axiom = o.req("axiom", text());
         if (g.axiom.empty()) fail(o.at("axiom"), "must not be empty");
         g.rules = o.req("rules", readRules);
         o.opt("angle_deg", g.angleDeg, number());
         o.opt("iterations", g.iterations, integer(0, 8));
         o.opt("step", g.step, number(above(0)));      // m
-        o.opt("radius", g.radius, number(above(0)));  // m
+        o.opt("radius", g.radius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
         o.opt("jitter", g.jitter, number(halfOpen(0, 1)));
         break;
     }
@@ -556,20 +653,25 @@ CityGlow readCityGlow(const json& j, const Path& p) {
     Obj o(j, p);
     CityGlow g;
     o.opt("color", g.color, color());
-    o.opt("strength", g.strength, number(atLeast(0)));
+    o.opt("strength", g.strength, intensity());
     o.finish();
     return g;
 }
 
-Layer readLayer(const json& j, const Path& p) {
+Layer readLayer(const json& j, const Path& p, const Medium& medium) {
     Obj o(j, p);
     Layer l;
-    l.base = o.req("base", number());                    // m
-    l.thickness = o.req("thickness", number(above(0)));  // m
+    l.base = o.req("base", number(coordinate()));                                          // m
+    l.thickness = o.req("thickness", number(capped(above(0), limits::kLayerThickness)));  // m
     o.opt("coverage", l.coverage, number(inclusive(0, 1)));
     o.opt("density", l.density, number(inclusive(0, 1)));
-    o.opt("wind", l.wind, vec2());                // m/s
-    o.opt("extent", l.extent, number(above(0)));  // m
+    if (const double tau = medium.extinction * l.density * l.thickness; !withinLimit(tau, limits::kLayerOpticalDepth))
+        fail(o.at("thickness"), "gives an optical depth of " + str(tau) + " through the layer (medium.extinction " +
+                                    str(medium.extinction) + " x density " + str(l.density) + " x thickness " +
+                                    str(l.thickness) + " m), over the limit " + limitText(limits::kLayerOpticalDepth));
+    if (o.opt("wind", l.wind, vec2()))  // m/s
+        checkLimit(glm::length(l.wind), o.at("wind"), limits::kWindSpeed);
+    o.opt("extent", l.extent, number(capped(above(0), limits::kLayerExtent)));  // m
     o.opt("seed", l.seed, seed());
     o.opt("near_lod", l.nearLod, boolean());
     if (const json* glow = o.find("city_glow")) l.cityGlow = readCityGlow(*glow, o.at("city_glow"));
@@ -582,7 +684,7 @@ Skylight readSkylight(const json& j, const Path& p) {
     Skylight s;
     s.direction = o.req("direction", direction());
     o.opt("color", s.color, color());
-    o.opt("intensity", s.intensity, number(atLeast(0)));
+    o.opt("intensity", s.intensity, intensity());
     o.finish();
     return s;
 }
@@ -590,10 +692,10 @@ Skylight readSkylight(const json& j, const Path& p) {
 Lightning readLightning(const json& j, const Path& p) {
     Obj o(j, p);
     Lightning l;
-    l.position = o.req("position", vec3());
-    l.intensity = o.req("intensity", number(atLeast(0)));
-    o.opt("start", l.start, number());                // s
-    o.opt("duration", l.duration, number(above(0)));  // s
+    l.position = o.req("position", vec3(coordinate()));
+    l.intensity = o.req("intensity", intensity());
+    o.opt("start", l.start, number(timeOfDay()));                                // s
+    o.opt("duration", l.duration, number(capped(above(0), limits::kTime)));     // s
     o.finish();
     return l;
 }
@@ -608,11 +710,11 @@ Object readObject(const json& j, const Path& p) {
     const bool box = b.type == Object::Type::Box;
     o.reject(box ? "radius" : "size", box ? "'radius' is not a key of a box (it has a 'size')"
                                           : "'size' is not a key of a sphere (it has a 'radius')");
-    b.center = o.req("center", vec3());
+    b.center = o.req("center", vec3(coordinate()));
     if (box)
-        b.size = o.req("size", vec3(above(0)));  // m, full edge lengths
+        b.size = o.req("size", vec3(capped(above(0), limits::kObjectSize)));  // m, full edge lengths
     else
-        b.radius = o.req("radius", number(above(0)));  // m
+        b.radius = o.req("radius", number(capped(above(0), limits::kObjectSize)));  // m
     o.opt("rotation_deg", b.rotationDeg, vec3());
     o.opt("color", b.color, color());
     o.finish();
@@ -622,12 +724,48 @@ Object readObject(const json& j, const Path& p) {
 Keyframe readKeyframe(const json& j, const Path& p) {
     Obj o(j, p);
     Keyframe k;
-    k.t = o.req("t", number());  // s
-    k.position = o.req("position", vec3());
-    k.lookAt = o.req("look_at", vec3());
+    k.t = o.req("t", number(timeOfDay()));  // s
+    k.position = o.req("position", vec3(coordinate()));
+    k.lookAt = o.req("look_at", vec3(coordinate()));
     unit(k.lookAt - k.position, o.at("look_at"), "must differ from position");
     o.finish();
     return k;
+}
+
+// The explicit ellipsoids of `clouds` (counted before any is read, so that a huge file fails fast).
+void checkEllipsoidCount(const json& clouds) {
+    if (!clouds.is_array()) return;  // listOf reports it
+    std::size_t n = 0;
+    for (const json& c : clouds)
+        if (const auto e = c.is_object() ? c.find("ellipsoids") : c.end(); e != c.end() && e->is_array()) n += e->size();
+    checkCount(n, "clouds", limits::kEllipsoids, "ellipsoids");
+}
+
+std::string vecText(const Vec3& v) { return "[" + str(v.x) + ", " + str(v.y) + ", " + str(v.z) + "]"; }
+
+// A keyframe that looks along camera.up has no image orientation (makeView would throw
+// later, without a file or path); nor has a path segment whose interpolated view
+// (look_at - position, linear in time as in cameraAt) turns through camera.up on its way.
+void checkPathViews(const std::vector<Keyframe>& path, const Vec3& up) {
+    const Vec3 u = glm::normalize(up);
+    auto parallel = [&](const Vec3& view) { return glm::length(glm::cross(glm::normalize(view), u)) < 1e-6; };
+    const std::string along = " (camera.up is " + vecText(up) + ")";
+    for (size_t i = 0; i < path.size(); ++i)
+        if (parallel(path[i].lookAt - path[i].position))
+            fail(member(element("path", i), "look_at"),
+                 "the view from position to look_at is parallel to camera.up" + along + "; look elsewhere or give another 'up'");
+    for (size_t i = 1; i < path.size(); ++i) {
+        const Vec3 va = path[i - 1].lookAt - path[i - 1].position, vb = path[i].lookAt - path[i].position;
+        // cross(view(s), u) = (1 - s) a + s b: its smallest length, where the view comes closest to u.
+        const Vec3 a = glm::cross(va, u), b = glm::cross(vb, u), d = a - b;
+        if (glm::dot(d, d) == 0) continue;
+        const double s = std::clamp(glm::dot(a, d) / glm::dot(d, d), 0.0, 1.0);
+        if (s > 0 && s < 1 && parallel(glm::mix(va, vb, s)))
+            fail(element("path", i), "between t = " + str(path[i - 1].t) + " and t = " + str(path[i].t) +
+                                         " the view turns through camera.up" + along +
+                                         " (at t = " + str(glm::mix(path[i - 1].t, path[i].t, s)) +
+                                         "); add a keyframe that looks elsewhere between them");
+    }
 }
 
 Scene readScene(const json& j, const std::string& file) {
@@ -645,18 +783,22 @@ Scene readScene(const json& j, const std::string& file) {
     o.opt("sun", s.sun, readSun);
     o.opt("sky", s.sky, readSky);
     o.opt("medium", s.medium, readMedium);
-    o.opt("clouds", s.clouds, listOf(readCloud));
+    if (const json* clouds = o.find("clouds")) checkEllipsoidCount(*clouds);
+    o.opt("clouds", s.clouds,
+          listOf([&](const json& c, const Path& p, size_t i) { return readCloud(c, p, i, s.medium); }, &limits::kClouds));
     o.opt("generate", s.generators,
-          listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir); }));
-    o.opt("layers", s.layers, listOf(readLayer));
+          listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir); },
+                 &limits::kGenerateEntries));
+    o.opt("layers", s.layers, listOf([&](const json& l, const Path& p) { return readLayer(l, p, s.medium); }, &limits::kLayers));
     if (const json* light = o.find("skylight")) s.skylight = readSkylight(*light, o.at("skylight"));
-    o.opt("lightning", s.lightning, listOf(readLightning));
-    o.opt("objects", s.objects, listOf(readObject));
-    o.opt("path", s.path, listOf(readKeyframe));
+    o.opt("lightning", s.lightning, listOf(readLightning, &limits::kLightningFlashes));
+    o.opt("objects", s.objects, listOf(readObject, &limits::kObjects));
+    o.opt("path", s.path, listOf(readKeyframe, &limits::kKeyframes));
     for (size_t i = 1; i < s.path.size(); ++i)
         if (!(s.path[i].t > s.path[i - 1].t))
             fail(member(element("path", i), "t"),
                  "must be > the previous keyframe's t (" + str(s.path[i - 1].t) + "), got " + str(s.path[i].t));
+    checkPathViews(s.path, s.camera.up);
     o.finish();
     return s;
 }
@@ -665,12 +807,13 @@ Scene readScene(const json& j, const std::string& file) {
 
 Scene loadScene(const std::string& file) {
     std::string text;
-    if (auto fault = readFile(file, &text)) throw SceneError(file, "", *fault);
+    if (auto fault = detail::readRegularFile(file, limits::kSceneFileBytes, &text)) throw SceneError(file, "", *fault);
     return parseScene(text, file);
 }
 
 Scene parseScene(const std::string& text, const std::string& file) {
     try {
+        checkCount(text.size(), "", limits::kSceneFileBytes, "bytes");
         Scene scene = readScene(parseJson(text), file);
         expandGenerators(scene);  // design.md: generate entries expanded to ellipsoids on load
         return scene;

@@ -1,10 +1,16 @@
 #include "nephele/shader.hpp"
 
+#include "nephele/limits.hpp"
+
+#include "input_file.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <regex>
-#include <sstream>
+#include <optional>
+#include <string_view>
 
 #include <glm/gtc/type_ptr.hpp>
 
@@ -19,11 +25,12 @@ using namespace gl;
 
 std::string shaderFileText(const std::string& name) {
     if (const char* dir = std::getenv("NEPHELE_SHADER_DIR"); dir && *dir) {
-        std::ifstream in(std::string(dir) + "/" + name, std::ios::binary);
-        if (!in) throw ShaderError("shader file '" + name + "' not found in NEPHELE_SHADER_DIR=" + dir);
-        std::ostringstream s;
-        s << in.rdbuf();
-        return s.str();
+        const std::string path = std::string(dir) + "/" + name;
+        std::string text;
+        if (auto fault = nephele::detail::readRegularFile(path, limits::kShaderFileBytes, &text))
+            throw ShaderError("shader file '" + name + "' in NEPHELE_SHADER_DIR=" + dir + ": " + *fault);
+        if (auto fault = nephele::detail::nulByteFault(text)) throw ShaderError(path + ": " + *fault);
+        return text;
     }
     for (std::size_t i = 0; i < nephele::detail::kEmbeddedShaderCount; ++i)
         if (name == nephele::detail::kEmbeddedShaders[i].name) return nephele::detail::kEmbeddedShaders[i].source;
@@ -32,41 +39,81 @@ std::string shaderFileText(const std::string& name) {
 
 namespace {
 
+bool isSpace(char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; }
+bool isDigit(char c) { return c >= '0' && c <= '9'; }
+
+// The file a line `#include "name"` names (blanks allowed around '#' and around the name), or
+// nothing. A plain scan: std::regex recursed once per character and overflowed the stack on a
+// 50 KB line of spaces.
+std::optional<std::string_view> includedFile(std::string_view line) {
+    auto skip = [&](std::size_t i) {
+        while (i < line.size() && isSpace(line[i])) ++i;
+        return i;
+    };
+    std::size_t i = skip(0);
+    if (i == line.size() || line[i] != '#') return std::nullopt;
+    i = skip(i + 1);
+    if (line.substr(i, 7) != "include") return std::nullopt;
+    const std::size_t quote = skip(i + 7);
+    if (quote == i + 7 || quote == line.size() || line[quote] != '"') return std::nullopt;
+    const std::size_t close = line.find('"', quote + 1);
+    if (close == std::string_view::npos || close == quote + 1 || skip(close + 1) != line.size()) return std::nullopt;
+    return line.substr(quote + 1, close - quote - 1);
+}
+
+// The length of a "N:L(C)" source location at the start of s (digits, ':', digits, '(', digits,
+// ')'), or 0.
+std::size_t locationLength(std::string_view s) {
+    std::size_t i = 0;
+    for (const char sep : {':', '(', ')'}) {
+        const std::size_t start = i;
+        while (i < s.size() && isDigit(s[i])) ++i;
+        if (i == start || i == s.size() || s[i] != sep) return 0;
+        ++i;
+    }
+    return i;
+}
+
 void appendFile(const std::string& file, std::vector<std::string>& files, std::string& out, int depth) {
     if (depth > 16) throw ShaderError(file + ": #include nested more than 16 deep (a cycle?)");
     const int index = static_cast<int>(files.size());
     files.push_back(file);
-    std::istringstream in(shaderFileText(file));
-    static const std::regex include(R"(^\s*#\s*include\s+"([^"]+)\"\s*$)");
-    std::string line;
+    const std::string text = shaderFileText(file);
     int number = 0;
     out += "#line 1 " + std::to_string(index) + "\n";
-    while (std::getline(in, line)) {
+    for (std::size_t start = 0; start < text.size();) {
+        const std::size_t end = std::min(text.find('\n', start), text.size());
+        const std::string_view line(text.data() + start, end - start);
+        start = end + 1;
         ++number;
-        std::smatch m;
-        if (std::regex_match(line, m, include)) {
-            appendFile(m[1].str(), files, out, depth + 1);
+        if (const auto included = includedFile(line)) {
+            appendFile(std::string(*included), files, out, depth + 1);
             out += "#line " + std::to_string(number + 1) + " " + std::to_string(index) + "\n";
         } else {
-            out += line + "\n";
+            out.append(line);
+            out += '\n';
         }
     }
 }
 
-// Mesa and most drivers write "0:12(5): error: ..." where 0 is the source-string index.
+// Mesa and most drivers write "0:12(5): error: ..." where 0 is the source-string index: the
+// index becomes the file's name.
 std::string mapLog(const std::string& log, const std::vector<std::string>& files) {
-    static const std::regex where(R"((\d+):(\d+)\((\d+)\))");
     std::string out;
-    auto begin = std::sregex_iterator(log.begin(), log.end(), where);
-    std::size_t last = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-        const auto& m = *it;
-        const std::size_t index = std::stoul(m[1].str());
-        out += log.substr(last, m.position(0) - last);
-        out += (index < files.size() ? files[index] : m[1].str()) + ":" + m[2].str() + "(" + m[3].str() + ")";
-        last = m.position(0) + m.length(0);
+    for (std::size_t i = 0; i < log.size();) {
+        const std::size_t n = (i == 0 || !isDigit(log[i - 1])) ? locationLength(std::string_view(log).substr(i)) : 0;
+        if (n == 0) {
+            out += log[i++];
+            continue;
+        }
+        const std::size_t colon = log.find(':', i);
+        std::size_t index = 0;
+        const auto r = std::from_chars(log.data() + i, log.data() + colon, index);
+        const bool known = r.ec == std::errc() && index < files.size();
+        out += (known ? files[index] : log.substr(i, colon - i)) + log.substr(colon, i + n - colon);
+        i += n;
     }
-    return out + log.substr(last);
+    return out;
 }
 
 const char* stageName(GLenum stage) {

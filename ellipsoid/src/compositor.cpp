@@ -15,6 +15,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -138,15 +139,16 @@ struct EllipsoidRenderer::Impl {
         // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
         t.accum = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.accum.id(), 1, GL_RGBA32F, w, h);
+        checkAllocation("the weighted composite's RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
         t.reveal = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.reveal.id(), 1, GL_R32F, w, h);
+        checkAllocation("the weighted composite's R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
         t.fbo = Framebuffer::create();
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.accum.id(), 0);
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, t.reveal.id(), 0);
         const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
         glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
-        if (glCheckNamedFramebufferStatus(t.fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw GlError("weighted composite: framebuffer incomplete");
+        checkFramebuffer(t.fbo.id(), "the weighted composite's target");
         return t;
     }
 
@@ -301,6 +303,13 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         if (out.packed.passes <= maxPasses || limit <= minTile) break;
     }
     const PackResult& packed = out.packed;
+    GLint maxLayers = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+    if (packed.passes > maxLayers)
+        throw GlError("ellipsoid atlas: " + std::to_string(prepared.ellipsoids.size()) + " visible ellipsoids need " +
+                      std::to_string(packed.passes) + " passes of " + std::to_string(atlasW) + "x" + std::to_string(atlasH) +
+                      " even with " + std::to_string(minTile) + " px tiles, more than GL's " + std::to_string(maxLayers) +
+                      " atlas layers; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
     std::vector<TilePlacement>& placements = out.placements;
@@ -375,13 +384,17 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         // frame (a layer's near cells made again, thicker) do not remake it every frame.
         atlas.layers = std::max(packed.passes, std::min(maxPasses, (3 * atlas.layers + 1) / 2));
         atlas.terms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, atlas.layers);
         glTextureStorage3D(atlas.terms.id(), 1, termsFormat, atlasW, atlasH, atlas.layers);
+        checkAllocation("the ellipsoid atlas (" + std::to_string(atlasW) + "x" + std::to_string(atlasH) + ", " +
+                            std::to_string(atlas.layers) + " layers)",
+                        std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(atlas.layers) *
+                            (termsFormat == GL_RGBA16F ? 8 : 4));
         atlas.fbos.clear();
         for (int l = 0; l < atlas.layers; ++l) {
             Framebuffer fbo = Framebuffer::create();
             glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, atlas.terms.id(), 0, l);
-            if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-                throw GlError("ellipsoid atlas: framebuffer incomplete");
+            checkFramebuffer(fbo.id(), "the ellipsoid atlas");
             atlas.fbos.push_back(std::move(fbo));
         }
     }
@@ -417,8 +430,10 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     const EllipsoidSettings& s = settings_;
     HostStateScope scope;  // before the plan: it uploads
     PartTimer timer(s.timings);
+    const auto start = std::chrono::steady_clock::now();
     const FramePlan plan = m.plan(s, scene, view);
     EllipsoidStats stats = plan.stats;
+    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     stats.lightVolumes = std::exchange(m.lightsComputed, 0);
     stats.lightUploads = std::exchange(m.lightUploads, 0);
     stats.lightPending = m.lightStats.pending;

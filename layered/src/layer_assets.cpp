@@ -51,9 +51,12 @@ std::shared_ptr<LayerAssets::Entry> LayerAssets::request(bool isLight, const Lig
     }
     entry->lastUse = ++clock_;
     entries_.push_back(entry);
-    // Least recently used first; the one just asked for and those with a job stay.
-    for (auto e = entries_.begin(); entries_.size() > kCapacity && *e != entry;)
-        e = (*e)->queued ? e + 1 : entries_.erase(e);
+    // Least recently used first; the one just asked for, those with a job and those whose data a
+    // renderer still holds (dropping them frees nothing: a scene with more distinct layers than
+    // kCapacity would compute them again every frame) stay.
+    auto held = [](const Entry& e) { return e.light.use_count() > 1 || e.texture.use_count() > 1; };
+    for (auto e = entries_.begin(); e != entries_.end() && entries_.size() > kCapacity;)
+        e = *e == entry || (*e)->queued || held(**e) ? e + 1 : entries_.erase(e);
     if (entry->done || entry->queued) return entry;
     if (!background_) {
         compute(*entry, lock);

@@ -1,11 +1,13 @@
 // The lighting precomputation of Wang, Ji & Zhang 2011, section 3: multiple forward
 // scattering along the light (eqs. 5-7), eye scattering (8), Cornette-Shanks (10), stored as
 // vectors whose length is the intensity, n' = n / 2 + 0.5, in an RGBA8 3D texture.
+#include "nephele/cache_file.hpp"
 #include "nephele/fingerprint.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/log.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/parallel.hpp"
+#include "nephele/resources.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -13,9 +15,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <glm/gtc/constants.hpp>
-#include <unistd.h>
 
 namespace nephele {
 
@@ -23,9 +23,12 @@ namespace {
 constexpr double kPi = glm::pi<double>();
 constexpr char kMagic[8] = {'N', 'P', 'H', 'L', 'A', 'Y', 'R', '\0'};
 // Bump when the file layout OR the precomputation changes: the cache key and the header carry it,
-// so a volume computed by an older algorithm is never reused.
-constexpr std::uint32_t kVersion = 2;
+// so a volume computed by an older algorithm is never reused. 3: a checksum ends the file.
+constexpr std::uint32_t kVersion = 3;
 constexpr double kMaxSubstepTau = 0.1;  // the Riemann sum of eq. (5) needs thin particles: tau <= 0.1 each
+// A slice's optical depth is taken as at most this: its transmittance exp(-1e6) is 0 in double,
+// so the light through it is the same, and the particle count stays finite.
+constexpr double kMaxSliceTau = 1e6;
 
 std::string num(double v) {
     char b[64];
@@ -35,30 +38,77 @@ std::string num(double v) {
 
 void checkSettings(const LightingSettings& s, const LightingParameters& p) {
     auto bad = [](const std::string& what) { throw std::invalid_argument("layered lighting: " + what); };
-    if (s.width < 2 || s.height < 2 || s.depth < 2 || s.width > 4096 || s.height > 4096 || s.depth > 1024)
-        bad("size must be 2..4096 x 2..4096 x 2..1024 texels, got " + std::to_string(s.width) + "x" +
+    const int m = kMaxLightingSize;
+    if (s.width < 2 || s.height < 2 || s.depth < 2 || s.width > m || s.height > m || s.depth > m)
+        bad("size must be 2.." + std::to_string(m) + " texels per side, got " + std::to_string(s.width) + "x" +
             std::to_string(s.height) + "x" + std::to_string(s.depth));
-    if (!(s.tilePeriod > 0)) bad("tilePeriod must be > 0 m, got " + num(s.tilePeriod));
+    if (!(s.tilePeriod > 0 && std::isfinite(s.tilePeriod))) bad("tilePeriod must be > 0 m, got " + num(s.tilePeriod));
     if (!(s.forwardConeDeg > 0 && s.forwardConeDeg <= 90)) bad("forwardConeDeg must be in (0, 90], got " + num(s.forwardConeDeg));
     if (s.octaves < 1 || s.octaves > 8) bad("octaves must be 1..8, got " + std::to_string(s.octaves));
     if (s.cells < 1 || s.cells > 64) bad("cells must be 1..64, got " + std::to_string(s.cells));
-    if (!(p.extinction >= 0)) bad("extinction must be >= 0, got " + num(p.extinction));
+    if (!(p.extinction >= 0 && std::isfinite(p.extinction))) bad("extinction must be finite and >= 0, got " + num(p.extinction));
     if (!(p.albedo >= 0 && p.albedo <= 1)) bad("albedo must be in [0, 1], got " + num(p.albedo));
     if (!(p.csG > -1 && p.csG < 1)) bad("phase asymmetry must be in (-1, 1), got " + num(p.csG));
-    if (!(p.thickness > 0)) bad("thickness must be > 0 m, got " + num(p.thickness));
+    if (!(p.thickness > 0 && std::isfinite(p.thickness))) bad("thickness must be finite and > 0 m, got " + num(p.thickness));
 }
 
 // The vertical profile of the volume's density: 0 at the layer's bottom and top, 1 at mid-height.
 double profile(double z) { return std::sqrt(std::max(std::sin(kPi * std::clamp(z, 0.0, 1.0)), 0.0)); }
 
-template <class T>
-void put(std::ofstream& out, const T& v) {
-    out.write(reinterpret_cast<const char*>(&v), sizeof v);
+// One slice of a column, lit from above: its optical depth tau split into n = ceil(tau /
+// kMaxSubstepTau) equal particles, the n identical steps of eqs. (7) and (8) taken in closed
+// form (the cost does not grow with the optical depth). `i` is the light incident on the slice
+// (the sun's at the top is 1), `e` the eye scattering (8) accumulated above it; both are
+// advanced past the slice. eyeCoeff = albedo F(0) / 4pi.
+void lightSlice(double tau, double forward, double eyeCoeff, double& i, double& e) {
+    tau = std::min(tau, kMaxSliceTau);
+    if (!(tau > 0)) return;  // an empty slice passes everything and scatters nothing
+    const double n = std::ceil(tau / kMaxSubstepTau), tp = tau / n;
+    const double r = std::exp(-tp), f = forward * tp + r;  // per particle: e' = c i + r e, i' = f i
+    // e_out = r^n e + c i sum_{m<n} f^m r^(n-1-m), in logarithms: (f / r)^n may overflow.
+    double sum = 1;
+    if (n > 1) {
+        const double q1 = forward * tp / r;  // f / r - 1 >= 0
+        const double l = n * std::log1p(q1);  // log (f / r)^n
+        const double logTerms = q1 > 0 ? (l > 30 ? l + std::log1p(-std::exp(-l)) : std::log(std::expm1(l))) - std::log(q1)
+                                       : std::log(n);  // f == r: n terms of r^(n-1)
+        sum = std::exp(-(n - 1) * tp + logTerms);
+    }
+    e = std::min(std::exp(-tau) * e + eyeCoeff * tp * i * sum, 1e30);
+    i = std::min(i * std::pow(f, n), 1e30);
 }
-template <class T>
-bool get(std::ifstream& in, T& v) {
-    return bool(in.read(reinterpret_cast<char*>(&v), sizeof v));
-}
+
+// The volume as stored in a file, before the cache's checksum: magic, version, sizes,
+// parameters, derived values, texels.
+class Bytes {
+public:
+    template <class T>
+    void put(const T& v) { text_.append(reinterpret_cast<const char*>(&v), sizeof v); }
+    void putRaw(const void* p, std::size_t n) { text_.append(static_cast<const char*>(p), n); }
+    std::string& text() { return text_; }
+
+private:
+    std::string text_;
+};
+
+class Reader {
+public:
+    explicit Reader(const std::string& text) : text_(text) {}
+    template <class T>
+    bool get(T& v) { return getRaw(&v, sizeof v); }
+    bool getRaw(void* p, std::size_t n) {
+        if (text_.size() - at_ < n) return false;
+        std::memcpy(p, text_.data() + at_, n);
+        at_ += n;
+        return true;
+    }
+    bool atEnd() const { return at_ == text_.size(); }
+
+private:
+    const std::string& text_;
+    std::size_t at_ = 0;
+};
+
 }  // namespace
 
 double cornetteShanks(double cosTheta, double f) {
@@ -93,6 +143,17 @@ double eyeScatter(const std::vector<double>& taus, const std::vector<double>& in
     return e;
 }
 
+double lightColumn(const std::vector<double>& sliceTaus, double forward, double albedo, double phase,
+                   std::vector<double>& incident) {
+    incident.resize(sliceTaus.size());
+    double light = 1.0, eye = 0;
+    for (std::size_t k = 0; k < sliceTaus.size(); ++k) {
+        incident[k] = light;  // on the slice's first particle
+        lightSlice(sliceTaus[k], forward, albedo * phase / (4 * kPi), light, eye);
+    }
+    return eye;
+}
+
 std::uint8_t encodeComponent(double n) {
     return std::uint8_t(std::lround(std::clamp(n * 0.5 + 0.5, 0.0, 1.0) * 255.0));
 }
@@ -121,8 +182,17 @@ double LightingVolume::sampleDensity(double u, double v, double z) const {
     return sum;
 }
 
+std::uint64_t lightingBytes(const LightingSettings& s) {
+    // Per texel: density and intensity (float each) and the RGBA8 texels during the
+    // precomputation, then the GL texture with its mipmaps (8/7 of 4 bytes).
+    return std::uint64_t(s.width) * std::uint64_t(s.height) * std::uint64_t(s.depth) * (12 + 5);
+}
+
 LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p) {
     checkSettings(s, p);
+    requireMemory("the " + std::to_string(s.width) + "x" + std::to_string(s.height) + "x" + std::to_string(s.depth) +
+                      " layered lighting volume",
+                  lightingBytes(s));
     const auto start = std::chrono::steady_clock::now();
     const int w = s.width, h = s.height, d = s.depth;
     const std::size_t columns = std::size_t(w) * h;
@@ -146,24 +216,17 @@ LightingVolume precomputeLighting(const LightingSettings& s, const LightingParam
     std::vector<float> intensity(columns * d);
     std::vector<double> eyePerOpacity(columns, -1.0);
     parallelFor(h, [&](int j) {
-        std::vector<double> taus;
-        std::vector<int> sliceOf;
+        std::vector<double> taus(d), incident;
         for (int i = 0; i < w; ++i) {
-            taus.clear();
-            sliceOf.clear();
             double column = 0;
-            for (int k = d - 1; k >= 0; --k) {
-                const double tau = p.extinction * density[(std::size_t(k) * h + j) * w + i] * dz;
-                const int n = std::max(1, int(std::ceil(tau / kMaxSubstepTau)));
-                for (int m = 0; m < n; ++m) taus.push_back(tau / n), sliceOf.push_back(k);
-                column += tau;
+            for (int k = 0; k < d; ++k) {  // from the top slice down
+                taus[k] = p.extinction * density[(std::size_t(d - 1 - k) * h + j) * w + i] * dz;
+                column += taus[k];
             }
-            const std::vector<double> inc = forwardScatter(taus, forward, 1.0);
-            for (std::size_t q = 0; q < taus.size(); ++q)
-                if (q == 0 || sliceOf[q] != sliceOf[q - 1])  // the light incident on the slice's first particle
-                    intensity[(std::size_t(sliceOf[q]) * h + j) * w + i] = float(inc[q]);
+            const double eye = lightColumn(taus, forward, p.albedo, phase0, incident);
+            for (int k = 0; k < d; ++k) intensity[(std::size_t(d - 1 - k) * h + j) * w + i] = float(incident[k]);
             const double opacity = 1 - std::exp(-column);
-            if (opacity > 0.01) eyePerOpacity[std::size_t(j) * w + i] = eyeScatter(taus, inc, p.albedo, phase0) / opacity;
+            if (opacity > 0.01) eyePerOpacity[std::size_t(j) * w + i] = eye / opacity;
         }
     });
     LightingVolume v;
@@ -208,37 +271,49 @@ LightingVolume precomputeLighting(const LightingSettings& s, const LightingParam
     return v;
 }
 
+namespace {
+std::string serialise(const LightingVolume& v) {
+    const LightingSettings& s = v.settings;
+    const LightingParameters& p = v.parameters;
+    Bytes out;
+    out.putRaw(kMagic, sizeof kMagic);
+    out.put(kVersion);
+    out.put(std::uint32_t(s.width)), out.put(std::uint32_t(s.height)), out.put(std::uint32_t(s.depth));
+    out.put(s.tilePeriod), out.put(s.forwardConeDeg);
+    out.put(std::uint32_t(s.octaves)), out.put(std::uint32_t(s.cells)), out.put(std::uint32_t(s.seed));
+    out.put(p.extinction), out.put(p.albedo), out.put(p.csG), out.put(p.thickness);
+    out.put(v.eyeScatterPeak), out.put(v.eyeScatterCosPhi);
+    out.putRaw(v.texels.data(), v.texels.size());
+    return std::move(out.text());
+}
+}  // namespace
+
 void LightingVolume::save(const std::string& path) const {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    if (!out) throw LightingFileError(path + ": cannot open for writing");
-    out.write(kMagic, sizeof kMagic);
-    put(out, kVersion);
-    put(out, std::uint32_t(settings.width)), put(out, std::uint32_t(settings.height)), put(out, std::uint32_t(settings.depth));
-    put(out, settings.tilePeriod), put(out, settings.forwardConeDeg);
-    put(out, std::uint32_t(settings.octaves)), put(out, std::uint32_t(settings.cells)), put(out, std::uint32_t(settings.seed));
-    put(out, parameters.extinction), put(out, parameters.albedo), put(out, parameters.csG), put(out, parameters.thickness);
-    put(out, eyeScatterPeak), put(out, eyeScatterCosPhi);
-    out.write(reinterpret_cast<const char*>(texels.data()), std::streamsize(texels.size()));
-    if (!out) throw LightingFileError(path + ": write failed");
+    const std::string why = cache::write(path, serialise(*this));
+    if (!why.empty()) throw LightingFileError(why);
 }
 
 LightingVolume LightingVolume::load(const std::string& path, const LightingSettings& es, const LightingParameters& ep) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw LightingFileError(path + ": cannot open the lighting volume");
+    checkSettings(es, ep);
     auto fail = [&](const std::string& what) { throw LightingFileError(path + ": " + what); };
+    std::string why;
+    // The header is under 200 bytes; the texels are what the expected settings make.
+    const std::optional<std::string> bytes = cache::read(path, 256 + lightingBytes(es), why);
+    if (!bytes) fail(why.empty() ? "cannot open the lighting volume" : why);
+    Reader in(*bytes);
     char magic[8];
-    if (!in.read(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof magic) != 0)
+    if (!in.getRaw(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof magic) != 0)
         fail("not a Nephele lighting volume (bad magic)");
     std::uint32_t version = 0, w = 0, h = 0, d = 0, octaves = 0, cells = 0, seed = 0;
-    if (!get(in, version)) fail("truncated header");
+    if (!in.get(version)) fail("truncated header");
     if (version != kVersion)
         fail("version " + std::to_string(version) + ", this build reads version " + std::to_string(kVersion));
     LightingVolume v;
     LightingParameters& p = v.parameters;
     LightingSettings& s = v.settings;
-    if (!(get(in, w) && get(in, h) && get(in, d) && get(in, s.tilePeriod) && get(in, s.forwardConeDeg) && get(in, octaves) &&
-          get(in, cells) && get(in, seed) && get(in, p.extinction) && get(in, p.albedo) && get(in, p.csG) &&
-          get(in, p.thickness) && get(in, v.eyeScatterPeak) && get(in, v.eyeScatterCosPhi)))
+    if (!(in.get(w) && in.get(h) && in.get(d) && in.get(s.tilePeriod) && in.get(s.forwardConeDeg) && in.get(octaves) &&
+          in.get(cells) && in.get(seed) && in.get(p.extinction) && in.get(p.albedo) && in.get(p.csG) &&
+          in.get(p.thickness) && in.get(v.eyeScatterPeak) && in.get(v.eyeScatterCosPhi)))
         fail("truncated header");
     s.width = int(w), s.height = int(h), s.depth = int(d), s.octaves = int(octaves), s.cells = int(cells), s.seed = seed;
     auto mismatch = [&](const char* what, const std::string& got, const std::string& want) {
@@ -257,9 +332,9 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
     mismatch("thickness", num(p.thickness), num(ep.thickness));
     if (!std::isfinite(v.eyeScatterPeak) || !std::isfinite(v.eyeScatterCosPhi)) fail("non-finite derived values");
     v.texels.resize(std::size_t(w) * h * d * 4);
-    if (!in.read(reinterpret_cast<char*>(v.texels.data()), std::streamsize(v.texels.size())))
+    if (!in.getRaw(v.texels.data(), v.texels.size()))
         fail("truncated texels (expected " + std::to_string(v.texels.size()) + " bytes)");
-    if (in.peek() != std::ifstream::traits_type::eof()) fail("trailing bytes after the texels");
+    if (!in.atEnd()) fail("trailing bytes after the texels");
     return v;
 }
 
@@ -275,26 +350,19 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
     f.add(p.extinction).add(p.albedo).add(p.csG).add(p.thickness).add(kVersion);
     char name[64];
     std::snprintf(name, sizeof name, "layered-light-%016llx.bin", static_cast<unsigned long long>(f.value()));
-    const std::filesystem::path file = std::filesystem::path(cacheDir) / name;
+    const std::string file = (std::filesystem::path(cacheDir) / name).string();
     std::error_code ec;
-    if (std::filesystem::exists(file, ec)) {
+    if (std::filesystem::exists(file, ec)) {  // a missing file is the usual miss; anything else is worth a word
         try {
-            return LightingVolume::load(file.string(), s, p);
+            return LightingVolume::load(file, s, p);
         } catch (const LightingFileError& e) {
-            logMessage(LogLevel::Warning, std::string("ignoring the cached lighting volume: ") + e.what());
+            logMessage(LogLevel::Warning, std::string("ignoring the cached lighting volume, computing it again: ") + e.what());
         }
     }
     LightingVolume v = precomputeLighting(s, p);
     std::filesystem::create_directories(cacheDir, ec);
-    // Written to a temporary name and renamed, so a reader never sees half a file.
-    const std::filesystem::path tmp = file.string() + ".tmp" + std::to_string(::getpid());
-    try {
-        v.save(tmp.string());
-        std::filesystem::rename(tmp, file);
-    } catch (const std::exception& e) {
-        std::filesystem::remove(tmp, ec);
-        logMessage(LogLevel::Warning, "could not cache the lighting volume in " + cacheDir + ": " + e.what());
-    }
+    const std::string why = cache::write(file, serialise(v));
+    if (!why.empty()) logMessage(LogLevel::Warning, "could not cache the lighting volume in " + cacheDir + ": " + why);
     return v;
 }
 

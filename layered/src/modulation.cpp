@@ -67,13 +67,15 @@ void validate(const LayeredSettings& s) {
     if (s.layers < 2 || s.layers > 1024) bad("layers (N) must be 2..1024, got " + std::to_string(s.layers));
     if (!(s.lod0Radius >= 0)) bad("lod0Radius must be >= 0 m");
     if (!(s.lod0Spacing > 0)) bad("lod0Spacing must be > 0 m");
-    if (s.lod0Radius / s.lod0Spacing > 4096) bad("lod0Radius / lod0Spacing must be <= 4096 (billboard slices)");
+    if (!(s.lod0Radius / s.lod0Spacing <= kMaxBillboardSlices))
+        bad("lod0Radius / lod0Spacing must be <= " + std::to_string(kMaxBillboardSlices) + " (billboard slices)");
     if (!(s.extentFade >= 0 && s.extentFade <= 1)) bad("extentFade must be in [0, 1]");
     if (!(s.nearRadius >= 0)) bad("nearRadius must be >= 0 m");
     if (!(s.blendBand >= 0)) bad("blendBand must be >= 0 m");
     if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
     if (s.downsample < 1 || s.downsample > 4) bad("downsample must be 1..4, got " + std::to_string(s.downsample));
     if (!std::isfinite(s.eyeScatterHeight) || !std::isfinite(s.glowHeight)) bad("eyeScatterHeight and glowHeight must be finite");
+    if (s.resourceMegabytes < 1 || s.resourceMegabytes > 65536) bad("resourceMegabytes must be 1..65536");
 }
 
 double nearFade(const LayeredSettings& s, double horizontal) {

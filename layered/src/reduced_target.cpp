@@ -31,12 +31,14 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
     if (!t.fbo) {
         t.color = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.color.id(), 1, GL_RGBA16F, size.x, size.y);
+        checkAllocation("the layered sky's reduced RGBA16F target", std::uint64_t(size.x) * std::uint64_t(size.y) * 8);
         glTextureParameteri(t.color.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTextureParameteri(t.color.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
         glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         t.depth = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.depth.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
+        checkAllocation("the layered sky's reduced depth", std::uint64_t(size.x) * std::uint64_t(size.y) * 4);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -44,9 +46,7 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
         t.fbo = Framebuffer::create();
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
         glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);
-        const GLenum status = glCheckNamedFramebufferStatus(t.fbo.id(), GL_FRAMEBUFFER);
-        if (status != GL_FRAMEBUFFER_COMPLETE)
-            throw GlError("layered sky: reduced target incomplete (status 0x" + std::to_string(status) + ")");
+        checkFramebuffer(t.fbo.id(), "the layered sky's reduced target");
     }
     current_ = &t;
     size_ = size;

@@ -5,6 +5,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/per_view.hpp"
+#include "nephele/resources.hpp"
 #include "nephele/shader.hpp"
 #include "layer_assets.hpp"
 #include "reduced_target.hpp"
@@ -18,12 +19,21 @@ namespace nephele {
 using namespace gl;
 
 namespace {
-// One scene layer's GPU textures and the CPU data they hold (LayerAssets'). The textures are
-// made once and refilled when the data changes (same sizes: the settings fix them).
+// A lighting volume or modulation texture (LayerAssets' CPU data) and its GL texture, one per
+// distinct data: every scene layer with the same parameters draws with the same one (100
+// layers of one thickness and seed hold one of each, not 100).
+template <class T>
+struct SharedTexture {
+    std::shared_ptr<const T> data;
+    Texture texture;
+};
+template <class T>
+using TexturePool = std::vector<std::weak_ptr<const SharedTexture<T>>>;
+
+// What one scene layer draws with (kept until newer data is ready).
 struct LayerSlot {
-    std::shared_ptr<const LightingVolume> light;
-    std::shared_ptr<const ModulationTexture> modulation;
-    Texture lightTexture, modulationTexture;
+    std::shared_ptr<const SharedTexture<LightingVolume>> light;
+    std::shared_ptr<const SharedTexture<ModulationTexture>> modulation;
     bool ready() const { return light && modulation; }
 };
 
@@ -41,6 +51,8 @@ struct LayeredRenderer::Impl {
     IndexedMesh annulus, quad;
     std::shared_ptr<LayerAssets> assets;  // lighting volumes and modulation textures
     std::vector<LayerSlot> layers;        // by scene layer
+    TexturePool<LightingVolume> lightPool;          // the distinct textures the slots hold
+    TexturePool<ModulationTexture> modulationPool;
     ShadowPass shadows;
     ReducedTarget reduced;               // LayeredSettings::downsample > 1
     PerViewCache<FrameDepth> depths;     // copies of the host frame's depth, for the shadows and the upsampling
@@ -199,11 +211,11 @@ void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const
         p.set("steepTan", float(std::sqrt(layer.thickness / n / s.lod0Spacing)));
         p.set("extent", float(layer.extent));
         p.set("fadeStart", float(layer.extent * (1 - s.extentFade)));
-        p.set("eyePeak", float(r.light->eyeScatterPeak));
-        p.set("eyeCosPhi", float(std::min(r.light->eyeScatterCosPhi, 1.0 - 1e-6)));
+        p.set("eyePeak", float(r.light->data->eyeScatterPeak));
+        p.set("eyeCosPhi", float(std::min(r.light->data->eyeScatterCosPhi, 1.0 - 1e-6)));
         p.set("glow", layer.cityGlow ? glm::vec3(layer.cityGlow->color * layer.cityGlow->strength) : glm::vec3(0));
-        glBindTextureUnit(0, r.lightTexture.id());
-        glBindTextureUnit(1, r.modulationTexture.id());
+        glBindTextureUnit(0, r.light->texture.id());
+        glBindTextureUnit(1, r.modulation->texture.id());
         glUseProgram(layer.cityGlow ? p.b.id() : p.a.id());
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
         // it the two share the volume's optical depth and their order changes colour only.
@@ -247,53 +259,98 @@ void LayeredRenderer::prepare() {
 void LayeredRenderer::shareAssets(std::shared_ptr<LayerAssets> assets) { impl_->assets = std::move(assets); }
 
 const LightingVolume* LayeredRenderer::lighting(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].light.get() : nullptr;
+    const bool has = index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].light;
+    return has ? impl_->layers[index].light->data.get() : nullptr;
 }
 const ModulationTexture* LayeredRenderer::modulation(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].modulation.get() : nullptr;
+    const bool has = index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].modulation;
+    return has ? impl_->layers[index].modulation->data.get() : nullptr;
 }
 
-// The slot's textures for the layer: refilled when LayerAssets has newer data for it (at once, or
-// when its background job is done: until then the slot keeps what it had).
-void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const Layer& layer, const LayeredSettings& s,
+namespace {
+
+// The 3D texture of a lighting volume, with mipmaps (its size checked against the driver's).
+Texture uploadLighting(const LightingVolume& v) {
+    const LightingSettings& ls = v.settings;
+    checkTextureSize("the layered lighting volume", ls.width, ls.height, ls.depth);
+    Texture t = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(t.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width, ls.height, ls.depth);
+    checkAllocation("the layered lighting volume's texture", v.texels.size() * 8 / 7);
+    glTextureSubImage3D(t.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE, v.texels.data());
+    glGenerateTextureMipmap(t.id());
+    // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+Texture uploadModulation(const ModulationTexture& m) {
+    const int n = m.size;
+    Texture t = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(t.id(), mipLevels(n), GL_RG32F, n, n);
+    checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 8 * 4 / 3);
+    glTextureSubImage2D(t.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, m.texels.data());
+    glGenerateTextureMipmap(t.id());
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    return t;
+}
+
+// The pool's texture of `data`, uploaded (and counted in `uploads`) when no layer holds one.
+template <class T, class Upload>
+std::shared_ptr<const SharedTexture<T>> shareTexture(TexturePool<T>& pool, std::shared_ptr<const T> data, Upload&& upload,
+                                                     int& uploads) {
+    std::erase_if(pool, [](const auto& w) { return w.expired(); });
+    for (const auto& w : pool)
+        if (auto held = w.lock(); held && held->data == data) return held;
+    Texture texture = upload(*data);
+    auto made = std::make_shared<const SharedTexture<T>>(SharedTexture<T>{std::move(data), std::move(texture)});
+    pool.push_back(made);
+    ++uploads;
+    return made;
+}
+
+// Refuses (ResourceError, before anything is made) a scene whose distinct lighting volumes
+// (one per thickness and medium) and modulation textures (one per seed) need more memory, on
+// the CPU and in GL with mipmaps, than LayeredSettings::resourceMegabytes.
+void checkLayerBudget(const Scene& scene, const LayeredSettings& s) {
+    std::vector<LightingParameters> keys;
+    std::vector<unsigned> seeds;
+    for (const Layer& layer : scene.layers) {
+        const LightingParameters key = lightingParameters(scene.medium, layer);
+        if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
+        if (std::find(seeds.begin(), seeds.end(), layer.seed) == seeds.end()) seeds.push_back(layer.seed);
+    }
+    const LightingSettings& ls = s.lighting;
+    const std::uint64_t volumeBytes = std::uint64_t(ls.width) * std::uint64_t(ls.height) * std::uint64_t(ls.depth) * 4 * 15 / 7;
+    const std::uint64_t texels = std::uint64_t(s.modulation.size) * std::uint64_t(s.modulation.size);
+    const std::uint64_t modulationBytes = texels * 8 + texels * 8 * 4 / 3;
+    const std::uint64_t need = keys.size() * volumeBytes + seeds.size() * modulationBytes;
+    if (need > (std::uint64_t(s.resourceMegabytes) << 20))
+        throw ResourceError("layered sky: the scene's " + std::to_string(scene.layers.size()) + " layers need " +
+                            std::to_string(keys.size()) + " lighting volumes (one per thickness) and " +
+                            std::to_string(seeds.size()) + " modulation textures (one per seed), " + formatBytes(need) +
+                            ", over the budget of " + std::to_string(s.resourceMegabytes) +
+                            " MB (LayeredSettings::resourceMegabytes); layers that share a thickness and a seed share them");
+}
+
+}  // namespace
+
+// The slot's textures for the layer: new ones when LayerAssets has newer data for it (at once,
+// or when its background job is done: until then the slot keeps what it had).
+void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const Layer& layer, const LayeredSettings&,
                                        LayeredStats& stats) {
     std::shared_ptr<const LightingVolume> light = assets->lighting(lightingParameters(scene.medium, layer));
     if (!light) stats.pendingLayers += 1;  // its job runs: drawn with the volume it had, if any
-    if (light && light != r.light) {
-        const LightingSettings& ls = s.lighting;
-        if (!r.lightTexture) {
-            r.lightTexture = Texture::create(GL_TEXTURE_3D);
-            glTextureStorage3D(r.lightTexture.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width,
-                               ls.height, ls.depth);
-            // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
-        }
-        glTextureSubImage3D(r.lightTexture.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE,
-                            light->texels.data());
-        glGenerateTextureMipmap(r.lightTexture.id());
-        r.light = std::move(light);
-        ++stats.uploads;
-    }
+    if (light && (!r.light || r.light->data != light)) r.light = shareTexture(lightPool, std::move(light), uploadLighting, stats.uploads);
     std::shared_ptr<const ModulationTexture> modulation = assets->modulation(layer.seed);
-    if (modulation && modulation != r.modulation) {
-        const int n = modulation->size;
-        if (!r.modulationTexture) {
-            r.modulationTexture = Texture::create(GL_TEXTURE_2D);
-            glTextureStorage2D(r.modulationTexture.id(), mipLevels(n), GL_RG32F, n, n);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-        }
-        glTextureSubImage2D(r.modulationTexture.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, modulation->texels.data());
-        glGenerateTextureMipmap(r.modulationTexture.id());
-        r.modulation = std::move(modulation);
-        ++stats.uploads;
-    }
+    if (modulation && (!r.modulation || r.modulation->data != modulation))
+        r.modulation = shareTexture(modulationPool, std::move(modulation), uploadModulation, stats.uploads);
 }
 
 LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
@@ -308,7 +365,8 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     const LayeredSettings& s = settings_;
 
     HostStateScope scope;
-    // ---- Per layer resources, refilled only when what they depend on changes.
+    // ---- Per layer resources, shared by layers of the same parameters, new only when those change.
+    checkLayerBudget(scene, s);
     m.layers.resize(scene.layers.size());
     for (std::size_t i = 0; i < scene.layers.size(); ++i) m.updateSlot(m.layers[i], scene, scene.layers[i], s, stats);
     stats.precomputeMs = m.assets->takeComputeMs();
@@ -326,7 +384,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
             if (m.layers[li].ready()) shadowing.push_back(li);
     const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;
     std::vector<GLuint> modulationTextures;
-    for (const LayerSlot& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
+    for (const LayerSlot& r : m.layers) modulationTextures.push_back(r.modulation ? r.modulation->texture.id() : 0);
     stats.shadowLayers = int(shadowing.size());
     if (!fuseShadows)
         stats.shadowDrawCalls = m.shadows.draw(scene, view, frame, frameDepth, t, shadowing, modulationTextures,
@@ -392,7 +450,8 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
         p.set("thickness", float(layer.thickness));
         p.set("layerCount", n);
         p.set("firstAbove", firstAnnulusAbove(layer, n, view.eye.z));
-        glBindTextureUnit(1, m.layers[li].modulationTexture.id());
+        if (!m.layers[li].modulation) continue;
+        glBindTextureUnit(1, m.layers[li].modulation->texture.id());
         drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
     }
     check("drawing the layered bench's floor");

@@ -1,7 +1,7 @@
 // The path-traced reference (see nephele/pathtrace.hpp for what it renders).
 //
 // Per ray: a BVH over the ellipsoids' world boxes yields the chords the ray crosses; each
-// chord is cut into kPieces pieces whose extinction bound is exact for the smooth field
+// chord is cut into pieces (detail::chordPieces) whose extinction bound is exact for the smooth field
 // (the largest (1-q)^2 on the piece, times the noise factor's bound); overlapping pieces sum
 // into a piecewise-constant majorant (tracking.hpp) under which delta tracking samples free
 // flights and ratio tracking estimates transmittance.
@@ -9,25 +9,27 @@
 
 #include "tracking.hpp"
 
+#include "nephele/cache_file.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/parallel.hpp"
 #include "nephele/projection.hpp"
+#include "nephele/resources.hpp"
 
 #include <atomic>
 #include <cstdio>
 #include <cstring>
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <numbers>
 #include <optional>
-#include <random>
 #include <stdexcept>
 #include <thread>
+
+#include <time.h>
 
 namespace nephele {
 
@@ -45,11 +47,47 @@ using detail::MajorantSegment;
 using detail::Pcg32;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kPieces = 4;           // majorant pieces per chord
 constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
+constexpr int kMaxImageSide = 16384;           // px: a cached image of more is not ours
+constexpr double kEstimateAboveSamples = 1e6;  // renders of fewer samples are not estimated (they are short)
 // Bump when the estimator or the field changes: invalidates caches. 2: the noise is read per
 // ellipsoid at x / period + ellipsoidNoiseOffset(cloud, index, seed), as the compositor reads it.
-constexpr std::uint32_t kVersion = 2;
+// 3: the file ends with a checksum; dense media are clamped and graded (the same images below).
+constexpr std::uint32_t kVersion = 3;
+
+// Throws std::invalid_argument naming what of the scene the path tracer cannot render: a
+// scene built in code has not been through the loader's checks.
+void checkScene(const Scene& scene) {
+    auto bad = [](const std::string& what) { throw std::invalid_argument("renderPathTraced: " + what); };
+    const Medium& m = scene.medium;
+    if (!(std::isfinite(m.extinction) && m.extinction >= 0)) bad("medium.extinction must be finite and >= 0");
+    if (!(m.albedo >= 0 && m.albedo <= 1)) bad("medium.albedo must be in [0, 1]");
+    if (!(m.hgG > -1 && m.hgG < 1)) bad("medium.hg_g must be in (-1, 1)");
+    if (!(m.noise >= 0 && m.noise <= kMaxPathTraceNoise))
+        bad("medium.noise must be in [0, " + std::to_string(int(kMaxPathTraceNoise)) +
+            "] (above it the noise cuts empty holes into dense matter that free flights cannot cross in bounded time)");
+    if (m.noise > 0 && !(std::isfinite(m.noiseScale) && m.noiseScale > 0)) bad("medium.noise_scale must be finite and > 0");
+    for (std::size_t c = 0; c < scene.clouds.size(); ++c)
+        for (std::size_t i = 0; i < scene.clouds[c].ellipsoids.size(); ++i) {
+            const Ellipsoid& e = scene.clouds[c].ellipsoids[i];
+            auto finite = [](const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+            const bool ok = finite(e.center) && finite(e.rotationDeg) && finite(e.radii) && e.radii.x > 0 &&
+                            e.radii.y > 0 && e.radii.z > 0 && std::isfinite(e.density) && e.density >= 0;
+            if (!ok)
+                bad("clouds[" + std::to_string(c) + "].ellipsoids[" + std::to_string(i) +
+                    "]: needs a finite centre and rotation, radii > 0 and a finite density >= 0");
+        }
+}
+
+// The extinction the path tracer gives an ellipsoid (1/m): medium.extinction * density, capped
+// so that the optical depth through its centre along its shortest axis, sigma * 16/15 * r_min,
+// is at most kMaxOpticalDepth. Beyond that the ellipsoid is opaque in double precision, and the
+// capped rim (where its optical depth is under 50) is thinner than 2e-5 of its radius: under a
+// pixel for an ellipsoid up to 50000 pixels across.
+double cappedSigma(const Medium& m, const Ellipsoid& e) {
+    const double rMin = std::min({e.radii.x, e.radii.y, e.radii.z});
+    return std::min(m.extinction * e.density, kMaxOpticalDepth / (16.0 / 15.0 * rMin));
+}
 
 // One ellipsoid of matter.
 struct Shape {
@@ -79,6 +117,7 @@ struct Crossing {
 // A ray prepared for tracking: its chords (by tIn) and its majorant.
 struct RayData {
     std::vector<Crossing> cross;
+    std::vector<double> breaks;  // scratch: one chord's piece ends
     std::vector<MajorantPiece> pieces;
     std::vector<std::pair<double, double>> events;
     std::vector<MajorantSegment> segs;
@@ -135,7 +174,7 @@ public:
                 s.noiseOffset = glm::vec3(ellipsoidNoiseOffset(ci, ei, noiseSeed));
                 s.unit = ellipsoidToUnit(e);
                 s.center = e.center;
-                s.sigma = m.extinction * e.density;
+                s.sigma = cappedSigma(m, e);
                 const glm::dmat3 axes = rotationFromDegrees(e.rotationDeg) *
                                         glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
                 Vec3 half;  // half extent of the exact world box
@@ -176,21 +215,13 @@ public:
         });
     }
 
-    // collect() and the ray's majorant.
+    // collect() and the ray's majorant (detail::chordPieces per chord).
     void prepare(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
         collect(o, d, t0, t1, r);
         r.pieces.clear();
-        for (const Crossing& c : r.cross) {
-            const double bound = shapes_[c.shape].sigma * noiseBound_;
-            for (int k = 0; k < kPieces; ++k) {
-                const double p0 = c.tIn + (c.tOut - c.tIn) * k / kPieces;
-                const double p1 = k + 1 == kPieces ? c.tOut : c.tIn + (c.tOut - c.tIn) * (k + 1) / kPieces;
-                const double u0 = p0 * c.len - c.tc, u1 = p1 * c.len - c.tc;  // the piece in unit arc length
-                const double uMin = (u0 <= 0 && u1 >= 0) ? 0 : std::min(std::fabs(u0), std::fabs(u1));
-                const double h = std::max(0.0, 1 - c.b2 - uMin * uMin);     // 1 - smallest q
-                r.pieces.push_back({p0, p1, bound * h * h});
-            }
-        }
+        for (const Crossing& c : r.cross)
+            detail::chordPieces({c.tIn, c.tOut, c.len, c.tc, 1 - c.b2}, shapes_[c.shape].sigma * noiseBound_, r.breaks,
+                                r.pieces);
         detail::buildMajorant(r.pieces, r.events, r.segs);
     }
 
@@ -224,8 +255,10 @@ public:
         double tau = 0;
         for (const Crossing& c : r.cross) {
             const Shape& s = shapes_[c.shape];
-            tau += s.sigma * model::segmentDepth(glm::vec3(s.unit * (o - s.center)), glm::vec3(s.unit * d), float(t0),
-                                                 float(std::min(t1, 1e30)));
+            // The float closed form of a short segment can round below 0: times a dense medium's
+            // sigma that would be a transmittance of infinity.
+            tau += s.sigma * std::max(0.0f, model::segmentDepth(glm::vec3(s.unit * (o - s.center)), glm::vec3(s.unit * d),
+                                                                float(t0), float(std::min(t1, 1e30))));
         }
         return std::exp(-tau);
     }
@@ -355,36 +388,123 @@ private:
 
 }  // namespace
 
-Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+namespace {
+
+void checkSettings(const PathTraceSettings& s) {
     if (s.spp < 1) throw std::invalid_argument("renderPathTraced: spp must be >= 1");
     if (s.maxBounces < 0) throw std::invalid_argument("renderPathTraced: maxBounces must be >= 0");
+}
+
+// The pixels of rows [y0, y1) step `stride` (and columns step `stride`) at `spp` samples into
+// `image` (RGBA); the same estimate per pixel as the full render.
+void tracePixels(const World& world, const View& view, int spp, int maxBounces, unsigned seed, int y, int stride,
+                 Image& image, Workspace& ws) {
+    const Scene& scene = world.scene();
+    const int width = view.camera.width;
+    for (int x = 0; x < width; x += stride) {
+        const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+        // The GPU clips at the near/far planes, at distance near / cos(angle to forward).
+        const double c = glm::dot(d, view.forward);
+        const double tNear = view.camera.nearClip / c, tFar = view.camera.farClip / c;
+        const std::optional<SurfaceHit> hit = intersectObjects(scene, view.eye, d, tNear, tFar);
+        const double tEnd = hit ? hit->distance : tFar;
+        world.prepare(view.eye, d, tNear, tEnd, ws.primary);  // shared by every sample of the pixel
+        const std::uint64_t pixel = std::uint64_t(y) * width + x;
+        Vec3 sum(0.0);
+        double transmittance = 0;
+        for (int k = 0; k < spp; ++k) {
+            Pcg32 rng = detail::sampleRng(seed, pixel, std::uint64_t(k));
+            sum += world.trace(view.eye, d, hit, maxBounces, rng, ws);
+            if (world.noisy()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
+        }
+        transmittance = world.noisy() ? transmittance / spp : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
+        for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(sum[k] / spp);
+        image.at(x, y, 3) = float(1 - transmittance);
+    }
+}
+
+constexpr int kPilotStride = 8;  // the estimate traces every 8th pixel of every 8th row
+constexpr int kPilotSpp = 2;     // at up to 2 samples
+constexpr double kMinPilotSamples = 8192;  // a denser grid below this
+
+// CPU time of the calling thread (s): what a piece of work costs, whatever else the machine runs.
+double threadCpuSeconds() {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// Seconds the full render would take on an otherwise idle machine: a pilot over a sparse grid
+// of pixels, each row's CPU time measured on the thread that ran it (a busy machine's
+// preemption and thread start-up do not count: a 100 ms stall of a 1 ms row would be scaled
+// by the pilot's 1/683), scaled by the samples it stands for and shared among the threads the
+// render will use.
+double pilotSeconds(const World& world, const View& view, const PathTraceSettings& s) {
+    const int width = view.camera.width, height = view.camera.height;
+    const int spp = std::min(s.spp, kPilotSpp);
+    // A denser grid for small renders: at least kMinPilotSamples (or all of them), so that
+    // what a first call costs once (page faults, lazy binding) is not scaled up with the rest.
+    auto samples = [&](int stride) {
+        return double((height + stride - 1) / stride) * ((width + stride - 1) / stride) * spp;
+    };
+    int stride = kPilotStride;
+    while (stride > 1 && samples(stride) < std::min(kMinPilotSamples, double(width) * height * spp)) stride /= 2;
+    Image scratch(width, height, 4);
+    {
+        Workspace ws;  // warm-up, untimed
+        tracePixels(world, view, spp, s.maxBounces, s.seed, height / 2, stride, scratch, ws);
+    }
+    const int rows = (height + stride - 1) / stride;
+    std::vector<double> rowSeconds(std::size_t(rows), 0.0);
+    parallelFor(rows, [&](int r) {
+        const double start = threadCpuSeconds();
+        Workspace ws;
+        tracePixels(world, view, spp, s.maxBounces, s.seed, r * stride, stride, scratch, ws);
+        rowSeconds[std::size_t(r)] = threadCpuSeconds() - start;
+    });
+    double seconds = 0;
+    for (double v : rowSeconds) seconds += v;
+    const double traced = samples(stride);
+    const int threads = std::max(1, std::min<int>(height, int(std::thread::hardware_concurrency())));
+    return seconds * (double(width) * height * s.spp) / traced / threads;
+}
+
+std::string durationText(double seconds) {
+    char text[64];
+    if (seconds < 120) std::snprintf(text, sizeof text, "%.0f s", std::ceil(seconds));
+    else if (seconds < 7200) std::snprintf(text, sizeof text, "%.0f min", std::ceil(seconds / 60));
+    else std::snprintf(text, sizeof text, "%.1f h", seconds / 3600);
+    return text;
+}
+
+}  // namespace
+
+double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+    checkSettings(s);
+    checkScene(scene);
+    const World world(scene, noise);
+    return pilotSeconds(world, view, s);
+}
+
+Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+    checkSettings(s);
+    checkScene(scene);
     const World world(scene, noise);
     const int width = view.camera.width, height = view.camera.height;
+    requireMemory("the path tracer's " + std::to_string(width) + "x" + std::to_string(height) + " RGBA float image",
+                  std::uint64_t(width) * std::uint64_t(height) * 16);
+    // Long work says how long before it starts (a pilot of about 1/64 of the pixels at 2 spp).
+    if (double(width) * height * s.spp >= kEstimateAboveSamples) {
+        const double seconds = pilotSeconds(world, view, s);
+        if (seconds >= 2)
+            logMessage(LogLevel::Info, "pathtrace: " + std::to_string(width) + "x" + std::to_string(height) + " at " +
+                                           std::to_string(s.spp) + " spp: about " + durationText(seconds));
+    }
     Image image(width, height, 4);
     Progress progress(s.progress, height);
     parallelFor(height, [&](int y) {
         Workspace ws;
-        for (int x = 0; x < width; ++x) {
-            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
-            // The GPU clips at the near/far planes, at distance near / cos(angle to forward).
-            const double c = glm::dot(d, view.forward);
-            const double tNear = view.camera.nearClip / c, tFar = view.camera.farClip / c;
-            const std::optional<SurfaceHit> hit = intersectObjects(scene, view.eye, d, tNear, tFar);
-            const double tEnd = hit ? hit->distance : tFar;
-            world.prepare(view.eye, d, tNear, tEnd, ws.primary);  // shared by every sample of the pixel
-            const std::uint64_t pixel = std::uint64_t(y) * width + x;
-            Vec3 sum(0.0);
-            double transmittance = 0;
-            for (int k = 0; k < s.spp; ++k) {
-                Pcg32 rng = detail::sampleRng(s.seed, pixel, std::uint64_t(k));
-                sum += world.trace(view.eye, d, hit, s.maxBounces, rng, ws);
-                if (world.noisy()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
-            }
-            transmittance = world.noisy() ? transmittance / s.spp
-                                          : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
-            for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(sum[k] / s.spp);
-            image.at(x, y, 3) = float(1 - transmittance);
-        }
+        tracePixels(world, view, s.spp, s.maxBounces, s.seed, y, 1, image, ws);
         progress.rowDone();
     });
     ++detail::imagesComputed;
@@ -448,49 +568,52 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     return k.bytes();
 }
 
-constexpr char kMagic[8] = {'N', 'E', 'P', 'H', 'P', 'T', '1', '\n'};
+constexpr char kMagic[8] = {'N', 'E', 'P', 'H', 'P', 'T', '3', '\n'};
 
-// File: magic, key length (u64), key, width, height, channels (i32), floats.
+// File (before the checksum of nephele/cache_file.hpp): magic, key length (u64), key, width,
+// height, channels (i32), floats. A damaged or implausible file is never used: the caller
+// renders again, with a warning when there was a file.
 std::optional<Image> readCache(const std::filesystem::path& file, const std::string& key) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) return std::nullopt;
-    char magic[8];
-    std::uint64_t keyLength = 0;
-    if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) return std::nullopt;
-    if (!in.read(reinterpret_cast<char*>(&keyLength), sizeof keyLength) || keyLength != key.size()) return std::nullopt;
-    std::string stored(keyLength, '\0');
-    if (!in.read(stored.data(), std::streamsize(keyLength)) || stored != key) return std::nullopt;
-    std::int32_t dims[3];
-    if (!in.read(reinterpret_cast<char*>(dims), sizeof dims)) return std::nullopt;
-    if (dims[0] < 1 || dims[1] < 1 || dims[2] != 4 || dims[0] > 16384 || dims[1] > 16384) return std::nullopt;
-    Image image(dims[0], dims[1], dims[2]);
-    if (!in.read(reinterpret_cast<char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float))))
+    std::string why;
+    const std::size_t maxBytes = 8 + 8 + key.size() + 12 + std::size_t(kMaxImageSide) * kMaxImageSide * 16;
+    const std::optional<std::string> bytes = cache::read(file.string(), maxBytes, why);
+    auto reject = [&](const std::string& what) -> std::optional<Image> {
+        logMessage(LogLevel::Warning, "ignoring the path tracer's cache file " + file.string() + ": " + what + "; rendering again");
         return std::nullopt;
-    if (in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+    };
+    if (!bytes) return why.empty() ? std::nullopt : reject(why);
+    const std::string& b = *bytes;
+    std::uint64_t keyLength = 0;
+    if (b.size() < 16 || std::memcmp(b.data(), kMagic, 8) != 0) return reject("not a cache file of this version");
+    std::memcpy(&keyLength, b.data() + 8, 8);
+    if (keyLength != key.size() || b.size() < 16 + keyLength + 12 || b.compare(16, keyLength, key) != 0)
+        return std::nullopt;  // another image under the same name (a hash collision): a plain miss
+    std::int32_t dims[3];
+    std::memcpy(dims, b.data() + 16 + keyLength, sizeof dims);
+    if (dims[0] < 1 || dims[1] < 1 || dims[2] != 4 || dims[0] > kMaxImageSide || dims[1] > kMaxImageSide)
+        return reject("implausible image size");
+    Image image(dims[0], dims[1], dims[2]);
+    const std::size_t offset = 16 + keyLength + 12, floats = image.pixels.size() * sizeof(float);
+    if (b.size() != offset + floats) return reject("wrong length");
+    std::memcpy(image.pixels.data(), b.data() + offset, floats);
+    for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+        const float v = image.pixels[i];
+        if (!std::isfinite(v) || v < 0 || (i % 4 == 3 && v > 1)) return reject("a value that is not a radiance or an opacity");
+    }
     return image;
 }
 
 void writeCache(const std::filesystem::path& file, const std::string& key, const Image& image) {
-    // A name unique to this process and thread, renamed into place only when complete.
-    const std::uint64_t unique = detail::mix64(std::random_device{}() ^
-                                               std::hash<std::thread::id>{}(std::this_thread::get_id()) ^
-                                               std::uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
-    const std::filesystem::path temp = file.string() + ".tmp" + std::to_string(unique & 0xFFFFFFFFFFull);
     const std::uint64_t keyLength = key.size();
     const std::int32_t dims[3] = {image.width, image.height, image.channels};
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    out.write(kMagic, 8);
-    out.write(reinterpret_cast<const char*>(&keyLength), sizeof keyLength);
-    out.write(key.data(), std::streamsize(key.size()));
-    out.write(reinterpret_cast<const char*>(dims), sizeof dims);
-    out.write(reinterpret_cast<const char*>(image.pixels.data()), std::streamsize(image.pixels.size() * sizeof(float)));
-    out.close();
-    std::error_code ec;
-    if (out) std::filesystem::rename(temp, file, ec);
-    if (!out || ec) {  // the image is still good: say so and go on without caching it
-        std::filesystem::remove(temp, ec);
-        logMessage(LogLevel::Warning, "could not write the path tracer's cache file " + file.string());
-    }
+    std::string bytes(kMagic, 8);
+    bytes.append(reinterpret_cast<const char*>(&keyLength), sizeof keyLength);
+    bytes += key;
+    bytes.append(reinterpret_cast<const char*>(dims), sizeof dims);
+    bytes.append(reinterpret_cast<const char*>(image.pixels.data()), image.pixels.size() * sizeof(float));
+    const std::string why = cache::write(file.string(), bytes);
+    // The image is still good: say so and go on without caching it.
+    if (!why.empty()) logMessage(LogLevel::Warning, "could not write the path tracer's cache file: " + why);
 }
 
 }  // namespace

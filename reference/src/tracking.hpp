@@ -95,32 +95,106 @@ inline void buildMajorant(std::span<const MajorantPiece> pieces, std::vector<std
     }
 }
 
+// One ray's chord through an ellipsoid, in the terms of its density: at distance t (m) the
+// ray is at unit-space arc length u = t len - tc, where the density is rho (a - u^2)^2 for
+// u^2 < a (a = 1 - b^2, b the impact parameter), 0 at the chord's natural ends u = +-sqrt(a).
+struct Chord {
+    double tIn, tOut;  // m, the chord clipped to the ray's interval
+    double len, tc;    // unit-space length per metre; unit arc length of the closest approach
+    double a;          // 1 - b^2, in (0, 1]
+};
+
+constexpr int kPieces = 4;            // uniform majorant pieces per chord
+constexpr double kGradeAbove = 1000;  // optical depth of a chord's majorant above which it is graded
+
+// Appends the majorant pieces of one chord of an ellipsoid whose extinction is at most
+// bound (a - u^2)^2 (1/m): each piece bounds it by its largest value on the piece. kPieces
+// uniform pieces; when the chord's majorant is optically deeper than kGradeAbove, also pieces
+// of doubling length from each natural end towards the middle, the first so short that it
+// holds about one tentative collision. Near an end the density rises from 0, so uniform pieces
+// would make a free flight take up to bound^(2/3) tentative collisions there (10^8 at density
+// 1e12); on a graded piece the bound is within about 4 times the field at its far end.
+// `breaks` is scratch space.
+inline void chordPieces(const Chord& c, double bound, std::vector<double>& breaks, std::vector<MajorantPiece>& out) {
+    breaks.clear();
+    for (int k = 0; k <= kPieces; ++k) breaks.push_back(k == kPieces ? c.tOut : c.tIn + (c.tOut - c.tIn) * k / kPieces);
+    if (bound * c.a * c.a * (c.tOut - c.tIn) > kGradeAbove) {
+        const double ua = std::sqrt(c.a);
+        // Near an end h = a - u^2 ~ 2 ua du: a piece of du holds bound (2 ua du)^2 du / len of majorant depth.
+        for (double du = std::cbrt(c.len / (4 * bound * c.a)); du < ua; du *= 2)
+            for (double u : {-ua + du, ua - du}) {
+                const double t = (u + c.tc) / c.len;
+                if (t > c.tIn && t < c.tOut) breaks.push_back(t);
+            }
+        std::sort(breaks.begin(), breaks.end());
+    }
+    for (std::size_t k = 0; k + 1 < breaks.size(); ++k) {
+        const double p0 = breaks[k], p1 = breaks[k + 1];
+        if (!(p1 > p0)) continue;
+        const double u0 = p0 * c.len - c.tc, u1 = p1 * c.len - c.tc;  // the piece in unit arc length
+        const double uMin = (u0 <= 0 && u1 >= 0) ? 0 : std::min(std::fabs(u0), std::fabs(u1));
+        const double h = std::max(0.0, c.a - uMin * uMin);  // 1 - smallest q
+        out.push_back({p0, p1, bound * h * h});
+    }
+}
+
 constexpr double kNoCollision = std::numeric_limits<double>::infinity();
 
+// Tentative collisions one tracking call takes at most: a guard that fields the renderer
+// allows never reach (their majorants are graded to within a small factor of the field, see
+// pathtrace.cpp); past it the medium is taken as opaque where the walk stands.
+constexpr long kMaxTrackingSteps = 1000000;
+
+// The next tentative collision after t: an exponential step of mean 1/majorant. Sets `stuck`
+// when the step is too short to move t at all (the majorant's mean free path is below the
+// precision of the distance): the medium is opaque at that scale.
+inline double nextTentative(double t, double majorant, Pcg32& rng, bool& stuck) {
+    const double step = -std::log(1.0 - rng.uniform()) / majorant;
+    stuck = step > 0 && t + step == t;  // a zero step (uniform() == 0) is a valid draw, not a stall
+    return t + step;
+}
+
 // Delta tracking: the distance of the first real collision with extinction sigma(t) (1/m)
-// along the segments, or kNoCollision. Unbiased provided sigma(t) <= majorant everywhere.
+// along the segments, or kNoCollision. Unbiased provided sigma(t) <= majorant everywhere and
+// the steps move t; where they cannot (see nextTentative), or after kMaxTrackingSteps, the
+// collision is where the walk stands.
 template <class Sigma>
 double deltaTrack(std::span<const MajorantSegment> segments, const Sigma& sigma, Pcg32& rng) {
+    long steps = 0;
+    bool stuck = false;
     for (const MajorantSegment& s : segments)
         for (double t = s.t0;;) {
-            t -= std::log(1.0 - rng.uniform()) / s.majorant;  // exponential step, mean 1/majorant
-            if (t >= s.t1) break;                             // memoryless: restart at the next segment
+            const double next = nextTentative(t, s.majorant, rng, stuck);
+            if (next >= s.t1) break;  // memoryless: restart at the next segment
+            if (stuck || ++steps > kMaxTrackingSteps) return t;
+            t = next;
             if (rng.uniform() * s.majorant < sigma(t)) return t;
         }
     return kNoCollision;
 }
 
+// Below this, ratio tracking plays Russian roulette: it goes on at this value with probability
+// transmittance / kRouletteBelow, else returns 0 (unbiased). Without it a walk through dense
+// matter multiplies its estimate down to a double's underflow, thousands of steps.
+constexpr double kRouletteBelow = 1e-10;
+
 // Ratio tracking: an unbiased estimate of the transmittance exp(-integral of sigma) over the
-// segments, in [0, 1].
+// segments, in [0, 1] (0 where delta tracking would collide where it stands, as above).
 template <class Sigma>
 double ratioTrack(std::span<const MajorantSegment> segments, const Sigma& sigma, Pcg32& rng) {
     double transmittance = 1;
+    long steps = 0;
+    bool stuck = false;
     for (const MajorantSegment& s : segments)
         for (double t = s.t0;;) {
-            t -= std::log(1.0 - rng.uniform()) / s.majorant;
+            t = nextTentative(t, s.majorant, rng, stuck);
             if (t >= s.t1) break;
+            if (stuck || ++steps > kMaxTrackingSteps) return 0;
             transmittance *= std::max(0.0, 1.0 - sigma(t) / s.majorant);
-            if (transmittance == 0) return 0;
+            if (transmittance < kRouletteBelow) {
+                if (rng.uniform() * kRouletteBelow >= transmittance) return 0;
+                transmittance = kRouletteBelow;
+            }
         }
     return transmittance;
 }

@@ -15,6 +15,11 @@ namespace nephele {
 
 namespace {
 
+// Steps of one light march at most: its step is at least the candidates' span / this. At the
+// largest light grid (128) that is still over 4 steps per voxel along the grid's diagonal, so
+// usual clouds (at 25 m, under 25 km across) are marched at the step asked for.
+constexpr double kMaxMarchSteps = 1024;
+
 // One ellipsoid in the form the march needs: world offset -> unit sphere.
 struct UnitEllipsoid {
     glm::dmat3 unit;   // M = diag(1/r) R^T
@@ -79,6 +84,11 @@ double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3
                 const NoiseVolume* noise, double period, double stopDepth) {
     const std::vector<Candidate> list = candidates(ells, kappa, o, dir);
     if (list.empty()) return 0;
+    // At most kMaxMarchSteps steps over the candidates' whole span, whatever the step asked for
+    // and the clouds' size (a cloud of 1e9 m at 25 m took 10^7 steps a voxel).
+    double last = list[0].out;
+    for (const Candidate& c : list) last = std::max(last, c.out);
+    step = std::max(step, (last - list[0].in) / kMaxMarchSteps);
     // Algorithm 2: lambda only moves forward; a candidate already passed is skipped, a gap
     // before the next candidate is jumped over.
     double lambda = list[0].in, depth = 0;
@@ -86,7 +96,9 @@ double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3
         if (lambda > c.out) continue;
         if (lambda < c.in) lambda = c.in;
         while (lambda < c.out) {
-            const double end = std::min(lambda + step, c.out), mid = 0.5 * (lambda + end);
+            // The step always moves lambda, even where it is under the precision of the distance.
+            const double end = std::max(std::min(lambda + step, c.out), std::nextafter(lambda, INFINITY));
+            const double mid = 0.5 * (lambda + end);
             depth += densityAlong(list, mid, inverseScale2(kappa, o + mid * dir, noise, period)) * (end - lambda);
             lambda = end;
             if (depth > stopDepth) return depth;

@@ -16,6 +16,7 @@
 // Generator in code) never duplicates a cloud.
 #pragma once
 
+#include "nephele/limits.hpp"
 #include "nephele/scene.hpp"  // Generator, Cloud, Scene, GenerateStats
 
 #include <stdexcept>
@@ -74,8 +75,10 @@ Cloud generateCumulus(const Generator& g, GenerateStats* stats = nullptr);
 //   semi-axis along z = thicknessRatio * the minor in-plane semi-axis;
 // - the rotation as rotation_deg (R = Rz * Ry * Rx, see rotationFromDegrees).
 // stats: placed = triangles read, degenerate = triangles skipped because they have no area
-// (minor semi-axis <= 1e-9 of the major, or zero size), kept = placed - degenerate.
-// Throws ObjError.
+// (minor semi-axis <= 1e-9 of the major, or zero size) or that would make an ellipsoid with a
+// semi-axis under limits::kSmallestRadius, kept = placed - degenerate. The OBJ must be a
+// regular file of at most limits::kObjFileBytes with no NUL byte and at most
+// limits::kEllipsoidsPerEntry triangles. Throws ObjError.
 Cloud generateMesh(const Generator& g, GenerateStats* stats = nullptr);
 
 // An L-system cloud (paper section 3.6.2): the axiom rewritten `iterations` times by the rules
@@ -90,12 +93,11 @@ Cloud generateMesh(const Generator& g, GenerateStats* stats = nullptr);
 //   |      turn around (yaw 180 degrees)
 //   [ ]    push / pop the turtle's position and orientation (an unmatched ] is ignored)
 // Every other symbol only takes part in the rewriting. Throws std::length_error when the
-// rewritten string would exceed kMaxLSystemSymbols symbols or place more than
-// kMaxLSystemSpheres spheres.
-Cloud generateLSystem(const Generator& g, GenerateStats* stats = nullptr);
-
-inline constexpr size_t kMaxLSystemSymbols = 20'000'000;  // rewritten string length limit
-inline constexpr size_t kMaxLSystemSpheres = 100'000;     // as cumulus `count`
+// rewritten string would exceed maxSymbols (at most kMaxLSystemSymbols) symbols, place more
+// than kMaxLSystemSpheres spheres, or nest '[' deeper than limits::kLSystemDepth.
+inline constexpr size_t kMaxLSystemSymbols = size_t(limits::kLSystemSymbols.value);     // rewritten string length
+inline constexpr size_t kMaxLSystemSpheres = size_t(limits::kEllipsoidsPerEntry.value);  // as cumulus `count`
+Cloud generateLSystem(const Generator& g, GenerateStats* stats = nullptr, size_t maxSymbols = kMaxLSystemSymbols);
 
 // The rotation_deg (rx, ry, rz) of a rotation matrix, so that rotationFromDegrees(result)
 // gives R back (R = Rz * Ry * Rx; ry in [-90, 90]; at ry = +-90 rz is 0).
@@ -105,6 +107,10 @@ Vec3 degreesFromRotation(const glm::dmat3& R);
 // into one Cloud named after it, appended to scene.clouds in generator order; appends its
 // statistics to scene.generated and returns those of this call. An OBJ or L-system fault is
 // rethrown as SceneError(scene.file, "generate[i].path" (mesh) or "generate[i]", what()).
+// The scene's limits (nephele/limits.hpp) hold for what it makes: the scene's clouds and
+// ellipsoids in all, OBJ data and L-system symbols per scene, and every generated ellipsoid
+// keeps the coordinate, radius and optical-depth limits of an explicit one (a SceneError
+// names the generator and the ellipsoid otherwise).
 std::vector<GenerateStats> expandGenerators(Scene& scene);
 
 }  // namespace nephele

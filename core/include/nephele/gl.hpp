@@ -9,6 +9,7 @@
 #include "nephele/gl_functions.hpp"
 
 #include <chrono>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -54,6 +55,21 @@ private:
     bool on_;
     std::chrono::steady_clock::time_point last_;
 };
+
+// GL faults of allocation, checked whatever setChecks() says (a failed allocation must end in
+// a message, never in a draw into nothing or an abort):
+// After allocating GL storage of about `bytes` (a texture, a buffer): throws GlError("WHAT: the
+// driver could not allocate 3.2 GB (GL_OUT_OF_MEMORY); ..."), or names any other pending error.
+void checkAllocation(const std::string& what, std::uint64_t bytes);
+// Throws GlError("WHAT: framebuffer incomplete: GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT (0x8CD6)")
+// unless `framebuffer` is complete (a driver may refuse an attachment it cannot hold).
+void checkFramebuffer(GLuint framebuffer, const std::string& what);
+// "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT (0x8CD6)", any status in hexadecimal.
+std::string framebufferStatusName(GLenum status);
+// Throws GlError naming WHAT, the size and the limit when a texture of width x height (x depth
+// for 3D) is over GL_MAX_TEXTURE_SIZE (GL_MAX_3D_TEXTURE_SIZE when depth > 0, and
+// GL_MAX_ARRAY_TEXTURE_LAYERS for `layers` > 0).
+void checkTextureSize(const std::string& what, int width, int height, int depth = 0, int layers = 0);
 
 // A move-only owner of one GL object name: copy deleted, move noexcept, a moved-from
 // handle holds 0. wrap() adopts a name, release() hands it back without deleting.

@@ -95,7 +95,7 @@ struct Generator {
 
     // cumulus (Jimenez de Parga & Gomez Palomo 2018, section 3.6.1)
     Vec3 center{0.0};                          // required for cumulus and lsystem
-    int count = 35;                            // ellipsoids placed, 1..100000
+    int count = 35;                            // ellipsoids placed, 1..limits::kEllipsoidsPerEntry
     Vec3 sigma{300.0, 300.0, 120.0};           // m, Gaussian placement std-dev per axis, > 0
     Vec3 clampLo{-2.0, -2.0, -0.5};            // placement clamped to [lo, hi] * sigma per axis
     Vec3 clampHi{2.0, 2.0, 2.0};
@@ -129,8 +129,10 @@ struct GenerateStats {
     int placed = 0;           // cumulus: count; mesh: triangles read; lsystem: spheres placed (F)
     int prunedHollow = 0;     // cumulus: dropped in the hollow core
     int prunedContained = 0;  // cumulus: dropped as inside another ellipsoid
-    int degenerate = 0;       // mesh: triangles without area, skipped
+    int degenerate = 0;       // mesh: triangles without area (or thinner than limits::kSmallestRadius), skipped
     int kept = 0;             // ellipsoids in the cloud
+    std::uint64_t objBytes = 0;  // mesh: bytes of the OBJ file read (limits::kObjBytesPerScene)
+    std::int64_t symbols = 0;    // lsystem: length of the rewritten string (limits::kLSystemSymbols)
 };
 
 struct CityGlow {

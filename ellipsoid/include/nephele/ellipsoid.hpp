@@ -95,6 +95,8 @@ struct EllipsoidStats {
     int visible = 0;            // after culling
     int passes = 0;
     int maxTile = 0;            // the largest tile size used (below settings.maxTile when memory bound)
+    int lightVolume = 0;        // voxels per side of the light volumes used (below settings.lightVolume
+                                // when settings.lightMegabytes bounds them)
     int drawCalls = 0;          // draws issued by the compositor for this frame
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
@@ -106,6 +108,8 @@ struct EllipsoidStats {
     // With EllipsoidSettings::timings, the wall time of each part (ms, gl::PartTimer); else 0.
     double tilesMs = 0;      // projection, packing, light grids and the tile passes
     double compositeMs = 0;  // the tiles composited over the frame (with the weighted resolve)
+    double planMs = 0;          // CPU time of this call before its first draw (projection, packing, light
+                                // grids when they changed, uploads), wall ms
 };
 
 // One tile of the last frame, for a host's debug views.

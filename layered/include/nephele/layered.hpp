@@ -81,6 +81,14 @@ std::vector<double> forwardScatter(const std::vector<double>& taus, double forwa
 // Returns E_n, the light leaving the last particle towards the eye (relative to the I's unit).
 double eyeScatter(const std::vector<double>& taus, const std::vector<double>& incident, double albedo,
                   double phase);
+// One column of slices lit from above, as the precomputation lights it: slice k of optical
+// depth sliceTaus[k] (k = 0 at the top) is split into n = ceil(tau / 0.1) equal particles (the
+// Riemann sum of eq. 5 needs thin ones), and the n identical steps of eqs. (7) and (8) are
+// summed in closed form, so the cost is one step per slice whatever the optical depth (the same
+// as forwardScatter() and eyeScatter() over the particles, to round-off). Sets incident[k] to
+// the light on slice k's first particle (I_0 = 1) and returns the eye scattering E_n.
+double lightColumn(const std::vector<double>& sliceTaus, double forward, double albedo, double phase,
+                   std::vector<double>& incident);
 // The forward-scattering coefficient albedo * F(0) * gamma / 4pi for a cone of half-angle
 // coneDeg (degrees, > 0), clamped to albedo (energy: no more than is scattered).
 double forwardCoefficient(double albedo, double f, double coneDeg);
@@ -92,8 +100,12 @@ double decodeComponent(std::uint8_t byte);
 // ---------------------------------------------------------------------------------------
 // The lighting volume
 
+// The largest lighting volume per side: GL 4.5's least GL_MAX_3D_TEXTURE_SIZE, so every
+// conforming driver can hold it (memory permitting: see lightingBytes()).
+inline constexpr int kMaxLightingSize = 2048;
+
 struct LightingSettings {
-    int width = 256, height = 256, depth = 32;  // texels (the paper's 256 x 256 x 32), >= 2 each
+    int width = 256, height = 256, depth = 32;  // texels (the paper's 256 x 256 x 32), 2..kMaxLightingSize each
     double tilePeriod = 8000;     // m, horizontal period of the 3D texture (the paper: 16000 units)
     double forwardConeDeg = 10;   // degrees, half-angle of gamma in eq. (4)/(6), (0, 90]
     int octaves = 4;              // fBm octaves of the volume's density, 1..8
@@ -131,7 +143,8 @@ struct LightingVolume {
     // texture coordinates (u, v) and z in [0, 1] (height fraction in the layer).
     double sampleDensity(double u, double v, double z) const;
 
-    // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels.
+    // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels, and
+    // a checksum (nephele/cache_file.hpp); load() verifies it and refuses a damaged file.
     void save(const std::string& path) const;
     // Throws LightingFileError naming the file and what is wrong (bad magic, version, a size
     // or a parameter that differs from `expected`, truncated data).
@@ -139,9 +152,15 @@ struct LightingVolume {
                                const LightingParameters& expectedParameters);
 };
 
+// About the memory a volume of these settings takes while it is computed and uploaded (bytes).
+std::uint64_t lightingBytes(const LightingSettings& settings);
+
 // The density A of the volume at texel centres: an fBm cloud field shaped by a vertical
 // profile (0 at the bottom and the top of the layer, 1 inside), tileable in x and y.
-// Then the light. Throws std::invalid_argument for bad settings.
+// Then the light. Time and memory grow with the texel count only, whatever the optical depth
+// (a slice's particles are summed in closed form). Throws std::invalid_argument for bad
+// settings, ResourceError (nephele/resources.hpp) when lightingBytes() is more than the
+// memory available.
 LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
 // The same through a cache folder (created if missing): loaded when a file of the same
 // parameters is there, else computed and saved (a failed save only warns through the log callback, nephele/log.hpp).
@@ -171,6 +190,9 @@ struct ModulationTexture {
 // Deterministic from `seed` (the layer's seed).
 ModulationTexture makeModulation(const ModulationSettings& settings, unsigned seed);
 
+// At most this many billboard slices (lod0Radius / lod0Spacing).
+inline constexpr int kMaxBillboardSlices = 4096;
+
 struct LayeredSettings {
     int layers = 8;               // N, annuli per scene layer (LOD1), >= 2; 8 keeps grazing-view gaps < 2% (layered_gl_test)
     double lod0Radius = 1500;     // m, radius of the billboard disc (LOD0); 0 = no billboards
@@ -188,6 +210,10 @@ struct LayeredSettings {
     LightingSettings lighting;
     ModulationSettings modulation;
     std::string cacheDir;         // lighting volumes are cached here ("" = not cached)
+    int resourceMegabytes = 1024; // memory for the layers' lighting volumes and modulation textures (CPU and
+                                  // GL): layers of the same thickness (and medium) share a volume, of the same
+                                  // seed a modulation; a scene whose distinct ones need more is refused
+                                  // (ResourceError) before anything is made. 1..65536
 };
 // Throws std::invalid_argument naming the setting.
 void validate(const LayeredSettings& settings);

@@ -33,6 +33,18 @@
 
 namespace nephele {
 
+// What it takes as given, whatever Scene it is handed (a host may build one in code, past the
+// loader's limits), so that a render ends in bounded time:
+// - each ellipsoid's extinction is capped so that its optical depth through the centre along
+//   its shortest axis is at most kMaxOpticalDepth (opaque in double precision; the capped rim
+//   is under 2e-5 of the radius, below a pixel up to 50000 pixels across);
+// - medium.noise must be at most kMaxPathTraceNoise (above 1, max(0, 1 + noise n) cuts empty
+//   holes into the matter whose crossing costs majorant x length tentative collisions);
+// - free flights use majorants graded towards the ends of optically deep chords, and a step too
+//   short to move the distance in double precision collides where it stands.
+inline constexpr double kMaxOpticalDepth = 1e12;
+inline constexpr double kMaxPathTraceNoise = 1;
+
 struct PathTraceSettings {
     int spp = 64;         // samples per pixel, >= 1
     int maxBounces = 32;  // scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only
@@ -40,18 +52,29 @@ struct PathTraceSettings {
     bool progress = false;  // report progress through nephele::reportProgress (nephele/log.hpp)
 };
 
+// Seconds renderPathTraced would take here for these settings on an otherwise idle machine
+// (all cores): a pilot render of every 8th pixel of every 8th row at up to 2 spp, its CPU
+// time scaled (about 1/64 of a 2-spp render's cost). renderPathTraced logs this estimate (LogLevel::Info) before renders of at least 10^6
+// samples that it expects to take 2 s or more. Throws as renderPathTraced.
+double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise);
+
 // RGBA: rgb linear radiance, a = cloud opacity along the primary ray (1 - transmittance of
 // cloud matter between the near plane and the first opaque surface or the far plane; exact
 // closed form when medium.noise == 0, the mean of ratio-tracking estimates otherwise).
 // `noise` may be null only when scene.medium.noise == 0. Throws std::invalid_argument on bad
-// settings.
+// settings or a scene it cannot render (non-finite numbers, medium.noise over
+// kMaxPathTraceNoise), ResourceError (nephele/resources.hpp) when the image does not fit in
+// memory. Progress goes to nephele::reportProgress when settings.progress is set.
 Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise);
 
 // The same, cached under cacheDir (created if missing): the file name is a hash of every
 // input that affects the image (the view's camera, sun, sky, medium, clouds, objects, the
 // noise volume when medium.noise > 0, spp, maxBounces, seed and a version constant), and the
 // file holds the whole key, so a hash collision is a miss. Files are written atomically
-// (temporary name, then rename); an unreadable or mismatching file is recomputed.
+// (temporary name, then rename) and end with a checksum (nephele/cache_file.hpp); a damaged
+// file (checksum, length, a NaN, a negative radiance, an opacity over 1) or something other
+// than a regular file there (read without blocking) is rendered again with a warning through
+// the log callback (nephele/log.hpp), never used.
 Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
                              const NoiseVolume* noise, const std::string& cacheDir);
 

@@ -59,13 +59,14 @@ struct RaymarchSettings {
                                // distance-dependent LOD); 0 = fixed step
     RadianceGridSettings light;  // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
     int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
-    int maxSteps = 2048;       // per pixel, a safety cap, >= 1
+    int maxSteps = 2048;       // per pixel, a safety cap, 1..65536: a march that reaches it stops there
 };
 
 struct RaymarchStats {
     int ellipsoids = 0, clouds = 0;  // in the scene
     int lightGridsComputed = 0;      // radiance grids computed in this call (0 when all were kept)
     int lightStandIns = 0;           // clouds lit by a stand-in (light_cache.hpp): grids pending or past the budget
+    double planMs = 0;               // wall ms of this call before its draw (light grids included)
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
@@ -91,7 +92,8 @@ double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& 
 // The optical depth / extinction (density x metres) along o + l dir, l in [0, infinity), through
 // the pseudo-spheroids of `cloud`, marched with Algorithm 2's no-duplicate tracing at step
 // `step`: the sorted candidates' union is marched once, overlaps and gaps are not. Stops early
-// once the depth exceeds `stopDepth`.
+// once the depth exceeds `stopDepth`. At most 1024 steps whatever the step and the clouds'
+// size: the step is at least the candidates' span / 1024, and always moves the distance.
 double marchDensityNdt(const Medium& medium, const Cloud& cloud, const Vec3& o, const Vec3& dir, double step,
                        const NoiseVolume* noise, double noisePeriod, double stopDepth = 1e300);
 

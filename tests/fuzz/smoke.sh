@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# The fuzz smoke: builds the libFuzzer targets of the input readers (clang, ASan + UBSan) and
+# runs each on the kept corpus (tests/fuzz/corpus/) and the shipped scenes, meshes and images
+# for SECONDS (default 20; three targets, about 60 s in all). Exits non-zero on a crash, a
+# sanitizer report, a timeout or an out-of-memory, leaving the input in BUILD/fuzz-artifacts/.
+#   tests/fuzz/smoke.sh [SECONDS] [BUILD]     (BUILD default: build-fuzz in the checkout)
+# New inputs go to a temporary folder: the kept corpus changes only by hand (see README).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+seconds=${1:-20}
+build=${2:-$root/build-fuzz}
+launcher=()
+if command -v ccache >/dev/null; then
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
+CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DNEPHELE_FUZZ=ON -DNEPHELE_BUILD_TESTS=OFF \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" >/dev/null
+cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+artifacts="$build/fuzz-artifacts"
+mkdir -p "$artifacts"
+declare -A seeds=(
+  [scene]="$root/data/scenes $root/tests/data/scenes"
+  [obj]="$root/data/meshes $root/tests/data"
+  [png]="$root/tests/golden"
+)
+for target in scene obj png; do
+  mkdir -p "$work/$target"
+  echo "fuzz smoke: $target for ${seconds} s"
+  # -timeout: one input over 10 s is a hang; -rss_limit_mb: more than 2 GB is runaway memory.
+  set +e
+  # shellcheck disable=SC2086
+  "$build/bin/nephele_fuzz_$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    -print_final_stats=1 -artifact_prefix="$artifacts/$target-" \
+    "$work/$target" "$here/corpus/$target" ${seeds[$target]} >"$work/$target.log" 2>&1
+  status=$?
+  set -e
+  grep -E "^(Done|stat::number_of_executed_units)" "$work/$target.log" || true
+  if [ "$status" -ne 0 ]; then
+    tail -n 60 "$work/$target.log" >&2
+    echo "fuzz smoke: $target FAILED (exit $status); the input is in $artifacts/" >&2
+    exit 1
+  fi
+done
+echo "fuzz smoke: passed"

@@ -1,0 +1,61 @@
+// `nephele bench --scale --quick`: every method at two counts, per-phase times and memory,
+// the growth exponents, and the README section it regenerates.
+#include "cli_run.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
+    const fs::path dir = fs::temp_directory_path() / "nephele_scale_bench_test";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
+    const auto r = nephele::test::runBounded("bench --scale --quick --out-dir " + dir.string() + " --readme " +
+                                                 (dir / "README.md").string(),
+                                             4096, 300);
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string csv = slurp(dir / "scale_bench.csv");
+    EXPECT_EQ(csv.rfind("ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n", 0), 0u);
+    int rows = 0;
+    for (const char* method : {"ellipsoid", "auto", "raymarch", "gardner-exact"})
+        for (const char* count : {"16,", "160,"}) {
+            const std::string start = std::string("\n") + count + method + ",";
+            const std::size_t at = csv.find(start);
+            ASSERT_NE(at, std::string::npos) << start << "\n" << csv;
+            const std::string line = csv.substr(at + 1, csv.find('\n', at + 1) - at - 1);
+            EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+            EXPECT_EQ(line.substr(line.size() - 3), ",\"\"") << "refused: " << line;
+            ++rows;
+        }
+    EXPECT_EQ(rows, 8);
+    const std::string readme = slurp(dir / "README.md");
+    EXPECT_EQ(readme.find("old\n"), std::string::npos);
+    EXPECT_NE(readme.find("Measured by `nephele bench --scale` on "), std::string::npos);
+    EXPECT_NE(readme.find("| ellipsoid | "), std::string::npos);
+    EXPECT_NE(readme.find("Growth exponent"), std::string::npos);
+    fs::remove_all(dir);
+}
+
+TEST(ScaleBenchTest, BadCountsAndModesAreRefused) {
+    const auto zero = nephele::test::runBounded("bench --scale --scale-counts 0", 1024, 30);
+    EXPECT_EQ(zero.code, 2) << zero.output;
+    EXPECT_NE(zero.output.find("--scale-counts: 0 is out of range 1..1000000"), std::string::npos) << zero.output;
+    const auto both = nephele::test::runBounded("bench --scale --layered", 1024, 30);
+    EXPECT_EQ(both.code, 2) << both.output;
+}
+
+}  // namespace
