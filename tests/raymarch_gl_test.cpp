@@ -12,7 +12,7 @@
 #include "nephele/projection.hpp"
 #include "nephele/raymarch.hpp"
 #include "nephele/gardner_model.hpp"
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 
-#include "nephele/fingerprint.hpp"
+#include "fingerprint.hpp"
 
 namespace nephele {
 

@@ -13,7 +13,7 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 #include "nephele/projection.hpp"
 
 #include <atomic>

@@ -7,7 +7,7 @@
 #pragma once
 
 #include "nephele/gl.hpp"
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 #include "nephele/shader.hpp"
 
 #include <map>
