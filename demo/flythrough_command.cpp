@@ -1,6 +1,7 @@
 #include "flythrough_command.hpp"
 
 #include "nephele/metrics.hpp"
+#include "nephele/png.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -7,6 +7,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/host_view.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/sky.hpp"
 
 #include <glm/gtc/matrix_transform.hpp>

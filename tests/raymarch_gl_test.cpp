@@ -9,6 +9,7 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/projection.hpp"
 #include "nephele/raymarch.hpp"
 #include "nephele/gardner_model.hpp"

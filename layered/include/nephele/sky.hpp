@@ -41,6 +41,9 @@ struct SkySettings {
     NearLodSettings nearLod;
     EllipsoidSettings ellipsoid = autoEllipsoidSettings();
     bool timings = false;  // SkyStats' ms by part (gl::PartTimer: glFinish between the parts, slower)
+    // Near-LOD cells update() makes at most after the first (nearest first); 0: every cell in
+    // reach, as render() (a recorded flight that must equal `render --time`).
+    int cellsPerUpdate = kCellsPerUpdate;
 };
 
 struct SkyStats {
