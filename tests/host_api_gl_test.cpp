@@ -134,6 +134,29 @@ TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
     EXPECT_EQ(drawn.pixels, rendered.pixels);
 }
 
+// After the first update the near LOD's new cells are spread, kCellsPerUpdate an update by
+// default, or all made at once with cellsPerUpdate 0 (a recording that must equal render()).
+TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {
+    const Scene scene = testScene(32, 32);
+    const Vec3 far = scene.camera.position + Vec3(8000, 0, 0);  // beyond the first cells' reach
+    auto pendingAfterMove = [&](int cellsPerUpdate) {
+        SkySettings settings = testSettings();
+        settings.cellsPerUpdate = cellsPerUpdate;
+        SkyRenderer sky(settings);
+        sky.prepare(scene);
+        sky.update(0.1, Weather::of(scene), scene.camera.position);
+        const NearLodStats moved = sky.update(0.1, Weather::of(scene), far).nearLod;
+        EXPECT_GT(moved.generated, 0) << cellsPerUpdate;
+        EXPECT_LE(moved.generated, cellsPerUpdate > 0 ? cellsPerUpdate : moved.generated) << cellsPerUpdate;
+        return moved.pending;
+    };
+    EXPECT_GT(pendingAfterMove(kCellsPerUpdate), 0);
+    EXPECT_EQ(pendingAfterMove(0), 0);
+    SkySettings bad = testSettings();
+    bad.cellsPerUpdate = -1;
+    EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
+}
+
 // Three off-axis channels side by side in one framebuffer (viewport offsets) are the one wide
 // view: the compositor's tiles, the layered sky's half-resolution upsampling and shadows, and
 // the near LOD see the same clouds in the same places.
