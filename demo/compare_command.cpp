@@ -4,6 +4,7 @@
 
 #include "nephele/image.hpp"
 #include "nephele/metrics.hpp"
+#include "nephele/png.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -4,6 +4,7 @@
 
 #include "nephele/camera.hpp"
 #include "nephele/image.hpp"
+#include "nephele/png.hpp"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -25,6 +26,21 @@ void resetToScene(FlyApp::State& s) {
     s.pose = poseFromCamera(s.scene.path.size() >= 2 ? cameraAt(s.scene, s.scene.path.front().t) : s.scene.camera);
     s.t = s.scene.path.empty() ? 0 : s.scene.path.front().t;
     s.followPath = false;
+    s.playing = false;
+}
+
+// --script: plays the flight from its first frame, at its own time.
+void startScript(FlyApp::State& s, const Flight& flight) {
+    s.script = flightCameras(flight, s.scene);
+    s.scriptStart = flight.firstTime(), s.scriptFps = flight.fps;
+    s.t = s.scriptStart;
+    s.playing = true;
+}
+
+// The script's camera at scene time t: the frame of the step it is in.
+const Camera& scriptCamera(const FlyApp::State& s) {
+    const auto k = std::size_t(std::clamp((s.t - s.scriptStart) * s.scriptFps, 0.0, double(s.script.size() - 1)));
+    return s.script[k];
 }
 
 // The keys that are not flight controls (those are applyKey's).
@@ -90,6 +106,7 @@ void pollReload(FlyApp::State& s, double wall) {
     s.sceneTime = mtime;
     try {
         s.scene = loadScene(s.options.scene);
+        s.host->sceneChanged();
         s.sceneError.clear();
         const std::time_t now = std::time(nullptr);
         char when[16];
@@ -104,7 +121,10 @@ void pollReload(FlyApp::State& s, double wall) {
 void fly(FlyApp::State& s, double dt) {
     if (s.recorder) s.recorder->add(s.t, s.input);  // held from the step's start, as a script replays it
     s.t += dt;
-    if (s.followPath && s.scene.path.size() >= 2) {
+    if (s.playing) {
+        if (s.t >= s.scriptStart + double(s.script.size()) / s.scriptFps) s.t = s.scriptStart;  // loop
+        s.pose = poseFromCamera(scriptCamera(s));
+    } else if (s.followPath && s.scene.path.size() >= 2) {
         if (s.t > s.scene.path.back().t) s.t = s.scene.path.front().t;  // loop
         s.pose = poseFromCamera(cameraAt(s.scene, s.t));
     } else {
@@ -126,7 +146,9 @@ void writeWindow(const std::string& png, int w, int h) {
 }
 
 Camera frameCamera(const FlyApp::State& s, int fw, int fh) {
-    Camera c = s.followPath && s.scene.path.size() >= 2 ? cameraAt(s.scene, s.t) : cameraFromPose(s.pose, s.scene.camera);
+    Camera c = s.playing ? scriptCamera(s)
+               : s.followPath && s.scene.path.size() >= 2 ? cameraAt(s.scene, s.t)
+                                                          : cameraFromPose(s.pose, s.scene.camera);
     c.width = std::max(1, int(std::lround(fw * s.options.renderScale)));
     c.height = std::max(1, int(std::lround(fh * s.options.renderScale)));
     return c;
@@ -141,6 +163,7 @@ FlyApp::FlyApp(const FlyAppOptions& o) : s_(std::make_unique<State>()) {
     s.sceneTime = std::filesystem::last_write_time(o.scene, ec);
     s.sceneStatus = "loaded";
     resetToScene(s);
+    if (!o.script.empty()) startScript(s, loadFlight(o.script));
     ContextOptions co;
     co.backend = GlBackend::Glfw;
     co.width = o.width, co.height = o.height, co.visible = o.visible;

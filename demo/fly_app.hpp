@@ -19,6 +19,7 @@ struct FlyAppOptions {
     int width = 1280, height = 720;  // window size (resizable)
     double renderScale = 1;          // frames drawn at this fraction of the window's size, (0, 1]
     std::string recordInput;         // written by finish(): the inputs, for --script
+    std::string script;              // a flight to play in the window (fly_script.hpp), in a loop until R
     std::string cacheDir;
     bool visible = true;
 };

@@ -30,6 +30,9 @@ struct FlyApp::State {
     bool dragging = false;
     double cursorX = 0, cursorY = 0;
     bool followPath = false;
+    std::vector<Camera> script;    // --script: the flight's cameras, one per step of 1 / scriptFps
+    double scriptStart = 0, scriptFps = 0;
+    bool playing = false;          // the script plays (in a loop, until R)
     double t = 0;                  // scene time
     double lastWall = -1;          // glfwGetTime of the last frame
     double fps = 0;                // smoothed

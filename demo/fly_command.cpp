@@ -22,7 +22,7 @@ CLI::App* addFlyCommand(CLI::App& app, FlyOptions& o) {
         ->check(cli::within(1, 16384));
     cmd->add_option("--render-scale", o.renderScale, "Draw frames at this fraction of the window (faster), (0, 1]")
         ->check(cli::within(0.05, 1.0))->capture_default_str();
-    cmd->add_option("--script", o.script, "Flight to play (keyframes or recorded inputs, JSON); needs --record")
+    cmd->add_option("--script", o.script, "Flight to play (keyframes or recorded inputs, JSON): recorded with --record, else in the window")
         ->check(cli::nonEmptyPath());
     cmd->add_option("--record", o.record, "Folder (new or empty) for the frames, frames.csv, flight.json and flight.mp4")
         ->check(cli::nonEmptyPath());
@@ -44,9 +44,12 @@ int runFly(const FlyOptions& given) {
         return 2;
     }
     if (!o.record.empty()) return runFlyRecord(o);
-    const char* misplaced = !o.script.empty() ? "--script" : o.headless ? "--headless" : nullptr;
-    if (misplaced) {
-        std::cerr << "nephele: " << misplaced << " needs --record DIR (the window plays no script)\n";
+    if (o.headless) {
+        std::cerr << "nephele: --headless needs --record DIR (without it, fly opens a window)\n";
+        return 2;
+    }
+    if (!o.script.empty() && !o.recordInput.empty()) {
+        std::cerr << "nephele: --record-input records a flight flown by hand; it does not go with --script\n";
         return 2;
     }
     const auto method = parseFlyMethod(o.method);
@@ -59,6 +62,7 @@ int runFly(const FlyOptions& given) {
         if (!o.recordInput.empty()) check.add(o.recordInput, nullptr), check.checkPaths();
         FlyAppOptions ao;
         ao.scene = o.scene, ao.method = *method, ao.renderScale = o.renderScale, ao.recordInput = o.recordInput;
+        ao.script = o.script;
         ao.cacheDir = o.cacheDir;
         if (o.width > 0) ao.width = o.width;
         if (o.height > 0) ao.height = o.height;

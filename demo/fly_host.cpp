@@ -28,16 +28,43 @@ CompositeOrder defaultOrder(FlyMethod m) {
     return m == FlyMethod::Auto ? autoEllipsoidSettings().order : EllipsoidSettings().order;
 }
 
+namespace {
+
+// SkyRenderer's settings for a method: auto's, or the plain compositor's and layered sky's
+// (no near LOD), as `nephele render --method` has them.
+SkySettings skySettings(FlyMethod m, const FlyHostSettings& fs, CompositeOrder order) {
+    SkySettings ss;
+    if (m != FlyMethod::Auto) ss.layered = LayeredSettings{}, ss.ellipsoid = EllipsoidSettings{};
+    ss.layered.cacheDir = fs.cacheDir;
+    ss.ellipsoid.order = order;
+    ss.ellipsoid.timings = fs.timings;
+    ss.timings = fs.timings;
+    ss.cellsPerUpdate = fs.cellsPerUpdate;
+    return ss;
+}
+
+// What a method draws of the scene: ellipsoid its clouds only, layered its layers only.
+Scene skyScene(FlyMethod m, Scene scene) {
+    if (m == FlyMethod::Ellipsoid) scene.layers.clear();
+    if (m == FlyMethod::Layered) scene.clouds.clear();
+    return scene;
+}
+
+}  // namespace
+
 struct FlyHost::Renderers {
+    struct Sky {
+        std::unique_ptr<SkyRenderer> renderer;  // made at the method's first draw
+        bool prepared = false;
+    };
     OpaquePass opaque;
     std::unique_ptr<FrameTarget> target;
-    std::unique_ptr<SkyRenderer> sky;              // auto
-    std::unique_ptr<EllipsoidRenderer> clouds;     // ellipsoid
+    Sky skies[std::size(kFlyMethods)];              // by method: auto, ellipsoid, layered (the host API)
     std::unique_ptr<RaymarchRenderer> raymarch;
-    std::unique_ptr<LayeredRenderer> layered;
     Program present = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "fly_present.frag"}});
     VertexArray empty = VertexArray::create();
     Sampler linear = linearSampler(GL_CLAMP_TO_EDGE);
+    SkyRenderer* sky(FlyMethod m) const { return skies[int(m)].renderer.get(); }
 };
 
 FlyHost::FlyHost(FlyHostSettings settings) : settings_(std::move(settings)), r_(std::make_unique<Renderers>()) {}
@@ -53,8 +80,11 @@ void FlyHost::setMethod(FlyMethod m) {
 void FlyHost::setOrder(CompositeOrder o) {
     if (o == order()) return;
     settings_.order = o;
-    r_->sky.reset();
-    r_->clouds.reset();
+    for (Renderers::Sky& sky : r_->skies) sky = {};
+}
+
+void FlyHost::sceneChanged() {
+    for (Renderers::Sky& sky : r_->skies) sky.prepared = false;
 }
 
 FlyFrameStats FlyHost::draw(const Scene& scene, const Camera& camera, double t) {
@@ -68,45 +98,41 @@ FlyFrameStats FlyHost::draw(const Scene& scene, const Camera& camera, double t) 
     PartTimer total(settings_.timings), part(settings_.timings);
     r.opaque.draw(scene, view, fbo);
     st.opaqueMs = part.lap();
-    EllipsoidSettings es;
-    es.order = order();
-    es.timings = settings_.timings;
-    switch (settings_.method) {
-        case FlyMethod::Auto: {
-            if (!r.sky) {
-                SkySettings ss;
-                ss.layered.cacheDir = settings_.cacheDir;
-                ss.ellipsoid = es;
-                ss.timings = settings_.timings;
-                r.sky = std::make_unique<SkyRenderer>(ss);
-            }
-            const SkyStats s = r.sky->render(scene, view, fbo, t, objects);
-            st.layered = s.layered, st.nearLod = s.nearLod, st.ellipsoids = s.ellipsoids;
-            st.farFieldMs = s.farFieldMs, st.nearLodMs = s.nearLodMs;
-            break;
-        }
-        case FlyMethod::Ellipsoid:
-            if (!r.clouds) r.clouds = std::make_unique<EllipsoidRenderer>(es);
-            st.ellipsoids = r.clouds->render(scene, view, fbo, objects);
-            break;
-        case FlyMethod::Raymarch:
-            if (!r.raymarch) r.raymarch = std::make_unique<RaymarchRenderer>(RaymarchSettings{});
-            r.raymarch->render(scene, view, fbo, objects);
-            st.volumeMs = part.lap();
-            break;
-        case FlyMethod::Layered:
-            if (!r.layered) {
-                LayeredSettings ls;
-                ls.cacheDir = settings_.cacheDir;
-                r.layered = std::make_unique<LayeredRenderer>(ls);
-            }
-            st.layered = r.layered->render(scene, view, fbo, t);
-            st.farFieldMs = part.lap();
-            break;
+    if (settings_.method == FlyMethod::Raymarch) {
+        if (!r.raymarch) r.raymarch = std::make_unique<RaymarchRenderer>(RaymarchSettings{});
+        r.raymarch->render(scene, view, fbo, objects);
+        st.volumeMs = part.lap();
+    } else {
+        drawSky(scene, view, t, st);
     }
-    st.tilesMs = st.ellipsoids.tilesMs, st.compositeMs = st.ellipsoids.compositeMs;
     st.totalMs = total.lap();
     return st;
+}
+
+// The host API's frame: prepare when needed, update by the time since the last frame (the
+// scene's sun, sky and layers as the weather), draw into the frame over the opaque pass.
+void FlyHost::drawSky(const Scene& scene, const View& view, double t, FlyFrameStats& st) {
+    const FlyMethod m = settings_.method;
+    Renderers::Sky& sky = r_->skies[int(m)];
+    if (!sky.renderer) sky.renderer = std::make_unique<SkyRenderer>(skySettings(m, settings_, order()));
+    // Time only runs forward for a host: a jump back (the path looping) starts again at 0.
+    constexpr double kRewind = 1e-6;  // s: time() sums the steps, so it may pass t by rounding
+    if (!sky.prepared || t < sky.renderer->time() - kRewind) {
+        sky.renderer->prepare(skyScene(m, scene));
+        sky.prepared = true;
+    }
+    PartTimer part(settings_.timings);
+    Weather weather = Weather::of(scene);
+    if (m == FlyMethod::Ellipsoid) weather.layers.clear();
+    st.nearLod = sky.renderer->update(std::max(0.0, t - sky.renderer->time()), weather, view.eye).nearLod;
+    if (settings_.waitEachFrame) sky.renderer->waitForBackgroundWork();
+    st.nearLodMs = part.lap();
+    const SkyStats s = sky.renderer->draw(viewDescOf(view, r_->target->framebuffer(), !scene.objects.empty()));
+    const double drawMs = part.lap();
+    st.layered = s.layered, st.ellipsoids = s.ellipsoids;
+    st.tilesMs = s.ellipsoids.tilesMs, st.compositeMs = s.ellipsoids.compositeMs;
+    // draw() times no parts: the far field is what the compositor's parts leave of it.
+    if (m != FlyMethod::Ellipsoid) st.farFieldMs = std::max(0.0, drawMs - st.tilesMs - st.compositeMs);
 }
 
 void FlyHost::present(GLuint framebuffer, int w, int h) {
@@ -128,14 +154,16 @@ void FlyHost::present(GLuint framebuffer, int w, int h) {
 Image FlyHost::readColor() const { return r_->target ? r_->target->readColor() : Image(); }
 
 const EllipsoidRenderer* FlyHost::compositor() const {
-    if (settings_.method == FlyMethod::Auto && r_->sky) return &r_->sky->compositor();
-    if (settings_.method == FlyMethod::Ellipsoid && r_->clouds) return r_->clouds.get();
-    return nullptr;
+    const FlyMethod m = settings_.method;
+    if (m != FlyMethod::Auto && m != FlyMethod::Ellipsoid) return nullptr;
+    const SkyRenderer* sky = r_->sky(m);
+    return sky ? &sky->compositor() : nullptr;
 }
 
 std::vector<const NearCell*> FlyHost::nearCells() const {
-    if (settings_.method != FlyMethod::Auto || !r_->sky || !r_->sky->nearLod()) return {};
-    return r_->sky->nearLod()->cells();
+    const SkyRenderer* sky = settings_.method == FlyMethod::Auto ? r_->sky(FlyMethod::Auto) : nullptr;
+    if (!sky || !sky->nearLod()) return {};
+    return sky->nearLod()->cells();
 }
 
 double FlyHost::nearRadius() const { return settings_.method == FlyMethod::Auto ? autoLayeredSettings().nearRadius : 0; }

@@ -1,6 +1,8 @@
-// `nephele fly`: the ONE place where the demo calls Nephele's renderers (the public host
-// API: nephele/sky.hpp and the methods' own renderers), so that a change of that API is a
-// change here. It draws a frame into its own float frame (as `nephele render` does, so that
+// `nephele fly`: the ONE place where the demo calls Nephele's renderers, through the public
+// host API as an image generator does (nephele/sky.hpp: prepare once, then update() per frame
+// and draw(ViewDesc) into its frame; ellipsoid and layered are SkyRenderer drawing the scene
+// without layers or without ellipsoid clouds; raymarch, a reference method with no host API,
+// RaymarchRenderer::render), so that a change of that API is a change here. It draws a frame into its own float frame (as `nephele render` does, so that
 // recorded frames match `render --time`), presents it onto a window, and hands the HUD and
 // the debug views what they show.
 #pragma once
@@ -10,6 +12,7 @@
 #include "nephele/layered.hpp"
 #include "nephele/near_lod.hpp"
 #include "nephele/scene.hpp"
+#include "nephele/sky.hpp"
 
 #include <memory>
 #include <optional>
@@ -30,6 +33,13 @@ struct FlyHostSettings {
     std::optional<CompositeOrder> order;  // the compositor's (auto, ellipsoid); default defaultOrder(method)
     std::string cacheDir;                 // the layered sky's lighting cache ("" = none)
     bool timings = true;                  // ms by part (glFinish between the parts)
+    // Near-LOD cells made per frame after the first (SkySettings::cellsPerUpdate); 0: all, as
+    // `render` (a recording that must equal `render --time`).
+    int cellsPerUpdate = kCellsPerUpdate;
+    // Each frame waits, after update(), for the layers' lighting and the clouds' radiance grids
+    // (SkyRenderer::waitForBackgroundWork), as `render` makes them in the call: a recording.
+    // Else new clouds are lit by a stand-in until their grids come from the worker (the window).
+    bool waitEachFrame = false;
 };
 
 // One frame, as the HUD shows it. Parts in ms (0 where the method has no such part).
@@ -50,8 +60,14 @@ public:
     void setMethod(FlyMethod method);       // the next draw uses it (its renderer made then)
     void setOrder(CompositeOrder order);    // PerEllipsoid or Weighted; remakes the compositor
 
-    // The scene's sky, objects and clouds seen by `camera` (its size) at scene time t.
+    // The scene's sky, objects and clouds seen by `camera` (its size) at scene time t: the
+    // first draw (and the first after sceneChanged(), a change of method or order, or t going
+    // back) prepares the renderer with `scene`; then each draw updates it by the time since the
+    // last (the scene's sun, sky and layers being the weather) and draws.
     FlyFrameStats draw(const Scene& scene, const Camera& camera, double t);
+    // The scene's clouds, medium or objects changed (a reload): the next draw prepares again.
+    // Its sun, sky and layers (the live controls) need no call: they are the weather.
+    void sceneChanged();
     // The last frame onto `framebuffer` (0: the window's), scaled to w x h, sRGB-encoded.
     void present(GLuint framebuffer, int w, int h);
     Image readColor() const;  // the last frame, RGBA linear, top row first (as `render` reads it)
@@ -65,6 +81,7 @@ public:
 
 private:
     struct Renderers;
+    void drawSky(const Scene& scene, const View& view, double t, FlyFrameStats& stats);
     FlyHostSettings settings_;
     std::unique_ptr<Renderers> r_;
 };

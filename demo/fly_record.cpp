@@ -5,6 +5,7 @@
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/png.hpp"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -94,7 +95,9 @@ void play(const Recording& rec, const FlyOptions& o, const fs::path& temp) {
     co.title = "nephele fly: recording";
     const std::unique_ptr<Context> context = Context::create(co);
     gl::setChecks(true);
-    FlyHost host({rec.method, std::nullopt, o.cacheDir, true});
+    // Every near-LOD cell and every light at every frame, as `render --time` makes them (the
+    // window spreads the cells and lights new clouds by a stand-in until their grids are made).
+    FlyHost host({rec.method, std::nullopt, o.cacheDir, true, 0, true});
     const std::vector<Camera> cameras = flightCameras(rec.flight, rec.scene);
     std::ofstream csv(temp / "frames.csv");
     csv << "frame,t,x,y,z,total_ms,opaque_ms,far_field_ms,near_lod_ms,tiles_ms,composite_ms,volume_ms,visible,passes\n";

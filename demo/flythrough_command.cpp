@@ -4,6 +4,7 @@
 
 #include "nephele/log.hpp"
 #include "nephele/metrics.hpp"
+#include "nephele/png.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -6,6 +6,7 @@
 #include "nephele/gl.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/resources.hpp"
 
 #include <unistd.h>

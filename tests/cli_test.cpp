@@ -1,6 +1,7 @@
 // The `nephele` command line: bad scenes and bad arguments exit 2 with the place of the
 // fault in the message and write no file; a good render writes exactly what was asked.
 #include "nephele/image.hpp"
+#include "nephele/png.hpp"
 
 #include <gtest/gtest.h>
 

@@ -2,6 +2,7 @@
 #include "nephele/camera.hpp"
 #include "nephele/image.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 
 #include <gtest/gtest.h>
 

@@ -9,6 +9,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/metrics.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 
 #include <cmath>
 #include <array>

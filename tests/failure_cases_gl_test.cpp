@@ -10,6 +10,7 @@
 #include "nephele/gardner.hpp"
 #include "nephele/metrics.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/raymarch.hpp"
 
 #include <algorithm>

@@ -231,7 +231,10 @@ TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
         {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record " + rec, "bad.json: keyframes[1].t: must be greater"},
         {"fly " + scene + " --record " + rec, "example.json: path: "},
         {"fly " + scene + " --record " + (dir / "full").string(), "exists and is not an empty folder"},
-        {"fly " + scene + " --script " + (dir / "bad.json").string(), "--script needs --record"},
+        {"fly " + scene + " --script " + (dir / "bad.json").string(), "bad.json: keyframes[1].t: must be greater"},  // the window's
+        {"fly " + scene + " --headless", "--headless needs --record"},
+        {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record-input " + (dir / "in.json").string(),
+         "does not go with --script"},
         {"fly " + scene + " --method volume --record " + rec, "--method: unknown method 'volume'"},
         {"fly " + (dir / "missing.json").string() + " --record " + rec, "missing.json"},
         {"fly " + scene + " --record " + (dir / "no" / "such" / "rec").string(), "does not exist"},

@@ -2,10 +2,12 @@
 // README command 2 runs the suite with xvfb-run) moves the camera on injected key and mouse
 // events, toggles its HUD and debug views without GL errors, resizes and closes cleanly.
 #include "fly_app.hpp"
+#include "fly_script.hpp"
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/image.hpp"
+#include "nephele/png.hpp"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -162,6 +164,39 @@ TEST(FlyGLTest, InjectedKeysAndMouseMoveTheCameraAsDocumented) {
     in.tap(GLFW_KEY_R);  // back to the scene's camera
     ASSERT_TRUE(app.frame(0));
     EXPECT_NEAR(app.pose().position.y, -1500, 1e-9);
+}
+
+TEST(FlyGLTest, AScriptPlaysInTheWindowInALoopUntilR) {
+    SKIP_WITHOUT_DISPLAY();
+    const fs::path script = freshDir("fly_window_script.json");
+    std::ofstream(script) << R"({"flight": 1, "fps": 10, "keyframes": [
+        {"t": 0, "position": [100, -1500, 600], "look_at": [100, 0, 600]},
+        {"t": 2, "position": [300, -1200, 700], "look_at": [300, 0, 700]}]})";
+    FlyAppOptions o = smallWindow(FlyMethod::Ellipsoid);
+    o.renderScale = 0.5;
+    o.script = script.string();
+    FlyApp app(o);
+    const Flight flight = loadFlight(o.script);
+    const std::vector<Camera> cameras = flightCameras(flight, loadScene(kScene));
+    ASSERT_EQ(cameras.size(), 21u);
+    const Inject in(app.window());
+    auto expectAt = [&](int frame) {
+        EXPECT_NEAR(glm::length(app.pose().position - cameras[frame].position), 0, 1e-9) << frame;
+    };
+    ASSERT_TRUE(app.frame(0));
+    expectAt(0);
+    ASSERT_TRUE(app.frame(1.05));  // t = 1.05 s: the step of frame 10
+    expectAt(10);
+    in.press(GLFW_KEY_W);  // the flight keys do not move a scripted camera
+    ASSERT_TRUE(app.frame(0.5));
+    in.release(GLFW_KEY_W);
+    expectAt(15);
+    ASSERT_TRUE(app.frame(0.6));  // t = 2.15 s, past the last frame's step: from the start again
+    expectAt(0);
+    in.tap(GLFW_KEY_R);  // back to the scene's camera, flown by hand
+    ASSERT_TRUE(app.frame(0.5));
+    EXPECT_NEAR(app.pose().position.y, -1500, 1e-9);
+    EXPECT_NEAR(app.pose().position.x, 0, 1e-9);
 }
 
 TEST(FlyGLTest, HudAndDebugViewsToggleWithoutGlErrors) {

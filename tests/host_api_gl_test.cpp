@@ -7,6 +7,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/host_view.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/sky.hpp"
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -133,6 +134,29 @@ TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
     host.waitForBackgroundWork();      // render() waits for them: so must the comparison
     const Image drawn = frameOf(scene, view, b, [&] { host.draw(viewDescOf(view, b.fbo.id())); });
     EXPECT_EQ(drawn.pixels, rendered.pixels);
+}
+
+// After the first update the near LOD's new cells are spread, kCellsPerUpdate an update by
+// default, or all made at once with cellsPerUpdate 0 (a recording that must equal render()).
+TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {
+    const Scene scene = testScene(32, 32);
+    const Vec3 far = scene.camera.position + Vec3(8000, 0, 0);  // beyond the first cells' reach
+    auto pendingAfterMove = [&](int cellsPerUpdate) {
+        SkySettings settings = testSettings();
+        settings.cellsPerUpdate = cellsPerUpdate;
+        SkyRenderer sky(settings);
+        sky.prepare(scene);
+        sky.update(0.1, Weather::of(scene), scene.camera.position);
+        const NearLodStats moved = sky.update(0.1, Weather::of(scene), far).nearLod;
+        EXPECT_GT(moved.generated, 0) << cellsPerUpdate;
+        EXPECT_LE(moved.generated, cellsPerUpdate > 0 ? cellsPerUpdate : moved.generated) << cellsPerUpdate;
+        return moved.pending;
+    };
+    EXPECT_GT(pendingAfterMove(kCellsPerUpdate), 0);
+    EXPECT_EQ(pendingAfterMove(0), 0);
+    SkySettings bad = testSettings();
+    bad.cellsPerUpdate = -1;
+    EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
 }
 
 // Three off-axis channels side by side in one framebuffer (viewport offsets) are the one wide

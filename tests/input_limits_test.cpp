@@ -8,6 +8,7 @@
 #include "nephele/generate.hpp"
 #include "nephele/image.hpp"
 #include "nephele/limits.hpp"
+#include "nephele/png.hpp"
 #include "nephele/scene.hpp"
 #include "nephele/shader.hpp"
 

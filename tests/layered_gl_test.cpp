@@ -6,7 +6,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/opaque.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -7,6 +7,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 
 #include <cmath>
 #include <cstdio>

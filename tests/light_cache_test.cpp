@@ -1,6 +1,6 @@
 // The radiance-grid cache: a translated cloud reuses its grid, moved with it; anything else
 // its light depends on (shape, sun direction, sky, medium, settings) makes a new one.
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 
 #include <gtest/gtest.h>
 

@@ -10,6 +10,7 @@
 #include "nephele/near_lod.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/sky.hpp"
 
 #include <sys/wait.h>

@@ -6,6 +6,7 @@
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/shader.hpp"
 
 #include <cstdlib>

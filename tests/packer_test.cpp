@@ -1,6 +1,6 @@
 // Tile-atlas packer: exact layouts for small inputs, then properties over many random inputs,
 // checked by an independent checker (which is itself shown to reject broken results).
-#include "nephele/packer.hpp"
+#include "packer.hpp"
 
 #include <gtest/gtest.h>
 

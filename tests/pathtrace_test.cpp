@@ -9,7 +9,7 @@
 
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
-#include "nephele/cache_file.hpp"
+#include "cache_file.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/projection.hpp"

@@ -9,10 +9,11 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/png.hpp"
 #include "nephele/projection.hpp"
 #include "nephele/raymarch.hpp"
 #include "nephele/gardner_model.hpp"
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -1,6 +1,6 @@
-#include "nephele/cache_file.hpp"
+#include "cache_file.hpp"
 
-#include "nephele/fingerprint.hpp"
+#include "fingerprint.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

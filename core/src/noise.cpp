@@ -1,7 +1,7 @@
 // Periodic improved Perlin noise, fBm and the tileable noise volume (see noise.hpp).
 #include "nephele/noise.hpp"
 
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <climits>

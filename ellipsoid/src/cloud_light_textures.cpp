@@ -1,4 +1,4 @@
-#include "nephele/cloud_light_textures.hpp"
+#include "cloud_light_textures.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -4,7 +4,7 @@
 #include "nephele/cloud_radiance.hpp"
 
 #include "nephele/gardner_model.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 #include "nephele/projection.hpp"
 
 #include <glm/gtc/matrix_access.hpp>

@@ -2,12 +2,12 @@
 #include "nephele/ellipsoid.hpp"
 
 #include "nephele/gardner_model.hpp"
-#include "nephele/fingerprint.hpp"
+#include "fingerprint.hpp"
 #include "nephele/frame_depth.hpp"
-#include "nephele/cloud_light_textures.hpp"
-#include "nephele/light_cache.hpp"
+#include "cloud_light_textures.hpp"
+#include "light_cache.hpp"
 #include "nephele/gl_state.hpp"
-#include "nephele/packer.hpp"
+#include "packer.hpp"
 #include "nephele/per_view.hpp"
 
 #include <glm/gtc/matrix_access.hpp>

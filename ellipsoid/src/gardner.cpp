@@ -4,7 +4,7 @@
 
 #include "nephele/gardner_model.hpp"
 #include "nephele/opaque.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
 

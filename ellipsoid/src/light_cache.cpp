@@ -1,7 +1,7 @@
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 
-#include "nephele/fingerprint.hpp"
-#include "nephele/parallel.hpp"
+#include "fingerprint.hpp"
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -15,7 +15,7 @@
 // starts right after the prefix, and a root has room for s iff it is large enough and not full.
 // The free lists therefore collapse to one fill counter per root, and first fit is the first root
 // (in Morton order) with room, at root corner + the 2-D position of Morton offset `fill`.
-#include "nephele/packer.hpp"
+#include "packer.hpp"
 
 #include <algorithm>
 #include <array>

@@ -4,7 +4,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 
 #include <algorithm>
 

@@ -1,13 +1,13 @@
 // The lighting precomputation of Wang, Ji & Zhang 2011, section 3: multiple forward
 // scattering along the light (eqs. 5-7), eye scattering (8), Cornette-Shanks (10), stored as
 // vectors whose length is the intensity, n' = n / 2 + 0.5, in an RGBA8 3D texture.
-#include "nephele/cache_file.hpp"
-#include "nephele/fingerprint.hpp"
+#include "cache_file.hpp"
+#include "fingerprint.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/log.hpp"
 #include "nephele/noise.hpp"
-#include "nephele/parallel.hpp"
 #include "nephele/resources.hpp"
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -2,7 +2,7 @@
 // density, the near-LOD hook and the cloud shadows (19).
 #include "nephele/layered.hpp"
 #include "nephele/noise.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 
 #include <glm/gtc/constants.hpp>
 

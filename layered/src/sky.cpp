@@ -35,6 +35,7 @@ SkyRenderer::SkyRenderer(SkySettings settings)
       assets_(std::make_shared<LayerAssets>(settings_.layered)) {
     validate(settings_.layered);
     validate(settings_.nearLod, settings_.layered);
+    if (settings_.cellsPerUpdate < 0) throw std::invalid_argument("SkySettings::cellsPerUpdate must be >= 0");
     nearLod_ = std::make_unique<NearLod>(settings_.nearLod, settings_.layered);
     nearLod_->shareAssets(assets_);
 }
@@ -116,7 +117,7 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
     frame_.layers = scene_.layers;
     frame_.clouds.resize(explicitClouds_);
     // The first update after prepare() makes every cell in reach; later ones spread them.
-    std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? kCellsPerUpdate : 0);
+    std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? settings_.cellsPerUpdate : 0);
     frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
     const auto t0 = std::chrono::steady_clock::now();
     stats.lightVolumes = clouds_.updateLights(frame_, &eye);

@@ -9,12 +9,12 @@
 
 #include "tracking.hpp"
 
-#include "nephele/cache_file.hpp"
+#include "cache_file.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 #include "nephele/projection.hpp"
 #include "nephele/resources.hpp"
 
@@ -570,7 +570,7 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
 
 constexpr char kMagic[8] = {'N', 'E', 'P', 'H', 'P', 'T', '3', '\n'};
 
-// File (before the checksum of nephele/cache_file.hpp): magic, key length (u64), key, width,
+// File (before the checksum of core/src/cache_file.hpp): magic, key length (u64), key, width,
 // height, channels (i32), floats. A damaged or implausible file is never used: the caller
 // renders again, with a warning when there was a file.
 std::optional<Image> readCache(const std::filesystem::path& file, const std::string& key) {

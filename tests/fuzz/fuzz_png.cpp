@@ -2,6 +2,7 @@
 // file (memfd) as they read from disk: readPng, or readPfm for bytes that begin with 'P'.
 // An ImageError is the expected way to fail.
 #include "nephele/image.hpp"
+#include "nephele/png.hpp"
 
 #include <sys/mman.h>
 #include <unistd.h>

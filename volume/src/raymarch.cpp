@@ -1,7 +1,7 @@
 // The GPU ray-marcher (see nephele/raymarch.hpp for the method).
 #include "nephele/raymarch.hpp"
 
-#include "nephele/cloud_light_textures.hpp"
+#include "cloud_light_textures.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/projection.hpp"

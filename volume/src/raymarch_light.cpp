@@ -3,7 +3,7 @@
 #include "nephele/raymarch.hpp"
 
 #include "nephele/gardner_model.hpp"
-#include "nephele/parallel.hpp"
+#include "parallel.hpp"
 #include "nephele/projection.hpp"
 
 #include <glm/gtc/matrix_access.hpp>

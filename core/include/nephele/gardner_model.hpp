@@ -17,6 +17,6 @@ using glm::sqrt;
 using glm::vec3;
 using glm::vec4;
 #define MODEL_FN inline
-#include "../../../shaders/gardner_model.glsl"
+#include "nephele/gardner_model.glsl"  // the build's copy of shaders/gardner_model.glsl (core/CMakeLists.txt)
 #undef MODEL_FN
 }  // namespace nephele::model

@@ -1,4 +1,4 @@
-// Float images, PNG and PFM files, and the metrics the tests use.
+// Float images, PFM files, and the metrics the tests use (PNG: nephele/png.hpp).
 #pragma once
 
 #include <glm/glm.hpp>
@@ -33,13 +33,7 @@ public:
 float linearToSrgb(float linear);  // IEC 61966-2-1, input clamped to [0, 1]
 float srgbToLinear(float encoded);
 
-enum class Encoding { Srgb, Linear };
-// 8-bit PNG of 1, 3 or 4 channels. Srgb encodes colour channels (never alpha); Linear
-// writes values as they are (opacity maps). Values are clamped to [0, 1].
-void writePng(const std::string& path, const Image& image, Encoding encoding = Encoding::Srgb);
-// Reads an 8-bit PNG (grey, grey+alpha, RGB or RGBA) into values in [0, 1], as stored
-// (no sRGB decoding).
-Image readPng(const std::string& path);
+// PNG files: nephele/png.hpp (Nephele::platform, libpng).
 // Portable float map: "PF" (RGB) or "Pf" (grey), little-endian, linear floats.
 void writePfm(const std::string& path, const Image& image);
 Image readPfm(const std::string& path);

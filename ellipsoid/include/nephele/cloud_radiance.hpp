@@ -37,14 +37,14 @@ struct RadianceGridSettings {
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
     unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
     // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
-    // past it (the smallest on screen first) are lit by a stand-in (nephele/light_cache.hpp).
+    // past it (the smallest on screen first) are lit by a stand-in (ellipsoid/src/light_cache.hpp).
     double megabytes = 256;
     // Make missing grids on a worker thread, a stand-in lighting the cloud meanwhile, instead of
     // before the frame (a host's frame loop; SkyRenderer::update() always does).
     bool background = false;
 };
 
-// What an update of the clouds' grids did (nephele/light_cache.hpp; EllipsoidRenderer::lightStats).
+// What an update of the clouds' grids did (ellipsoid/src/light_cache.hpp; EllipsoidRenderer::lightStats).
 struct RadianceUpdateStats {
     int computed = 0;     // grids made in this call, or finished on the worker since the last call
     int pending = 0;      // grids queued or being made on the worker

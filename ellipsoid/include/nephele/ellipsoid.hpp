@@ -3,7 +3,7 @@
 // Per frame: every visible ellipsoid is projected to a rectangle on the near plane and an
 // off-axis frustum (nephele/projection.hpp); its tile size is the rectangle's pixel size
 // rounded up to a power of two in [minTile, maxTile]; tiles are packed largest first,
-// first fit, into the atlas (nephele/packer.hpp), and those that do not fit go to further
+// first fit, into the atlas (ellipsoid/src/packer.hpp), and those that do not fit go to further
 // passes (one layer of the atlas array each). Per pass:
 //   1. clear the layer to (T2 = D, 1, 1, T1 / D = 0);
 //   2. draw the tiles' ellipsoids (one instanced draw per program and mesh level, the

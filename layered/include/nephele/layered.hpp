@@ -144,7 +144,7 @@ struct LightingVolume {
     double sampleDensity(double u, double v, double z) const;
 
     // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels, and
-    // a checksum (nephele/cache_file.hpp); load() verifies it and refuses a damaged file.
+    // a checksum (core/src/cache_file.hpp); load() verifies it and refuses a damaged file.
     void save(const std::string& path) const;
     // Throws LightingFileError naming the file and what is wrong (bad magic, version, a size
     // or a parameter that differs from `expected`, truncated data).

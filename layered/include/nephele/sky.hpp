@@ -41,6 +41,9 @@ struct SkySettings {
     NearLodSettings nearLod;
     EllipsoidSettings ellipsoid = autoEllipsoidSettings();
     bool timings = false;  // SkyStats' ms by part (gl::PartTimer: glFinish between the parts, slower)
+    // Near-LOD cells update() makes at most after the first (nearest first); 0: every cell in
+    // reach, as render() (a recorded flight that must equal `render --time`).
+    int cellsPerUpdate = kCellsPerUpdate;
 };
 
 struct SkyStats {
@@ -56,7 +59,7 @@ struct SkyUpdateStats {
     NearLodStats nearLod;  // what the near LOD spawned and retired
     int lightVolumes = 0;  // clouds' radiance grids finished on the worker since the last update
     int lightPending = 0;  // grids still being made there (new near clouds, a new sun)
-    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (nephele/light_cache.hpp)
+    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (ellipsoid/src/light_cache.hpp)
     double lightMs = 0;    // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
     int layers = 0;        // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running

@@ -71,7 +71,7 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 // input that affects the image (the view's camera, sun, sky, medium, clouds, objects, the
 // noise volume when medium.noise > 0, spp, maxBounces, seed and a version constant), and the
 // file holds the whole key, so a hash collision is a miss. Files are written atomically
-// (temporary name, then rename) and end with a checksum (nephele/cache_file.hpp); a damaged
+// (temporary name, then rename) and end with a checksum (core/src/cache_file.hpp); a damaged
 // file (checksum, length, a NaN, a negative radiance, an opacity over 1) or something other
 // than a regular file there (read without blocking) is rendered again with a warning through
 // the log callback (nephele/log.hpp), never used.

@@ -1,4 +1,4 @@
-// The clouds' radiance grids (nephele/light_cache.hpp) on the GPU, for the compositor and the
+// The clouds' radiance grids (ellipsoid/src/light_cache.hpp) on the GPU, for the compositor and the
 // ray-marcher (shaders/cloud_light_grid.glsl reads them): three RGBA16F 3D textures with one
 // slot per grid, and a storage buffer of the grids' boxes relative to the eye. A grid keeps its
 // slot while it is in use, so a cloud that moves costs only its box: nothing is re-created or
@@ -7,7 +7,7 @@
 #pragma once
 
 #include "nephele/gl.hpp"
-#include "nephele/light_cache.hpp"
+#include "light_cache.hpp"
 #include "nephele/shader.hpp"
 
 #include <map>
