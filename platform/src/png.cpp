@@ -17,11 +17,7 @@
 
 namespace nephele {
 
-using detail::checkClaimedSize;
-using detail::checkShape;
-using detail::FilePtr;
-using detail::openFile;
-using detail::openImage;
+using namespace detail;  // image_file.hpp: what PNG files share with core's PFM files
 
 namespace {
 
