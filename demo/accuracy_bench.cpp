@@ -381,6 +381,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::vector<Config> configs = sweep(o.quick);
     ReferenceSettings refSettings;
     refSettings.spp = o.referenceSpp;
+    refSettings.targetNoise = o.referenceNoise;
     refSettings.pieceSpp = std::min(refSettings.pieceSpp, std::max(1, o.referenceSpp / 2));
     refSettings.skySpp = std::max(2, o.referenceSpp / 4);
     refSettings.singleSpp = std::max(1, o.referenceSpp / 16);
