@@ -39,6 +39,7 @@ struct AccuracyOptions {
                                   // reference's noise down by `block`)
     int frames = 5;               // timed frames per GPU setting (median)
     bool quick = false;           // one scene, two distances, defaults only (for tests)
+    std::vector<std::string> noiseModes{"0", "scene"};  // "0": medium.noise 0; "scene": the scenes' noise
     GlBackend backend = GlBackend::Egl;
 };
 int runAccuracyBench(const AccuracyOptions& options);
