@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,7 +22,7 @@ std::string slurp(const fs::path& p) {
 }
 
 TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
-    const fs::path dir = fs::temp_directory_path() / "nephele_scale_bench_test";
+    const fs::path dir = fs::temp_directory_path() / ("nephele_scale_bench_test_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
@@ -53,7 +55,7 @@ TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
 TEST(ScaleBenchTest, BadCountsAndModesAreRefused) {
     const auto zero = nephele::test::runBounded("bench --scale --scale-counts 0", 1024, 30);
     EXPECT_EQ(zero.code, 2) << zero.output;
-    EXPECT_NE(zero.output.find("--scale-counts: 0 is out of range 1..1000000"), std::string::npos) << zero.output;
+    EXPECT_NE(zero.output.find("nephele: --scale-counts: must be in 1..1000000, got 0"), std::string::npos) << zero.output;
     const auto both = nephele::test::runBounded("bench --scale --layered", 1024, 30);
     EXPECT_EQ(both.code, 2) << both.output;
 }
