@@ -34,10 +34,12 @@ struct AccuracyOptions {
     std::string cacheDir;         // path-traced references are cached here ("" = none)
     int width = 320;              // px: every case is rendered this wide (aspect kept)
     int referenceSpp = 1024;      // at most, samples per pixel of the reference's sun part (the sky part: a quarter)
+    double referenceNoise = 0.03; // the reference is traced until its own noise is at most this (relative RMSE)
     int block = 4;                // errors are measured on block x block pixel means (averages the
                                   // reference's noise down by `block`)
     int frames = 5;               // timed frames per GPU setting (median)
     bool quick = false;           // one scene, two distances, defaults only (for tests)
+    std::vector<std::string> noiseModes{"0", "scene"};  // "0": medium.noise 0; "scene": the scenes' noise
     GlBackend backend = GlBackend::Egl;
 };
 int runAccuracyBench(const AccuracyOptions& options);

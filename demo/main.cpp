@@ -292,7 +292,13 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
         ->capture_default_str();
     bench->add_option("--layer-counts", b.lbo.counts, "--layered: annuli per layer (N)")->check(within(2, 1024))->capture_default_str();
     bench->add_option("--extents", b.lbo.extents, "--layered: layer extents (m)")->check(within(1000, 1e6))->capture_default_str();
-    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference (it stops at 2% noise)")
+    bench->add_option("--noise-modes", b.ao.noiseModes, "--accuracy: 0 (medium.noise 0), scene (the scenes' noise), or both")
+        ->check(CLI::IsMember({"0", "scene"}))
+        ->capture_default_str();
+    bench->add_option("--reference-noise", b.ao.referenceNoise, "--accuracy: trace the reference until its own noise is at most this")
+        ->check(within(0.001, 0.5))
+        ->capture_default_str();
+    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference")
         ->check(within(1, 1 << 20))
         ->capture_default_str();
     bench->add_option("--fps", b.flo.fps, "--flicker, --weather: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();

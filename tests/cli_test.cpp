@@ -638,7 +638,8 @@ TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
         {"--light-grid", "1"},    {"--octaves", "9"},        {"--layers", "1"},         {"--lod0-radius", "-5"},
         {"--lod0-spacing", "0"},  {"--layer-downsample", "5"}, {"--near-radius", "1e308"}, {"--blend-band", "nan"},
         {"--spp", "0"},           {"--bounces", "10001"},    {"--seed", "-1"},          {"--time", "nan"},
-        {"--time", "1e300"}};
+        {"--time", "1e300"},      {"--light-grid", "129"},   {"--photons", "1e9"},      {"--photons", "-1"},
+        {"--yaw-offset", "361"},  {"--pitch-offset", "nan"}, {"--frustum", "1,0,0,1"},  {"--frustum", "0,1,0,inf"}};
     for (const auto& [flag, value] : bad) {
         const Spawned r = spawn({"render", scene, "-o", path("out.png"), flag, value});
         EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
@@ -651,9 +652,15 @@ TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
         EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
     }
     for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
-             {"--counts", "0"}, {"--frames", "1001"}, {"--width", "15"}, {"--layer-counts", "1"}, {"--extents", "nan"},
+             {"--counts", "0"}, {"--scale-counts", "0"}, {"--frames", "1001"}, {"--width", "15"}, {"--layer-counts", "1"}, {"--extents", "nan"},
              {"--fps", "0"}, {"--spp", "0"}}) {
         const Spawned r = spawn({"bench", "--out-dir", path("b"), flag, value});
+        EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
+        EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
+    }
+    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
+             {"--width", "0"}, {"--height", "16385"}, {"--render-scale", "0"}, {"--fps", "nan"}, {"--record", ""}}) {
+        const Spawned r = spawn({"fly", scene, "--headless", flag, value});
         EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
         EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
     }

@@ -7,6 +7,7 @@
 #include "nephele/layered.hpp"
 #include "nephele/opaque.hpp"
 #include "parallel.hpp"
+#include "nephele/resources.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -180,6 +181,43 @@ TEST_F(LayeredGLTest, DrawCallsDoNotGrowWithTheLayerCount) {
     two.layers.push_back(two.layers[0]);
     two.layers[1].base = 5000;
     EXPECT_EQ(render(two, testSettings()).stats.drawCalls, 4);  // per scene layer, not per annulus
+}
+
+// Layers of the same thickness share one lighting volume and layers of the same seed one
+// modulation texture, on the CPU and in GL (each layer cost about 30 MB: 100 layers of a 9 KB
+// file took 3.1 GB); the distinct ones are bounded by resourceMegabytes before anything is made.
+TEST_F(LayeredGLTest, LayersOfTheSameParametersShareTheirTexturesWithinABudget) {
+    Scene scene = layerScene(500, 10);
+    for (int i = 1; i < 100; ++i) {  // 100 layers, one thickness and one seed: stacked every 10 m
+        scene.layers.push_back(scene.layers[0]);
+        scene.layers.back().base = kBase + 10 * i;
+    }
+    const View view = makeView(scene.camera);
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    {
+        LayeredRenderer sky(testSettings());
+        EXPECT_EQ(sky.render(scene, view, target.framebuffer(), 0).uploads, 2);  // one volume, one modulation
+        EXPECT_EQ(sky.lighting(0), sky.lighting(99));
+        EXPECT_EQ(sky.modulation(0), sky.modulation(99));
+        scene.layers[7].thickness = 900, scene.layers[8].seed = 42;
+        EXPECT_EQ(sky.render(scene, view, target.framebuffer(), 0).uploads, 2);  // the new volume and modulation only
+        EXPECT_NE(sky.lighting(7), sky.lighting(0));
+        EXPECT_EQ(sky.lighting(8), sky.lighting(0));
+    }
+    // 2 distinct thicknesses at 32x32x8 (about 18 KB each) and 2 seeds at 256^2 (1.2 MB each
+    // with the GL copy's mipmaps): over a 1 MB budget; the message says what and how much.
+    LayeredSettings small = testSettings();
+    small.modulation.size = 256;
+    small.resourceMegabytes = 1;
+    LayeredRenderer bounded(small);
+    try {
+        bounded.render(scene, view, target.framebuffer(), 0);
+        ADD_FAILURE() << "over the budget, not refused";
+    } catch (const ResourceError& e) {
+        EXPECT_NE(std::string(e.what()).find("2 modulation textures (one per seed)"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("resourceMegabytes"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(bounded.lighting(0), nullptr);  // refused before anything was made
 }
 
 TEST_F(LayeredGLTest, CoverageZeroLeavesTheFrameUnchanged) {

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,7 +22,7 @@ std::string slurp(const fs::path& p) {
 }
 
 TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
-    const fs::path dir = fs::temp_directory_path() / "nephele_scale_bench_test";
+    const fs::path dir = fs::temp_directory_path() / ("nephele_scale_bench_test_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";

@@ -261,7 +261,8 @@ struct LayeredStats {
                              // what the worker finished since the last call)
     int pendingLayers = 0;   // layers whose lighting is being computed in the background (drawn with the
                              // last volume they had meanwhile; not drawn when they had none)
-    int uploads = 0;         // textures refilled in this call (new lighting or modulation data)
+    int uploads = 0;         // textures made in this call (new lighting or modulation data; layers with
+                             // the same data share one)
 };
 
 class LayerAssets;  // internal (layered/src/layer_assets.hpp): the layers' lighting and modulation data
