@@ -3,6 +3,7 @@
 #include "compare_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
+#include "layer_accuracy.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
@@ -244,7 +245,8 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, quick = false, noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, layerAccuracyMode = false, quick = false,
+         noCache = false;
     LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
@@ -254,9 +256,12 @@ int main(int argc, char** argv) {
     bench->add_flag("--flicker", flickerMode, "Instead: frame-to-frame change along camera paths against the exact model");
     bench->add_flag("--layered", layeredMode,
                     "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_flag("--layer-accuracy", layerAccuracyMode,
+                    "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
+                    "layer (markdown on stdout)");
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
-    bench->add_option("--spp", ao.referenceSpp, "--accuracy: samples per pixel of the reference")
+    bench->add_option("--spp", ao.referenceSpp, "--accuracy, --layer-accuracy: samples per pixel of the reference (64; 256)")
         ->check(CLI::Range(1, 1048576))->capture_default_str();
     bench->add_option("--fps", flo.fps, "--flicker: frames per second of scene time")
         ->check(CLI::Range(0.01, 1000.0))->capture_default_str();
@@ -331,8 +336,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker and --layered are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(layerAccuracyMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --layer-accuracy are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -342,6 +347,14 @@ int main(int argc, char** argv) {
             if (widthGiven) ao.width = bo.width;
             if (!noCache) ao.cacheDir = defaultCacheDir(benchCache);
             return runAccuracyBench(ao);
+        }
+        if (layerAccuracyMode) {
+            LayerAccuracyOptions lao;
+            lao.scenesDir = bo.scenesDir, lao.frames = bo.frames, lao.quick = quick;
+            if (widthGiven) lao.width = bo.width;
+            if (bench->count("--spp") > 0) lao.referenceSpp = ao.referenceSpp;
+            lao.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
+            return runLayerAccuracyBench(lao, bo.backend);
         }
         if (layeredMode) {
             lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;

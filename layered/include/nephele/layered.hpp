@@ -204,6 +204,13 @@ double layerModulation(const Layer& layer, const ModulationTexture& modulation, 
 // A from the lighting volume at that point. 0 outside [base, base + thickness].
 double layerDensity(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
                     const LightingVolume& light, const Vec3& point, double t);
+// The integral of layerDensity() (m; times medium.extinction it is the optical depth) along
+// o + s d (unit d, s >= 0) over the part of the ray inside the layer's slab within horizontal
+// distance `reach` (m) of o, by the midpoint rule in steps of at most `step` m (at most
+// `maxSteps` of them): the CPU twin of the opacity the layered sky stands for.
+double layerDensityIntegral(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
+                            const LightingVolume& light, const Vec3& o, const Vec3& d, double reach, double t,
+                            double step = 10, int maxSteps = 4000);
 // Cloud shadows, eq. (19): the sun's transmittance through the layer at a world point below
 // it, S = 1 - D max(T_S - (r + 1 - C), 0) with T_S = 1 (the column's peak alpha) and r read
 // where the ray towards the sun crosses the layer's middle. 1 at or above the layer's middle
