@@ -1,7 +1,9 @@
-// The layered sky's precomputation and CPU twins (no GL): the phase function, the
-// scattering recurrences on known cases, the 8-bit vector encoding, the lighting file, the
-// modulation texture and the near-LOD hook.
+// The layered sky's precomputation and CPU twins (no GL): the column depths against their
+// integral, the light tables (white furnace, no albedo, the flow of the sun's light, the frame's
+// tables), the lighting file, the modulation texture and the near-LOD hook.
 #include "nephele/layered.hpp"
+
+#include "../layered/src/layer_light.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,6 +19,7 @@ constexpr double kPi = 3.14159265358979323846;
 LightingSettings small() {
     LightingSettings s;
     s.width = 16, s.height = 16, s.depth = 8;
+    s.photons = 256;  // the light tables' noise is not what most tests look at
     return s;
 }
 
@@ -27,99 +30,139 @@ std::string tempPath(const std::string& name) {
 }
 }  // namespace
 
-TEST(LayeredTest, CornetteShanksIntegratesToOneOverTheSphere) {
-    for (double f : {0.0, 0.3, 0.6, 0.85}) {
-        // Midpoint rule in mu = cos(theta); the peak at mu = 1 for f = 0.85 is narrow, so many
-        // steps: 1e6 keeps the error far below the 1e-3 asked for.
-        const int n = 1000000;
-        double sum = 0;
-        for (int i = 0; i < n; ++i) {
-            const double mu = -1 + (i + 0.5) * 2.0 / n;
-            sum += cornetteShanks(mu, f) * 2 * kPi * (2.0 / n);
-        }
-        EXPECT_NEAR(sum / (4 * kPi), 1.0, 1e-3) << "f = " << f;
-    }
-    // f = 0 is Rayleigh: 3/4 (1 + cos^2).
-    EXPECT_NEAR(cornetteShanks(0.0, 0.0), 0.75, 1e-12);
-    EXPECT_NEAR(cornetteShanks(1.0, 0.0), 1.5, 1e-12);
+TEST(LayeredTest, ColumnDepthsAreTheIntegralOfTheThresholdedDensity) {
+    const LightingSettings s = small();
+    const LightingParameters p;
+    const LightingVolume v = precomputeLighting(s, p);
+    // At texel centres and at the knots' thresholds the stored depths are exact but for their
+    // 8-bit encoding e = exp(-tau / 4): half a step of e is 4 (0.5 / 255) / e in tau.
+    int checked = 0;
+    double deepest = 0;
+    for (int k = 0; k < s.depth; ++k)
+        for (int j = 1; j < s.height; j += 5)
+            for (int i = 2; i < s.width; i += 4)
+                for (double theta : {0.25, 0.5, 0.75}) {
+                    const double u = (i + 0.5) / s.width, w = (j + 0.5) / s.height, z = (k + 0.5) / s.depth;
+                    const glm::dvec2 depths = v.columnDepths(u, w, z, theta, 0.7);
+                    double above = 0, below = 0;  // the integral by a fine midpoint rule
+                    const int steps = 4000;
+                    for (int m = 0; m < steps; ++m) {
+                        const double zz = (m + 0.5) / steps;
+                        const double rho = 0.7 * p.extinction * std::max(v.sampleDensity(u, w, zz) - theta, 0.0) * p.thickness / steps;
+                        (zz > z ? above : below) += rho;
+                    }
+                    auto tolerance = [](double tau) { return 0.7 * 4 * (0.5 / 255) * std::exp(tau / 0.7 / 4) + 0.01; };
+                    EXPECT_NEAR(depths.x, above, tolerance(above)) << i << " " << j << " " << k << " theta " << theta;
+                    EXPECT_NEAR(depths.y, below, tolerance(above + below)) << i << " " << j << " " << k << " theta " << theta;
+                    deepest = std::max(deepest, above + below);
+                    ++checked;
+                }
+    EXPECT_GT(checked, 100);
+    EXPECT_GT(deepest, 3.0);  // optically thick columns are among them
+    // No matter at or beyond theta = 1 (A <= 1).
+    EXPECT_EQ(v.columnDepths(0.3, 0.3, 0.5, 1.0, 1.0), glm::dvec2(0.0));
 }
 
-TEST(LayeredTest, ZeroExtinctionTransmitsEverythingAndScattersNothing) {
-    const std::vector<double> taus(20, 0.0);
-    double exit = 0;
-    const std::vector<double> inc = forwardScatter(taus, 0.7, 1.0, &exit);
-    for (double i : inc) EXPECT_DOUBLE_EQ(i, 1.0);
-    EXPECT_DOUBLE_EQ(exit, 1.0);
-    EXPECT_DOUBLE_EQ(eyeScatter(taus, inc, 0.99, 50.0), 0.0);
-
-    // The whole volume with zero extinction: intensity 1 everywhere (the vector is the
-    // zenith of length 1), no eye scattering.
+TEST(LayeredTest, ZeroExtinctionLeavesNoDepthAndNoLight) {
     LightingParameters p;
     p.extinction = 0;
     const LightingVolume v = precomputeLighting(small(), p);
-    for (int k = 0; k < 8; ++k)
-        for (int j = 0; j < 16; j += 5)
-            for (int i = 0; i < 16; i += 3) {
-                const glm::dvec3 n = v.vectorAt(i, j, k);
-                EXPECT_NEAR(n.x, 0, 1.0 / 255) << i << " " << j << " " << k;
-                EXPECT_NEAR(n.y, 0, 1.0 / 255);
-                EXPECT_NEAR(n.z, 1, 1.0 / 255);  // 8-bit quantisation
-            }
-    EXPECT_EQ(v.eyeScatterPeak, 0.0);
+    EXPECT_EQ(v.columnDepths(0.4, 0.6, 0.3, 0.25, 1.0), glm::dvec2(0.0));
+    for (const glm::vec4& x : v.tables.sun) EXPECT_EQ(x, glm::vec4(0.0f));
+    for (const glm::vec4& x : v.tables.sky) EXPECT_EQ(x, glm::vec4(0.0f));
 }
 
-TEST(LayeredTest, RecurrencesOnAHomogeneousSlabMatchTheClosedForm) {
-    // n equal particles of depth tau: I_k = I0 q^(k-1) with q = T + c tau, and
-    // E_n = a tau F / 4pi I0 (q^n - T^n) / (q - T).
-    const int n = 40;
-    const double tau = 0.05, c = 0.6, a = 0.9, phase = 12.0, i0 = 2.0;
-    const std::vector<double> taus(n, tau);
-    double exit = 0;
-    const std::vector<double> inc = forwardScatter(taus, c, i0, &exit);
-    const double T = std::exp(-tau), q = T + c * tau;
-    for (int k = 1; k <= n; ++k) EXPECT_NEAR(inc[k - 1], i0 * std::pow(q, k - 1), 1e-12);
-    EXPECT_NEAR(exit, i0 * std::pow(q, n), 1e-12);
-    const double e = eyeScatter(taus, inc, a, phase);
-    const double closed = a * tau * phase / (4 * kPi) * i0 * (std::pow(q, n) - std::pow(T, n)) / (q - T);
-    EXPECT_NEAR(e, closed, 1e-12);
-    // Forward scattering keeps more light than extinction alone.
-    EXPECT_GT(exit, i0 * std::exp(-n * tau));
-}
-
-TEST(LayeredTest, ForwardCoefficientFollowsTheConeAndNeverExceedsTheAlbedo) {
-    const double c10 = forwardCoefficient(0.99, 0.85, 10), c5 = forwardCoefficient(0.99, 0.85, 5);
-    EXPECT_GT(c10, c5);
-    const double gamma = 2 * kPi * (1 - std::cos(10 * kPi / 180));
-    EXPECT_NEAR(c10, 0.99 * cornetteShanks(1, 0.85) * gamma / (4 * kPi), 1e-12);
-    EXPECT_LE(forwardCoefficient(0.99, 0.85, 90), 0.99);
-}
-
-TEST(LayeredTest, VectorEncodingRoundTripsWithinEightBits) {
-    for (int i = 0; i <= 2000; ++i) {
-        const double n = -1 + i / 1000.0;
-        EXPECT_LE(std::abs(decodeComponent(encodeComponent(n)) - n), 1.0 / 255 + 1e-12) << n;  // half a step of n/2+0.5 is 1/255 of n
+TEST(LayeredTest, SkyTablesConserveEnergyInAWhiteFurnace) {
+    // Albedo 1 under radiance 1 from every direction (sky basis 0 from above plus basis 2 from
+    // below): the radiance is 1 everywhere in the layer, so at every node the fluence is 4 pi,
+    // the net flux and the zonal harmonic 0.
+    LightingSettings s = small();
+    s.photons = 1 << 12;
+    LightingParameters p;
+    p.albedo = 1;
+    const LightingVolume v = precomputeLighting(s, p);
+    const LayerLightTables& t = v.tables;
+    const std::size_t nodes = std::size_t(t.bins) * t.bins;
+    double sum = 0, worst = 0;
+    for (std::size_t n = 0; n < nodes; ++n) {
+        const glm::vec4 a = t.sky[n], b = t.sky[2 * nodes + n];
+        const double phi0 = (a.x + b.x) / (4 * kPi);
+        sum += phi0;
+        worst = std::max(worst, std::abs(phi0 - 1));
+        EXPECT_NEAR((a.y + b.y) / (4 * kPi), 0, 0.15) << n;   // Monte Carlo noise of the nodes' few scores
+        EXPECT_NEAR((a.z + b.z) / (4 * kPi), 0, 0.15) << n;
     }
-    EXPECT_EQ(encodeComponent(0.0), 128);  // 127.5 rounds up
-    EXPECT_EQ(encodeComponent(1.0), 255);
-    EXPECT_EQ(encodeComponent(-1.0), 0);
+    std::printf("[ figure ] white furnace: mean fluence / 4 pi %.4f, worst node %.3f off\n", sum / nodes, worst);
+    EXPECT_NEAR(sum / nodes, 1.0, 0.03);
+    EXPECT_LT(worst, 0.3);
 }
 
-TEST(LayeredTest, LightDecreasesDownwardsThroughTheLayer) {
-    const LightingVolume v = precomputeLighting(small(), LightingParameters{});
-    // Mean intensity (vector length) per slice: the top is lit, the bottom darker.
-    auto sliceMean = [&](int k) {
-        double s = 0;
-        for (int j = 0; j < 16; ++j)
-            for (int i = 0; i < 16; ++i) s += glm::length(v.vectorAt(i, j, k));
-        return s / 256;
-    };
-    EXPECT_GT(sliceMean(7), 0.95);
-    EXPECT_LT(sliceMean(0), sliceMean(7) - 0.2);
-    for (int k = 0; k < 7; ++k) EXPECT_LE(sliceMean(k), sliceMean(k + 1) + 2.0 / 255) << k;
-    EXPECT_GT(v.eyeScatterPeak, 0);
-    // phi: F(phi) = 10% of F(0).
-    const double phi = std::acos(v.eyeScatterCosPhi);
-    EXPECT_NEAR(cornetteShanks(std::cos(phi), 0.85) / cornetteShanks(1, 0.85), 0.1, 1e-6);
+TEST(LayeredTest, SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun) {
+    LightingSettings s = small();
+    s.photons = 1 << 11;
+    LightingParameters p;
+    p.albedo = 0;  // nothing is scattered: no diffuse light at all
+    for (const glm::vec4& x : precomputeLighting(s, p).tables.sun) EXPECT_EQ(x, glm::vec4(0.0f));
+    p.albedo = 0.99;
+    const LightingVolume v = precomputeLighting(s, p);
+    const LayerLightTables& t = v.tables;
+    const std::size_t nodes = std::size_t(t.bins) * t.bins;
+    // Per elevation, extinction-weighted over the nodes: the scattered sunlight flows down and
+    // away from the sun (the sun lies along +x), and a higher sun lights the layer more.
+    double previous = 0;
+    for (std::size_t k = 0; k < t.sunMu.size(); ++k) {
+        glm::dvec3 sum(0.0);
+        for (std::size_t n = 0; n < nodes; ++n) sum += glm::dvec3(t.sun[k * nodes + n]);
+        EXPECT_GT(sum.x, 0) << "mu " << t.sunMu[k];
+        EXPECT_LT(sum.y, 0) << "mu " << t.sunMu[k];
+        EXPECT_LT(sum.z, 0) << "mu " << t.sunMu[k];
+        EXPECT_GT(sum.x, previous) << "mu " << t.sunMu[k];
+        previous = sum.x;
+    }
+}
+
+TEST(LayeredTest, FrameTablesFollowTheSunAndTheSky) {
+    LightingSettings s = small();
+    s.photons = 1 << 9;
+    const LightingVolume v = precomputeLighting(s, LightingParameters{});
+    const LayerLightTables& t = v.tables;
+    const std::size_t nodes = std::size_t(t.bins) * t.bins;
+    Scene scene;
+    scene.sun.direction = glm::normalize(Vec3(0.6, 0.0, 0.8));
+    scene.sun.direction.z = t.sunMu[3];  // exactly a tabulated elevation
+    scene.sun.direction.x = std::sqrt(1 - t.sunMu[3] * t.sunMu[3]);
+    const LayerFrameTables f = layerFrameTables(t, scene);
+    for (std::size_t n = 0; n < nodes; n += 7) {
+        EXPECT_NEAR(f.sun[n].x, t.sun[3 * nodes + n].x, 1e-6);
+        EXPECT_NEAR(f.sun[n].z, t.sun[3 * nodes + n].z, 1e-6);
+    }
+    // Below the horizon: the column seen upside down (above and below swapped, flux up).
+    Scene under = scene;
+    under.sun.direction.z = -scene.sun.direction.z;
+    const LayerFrameTables g = layerFrameTables(t, under);
+    for (int j = 0; j < t.bins; j += 3)
+        for (int i = 0; i < t.bins; i += 2) {
+            EXPECT_NEAR(g.sun[t.node(i, j)].x, f.sun[t.node(j, i)].x, 1e-6);
+            EXPECT_NEAR(g.sun[t.node(i, j)].z, -f.sun[t.node(j, i)].z, 1e-6);
+        }
+    // The sky's table is linear in the sky's colours; a black sky gives none.
+    Scene bright = scene;
+    bright.sky.zenith *= 2.0, bright.sky.horizon *= 2.0, bright.sky.ground *= 2.0;
+    Scene black = scene;
+    black.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
+    const LayerFrameTables b = layerFrameTables(t, bright), k = layerFrameTables(t, black);
+    for (std::size_t n = 0; n < nodes; n += 5) {
+        EXPECT_NEAR(b.sky[n].x, 2 * f.sky[n].x, 1e-5 * (1 + f.sky[n].x));
+        EXPECT_NEAR(b.sun[n].w, 2 * f.sun[n].w, 1e-5 * (1 + std::abs(f.sun[n].w)));
+        EXPECT_EQ(k.sky[n], glm::vec4(0.0f));
+    }
+    // A skylight adds its scattered light to the sun's fluence.
+    Scene dusk = scene;
+    dusk.skylight = Skylight{Vec3(0, 0, 1), Vec3(1.0), 1.5};
+    const LayerFrameTables d = layerFrameTables(t, dusk);
+    double more = 0;
+    for (std::size_t n = 0; n < nodes; ++n) more += d.sun[n].x - f.sun[n].x;
+    EXPECT_GT(more, 0);
 }
 
 TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
@@ -130,8 +173,9 @@ TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
     v.save(path);
     const LightingVolume w = LightingVolume::load(path, s, p);
     EXPECT_EQ(w.texels, v.texels);
-    EXPECT_EQ(w.eyeScatterPeak, v.eyeScatterPeak);
-    EXPECT_EQ(w.eyeScatterCosPhi, v.eyeScatterCosPhi);
+    EXPECT_EQ(w.columns, v.columns);
+    EXPECT_EQ(w.tables.sunMu, v.tables.sunMu);
+    EXPECT_TRUE(w.tables.sun == v.tables.sun && w.tables.sky == v.tables.sky);
 
     auto message = [&](const std::string& file, const LightingSettings& es, const LightingParameters& ep) {
         try {
@@ -159,7 +203,7 @@ TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
         std::ofstream(tempPath("magic.bin"), std::ios::binary) << bad;
         EXPECT_NE(message(tempPath("magic.bin"), s, p).find("bad magic"), std::string::npos);
         std::ofstream(tempPath("short.bin"), std::ios::binary) << bytes.substr(0, bytes.size() - 10);
-        EXPECT_NE(message(tempPath("short.bin"), s, p).find("truncated texels"), std::string::npos);
+        EXPECT_NE(message(tempPath("short.bin"), s, p).find("truncated data"), std::string::npos);
         EXPECT_NE(message(tempPath("missing.bin"), s, p).find("cannot open"), std::string::npos);
     }
     // The cache: a second call loads what the first saved (precomputeMs 0 when loaded).

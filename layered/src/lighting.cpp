@@ -1,6 +1,9 @@
 // The lighting precomputation of Wang, Ji & Zhang 2011, section 3: multiple forward
 // scattering along the light (eqs. 5-7), eye scattering (8), Cornette-Shanks (10), stored as
 // vectors whose length is the intensity, n' = n / 2 + 0.5, in an RGBA8 3D texture.
+#include "layer_light.hpp"
+#include "layer_light_model.hpp"
+
 #include "nephele/fingerprint.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/log.hpp"
@@ -24,8 +27,8 @@ constexpr double kPi = glm::pi<double>();
 constexpr char kMagic[8] = {'N', 'P', 'H', 'L', 'A', 'Y', 'R', '\0'};
 // Bump when the file layout OR the precomputation changes: the cache key and the header carry it,
 // so a volume computed by an older algorithm is never reused.
-constexpr std::uint32_t kVersion = 2;
-constexpr double kMaxSubstepTau = 0.1;  // the Riemann sum of eq. (5) needs thin particles: tau <= 0.1 each
+// 3: the paper's light vectors replaced by the column knots and the photon-traced light tables.
+constexpr std::uint32_t kVersion = 3;
 
 std::string num(double v) {
     char b[64];
@@ -39,7 +42,8 @@ void checkSettings(const LightingSettings& s, const LightingParameters& p) {
         bad("size must be 2..4096 x 2..4096 x 2..1024 texels, got " + std::to_string(s.width) + "x" +
             std::to_string(s.height) + "x" + std::to_string(s.depth));
     if (!(s.tilePeriod > 0)) bad("tilePeriod must be > 0 m, got " + num(s.tilePeriod));
-    if (!(s.forwardConeDeg > 0 && s.forwardConeDeg <= 90)) bad("forwardConeDeg must be in (0, 90], got " + num(s.forwardConeDeg));
+    if (s.photons < 64 || s.photons > (1 << 22)) bad("photons must be 64..2^22, got " + std::to_string(s.photons));
+    if (s.tableBins < 4 || s.tableBins > 64) bad("tableBins must be 4..64, got " + std::to_string(s.tableBins));
     if (s.octaves < 1 || s.octaves > 8) bad("octaves must be 1..8, got " + std::to_string(s.octaves));
     if (s.cells < 1 || s.cells > 64) bad("cells must be 1..64, got " + std::to_string(s.cells));
     if (!(p.extinction >= 0)) bad("extinction must be >= 0, got " + num(p.extinction));
@@ -61,73 +65,55 @@ bool get(std::ifstream& in, T& v) {
 }
 }  // namespace
 
-double cornetteShanks(double cosTheta, double f) {
-    const double f2 = f * f;
-    const double denom = std::max(1 + f2 - 2 * f * cosTheta, 1e-300);
-    return 3 * (1 - f2) / (2 * (2 + f2)) * (1 + cosTheta * cosTheta) / std::pow(denom, 1.5);
-}
-
-double forwardCoefficient(double albedo, double f, double coneDeg) {
-    const double gamma = 2 * kPi * (1 - std::cos(glm::radians(coneDeg)));  // sr
-    return std::min(albedo * cornetteShanks(1.0, f) * gamma / (4 * kPi), albedo);
-}
-
-std::vector<double> forwardScatter(const std::vector<double>& taus, double forward, double i0, double* exit) {
-    std::vector<double> incident(taus.size());
-    double i = i0;  // I_1 = I_0
-    for (std::size_t k = 0; k < taus.size(); ++k) {
-        incident[k] = i;
-        const double g = forward * taus[k] * i;  // eq. (6)
-        i = g + std::exp(-taus[k]) * i;          // eq. (7)
-    }
-    if (exit) *exit = i;
-    return incident;
-}
-
-double eyeScatter(const std::vector<double>& taus, const std::vector<double>& incident, double albedo, double phase) {
-    double e = 0;
-    for (std::size_t k = 0; k < taus.size(); ++k) {
-        const double s = albedo * taus[k] * phase * incident[k] / (4 * kPi);
-        e = s + std::exp(-taus[k]) * e;  // eq. (8)
-    }
-    return e;
-}
-
-std::uint8_t encodeComponent(double n) {
-    return std::uint8_t(std::lround(std::clamp(n * 0.5 + 0.5, 0.0, 1.0) * 255.0));
-}
-double decodeComponent(std::uint8_t byte) { return byte / 255.0 * 2.0 - 1.0; }
-
-glm::dvec3 LightingVolume::vectorAt(int i, int j, int k) const {
-    const std::uint8_t* t = &texels[(std::size_t(k) * settings.height + j) * settings.width * 4 + std::size_t(i) * 4];
-    return {decodeComponent(t[0]), decodeComponent(t[1]), decodeComponent(t[2])};
-}
 double LightingVolume::densityAt(int i, int j, int k) const {
     return texels[(std::size_t(k) * settings.height + j) * settings.width * 4 + std::size_t(i) * 4 + 3] / 255.0;
 }
 
-double LightingVolume::sampleDensity(double u, double v, double z) const {
-    const int w = settings.width, h = settings.height, d = settings.depth;
+namespace {
+// GL_LINEAR sampling of a w x h x d texture (x fastest, then y, then z): repeat in x and y,
+// clamp in z; read(texel index) gives a texel's value (a number or a vector).
+template <class Read>
+auto trilinear(int w, int h, int d, double u, double v, double z, const Read& read) {
     const double x = u * w - 0.5, y = v * h - 0.5, zz = std::clamp(z * d - 0.5, 0.0, double(d - 1));
-    const double fx = std::floor(x), fy = std::floor(y), fz = std::min(std::floor(zz), double(d - 2));
-    const double ax = x - fx, ay = y - fy, az = zz - fz;
+    const double fx = std::floor(x), fy = std::floor(y), fz = std::max(std::min(std::floor(zz), double(d - 2)), 0.0);
+    const double ax = x - fx, ay = y - fy, az = d > 1 ? zz - fz : 0;
     auto wrap = [](long i, int n) { return int(((i % n) + n) % n); };
-    double sum = 0;
-    for (int c = 0; c < 8; ++c) {
+    decltype(read(std::size_t(0))) sum(0.0);
+    for (int c = 0; c < (d > 1 ? 8 : 4); ++c) {
         const int dx = c & 1, dy = (c >> 1) & 1, dz = c >> 2;
         const double wgt = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay) * (dz ? az : 1 - az);
-        sum += wgt * densityAt(wrap(long(fx) + dx, w), wrap(long(fy) + dy, h), int(fz) + dz);
+        sum += wgt * read((std::size_t(int(fz) + dz) * h + wrap(long(fy) + dy, h)) * w + wrap(long(fx) + dx, w));
     }
     return sum;
 }
+glm::dvec4 rgba(const std::vector<std::uint8_t>& texels, std::size_t i) {
+    const std::uint8_t* t = &texels[i * 4];
+    return glm::dvec4(t[0], t[1], t[2], t[3]) / 255.0;
+}
+}  // namespace
 
-LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p) {
-    checkSettings(s, p);
-    const auto start = std::chrono::steady_clock::now();
+glm::dvec4 LightingVolume::sampleTexel(double u, double v, double z) const {
+    return trilinear(settings.width, settings.height, settings.depth, u, v, z, [&](std::size_t i) { return rgba(texels, i); });
+}
+glm::dvec4 LightingVolume::sampleColumn(double u, double v) const {
+    return trilinear(settings.width, settings.height, 1, u, v, 0, [&](std::size_t i) { return rgba(columns, i); });
+}
+double LightingVolume::sampleDensity(double u, double v, double z) const {
+    return trilinear(settings.width, settings.height, settings.depth, u, v, z,
+                     [&](std::size_t i) { return texels[i * 4 + 3] / 255.0; });
+}
+
+glm::dvec2 LightingVolume::columnDepths(double u, double v, double z, double theta, double density) const {
+    const glm::vec3 depths = model::layerColumnDepths(glm::vec3(sampleTexel(u, v, z)), glm::vec3(sampleColumn(u, v)),
+                                                      float(theta), float(density));
+    return {depths.x, depths.y};
+}
+
+namespace {
+// The density A in [0, 1] at texel centres: tileable fBm in x, y shaped by the profile, as bytes.
+std::vector<std::uint8_t> densityBytes(const LightingSettings& s, const LightingParameters& p) {
     const int w = s.width, h = s.height, d = s.depth;
-    const std::size_t columns = std::size_t(w) * h;
-    // Density A in [0, 1] at texel centres: tileable fBm in x, y shaped by the profile.
-    std::vector<float> density(columns * d);
+    std::vector<std::uint8_t> density(std::size_t(w) * h * d);
     const double zCells = std::max(s.cells * p.thickness / s.tilePeriod, 1.0);
     parallelFor(d, [&](int k) {
         const double z = (k + 0.5) / d;
@@ -135,75 +121,59 @@ LightingVolume precomputeLighting(const LightingSettings& s, const LightingParam
             for (int i = 0; i < w; ++i) {
                 const glm::vec3 q(float((i + 0.5) / w * s.cells), float((j + 0.5) / h * s.cells), float(z * zCells));
                 const double n = fbm(q, s.octaves, s.cells, s.seed);
-                density[(std::size_t(k) * h + j) * w + i] = float(profile(z) * std::clamp(0.8 + 0.7 * n, 0.0, 1.0));
+                const double a = profile(z) * std::clamp(0.8 + 0.7 * n, 0.0, 1.0);
+                density[(std::size_t(k) * h + j) * w + i] = std::uint8_t(std::lround(std::clamp(a, 0.0, 1.0) * 255));
             }
     });
-    // Light from the zenith, column by column from the top slice down (the paper's slices
-    // sorted by distance to the light); each slice is split into particles of tau <= 0.1.
-    const double dz = p.thickness / d;
-    const double forward = forwardCoefficient(p.albedo, p.csG, s.forwardConeDeg);
-    const double phase0 = cornetteShanks(1.0, p.csG);
-    std::vector<float> intensity(columns * d);
-    std::vector<double> eyePerOpacity(columns, -1.0);
+    return density;
+}
+
+// Per column, the optical depth per unit D from each texel centre up to the layer's top (and of
+// the whole column) at the thresholds theta_k of shaders/layer_light.glsl: the integral of
+// extinction max(A(z) - theta, 0) with A(z) as GL_LINEAR reads it (linear between texel
+// centres, constant beyond the outer ones), by the midpoint rule in 8 steps per texel. Encoded
+// into the texels' rgb and the columns' rgb.
+void columnKnots(LightingVolume& v, const std::vector<std::uint8_t>& density) {
+    const int w = v.settings.width, h = v.settings.height, d = v.settings.depth;
+    const double dz = v.parameters.thickness / d, extinction = v.parameters.extinction;
+    constexpr double kThresholds[3] = {0.25, 0.5, 0.75};
+    constexpr int kSteps = 8;
+    v.columns.assign(std::size_t(w) * h * 4, 0);
+    auto encode = [](double tau) { return std::uint8_t(std::lround(model::encodeLayerTau(float(tau)) * 255)); };
     parallelFor(h, [&](int j) {
-        std::vector<double> taus;
-        std::vector<int> sliceOf;
         for (int i = 0; i < w; ++i) {
-            taus.clear();
-            sliceOf.clear();
-            double column = 0;
-            for (int k = d - 1; k >= 0; --k) {
-                const double tau = p.extinction * density[(std::size_t(k) * h + j) * w + i] * dz;
-                const int n = std::max(1, int(std::ceil(tau / kMaxSubstepTau)));
-                for (int m = 0; m < n; ++m) taus.push_back(tau / n), sliceOf.push_back(k);
-                column += tau;
+            auto a = [&](int k) { return density[(std::size_t(k) * h + j) * w + i] / 255.0; };
+            for (int c = 0; c < 3; ++c) {
+                const double theta = kThresholds[c];
+                double tau = 0.5 * dz * std::max(a(d - 1) - theta, 0.0);  // above the top centre: constant
+                for (int k = d - 1; k >= 0; --k) {
+                    v.texels[((std::size_t(k) * h + j) * w + i) * 4 + c] = encode(extinction * tau);
+                    if (k == 0) break;
+                    for (int m = 0; m < kSteps; ++m) {  // from centre k down to centre k - 1
+                        const double f = (m + 0.5) / kSteps;
+                        tau += dz / kSteps * std::max(a(k) + (a(k - 1) - a(k)) * f - theta, 0.0);
+                    }
+                }
+                tau += 0.5 * dz * std::max(a(0) - theta, 0.0);  // below the bottom centre
+                v.columns[(std::size_t(j) * w + i) * 4 + c] = encode(extinction * tau);
             }
-            const std::vector<double> inc = forwardScatter(taus, forward, 1.0);
-            for (std::size_t q = 0; q < taus.size(); ++q)
-                if (q == 0 || sliceOf[q] != sliceOf[q - 1])  // the light incident on the slice's first particle
-                    intensity[(std::size_t(sliceOf[q]) * h + j) * w + i] = float(inc[q]);
-            const double opacity = 1 - std::exp(-column);
-            if (opacity > 0.01) eyePerOpacity[std::size_t(j) * w + i] = eyeScatter(taus, inc, p.albedo, phase0) / opacity;
+            v.columns[(std::size_t(j) * w + i) * 4 + 3] = 255;
         }
     });
+}
+}  // namespace
+
+LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p) {
+    checkSettings(s, p);
+    const auto start = std::chrono::steady_clock::now();
     LightingVolume v;
     v.settings = s;
     v.parameters = p;
-    double sum = 0;
-    long count = 0;
-    for (double e : eyePerOpacity)
-        if (e >= 0) sum += e, ++count;
-    v.eyeScatterPeak = count ? sum / count : 0;
-    // phi: where the phase function falls to 10% of its forward peak (the paper: "only 10% ...
-    // when the scattering angle is greater than 10 degrees"); 90 degrees if it never does.
-    double lo = 0, hi = kPi / 2;
-    if (cornetteShanks(0.0, p.csG) > 0.1 * phase0) lo = hi;
-    for (int it = 0; it < 60 && hi - lo > 1e-12; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (cornetteShanks(std::cos(mid), p.csG) > 0.1 * phase0 ? lo : hi) = mid;
-    }
-    v.eyeScatterCosPhi = std::cos(lo);
-    // Vectors: length I, direction grad I (physical units), the zenith where I is flat.
-    v.texels.resize(columns * d * 4);
-    const double dx = s.tilePeriod / w, dy = s.tilePeriod / h;
-    auto at = [&](int i, int j, int k) {
-        i = (i + w) % w, j = (j + h) % h, k = std::clamp(k, 0, d - 1);
-        return double(intensity[(std::size_t(k) * h + j) * w + i]);
-    };
-    parallelFor(d, [&](int k) {
-        const double zs = (k == 0 || k == d - 1) ? dz : 2 * dz;
-        for (int j = 0; j < h; ++j)
-            for (int i = 0; i < w; ++i) {
-                glm::dvec3 g((at(i + 1, j, k) - at(i - 1, j, k)) / (2 * dx), (at(i, j + 1, k) - at(i, j - 1, k)) / (2 * dy),
-                             (at(i, j, k + 1) - at(i, j, k - 1)) / zs);
-                const double len = glm::length(g);
-                const glm::dvec3 dir = len > 1e-9 ? g / len : glm::dvec3(0, 0, 1);
-                const glm::dvec3 n = dir * std::clamp(at(i, j, k), 0.0, 1.0);
-                std::uint8_t* t = &v.texels[((std::size_t(k) * h + j) * w + i) * 4];
-                t[0] = encodeComponent(n.x), t[1] = encodeComponent(n.y), t[2] = encodeComponent(n.z);
-                t[3] = std::uint8_t(std::lround(std::clamp<double>(density[(std::size_t(k) * h + j) * w + i], 0.0, 1.0) * 255));
-            }
-    });
+    const std::vector<std::uint8_t> density = densityBytes(s, p);
+    v.texels.assign(density.size() * 4, 0);
+    for (std::size_t i = 0; i < density.size(); ++i) v.texels[i * 4 + 3] = density[i];
+    columnKnots(v, density);
+    v.tables = traceLayerLight(v);
     v.precomputeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return v;
 }
@@ -214,13 +184,27 @@ void LightingVolume::save(const std::string& path) const {
     out.write(kMagic, sizeof kMagic);
     put(out, kVersion);
     put(out, std::uint32_t(settings.width)), put(out, std::uint32_t(settings.height)), put(out, std::uint32_t(settings.depth));
-    put(out, settings.tilePeriod), put(out, settings.forwardConeDeg);
+    put(out, settings.tilePeriod);
     put(out, std::uint32_t(settings.octaves)), put(out, std::uint32_t(settings.cells)), put(out, std::uint32_t(settings.seed));
+    put(out, std::uint32_t(settings.photons)), put(out, std::uint32_t(settings.tableBins));
     put(out, parameters.extinction), put(out, parameters.albedo), put(out, parameters.csG), put(out, parameters.thickness);
-    put(out, eyeScatterPeak), put(out, eyeScatterCosPhi);
+    put(out, std::uint32_t(tables.sunMu.size()));
+    out.write(reinterpret_cast<const char*>(tables.sunMu.data()), std::streamsize(tables.sunMu.size() * sizeof(float)));
     out.write(reinterpret_cast<const char*>(texels.data()), std::streamsize(texels.size()));
+    out.write(reinterpret_cast<const char*>(columns.data()), std::streamsize(columns.size()));
+    out.write(reinterpret_cast<const char*>(tables.sun.data()), std::streamsize(tables.sun.size() * sizeof(glm::vec4)));
+    out.write(reinterpret_cast<const char*>(tables.sky.data()), std::streamsize(tables.sky.size() * sizeof(glm::vec4)));
     if (!out) throw LightingFileError(path + ": write failed");
 }
+
+namespace {
+// Reads `count` values of T into v; false when the file is short.
+template <class T>
+bool getArray(std::ifstream& in, std::vector<T>& v, std::size_t count) {
+    v.resize(count);
+    return bool(in.read(reinterpret_cast<char*>(v.data()), std::streamsize(count * sizeof(T))));
+}
+}  // namespace
 
 LightingVolume LightingVolume::load(const std::string& path, const LightingSettings& es, const LightingParameters& ep) {
     std::ifstream in(path, std::ios::binary);
@@ -229,37 +213,46 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
     char magic[8];
     if (!in.read(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof magic) != 0)
         fail("not a Nephele lighting volume (bad magic)");
-    std::uint32_t version = 0, w = 0, h = 0, d = 0, octaves = 0, cells = 0, seed = 0;
+    std::uint32_t version = 0, w = 0, h = 0, d = 0, octaves = 0, cells = 0, seed = 0, photons = 0, bins = 0, mus = 0;
     if (!get(in, version)) fail("truncated header");
     if (version != kVersion)
         fail("version " + std::to_string(version) + ", this build reads version " + std::to_string(kVersion));
     LightingVolume v;
     LightingParameters& p = v.parameters;
     LightingSettings& s = v.settings;
-    if (!(get(in, w) && get(in, h) && get(in, d) && get(in, s.tilePeriod) && get(in, s.forwardConeDeg) && get(in, octaves) &&
-          get(in, cells) && get(in, seed) && get(in, p.extinction) && get(in, p.albedo) && get(in, p.csG) &&
-          get(in, p.thickness) && get(in, v.eyeScatterPeak) && get(in, v.eyeScatterCosPhi)))
+    if (!(get(in, w) && get(in, h) && get(in, d) && get(in, s.tilePeriod) && get(in, octaves) && get(in, cells) &&
+          get(in, seed) && get(in, photons) && get(in, bins) && get(in, p.extinction) && get(in, p.albedo) &&
+          get(in, p.csG) && get(in, p.thickness) && get(in, mus)))
         fail("truncated header");
     s.width = int(w), s.height = int(h), s.depth = int(d), s.octaves = int(octaves), s.cells = int(cells), s.seed = seed;
+    s.photons = int(photons), s.tableBins = int(bins);
     auto mismatch = [&](const char* what, const std::string& got, const std::string& want) {
         if (got != want) fail(std::string(what) + " is " + got + ", expected " + want);
     };
     mismatch("size", std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(d),
              std::to_string(es.width) + "x" + std::to_string(es.height) + "x" + std::to_string(es.depth));
     mismatch("tilePeriod", num(s.tilePeriod), num(es.tilePeriod));
-    mismatch("forwardConeDeg", num(s.forwardConeDeg), num(es.forwardConeDeg));
     mismatch("octaves", std::to_string(s.octaves), std::to_string(es.octaves));
     mismatch("cells", std::to_string(s.cells), std::to_string(es.cells));
     mismatch("seed", std::to_string(s.seed), std::to_string(es.seed));
+    mismatch("photons", std::to_string(s.photons), std::to_string(es.photons));
+    mismatch("table bins", std::to_string(s.tableBins), std::to_string(es.tableBins));
     mismatch("extinction", num(p.extinction), num(ep.extinction));
     mismatch("albedo", num(p.albedo), num(ep.albedo));
     mismatch("phase asymmetry", num(p.csG), num(ep.csG));
     mismatch("thickness", num(p.thickness), num(ep.thickness));
-    if (!std::isfinite(v.eyeScatterPeak) || !std::isfinite(v.eyeScatterCosPhi)) fail("non-finite derived values");
-    v.texels.resize(std::size_t(w) * h * d * 4);
-    if (!in.read(reinterpret_cast<char*>(v.texels.data()), std::streamsize(v.texels.size())))
-        fail("truncated texels (expected " + std::to_string(v.texels.size()) + " bytes)");
-    if (in.peek() != std::ifstream::traits_type::eof()) fail("trailing bytes after the texels");
+    if (mus < 1 || mus > 64) fail("bad number of sun elevations " + std::to_string(mus));
+    LayerLightTables& t = v.tables;
+    t.bins = s.tableBins;
+    const std::size_t nodes = std::size_t(t.bins) * t.bins;
+    if (!(getArray(in, t.sunMu, mus) && getArray(in, v.texels, std::size_t(w) * h * d * 4) &&
+          getArray(in, v.columns, std::size_t(w) * h * 4) && getArray(in, t.sun, nodes * mus) && getArray(in, t.sky, nodes * 3)))
+        fail("truncated data");
+    if (in.peek() != std::ifstream::traits_type::eof()) fail("trailing bytes after the data");
+    for (const std::vector<glm::vec4>* table : {&t.sun, &t.sky})
+        for (const glm::vec4& x : *table)
+            if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z) || !std::isfinite(x.w))
+                fail("non-finite light tables");
     return v;
 }
 
@@ -271,7 +264,8 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
     if (cacheDir.empty()) return precomputeLighting(s, p);
     checkSettings(s, p);
     Fingerprint f;
-    f.add(s.width).add(s.height).add(s.depth).add(s.tilePeriod).add(s.forwardConeDeg).add(s.octaves).add(s.cells).add(s.seed);
+    f.add(s.width).add(s.height).add(s.depth).add(s.tilePeriod).add(s.octaves).add(s.cells).add(s.seed).add(s.photons);
+    f.add(s.tableBins);
     f.add(p.extinction).add(p.albedo).add(p.csG).add(p.thickness).add(kVersion);
     char name[64];
     std::snprintf(name, sizeof name, "layered-light-%016llx.bin", static_cast<unsigned long long>(f.value()));

@@ -73,7 +73,7 @@ void validate(const LayeredSettings& s) {
     if (!(s.blendBand >= 0)) bad("blendBand must be >= 0 m");
     if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
     if (s.downsample < 1 || s.downsample > 4) bad("downsample must be 1..4, got " + std::to_string(s.downsample));
-    if (!std::isfinite(s.eyeScatterHeight) || !std::isfinite(s.glowHeight)) bad("eyeScatterHeight and glowHeight must be finite");
+    if (!std::isfinite(s.glowHeight)) bad("glowHeight must be finite");
 }
 
 double nearFade(const LayeredSettings& s, double horizontal) {

@@ -4,6 +4,7 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
+#include "layer_light.hpp"
 #include "reduced_target.hpp"
 #include "shadow_pass.hpp"
 #include "nephele/frame_depth.hpp"
@@ -23,7 +24,20 @@ struct LayerResources {
     LightingVolume light;
     ModulationTexture modulation;
     Texture lightTexture, modulationTexture;
+    Texture columnTexture;             // the light's column knots (2D)
+    Texture sunTable, skyTable;        // the frame's light tables (layer_light.hpp), refreshed every frame
 };
+
+// An RGBA 2D texture, linear, repeating or clamped.
+Texture makeTexture2D(GLenum format, int width, int height, int levels, bool repeat) {
+    Texture t = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(t.id(), levels, format, width, height);
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, levels > 1 ? GL_LINEAR_MIPMAP_NEAREST : GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    return t;
+}
 
 int mipLevels(int size) {
     int levels = 1;
@@ -87,6 +101,23 @@ void drawLayerGeometry(const P& p, const IndexedMesh& annulus, const IndexedMesh
     glDrawElementsInstanced(GL_TRIANGLES, quad.indexCount, GL_UNSIGNED_INT, nullptr, slices * pieces);
     ++stats.drawCalls;
     stats.instances += slices * pieces;
+}
+
+// The directional lights: the sun and the skylight (none: irradiance 0), each with the side of
+// the column it shines from and its elevation's sine (at least 0.01: the slant of tauSun).
+template <class P>
+void setLightUniforms(const P& p, const Scene& scene) {
+    auto light = [&](const char* direction, const char* fromAbove, const char* mu, const Vec3& l) {
+        p.set(direction, glm::vec3(l));
+        p.set(fromAbove, l.z >= 0 ? 1.0f : 0.0f);
+        p.set(mu, float(std::max(std::abs(l.z), 0.01)));
+    };
+    light("sunDirection", "sunFromAbove", "sunMu", scene.sun.direction);
+    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+    const glm::dvec2 h(scene.sun.direction.x, scene.sun.direction.y);
+    p.set("sunHorizontal", glm::length(h) > 1e-9 ? glm::vec3(glm::normalize(h), 0.0f) : glm::vec3(1, 0, 0));
+    light("skyDirection", "skyFromAbove", "skyMu", scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
+    p.set("skyIrradiance", scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
 }
 
 // An annulus of radius 1 around the origin: rings at r = (j / rings)^2, so that the triangles
@@ -170,6 +201,13 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
             glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
             glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
             glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+            r.columnTexture = makeTexture2D(GL_RGBA8, ls.width, ls.height, mipLevels(std::max(ls.width, ls.height)), true);
+            glTextureSubImage2D(r.columnTexture.id(), 0, 0, 0, ls.width, ls.height, GL_RGBA, GL_UNSIGNED_BYTE,
+                                r.light.columns.data());
+            glGenerateTextureMipmap(r.columnTexture.id());
+            const int bins = r.light.tables.bins;
+            r.sunTable = makeTexture2D(GL_RGBA32F, bins, bins, 1, false);
+            r.skyTable = makeTexture2D(GL_RGBA32F, bins, bins, 1, false);
             r.lightKey = key;
         }
         if (!r.valid || r.seed != layer.seed) {
@@ -186,6 +224,10 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
             r.seed = layer.seed;
         }
         r.valid = true;
+        // The light tables of this frame's sun and sky (cheap: bins x bins nodes).
+        const LayerFrameTables frame = layerFrameTables(r.light.tables, scene);
+        glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, frame.bins, frame.bins, GL_RGBA, GL_FLOAT, frame.sun.data());
+        glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, frame.bins, frame.bins, GL_RGBA, GL_FLOAT, frame.sky.data());
     }
     check("uploading the layered sky's textures");
 
@@ -214,24 +256,18 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     rotation[3] = glm::dvec4(0, 0, 0, 1);
     p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
     p.set("eyeHeight", float(view.eye.z));
-    p.set("sunDirection", glm::vec3(scene.sun.direction));
-    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    if (scene.skylight) {
-        p.set("skyDirection", glm::vec3(glm::normalize(scene.skylight->direction)));
-        p.set("skyIrradiance", glm::vec3(scene.skylight->color * scene.skylight->intensity));
-    } else {
-        p.set("skyDirection", glm::vec3(0, 0, 1));
-        p.set("skyIrradiance", glm::vec3(0));
-    }
-    p.set("ambient", glm::vec3(cloudAmbient(scene.sky)));  // as the compositor: near ellipsoids and layers lit alike
+    setLightUniforms(p, scene);
     p.set("extinction", float(scene.medium.extinction));
     p.set("albedo", float(scene.medium.albedo));
-    p.set("eyeHeightCoeff", float(s.eyeScatterHeight));
+    p.set("hgG", float(scene.medium.hgG));
     p.set("glowHeightCoeff", float(s.glowHeight));
     p.set("lod0Radius", float(s.lod0Radius));
     p.set("lod0Spacing", float(s.lod0Spacing));
     p.set("lightVolume", 0);
     p.set("modulation", 1);
+    p.set("columns", 2);
+    p.set("sunTable", 3);
+    p.set("skyTable", 4);
     p.set("gradScale", float(1.0 / s.downsample));
     int flashes = 0;
     for (const Lightning& l : scene.lightning)
@@ -259,8 +295,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    glBindSampler(0, 0);
-    glBindSampler(1, 0);
+    for (GLuint unit = 0; unit <= 4; ++unit) glBindSampler(unit, 0);
 
     // Scene layers far to near (by the distance of their band from the eye's height).
     std::vector<int> order(scene.layers.size());
@@ -298,11 +333,12 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         p.set("steepTan", float(std::sqrt(layer.thickness / n / s.lod0Spacing)));
         p.set("extent", float(layer.extent));
         p.set("fadeStart", float(layer.extent * (1 - s.extentFade)));
-        p.set("eyePeak", float(r.light.eyeScatterPeak));
-        p.set("eyeCosPhi", float(std::min(r.light.eyeScatterCosPhi, 1.0 - 1e-6)));
         p.set("glow", layer.cityGlow ? glm::vec3(layer.cityGlow->color * layer.cityGlow->strength) : glm::vec3(0));
         glBindTextureUnit(0, r.lightTexture.id());
         glBindTextureUnit(1, r.modulationTexture.id());
+        glBindTextureUnit(2, r.columnTexture.id());
+        glBindTextureUnit(3, r.sunTable.id());
+        glBindTextureUnit(4, r.skyTable.id());
         glUseProgram(layer.cityGlow ? m.programGlow.id() : m.program.id());
 
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
