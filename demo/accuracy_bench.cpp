@@ -3,11 +3,13 @@
 // exact field (medium.noise 0) and with the scene's noise. CSV, charts, a README section.
 #include "bench_command.hpp"
 
+#include "accuracy_reference.hpp"
 #include "bench_util.hpp"
 #include "render_command.hpp"
 
 #include "nephele/ellipsoid.hpp"
 #include "nephele/gardner.hpp"
+#include "nephele/generate.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/metrics.hpp"
@@ -115,6 +117,15 @@ void scaleTo(Scene& s, int width) {
     s.camera.height = std::max(1, int(std::lround(width / aspect)));
 }
 
+// A unit vector at `elevationDeg` above the horizontal, `azimuthDeg` around z from the
+// horizontal part of `forward`.
+Vec3 sunAround(const Vec3& forward, double azimuthDeg, double elevationDeg) {
+    const Vec3 h = glm::normalize(Vec3(forward.x, forward.y, 0.0));
+    const double a = glm::radians(azimuthDeg), e = glm::radians(elevationDeg);
+    const Vec3 side(-h.y, h.x, 0.0);
+    return glm::normalize(std::cos(e) * (std::cos(a) * h + std::sin(a) * side) + Vec3(0, 0, std::sin(e)));
+}
+
 std::vector<Case> cases(const AccuracyOptions& o) {
     std::vector<Case> out;
     const std::vector<std::string> names =
@@ -131,16 +142,49 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     const Vec3 forward = base.camera.direction;
     const std::vector<double> distances = o.quick ? std::vector<double>{6000}
                                                   : std::vector<double>{0, 600, 2000, 6000, 15000};
-    for (double d : distances) {
-        Case c{"cumulus27.json at " + (d == 0 ? std::string("0 m (inside)") : fmt("%.0f m", d)), d, base};
-        c.scene.camera.position = target - d * forward;
-        c.scene.camera.width = base.camera.width;
-        c.scene.camera.height = base.camera.height;
+    auto at = [&](const Scene& s, double d) {
+        Scene c = s;
+        c.camera.position = target - d * forward;
+        c.camera.width = base.camera.width;
+        c.camera.height = base.camera.height;
         // Inside, every path scatters hundreds of times: the reference costs ~50x a view from
         // outside, so that case is rendered at half the width.
-        scaleTo(c.scene, d == 0 ? o.width / 2 : o.width);
-        out.push_back(std::move(c));
-    }
+        scaleTo(c, d == 0 ? o.width / 2 : o.width);
+        return c;
+    };
+    for (double d : distances)
+        out.push_back({"cumulus27.json at " + (d == 0 ? std::string("0 m (inside)") : fmt("%.0f m", d)), d, at(base, d)});
+    if (o.quick) return out;
+    // The light's hard cases. Back-lit: the sun 20 degrees off the view axis, behind the cloud
+    // (the silver lining, and the dark core). A low sun (5 degrees) from the side.
+    Scene backLit = at(base, 2000);
+    backLit.sun.direction = sunAround(forward, 0, 20);
+    out.push_back({"cumulus27.json back-lit (sun 20° off the view)", -1, backLit});
+    Scene lowSun = at(base, 2000);
+    lowSun.sun.direction = sunAround(forward, 90, 5);
+    out.push_back({"cumulus27.json, low sun (5°, from the side)", -1, lowSun});
+    // A small, thin cloud: one 80 x 60 x 50 m puff at density 0.3, 600 m away.
+    Scene thin = loadScene(o.scenesDir + "/single.json");
+    for (Ellipsoid& e : thin.clouds.at(0).ellipsoids) e.radii = Vec3(80, 60, 50), e.density = 0.3;
+    thin.camera.position = thin.clouds[0].ellipsoids[0].center - 600.0 * thin.camera.direction;
+    scaleTo(thin, o.width);
+    out.push_back({"small thin cloud (80 m, density 0.3) at 600 m", -1, thin});
+    // A dense cumulus of 150 ellipsoids (the cumulus generator), seen from 300 m off its side.
+    Scene dense = base;
+    Generator g;
+    g.center = target;
+    g.count = 150;
+    g.seed = 11;
+    g.sigma = Vec3(220, 220, 90);
+    g.maxRadius = 160;
+    dense.clouds = {generateCumulus(g)};
+    const Vec3 denseCentre = centroid(dense.clouds[0]);
+    double reach = 0;  // the cloud's horizontal half-size along the view
+    for (const Ellipsoid& e : dense.clouds[0].ellipsoids)
+        reach = std::max(reach, glm::dot(e.center - denseCentre, -forward) + std::max({e.radii.x, e.radii.y, e.radii.z}));
+    dense.camera.position = denseCentre - (reach + 300.0) * forward;
+    scaleTo(dense, o.width);
+    out.push_back({"dense cumulus (" + std::to_string(dense.clouds[0].ellipsoids.size()) + " ellipsoids) from 300 m", -1, dense});
     return out;
 }
 
@@ -154,39 +198,66 @@ struct Result {
     double relRmse = 0;        // RMSE over cloud pixels / mean reference radiance there
     double psnrFit = 0, exposure = 1, ssim = 0;
     double alphaMae = 0;
-    double referenceRelRmse = -1;  // estimate of the reference's own noise (from the 16 spp run)
     bool pareto = false;       // on the Pareto front of the aggregate (set later)
 };
 
-// The mean of each block x block square of pixels (RGBA), the last partial ones dropped.
-Image blockMean(const Image& a, int block) {
-    Image out(a.width / block, a.height / block, 4);
-    for (int y = 0; y < out.height; ++y)
-        for (int x = 0; x < out.width; ++x)
-            for (int k = 0; k < 4; ++k) {
-                double sum = 0;
-                for (int j = 0; j < block; ++j)
-                    for (int i = 0; i < block; ++i) sum += a.at(x * block + i, y * block + j, k);
-                out.at(x, y, k) = float(sum / (block * block));
-            }
-    return out;
-}
+// What the reference of one case cost and how noisy it is.
+struct ReferenceInfo {
+    std::string noise, caseName;
+    double relNoise = 0, seconds = 0;
+    int traced = 0;  // path traces computed in this run (0: all from the cache)
+};
 
-// Relative RMSE of `a` against reference `b` over the pixels where either has cloud
-// (alpha > 0.02), normalised by the reference's mean radiance there. 0 when no pixel has cloud.
-double relativeRmse(const Image& a, const Image& b) {
-    double se = 0, sum = 0;
-    std::size_t n = 0;
-    for (std::size_t p = 0; p < std::size_t(a.width) * a.height; ++p) {
-        if (!(a.pixels[4 * p + 3] > 0.02f || b.pixels[4 * p + 3] > 0.02f)) continue;
-        for (int k = 0; k < 3; ++k) {
-            const double d = double(a.pixels[4 * p + k]) - b.pixels[4 * p + k];
-            se += d * d;
-            sum += b.pixels[4 * p + k];
-        }
-        n += 3;
-    }
-    return n == 0 || sum <= 0 ? 0 : std::sqrt(se / n) / (sum / n);
+// One method's error on one case split by light (noise 0).
+struct ComponentRow {
+    std::string caseName, method;
+    ReferenceShares shares;
+    ComponentErrors errors;
+};
+
+// The defaults of the compositor (back to front, and weighted as --method auto composites),
+// the ray-marcher and gardner-exact, each split by light against the reference.
+std::vector<ComponentRow> measureComponents(const Scene& scene, const View& view, const Reference& ref,
+                                            const NoiseVolume& noise, const NoiseSettings& ns, const OpaquePass& opaque,
+                                            int block) {
+    const bool objects = !scene.objects.empty();
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    RadianceGridSettings singleOnly;  // no photons: single scattering alone
+    singleOnly.sunPhotons = singleOnly.skyPhotons = 0;
+    auto gpu = [&](auto make) {
+        return [&, make](const Scene& sc, bool single) {
+            auto renderer = make(single ? singleOnly : RadianceGridSettings{});
+            opaque.draw(sc, view, target.framebuffer());
+            renderer->render(sc, view, target.framebuffer(), objects);
+            return target.readColor();
+        };
+    };
+    auto ellipsoid = [](CompositeOrder order) {
+        return [order](const RadianceGridSettings& light) {
+            EllipsoidSettings s;
+            s.order = order;
+            s.light = light;
+            return std::make_unique<EllipsoidRenderer>(s);
+        };
+    };
+    auto raymarch = [](const RadianceGridSettings& light) {
+        RaymarchSettings s;
+        s.light = light;
+        return std::make_unique<RaymarchRenderer>(s);
+    };
+    auto exact = [&](const Scene& sc, bool single) {
+        return renderGardnerExact(sc, view, noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent,
+                                  single ? singleOnly : RadianceGridSettings{});
+    };
+    std::vector<ComponentRow> rows;
+    auto add = [&](const char* name, const std::function<Image(const Scene&, bool)>& render) {
+        rows.push_back({"", name, {}, componentErrors(scene, view, ref, block, render)});
+    };
+    add("ellipsoid", gpu(ellipsoid(CompositeOrder::PerEllipsoid)));
+    add("ellipsoid, weighted (auto)", gpu(ellipsoid(CompositeOrder::Weighted)));
+    add("raymarch", gpu(raymarch));
+    add("gardner-exact", exact);
+    return rows;
 }
 
 struct Aggregate {
@@ -300,6 +371,14 @@ int runAccuracyBench(const AccuracyOptions& o) {
         return reportError(e, "loading the scenes");
     }
     const std::vector<Config> configs = sweep(o.quick);
+    ReferenceSettings refSettings;
+    refSettings.spp = o.referenceSpp;
+    refSettings.skySpp = std::max(2, o.referenceSpp / 4);
+    refSettings.singleSpp = std::max(1, o.referenceSpp / 8);
+    refSettings.block = o.block;
+    refSettings.cacheDir = o.cacheDir;
+    std::vector<ReferenceInfo> refInfo;
+    std::vector<ComponentRow> components;
     std::vector<Result> results;
     std::vector<LayeredPoint> layered;
     std::string renderer;
@@ -326,13 +405,16 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 const View view = makeView(scene.camera);
                 const bool objects = !scene.objects.empty();
                 std::cerr << "bench: accuracy: " << c0.name << ", noise " << scene.medium.noise << ": reference ("
-                          << o.referenceSpp << " spp, cached)...\n";
-                PathTraceSettings ref;
-                ref.spp = o.referenceSpp;
-                ref.progress = false;
-                const Image reference = o.cacheDir.empty() ? renderPathTraced(scene, view, ref, &noise)
-                                                           : renderPathTracedCached(scene, view, ref, &noise, o.cacheDir);
-                const Image referenceBlocks = blockMean(reference, o.block);
+                          << refSettings.spp << " spp, cached)...\n";
+                const Reference reference = makeReference(scene, view, noise, refSettings);
+                const Image& referenceBlocks = reference.total;
+                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced});
+                if (noiseMode == "0")
+                    for (ComponentRow& row : measureComponents(scene, view, reference, noise, ns, opaque, o.block)) {
+                        row.caseName = c0.name;
+                        row.shares = referenceShares(reference);
+                        components.push_back(std::move(row));
+                    }
                 FrameTarget target(scene.camera.width, scene.camera.height);
                 // GPU configs: timed together, frame by frame in turn.
                 std::vector<std::size_t> gpu;
@@ -381,13 +463,6 @@ int runAccuracyBench(const AccuracyOptions& o) {
                                           ? renderGardnerExact(scene, view, noise, ns)
                                           : renderPathTraced(scene, view, configs[i].pathtrace, &noise);
                     record(i, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(), img);
-                    if (configs[i].kind == Kind::PathTrace) {
-                        // RMSE(low, ref)^2 = s^2 (1/n + 1/N): the reference's own share is s^2 / N.
-                        const double n = configs[i].pathtrace.spp, N = o.referenceSpp;
-                        const double refNoise = results.back().relRmse * std::sqrt((1 / N) / (1 / n + 1 / N));
-                        for (Result& r : results)
-                            if (r.noise == noiseMode && r.caseName == c0.name) r.referenceRelRmse = refNoise;
-                    }
                 }
             }
         }
@@ -423,6 +498,11 @@ int runAccuracyBench(const AccuracyOptions& o) {
 
     const std::string when = utcNow();
     const std::string machine = machineLine(renderer);
+    auto referenceNoiseOf = [&](const Result& r) {
+        for (const ReferenceInfo& i : refInfo)
+            if (i.noise == r.noise && i.caseName == r.caseName) return i.relNoise;
+        return -1.0;
+    };
     std::ostringstream csv;
     csv << "noise,case,distance_m,method,setting,ms,rel_rmse,psnr_exposure_fitted,exposure,ssim,alpha_mae,"
            "reference_rel_rmse,pareto\n";
@@ -430,29 +510,37 @@ int runAccuracyBench(const AccuracyOptions& o) {
         csv << r.noise << ",\"" << r.caseName << "\"," << (r.distance < 0 ? std::string() : fmt("%.0f", r.distance)) << ","
             << kindName(r.kind) << ",\"" << r.setting << "\"," << fmt("%.3f", r.ms) << "," << fmt("%.5f", r.relRmse) << ","
             << fmt("%.2f", r.psnrFit) << "," << fmt("%.4f", r.exposure) << "," << fmt("%.4f", r.ssim) << ","
-            << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", r.referenceRelRmse) << "," << (r.pareto ? 1 : 0) << "\n";
+            << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", referenceNoiseOf(r)) << "," << (r.pareto ? 1 : 0) << "\n";
 
-    std::set<std::string> caseNames;
-    double refNoise[2] = {0, 0};
-    int refCount[2] = {0, 0};
-    for (const Result& r : results)
-        if (r.kind == Kind::PathTrace) {
-            const int k = r.noise == "0" ? 0 : 1;
-            refNoise[k] += r.referenceRelRmse;
-            refCount[k] += 1;
-        }
+    double refNoise[2] = {0, 0}, refWorst[2] = {0, 0}, refSeconds = 0;
+    int refCount[2] = {0, 0}, traced = 0;
+    for (const ReferenceInfo& r : refInfo) {
+        const int k = r.noise == "0" ? 0 : 1;
+        refNoise[k] += r.relNoise;
+        refWorst[k] = std::max(refWorst[k], r.relNoise);
+        refCount[k] += 1;
+        refSeconds += r.seconds;
+        traced += r.traced;
+    }
     std::ostringstream md;
     md << "Measured by `nephele bench --accuracy` on " << when << ", " << machine << ". Every scene rendered at "
        << o.width << " px wide (the camera inside the cloud at " << o.width / 2 << "); error = RMSE of linear RGB, "
        << "after averaging " << o.block << "×" << o.block << " pixel blocks, over the blocks where either image has "
-          "cloud (α > 0.02), relative to the reference's mean radiance there, against `--method pathtrace` at "
-       << o.referenceSpp << " spp (no exposure fit: a colour calibration error counts). The reference's own noise, "
-          "estimated from the 16 spp run, is "
-       << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " with noise 0 and "
-       << fmt("%.1f%%", refCount[1] ? 100 * refNoise[1] / refCount[1] : 0)
-       << " with the scenes' noise: errors below that are not resolved. Time = median ms per frame over "
-       << o.frames << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the "
-       << casesPerNoise["0"] << " cases (" ;
+          "cloud (α > 0.02), relative to the reference's mean radiance there (no exposure fit: a colour calibration "
+          "error counts). The reference is `--method pathtrace`, the sun's light ("
+       << refSettings.spp << " spp) and the sky's and the ground's (" << refSettings.skySpp
+       << " spp) traced apart and summed, each as two halves of independent seeds: its own noise, half the RMSE "
+          "between the halves, is "
+       << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
+       << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0 and "
+       << fmt("%.1f%%", refCount[1] ? 100 * refNoise[1] / refCount[1] : 0) << " (at most " << fmt("%.1f%%", 100 * refWorst[1])
+       << ") with the scenes' noise. "
+       << (traced > 0 ? "Making the references took " + fmt("%.0f", refSeconds / 60) + " min in this run (" +
+                            std::to_string(traced) + " path traces; they are cached for later runs). "
+                      : std::string("The references came from the cache. "))
+       << "Time = median ms per frame over " << o.frames
+       << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the "
+       << casesPerNoise["0"] << " cases (";
     bool first = true;
     for (const Case& c : all) {
         md << (first ? "" : ", ") << c.name;
@@ -489,6 +577,23 @@ int runAccuracyBench(const AccuracyOptions& o) {
         md << " |\n";
     }
     md << "\n![error and time against distance](docs/accuracy_distance.png)\n";
+    md << "\nWhere the error is (`medium.noise: 0`): the reference's radiance over the cloud split by light (the "
+          "sun's single scattering, its multiple scattering, the sky's and the ground's light including the "
+          "background seen through), and each method's error split the same way, each traced or rendered on its "
+          "own (errors relative to the reference's mean total radiance; opacity = the background seen through the "
+          "method's opacity instead of the reference's):\n\n"
+          "| case | reference: single / multiple / sky | method | error | single | multiple | sky | opacity |\n"
+          "|---|---|---|---:|---:|---:|---:|---:|\n";
+    for (const ComponentRow& r : components) {
+        const bool firstOfCase = &r == &components.front() || (&r)[-1].caseName != r.caseName;
+        md << "| " << (firstOfCase ? r.caseName : "") << " | "
+           << (firstOfCase ? fmt("%.0f%% / ", 100 * r.shares.single) + fmt("%.0f%% / ", 100 * r.shares.multiple) +
+                                 fmt("%.0f%%", 100 * r.shares.sky)
+                           : std::string())
+           << " | " << r.method << " | " << fmt("%.1f%%", 100 * r.errors.total) << " | "
+           << fmt("%.1f%%", 100 * r.errors.single) << " | " << fmt("%.1f%%", 100 * r.errors.multiple) << " | "
+           << fmt("%.1f%%", 100 * r.errors.sky) << " | " << fmt("%.1f%%", 100 * r.errors.opacity) << " |\n";
+    }
     md << "\nThe layered sky has no path-traced reference (the format's density field, which the path tracer "
           "renders, has no layers), so its layer count N is measured against its own converged limit, N = "
        << kLayeredReferenceN << ", on the layer of `near_and_far.json` (error as above; ms per frame):\n\n"

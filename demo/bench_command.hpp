@@ -33,7 +33,7 @@ struct AccuracyOptions {
     std::string scenesDir = "data/scenes";
     std::string cacheDir;         // path-traced references are cached here ("" = none)
     int width = 320;              // px: every case is rendered this wide (aspect kept)
-    int referenceSpp = 64;        // samples per pixel of the reference
+    int referenceSpp = 512;       // samples per pixel of the reference's sun part (the sky part: a quarter)
     int block = 4;                // errors are measured on block x block pixel means (averages the
                                   // reference's noise down by `block`)
     int frames = 5;               // timed frames per GPU setting (median)
@@ -70,5 +70,20 @@ struct LayeredBenchOptions {
     GlBackend backend = GlBackend::Egl;
 };
 int runLayeredBench(const LayeredBenchOptions& options);
+
+// `bench --weather`: frame times along a flight while the weather changes (coverage, base,
+// thickness, wind, the sun), SkyRenderer's update + draw against the one-call render().
+struct WeatherBenchOptions {
+    std::string outDir = "docs";  // weather_bench.csv, weather_bench.md, weather_bench.png
+    std::string readme;           // when set, its "weather bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    int frames = 240;             // frames of the flight
+    double fps = 30;              // frames per second of simulated time
+    double speed = 60;            // m/s along the scene camera's heading
+    int width = 1280, height = 720;
+    bool quick = false;           // 24 frames, small lighting volumes (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runWeatherBench(const WeatherBenchOptions& options);
 
 }  // namespace nephele::cli

@@ -48,6 +48,8 @@ struct SceneArgs {
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
+    std::string frustum;                       // --frustum L,R,B,T
+    double yawOffset = 0, pitchOffset = 0;     // --yaw-offset, --pitch-offset (degrees)
     std::string cache;
     bool noCache = false;
 };
@@ -79,6 +81,13 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(CLI::IsMember({"back-to-front", "weighted"}));
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
+        ->capture_default_str();
+    cmd->add_option("--frustum", a.frustum,
+                    "A display channel's off-axis frustum L,R,B,T: the tangents of its edges at unit distance (overrides "
+                    "the camera's fov_y)");
+    cmd->add_option("--yaw-offset", a.yawOffset, "A display channel's rotation about the eye: yaw, degrees, positive right")
+        ->capture_default_str();
+    cmd->add_option("--pitch-offset", a.pitchOffset, "A display channel's rotation about the eye: pitch, degrees, positive up")
         ->capture_default_str();
     cmd->add_option("--step", a.raymarch.step, "Ray-marcher: base step (m)")->capture_default_str();
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
@@ -125,6 +134,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     ro.scene = a.scene;
     ro.method = parseMethod(a.method);
     ro.backend = parseBackend(a.backend);
+    ro.channel = parseChannel(a.frustum, a.yawOffset, a.pitchOffset);
     if (a.widthOpt->count()) ro.width = a.width;
     if (a.heightOpt->count()) ro.height = a.height;
     if (a.scaleOpt->count()) ro.scale = a.scale;
@@ -245,8 +255,9 @@ int main(int argc, char** argv) {
     bench->add_option("--height", bo.height, "Frame height")->check(CLI::Range(16, 16384))->capture_default_str();
     bench->add_flag("!--no-exact", bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
     bench->add_option("--scenes", bo.scenesDir, "Folder of the shared scenes")->capture_default_str();
-    bool accuracyMode = false, flickerMode = false, layeredMode = false, layerAccuracyMode = false, quick = false,
-         noCache = false;
+    bool accuracyMode = false, flickerMode = false, layeredMode = false, weatherMode = false, layerAccuracyMode = false,
+         quick = false, noCache = false;
+    WeatherBenchOptions wbo;
     LayeredBenchOptions lbo;
     AccuracyOptions ao;
     FlickerOptions flo;
@@ -259,6 +270,8 @@ int main(int argc, char** argv) {
     bench->add_flag("--layer-accuracy", layerAccuracyMode,
                     "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
                     "layer (markdown on stdout)");
+    bench->add_flag("--weather", weatherMode,
+                    "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
     bench->add_option("--layer-counts", lbo.counts, "--layered: annuli per layer (N)")->capture_default_str();
     bench->add_option("--extents", lbo.extents, "--layered: layer extents (m)")->capture_default_str();
     bench->add_option("--spp", ao.referenceSpp, "--accuracy, --layer-accuracy: samples per pixel of the reference (64; 256)")
@@ -336,8 +349,8 @@ int main(int argc, char** argv) {
                 return 2;
             }
         bo.backend = parseBackend(benchGl);
-        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(layerAccuracyMode) > 1) {
-            std::cerr << "nephele: bench: --accuracy, --flicker, --layered and --layer-accuracy are separate runs; give one\n";
+        if (int(accuracyMode) + int(flickerMode) + int(layeredMode) + int(weatherMode) + int(layerAccuracyMode) > 1) {
+            std::cerr << "nephele: bench: --accuracy, --flicker, --layered, --weather and --layer-accuracy are separate runs; give one\n";
             return 2;
         }
         const bool widthGiven = bench->count("--width") > 0;
@@ -368,6 +381,16 @@ int main(int argc, char** argv) {
             if (quick && !widthGiven && bench->count("--height") == 0) lbo.width = 320, lbo.height = 180;
             lbo.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
             return runLayeredBench(lbo);
+        }
+        if (weatherMode) {
+            wbo.outDir = bo.outDir, wbo.readme = bo.readme, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
+            wbo.quick = quick;
+            if (bench->count("--frames") > 0) wbo.frames = bo.frames;
+            if (bench->count("--fps") > 0) wbo.fps = flo.fps;
+            if (widthGiven) wbo.width = bo.width, wbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
+            if (bench->count("--height") > 0) wbo.height = bo.height;
+            if (quick && !widthGiven) wbo.width = 320, wbo.height = 180;
+            return runWeatherBench(wbo);
         }
         if (flickerMode) {
             flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 
 namespace nephele::cli {
@@ -33,6 +34,36 @@ const char* methodName(Method m) {
     for (auto [k, n] : kMethods)
         if (k == m) return n;
     return "?";
+}
+
+ChannelOptions parseChannel(const std::string& frustum, double yawDeg, double pitchDeg) {
+    ChannelOptions c;
+    if (!frustum.empty()) {
+        double v[4];
+        char extra = 0;
+        if (std::sscanf(frustum.c_str(), "%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &extra) != 4)
+            throw UsageError("--frustum must be four numbers L,R,B,T (the tangents of the edges at unit distance), got '" +
+                             frustum + "'");
+        for (double x : v)
+            if (!(std::isfinite(x) && std::abs(x) <= 100))
+                throw UsageError("--frustum: each tangent must be a finite number in [-100, 100] (edges within 89.4 "
+                                 "degrees of the axis), got '" + frustum + "'");
+        if (!(v[1] - v[0] >= 1e-4 && v[3] - v[2] >= 1e-4))
+            throw UsageError("--frustum: L must be less than R and B less than T, got '" + frustum + "'");
+        c.frustum = Frustum{v[0], v[1], v[2], v[3]};
+    }
+    if (!(std::isfinite(yawDeg) && std::abs(yawDeg) <= 360))
+        throw UsageError("--yaw-offset must be within [-360, 360] degrees, got " + std::to_string(yawDeg));
+    if (!(std::isfinite(pitchDeg) && std::abs(pitchDeg) <= 90))
+        throw UsageError("--pitch-offset must be within [-90, 90] degrees, got " + std::to_string(pitchDeg));
+    c.yawDeg = yawDeg, c.pitchDeg = pitchDeg;
+    return c;
+}
+
+View channelView(const Camera& camera, const ChannelOptions& c) {
+    if (!c.frustum && c.yawDeg == 0 && c.pitchDeg == 0) return makeView(camera);
+    const Frustum f = c.frustum ? *c.frustum : symmetricFrustum(camera.fovYDeg, double(camera.width) / camera.height);
+    return makeView(camera, f, c.yawDeg, c.pitchDeg);
 }
 
 void applySize(Scene& scene, const RenderOptions& o) {
@@ -88,7 +119,7 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
     Camera camera = cameraAt(scene, time);
     camera.width = scene.camera.width;
     camera.height = scene.camera.height;
-    const View view = makeView(camera);
+    const View view = channelView(camera, options_.channel);
     Image rgba;
     Frame frame;
     if (options_.method == Method::GardnerExact) {

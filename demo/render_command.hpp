@@ -29,12 +29,24 @@ enum class Method { Auto, Ellipsoid, Layered, Raymarch, Pathtrace, GardnerExact 
 Method parseMethod(const std::string& name);  // throws UsageError
 const char* methodName(Method m);
 
+// A display channel of the scene camera (--frustum, --yaw-offset, --pitch-offset).
+struct ChannelOptions {
+    std::optional<Frustum> frustum;  // instead of the camera's fov_y
+    double yawDeg = 0, pitchDeg = 0;  // the channel's rotation about the eye
+};
+// Throws UsageError naming the flag: --frustum must be four finite tangents L,R,B,T in
+// [-100, 100] with L < R and B < T; the yaw within [-360, 360], the pitch within [-90, 90].
+ChannelOptions parseChannel(const std::string& frustum, double yawDeg, double pitchDeg);
+// The view of `camera` as the channel options turn and frame it (makeView(camera) without any).
+View channelView(const Camera& camera, const ChannelOptions& channel);
+
 struct RenderOptions {
     std::string scene, output, alpha, pfm, densityAlpha;
     Method method = Method::Auto;
     std::optional<int> width, height;
     std::optional<double> scale;
     double time = 0;
+    ChannelOptions channel;       // --frustum, --yaw-offset, --pitch-offset
     GlBackend backend = GlBackend::Egl;
     EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
     RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves

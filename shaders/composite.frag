@@ -9,6 +9,7 @@
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "tiles.glsl"
+#include "view_frame.glsl"
 flat in int tileIndex;
 flat in vec4 atlasRect;
 in vec2 atlasCoord;
@@ -21,12 +22,12 @@ uniform vec3 sunIrradiance;           // sun.color * sun.intensity
 uniform float albedo;
 uniform vec2 atlasSize;
 #if defined(FRACTION) || defined(WEIGHTED)
-uniform vec3 forward, rightScaled, upScaled;
+uniform vec3 forward;                 // unit view axis
+uniform vec3 rayCentre, rightScaled, upScaled;  // the ray through NDC (x, y): rayCentre + x rightScaled + y upScaled
 uniform float nearClip;               // m
 #endif
 #ifdef FRACTION
-uniform sampler2D sceneDepth;         // copy of the frame's depth
-uniform float farClip;                // m
+uniform sampler2D sceneDepth;         // the frame's depth (view_frame.glsl)
 #endif
 #ifdef WEIGHTED
 uniform float weightExponent;         // k of w = (tRef / tShade)^k
@@ -51,17 +52,16 @@ void main() {
 #if defined(FRACTION) || defined(WEIGHTED)
     // This pixel's ray in the ellipsoid's unit space (as gardner-exact evaluates it).
     Tile t = tiles[tileIndex];
-    vec3 d = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
+    vec3 d = normalize(rayCentre + ndc.x * rightScaled + ndc.y * upScaled);
     float cosF = dot(d, forward);
     vec3 o = t.eyeUnitAc.xyz, du = toUnit(t, d);
     float tStart = t.params.x > 0.5 ? nearClip / cosF : 0.0;
 #endif
 #ifdef FRACTION
     if (alpha > 0.0) {
-        float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
-        if (z < 1.0) {
-            float zEye = 2.0 * nearClip * farClip / (farClip + nearClip - (2.0 * z - 1.0) * (farClip - nearClip));
-            float tObj = zEye / cosF;
+        float z = frameDepthAt(sceneDepth, viewPixel());
+        if (isSurface(z)) {
+            float tObj = eyeDepthOf(z) / cosF;
             float whole = segmentDepth(o, du, tStart, 1e30);
             float front = segmentDepth(o, du, tStart, tObj);
             alpha = opacityInFront(alpha, front, whole);

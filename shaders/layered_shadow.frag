@@ -4,9 +4,9 @@
 #include "layered_shadow.glsl"
 in vec2 ndc;
 out vec4 color;
-uniform sampler2D frameDepth;  // a copy of the frame's depth
+uniform sampler2D frameDepth;  // the frame's depth (view_frame.glsl)
 uniform bool hasDepth;         // false: the frame has no depth buffer (ground only)
 void main() {
-    float depth = hasDepth ? texelFetch(frameDepth, ivec2(gl_FragCoord.xy), 0).r : 1.0;
+    float depth = hasDepth ? frameDepthAt(frameDepth, viewPixel()) : noSurfaceDepth();
     color = vec4(vec3(cloudShadow(ndc, depth)), 1.0);
 }

@@ -14,6 +14,7 @@
 // upsampling of the reduced-resolution layers, compiled per layer count with SHADOW_LAYERS
 // defined: llvmpipe runs every instruction of a shader, so a dynamically indexed sampler
 // array and a loop sized by a uniform cost more than the unrolled count).
+#include "view_frame.glsl"
 const int kShadowLayers = 4;
 uniform int shadowLayerCount;               // 0..kShadowLayers
 uniform sampler2D shadowModulation[kShadowLayers];  // r = threshold
@@ -21,25 +22,24 @@ uniform vec2 shadowUvModEye[kShadowLayers];  // fract((eye.xy - t wind) / modula
 uniform float shadowMiddle[kShadowLayers];   // m, the layer's middle height (base + thickness / 2)
 uniform float shadowCoverage[kShadowLayers], shadowDensity[kShadowLayers];  // C, D in [0, 1]
 uniform float shadowInvModPeriod;            // 1/m
-uniform vec3 shadowForward;                  // unit view direction
-uniform vec3 shadowRightScaled, shadowUpScaled;  // camera right * tan(half fov x), up * tan(half fov y)
-uniform float shadowNear, shadowFar;         // m, the camera's clip distances
+uniform vec3 shadowRayCentre;                // the ray through NDC (0, 0), unit component along the view axis
+uniform vec3 shadowRightScaled, shadowUpScaled;  // camera right, up * half the frustum's width, height at unit distance
+uniform float shadowFar;                     // m, the camera's far clip distance
 uniform float shadowEyeHeight;               // m, eye z
 uniform float groundHeight;                  // m, z of the ground plane
 uniform float groundSunShare;                // in [0, 1]: the sun's share of the ground's light
 uniform vec3 shadowSun;                      // unit, towards the sun (z > 0)
 
-// The factor for the colour of the pixel at `ndc` whose depth (in [0, 1]) is `depth`: 1 where
-// the pixel is sky or above every shadowing layer's middle.
+// The factor for the colour of the pixel at `ndc` whose window depth is `depth` (in the view's
+// convention, view_frame.glsl): 1 where the pixel is sky or above every shadowing layer's middle.
 float cloudShadow(vec2 ndc, float depth) {
     // A ray whose component along the view direction is 1: the point at eye-space depth z is ray * z.
-    vec3 ray = shadowForward + ndc.x * shadowRightScaled + ndc.y * shadowUpScaled;
+    vec3 ray = shadowRayCentre + ndc.x * shadowRightScaled + ndc.y * shadowUpScaled;
     vec3 rel;            // m, the surface point relative to the eye
     float share = 1.0;   // how much of the pixel's light is the sun's
     bool surface = true;
-    if (depth < 1.0) {
-        float zn = 2.0 * depth - 1.0;
-        rel = ray * (2.0 * shadowNear * shadowFar / ((shadowFar + shadowNear) - zn * (shadowFar - shadowNear)));
+    if (isSurface(depth)) {
+        rel = ray * eyeDepthOf(depth);
     } else if (ray.z < 0.0 && shadowEyeHeight > groundHeight) {
         rel = ray * ((groundHeight - shadowEyeHeight) / ray.z);
         share = groundSunShare;

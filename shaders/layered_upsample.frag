@@ -14,22 +14,20 @@ uniform sampler2D cloudDepth;  // reduced depth
 uniform sampler2D frameDepth;  // the frame's depth (a copy)
 uniform bool hasDepth;
 uniform vec2 scale;            // reduced size / full size
-uniform float nearClip, farClip;
 
-float linearDepth(float d) {
-    return 2.0 * nearClip * farClip / ((farClip + nearClip) - (2.0 * d - 1.0) * (farClip - nearClip));
-}
+float linearDepth(float d) { return eyeDepthOf(d); }
 
 void main() {
     vec2 size = vec2(textureSize(cloud, 0));
-    vec2 uv = gl_FragCoord.xy * scale / size;
-    float raw = hasDepth ? texelFetch(frameDepth, ivec2(gl_FragCoord.xy), 0).r : 1.0;
+    vec2 frag = gl_FragCoord.xy - viewportOrigin;  // in the view
+    vec2 uv = frag * scale / size;
+    float raw = hasDepth ? frameDepthAt(frameDepth, viewPixel()) : noSurfaceDepth();
     // (llvmpipe runs every branch of a shader, so one path for all pixels: a gather of the four
     // neighbours' depths, four fetches, weights.)
     float d = linearDepth(raw);
     vec4 g = textureGather(cloudDepth, uv, 0);  // (i0, j1), (i1, j1), (i1, j0), (i0, j0)
     vec4 err = abs(vec4(linearDepth(g.x), linearDepth(g.y), linearDepth(g.z), linearDepth(g.w)) - d);
-    vec2 p = gl_FragCoord.xy * scale - 0.5;
+    vec2 p = frag * scale - 0.5;
     ivec2 i0 = ivec2(floor(p));
     vec2 f = p - vec2(i0);
     vec4 w = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));

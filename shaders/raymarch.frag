@@ -3,6 +3,7 @@
 // the method; the CPU twin of the density and of the no-duplicate tracing is
 // volume/src/raymarch_light.cpp. Positions are camera-relative (eye at 0), lengths in metres.
 #include "raymarch_data.glsl"
+#include "view_frame.glsl"
 #define MODEL_FN
 #include "gardner_model.glsl"
 #include "cloud_light_grid.glsl"
@@ -10,10 +11,11 @@
 in vec2 ndc;
 out vec4 result;
 
-uniform vec3 forward, rightScaled, upScaled;  // the view: d = normalize(forward + ndc.x right + ndc.y up)
+uniform vec3 forward;                         // unit view axis
+uniform vec3 rayCentre, rightScaled, upScaled;  // the view: d = normalize(rayCentre + ndc.x right + ndc.y up)
 uniform float nearClip, farClip;              // m
 uniform int useDepth;                         // 1: end the rays at the opaque depth
-uniform sampler2D sceneDepth;                 // copy of the frame's depth (window depth in [0, 1])
+uniform sampler2D sceneDepth;                 // the frame's depth (view_frame.glsl)
 uniform int cloudCount;
 uniform float stepBase;                       // m, RaymarchSettings::step
 uniform float invLod;                         // 1 / lodDistance (1/m), 0 = fixed step
@@ -174,15 +176,12 @@ vec2 slab(vec3 lo, vec3 hi, vec3 invDir) {
 }
 
 void main() {
-    dir = normalize(forward + ndc.x * rightScaled + ndc.y * upScaled);
+    dir = normalize(rayCentre + ndc.x * rightScaled + ndc.y * upScaled);
     float cosF = dot(dir, forward);
     float tStart = nearClip / cosF, tEnd = farClip / cosF;
     if (useDepth == 1) {
-        float z = texelFetch(sceneDepth, ivec2(gl_FragCoord.xy), 0).r;
-        if (z < 1.0) {
-            float zEye = 2.0 * nearClip * farClip / (farClip + nearClip - (2.0 * z - 1.0) * (farClip - nearClip));
-            tEnd = min(tEnd, zEye / cosF);
-        }
+        float z = frameDepthAt(sceneDepth, viewPixel());
+        if (isSurface(z)) tEnd = min(tEnd, eyeDepthOf(z) / cosF);
     }
     // No component of dir exactly 0 in the slab test (0 * inf would be NaN).
     vec3 invDir = 1.0 / vec3(abs(dir.x) < 1e-20 ? 1e-20 : dir.x, abs(dir.y) < 1e-20 ? 1e-20 : dir.y,

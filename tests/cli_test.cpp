@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -131,6 +132,81 @@ TEST_F(CliTest, LayeredMethodDrawsTheLayers) {
     EXPECT_NE(r.output.find("1 scene layer(s)"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("in 2 draw calls"), std::string::npos) << r.output;
     EXPECT_EQ(r.output.find("does not draw far-field layers"), std::string::npos) << r.output;
+}
+
+// A display channel from the shell: --frustum and the rotations frame the camera as the
+// equivalent camera would, channels side by side are the wide view, bad values exit 2.
+TEST_F(CliTest, ChannelFlagsFrameTheCameraAndAreValidated) {
+    auto scene = [&](const std::string& name, const std::string& direction, int width) {
+        return write(name, R"({"cloudscene": 1, "camera": {"position": [0, -3000, 1000], "direction": )" + direction +
+                               R"(, "fov_y_deg": 53.13010235415598, "width": )" + std::to_string(width) + R"(, "height": 32},
+          "generate": [{"type": "cumulus", "seed": 4, "center": [200, 0, 1200], "count": 30}]})");
+    };
+    const std::string level = scene("level.json", "[0, 1, 0]", 96);
+    auto render = [&](const std::string& file, const std::string& args) {
+        const CliRun r = run("render " + file + " -o " + path("out.png") + " --method ellipsoid " + args);
+        EXPECT_EQ(r.code, 0) << args << "\n" << r.output;
+        return readPng(path("out.png"));
+    };
+    auto seamDifference = [](const Image& a, const Image& b) { return compareImages(a, b, 1.0).meanAbs; };
+    // The symmetric frustum of fov_y 53.13 (tan 0.5) at aspect 3 is the camera's own.
+    EXPECT_LE(compareImages(render(level, "--frustum -1.5,1.5,-0.5,0.5"), render(level, ""), 1.0 / 255).maxAbs, 1.0 / 255);
+    // Three 32 px channels side by side are the 96 px wide view.
+    const Image wide = render(level, "");
+    Image stitched(96, 32, 3);
+    for (int ch = 0; ch < 3; ++ch) {
+        const Image c = render(level, "--width 32 --height 32 --frustum " + std::to_string(-1.5 + ch) + "," +
+                                          std::to_string(-0.5 + ch) + ",-0.5,0.5");
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 32; ++x)
+                for (int k = 0; k < 3; ++k) stitched.at(32 * ch + x, y, k) = c.at(x, y, k);
+    }
+    EXPECT_LE(seamDifference(stitched, wide), 1.0 / 255);
+    // Yaw 20 (right) and pitch 10 (up) are the camera turned so.
+    const double y = 20 * std::numbers::pi / 180, p = 10 * std::numbers::pi / 180;
+    const std::string turned = scene("turned.json", "[" + std::to_string(std::sin(y) * std::cos(p)) + ", " +
+                                                        std::to_string(std::cos(y) * std::cos(p)) + ", " +
+                                                        std::to_string(std::sin(p)) + "]", 96);
+    EXPECT_LE(compareImages(render(level, "--yaw-offset 20 --pitch-offset 10"), render(turned, ""), 1.0 / 255).fractionOver,
+              0.01);
+    fs::remove(path("out.png"));
+    for (const std::string& args : {std::string("--frustum 1,0,0,1"), std::string("--frustum 1,2,3"),
+                                    std::string("--frustum a,b,c,d"), std::string("--frustum -200,1,-1,1"),
+                                    std::string("--yaw-offset 400"), std::string("--pitch-offset 95"),
+                                    std::string("--pitch-offset nan")}) {
+        const CliRun r = run("render " + level + " -o " + path("out.png") + " " + args);
+        EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
+        const std::string flag = args.substr(0, args.find(' '));
+        EXPECT_NE(r.output.find(flag), std::string::npos) << args << "\n" << r.output;
+    }
+    expectNoOutputs({"level.json", "turned.json"});
+}
+
+// `bench --weather` in its quick run: the CSV per frame, the table, the chart.
+TEST_F(CliTest, WeatherBenchWritesCsvChartAndTable) {
+    const CliRun r = run("bench --weather --quick --width 96 --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
+                         path("w"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"weather_bench.csv", "weather_bench.md", "weather_bench.png"})
+        EXPECT_TRUE(fs::exists(path(std::string("w/") + f))) << f;
+    std::ifstream csv(path("w/weather_bench.csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line.rfind("frame,ms,update_ms,draw_ms,before_ms,", 0), 0u) << line;
+    int rows = 0, events = 0;
+    for (; std::getline(csv, line); ++rows) {
+        EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+        events += line.back() != '"' || line[line.size() - 2] != '"';
+    }
+    EXPECT_EQ(rows, 24);
+    EXPECT_EQ(events, 7);  // coverage, base, thickness, wind, sun, coverage and thickness, sun
+    std::ifstream md(path("w/weather_bench.md"));
+    std::stringstream text;
+    text << md.rdbuf();
+    EXPECT_NE(text.str().find("Measured by `nephele bench --weather` on "), std::string::npos);
+    EXPECT_NE(text.str().find("| thickness 600 -> 800 m |"), std::string::npos) << text.str();
+    const CliRun bad = run("bench --weather --quick --frames 5 --out-dir " + path("w2"));
+    EXPECT_EQ(bad.code, 2) << bad.output;
 }
 
 TEST_F(CliTest, GenerateIsValidatedThenExpanded) {

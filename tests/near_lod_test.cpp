@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <tuple>
@@ -208,12 +209,52 @@ TEST(NearLodTest, LayersWithoutNearLodSpawnNothing) {
     const int cells = st.cells;
     scene.layers[0].coverage = 0.3;
     lod.update(scene, Vec3(0, 0, 1000), 0, &st);
-    EXPECT_EQ(st.retired, cells);
-    EXPECT_EQ(st.generated, st.cells);
+    EXPECT_EQ(st.retired, 0);  // the same cells, made again in place
+    EXPECT_EQ(st.generated, cells);
+    EXPECT_EQ(st.cells, cells);
     // Zero coverage: cells, but no cloud.
     scene.layers[0].coverage = 0;
     EXPECT_TRUE(lod.update(scene, Vec3(0, 0, 1000), 0, &st).empty());
     EXPECT_GT(st.cells, 0);
+}
+
+TEST(NearLodTest, ABudgetRemakesAChangedLayerNearestFirstKeepingTheOldCloudsMeanwhile) {
+    Scene scene = layerScene();
+    const Vec3 eye(0, 0, 1000);
+    NearLod lod({}, layeredSettings()), unbounded({}, layeredSettings());
+    NearLodStats st;
+    lod.update(scene, eye, 0, &st);  // no budget: every cell in reach
+    const int cells = st.cells;
+    ASSERT_GT(cells, 8);
+    EXPECT_EQ(st.pending, 0);
+    scene.layers[0].coverage = 0.35;
+    const std::vector<Cloud> old = lod.update(scene, eye, 0, &st, 4);
+    EXPECT_EQ(st.generated, 4);
+    EXPECT_EQ(st.pending, cells - 4);
+    EXPECT_EQ(st.cells, cells);  // none dropped: the others keep their old cloud
+    // The four made first are the nearest spawn points; farther ones still hold the old layer's.
+    std::vector<double> distances;
+    for (const NearCell* c : lod.cells()) distances.push_back(glm::length(c->spawn));
+    std::sort(distances.begin(), distances.end());
+    const ModulationTexture modulation = makeModulation(layeredSettings().modulation, scene.layers[0].seed);
+    const LightingVolume light = layerLight(scene);
+    int nearestFresh = 0, fartherStale = 0;
+    for (const NearCell* c : lod.cells()) {
+        const NearCell fresh = makeNearCell(scene, 0, c->i, c->j, {}, modulation, layeredSettings().modulation, light);
+        const bool same = c->cover == fresh.cover && sameCloud(c->cloud, fresh.cloud);
+        if (glm::length(c->spawn) <= distances[3]) nearestFresh += same;
+        else fartherStale += !same;
+    }
+    EXPECT_EQ(nearestFresh, 4);
+    EXPECT_GT(fartherStale, 0);
+    EXPECT_FALSE(old.empty());
+    // Until no cell is due; then the clouds are those an unbounded near LOD makes at once.
+    int updates = 1;
+    while (st.pending > 0 && updates < 100) lod.update(scene, eye, 0, &st, 4), ++updates;
+    EXPECT_EQ(updates, (cells + 3) / 4);
+    const std::vector<Cloud> a = lod.update(scene, eye, 0, &st, 4), b = unbounded.update(scene, eye, 0);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t k = 0; k < a.size(); ++k) EXPECT_TRUE(sameCloud(a[k], b[k])) << k;
 }
 
 TEST(NearLodTest, BadSettingsNameTheSetting) {

@@ -11,6 +11,22 @@ constexpr GLenum kBindings[5] = {GL_TEXTURE_BINDING_2D, GL_TEXTURE_BINDING_3D, G
                                  GL_TEXTURE_BINDING_RECTANGLE, GL_TEXTURE_BINDING_BUFFER};
 GLint geti(GLenum e) { GLint v = 0; glGetIntegerv(e, &v); return v; }
 void enable(GLenum cap, GLboolean on) { on ? glEnable(cap) : glDisable(cap); }
+
+// The pixel store parameters in the order of GlStateSnapshot::PixelStore.
+constexpr GLenum kPack[8] = {GL_PACK_ALIGNMENT,   GL_PACK_ROW_LENGTH, GL_PACK_IMAGE_HEIGHT, GL_PACK_SKIP_PIXELS,
+                             GL_PACK_SKIP_ROWS,   GL_PACK_SKIP_IMAGES, GL_PACK_SWAP_BYTES,  GL_PACK_LSB_FIRST};
+constexpr GLenum kUnpack[8] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH,  GL_UNPACK_IMAGE_HEIGHT, GL_UNPACK_SKIP_PIXELS,
+                               GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES, GL_UNPACK_SWAP_BYTES,  GL_UNPACK_LSB_FIRST};
+GlStateSnapshot::PixelStore capturePixelStore(const GLenum (&names)[8]) {
+    GlStateSnapshot::PixelStore p{};
+    GLint* v = &p.alignment;
+    for (int i = 0; i < 8; ++i) v[i] = geti(names[i]);
+    return p;
+}
+void restorePixelStore(const GLenum (&names)[8], const GlStateSnapshot::PixelStore& p) {
+    const GLint* v = &p.alignment;
+    for (int i = 0; i < 8; ++i) glPixelStorei(names[i], v[i]);
+}
 }  // namespace
 
 GlStateSnapshot GlStateSnapshot::capture() {
@@ -26,8 +42,15 @@ GlStateSnapshot GlStateSnapshot::capture() {
     s.cullFace = glIsEnabled(GL_CULL_FACE);
     s.scissorTest = glIsEnabled(GL_SCISSOR_TEST);
     s.polygonOffsetFill = glIsEnabled(GL_POLYGON_OFFSET_FILL);
+    s.polygonOffsetLine = glIsEnabled(GL_POLYGON_OFFSET_LINE);
+    s.polygonOffsetPoint = glIsEnabled(GL_POLYGON_OFFSET_POINT);
     s.framebufferSrgb = glIsEnabled(GL_FRAMEBUFFER_SRGB);
     s.multisample = glIsEnabled(GL_MULTISAMPLE);
+    s.sampleAlphaToCoverage = glIsEnabled(GL_SAMPLE_ALPHA_TO_COVERAGE);
+    s.sampleAlphaToOne = glIsEnabled(GL_SAMPLE_ALPHA_TO_ONE);
+    s.sampleCoverage = glIsEnabled(GL_SAMPLE_COVERAGE);
+    s.sampleMask = glIsEnabled(GL_SAMPLE_MASK);
+    s.colorLogicOp = glIsEnabled(GL_COLOR_LOGIC_OP);
     s.primitiveRestart = glIsEnabled(GL_PRIMITIVE_RESTART);
     s.rasterizerDiscard = glIsEnabled(GL_RASTERIZER_DISCARD);
     s.programPointSize = glIsEnabled(GL_PROGRAM_POINT_SIZE);
@@ -44,6 +67,8 @@ GlStateSnapshot GlStateSnapshot::capture() {
     glGetBooleanv(GL_DEPTH_WRITEMASK, &s.depthMask);
     s.depthFunc = geti(GL_DEPTH_FUNC);
     glGetDoublev(GL_DEPTH_RANGE, s.depthRange);
+    s.clipOrigin = geti(GL_CLIP_ORIGIN);
+    s.clipDepthMode = geti(GL_CLIP_DEPTH_MODE);
     s.front = {geti(GL_STENCIL_FUNC), geti(GL_STENCIL_REF), geti(GL_STENCIL_VALUE_MASK), geti(GL_STENCIL_WRITEMASK),
                geti(GL_STENCIL_FAIL), geti(GL_STENCIL_PASS_DEPTH_FAIL), geti(GL_STENCIL_PASS_DEPTH_PASS)};
     s.back = {geti(GL_STENCIL_BACK_FUNC), geti(GL_STENCIL_BACK_REF), geti(GL_STENCIL_BACK_VALUE_MASK),
@@ -72,8 +97,8 @@ GlStateSnapshot GlStateSnapshot::capture() {
         s.samplers[u] = geti(GL_SAMPLER_BINDING);
     }
     glActiveTexture(GLenum(s.activeTexture));
-    s.packAlignment = geti(GL_PACK_ALIGNMENT);
-    s.unpackAlignment = geti(GL_UNPACK_ALIGNMENT);
+    s.pack = capturePixelStore(kPack);
+    s.unpack = capturePixelStore(kUnpack);
     for (int i = 0; i < 8; ++i) s.clipDistance[i] = glIsEnabled(GL_CLIP_DISTANCE0 + i);
     s.shaderStorageBuffer = geti(GL_SHADER_STORAGE_BUFFER_BINDING);
     for (GLuint i = 0; i < 8; ++i) {
@@ -97,8 +122,15 @@ void GlStateSnapshot::restore() const {
     enable(GL_CULL_FACE, cullFace);
     enable(GL_SCISSOR_TEST, scissorTest);
     enable(GL_POLYGON_OFFSET_FILL, polygonOffsetFill);
+    enable(GL_POLYGON_OFFSET_LINE, polygonOffsetLine);
+    enable(GL_POLYGON_OFFSET_POINT, polygonOffsetPoint);
     enable(GL_FRAMEBUFFER_SRGB, framebufferSrgb);
     enable(GL_MULTISAMPLE, multisample);
+    enable(GL_SAMPLE_ALPHA_TO_COVERAGE, sampleAlphaToCoverage);
+    enable(GL_SAMPLE_ALPHA_TO_ONE, sampleAlphaToOne);
+    enable(GL_SAMPLE_COVERAGE, sampleCoverage);
+    enable(GL_SAMPLE_MASK, sampleMask);
+    enable(GL_COLOR_LOGIC_OP, colorLogicOp);
     enable(GL_PRIMITIVE_RESTART, primitiveRestart);
     enable(GL_RASTERIZER_DISCARD, rasterizerDiscard);
     enable(GL_PROGRAM_POINT_SIZE, programPointSize);
@@ -111,6 +143,7 @@ void GlStateSnapshot::restore() const {
     glDepthMask(depthMask);
     glDepthFunc(GLenum(depthFunc));
     glDepthRange(depthRange[0], depthRange[1]);
+    glClipControl(GLenum(clipOrigin), GLenum(clipDepthMode));
     glStencilFuncSeparate(GL_FRONT, GLenum(front.func), front.ref, GLuint(front.valueMask));
     glStencilFuncSeparate(GL_BACK, GLenum(back.func), back.ref, GLuint(back.valueMask));
     glStencilMaskSeparate(GL_FRONT, GLuint(front.writeMask));
@@ -137,8 +170,8 @@ void GlStateSnapshot::restore() const {
         glBindSampler(GLuint(u), GLuint(samplers[u]));
     }
     glActiveTexture(GLenum(activeTexture));
-    glPixelStorei(GL_PACK_ALIGNMENT, packAlignment);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, unpackAlignment);
+    restorePixelStore(kPack, pack);
+    restorePixelStore(kUnpack, unpack);
     for (int i = 0; i < 8; ++i) enable(GL_CLIP_DISTANCE0 + i, clipDistance[i]);
     for (GLuint i = 0; i < 8; ++i) {
         const Range& r = shaderStorage[i];
@@ -168,8 +201,15 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     cmp("cull face", cullFace, o.cullFace);
     cmp("scissor test", scissorTest, o.scissorTest);
     cmp("polygon offset fill", polygonOffsetFill, o.polygonOffsetFill);
+    cmp("polygon offset line", polygonOffsetLine, o.polygonOffsetLine);
+    cmp("polygon offset point", polygonOffsetPoint, o.polygonOffsetPoint);
     cmp("framebuffer sRGB", framebufferSrgb, o.framebufferSrgb);
     cmp("multisample", multisample, o.multisample);
+    cmp("sample alpha to coverage", sampleAlphaToCoverage, o.sampleAlphaToCoverage);
+    cmp("sample alpha to one", sampleAlphaToOne, o.sampleAlphaToOne);
+    cmp("sample coverage", sampleCoverage, o.sampleCoverage);
+    cmp("sample mask", sampleMask, o.sampleMask);
+    cmp("colour logic op", colorLogicOp, o.colorLogicOp);
     cmp("primitive restart", primitiveRestart, o.primitiveRestart);
     cmp("rasterizer discard", rasterizerDiscard, o.rasterizerDiscard);
     cmp("program point size", programPointSize, o.programPointSize);
@@ -186,6 +226,8 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     cmp("depth mask", depthMask, o.depthMask);
     cmp("depth func", depthFunc, o.depthFunc);
     cmpN("depth range", depthRange, o.depthRange, 2);
+    cmp("clip origin", clipOrigin, o.clipOrigin);
+    cmp("clip depth mode", clipDepthMode, o.clipDepthMode);
     const GLint* f = &front.func; const GLint* of = &o.front.func;
     const GLint* b = &back.func; const GLint* ob = &o.back.func;
     cmpN("stencil front (func ref mask wmask fail zfail pass)", f, of, 7);
@@ -212,8 +254,10 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
              textures[u].data(), o.textures[u].data(), 5);
         cmp(("sampler unit " + std::to_string(u)).c_str(), samplers[u], o.samplers[u]);
     }
-    cmp("pack alignment", packAlignment, o.packAlignment);
-    cmp("unpack alignment", unpackAlignment, o.unpackAlignment);
+    cmpN("pack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &pack.alignment,
+         &o.pack.alignment, 8);
+    cmpN("unpack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &unpack.alignment,
+         &o.unpack.alignment, 8);
     cmpN("clip distance", clipDistance.data(), o.clipDistance.data(), 8);
     cmp("shader storage buffer", shaderStorageBuffer, o.shaderStorageBuffer);
     for (int i = 0; i < 8; ++i) {
@@ -226,16 +270,23 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
 }
 
 void resetPassState() {
-    glDisable(GL_SCISSOR_TEST);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_CULL_FACE);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    glDisable(GL_RASTERIZER_DISCARD);
-    glDisable(GL_POLYGON_OFFSET_FILL);
+    for (GLenum cap : {GL_SCISSOR_TEST, GL_STENCIL_TEST, GL_CULL_FACE, GL_FRAMEBUFFER_SRGB, GL_RASTERIZER_DISCARD,
+                       GL_POLYGON_OFFSET_FILL, GL_DEPTH_CLAMP, GL_COLOR_LOGIC_OP, GL_SAMPLE_ALPHA_TO_COVERAGE,
+                       GL_SAMPLE_ALPHA_TO_ONE, GL_SAMPLE_COVERAGE, GL_SAMPLE_MASK, GL_PRIMITIVE_RESTART})
+        glDisable(cap);
     for (int c = 0; c < 8; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+    glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE);
+    glDepthRange(0.0, 1.0);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glDepthMask(GL_FALSE);
+}
+
+void resetPixelStore() {
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+    for (const GLenum* names : {kPack, kUnpack})
+        for (int i = 0; i < 8; ++i) glPixelStorei(names[i], i == 0 ? 4 : 0);
 }
 
 }  // namespace nephele

@@ -1,6 +1,8 @@
 #include "nephele/opaque.hpp"
 
+#include "nephele/frame_depth.hpp"
 #include "nephele/gl_state.hpp"
+#include "nephele/host_view.hpp"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -84,30 +86,28 @@ OpaquePass::OpaquePass() {
 }
 
 void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) const {
-    GlStateGuard guard;
-    const int w = view.camera.width, h = view.camera.height;
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, w, h);
-    glDisable(GL_SCISSOR_TEST);
+    HostStateScope scope;
+    HostFrame frame{framebuffer};
+    frame.srgb = colorTargetOf(viewDescOf(view, framebuffer)) == ColorTarget::Srgb8;
+    bindFrame(frame, view);
     glDisable(GL_BLEND);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    glDisable(GL_RASTERIZER_DISCARD);
-    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glDepthMask(GL_TRUE);
     glStencilMask(0xFF);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glClearColor(0, 0, 0, 0);
-    glClearDepth(1.0);
+    glClearDepth(view.farDepth());
     glClearStencil(0);
+    // The view's viewport only: several channels may share the framebuffer.
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(view.origin.x, view.origin.y, view.camera.width, view.camera.height);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
+    glDisable(GL_SCISSOR_TEST);
 
     // Sky: behind everything, no depth written.
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
-    sky_.set("forward", glm::vec3(view.forward));
-    sky_.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
-    sky_.set("upScaled", glm::vec3(view.up * view.tanHalfY));
+    sky_.set("rayCentre", glm::vec3(view.rayCentre()));
+    sky_.set("rightScaled", glm::vec3(view.rightScaled()));
+    sky_.set("upScaled", glm::vec3(view.upScaled()));
     sky_.set("zenith", glm::vec3(scene.sky.zenith));
     sky_.set("horizon", glm::vec3(scene.sky.horizon));
     sky_.set("ground", glm::vec3(scene.sky.ground));
@@ -117,8 +117,8 @@ void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) 
     check("drawing the sky");
 
     if (scene.objects.empty()) return;
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
+    frameDepthTest(view);
+    glDepthMask(GL_TRUE);
     glEnable(GL_CULL_FACE);
     glFrontFace(GL_CCW);
     glBindVertexArray(box_.vao.id());

@@ -46,7 +46,7 @@ void CloudLightTextures::upload(const CloudRadiance& grid, int slot) {
     resident_[&grid] = slot;
 }
 
-int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed, const Vec3& eye) {
+int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed) {
     if (!sampler_) sampler_ = linearSampler(GL_CLAMP_TO_EDGE);
     int uploaded = 0;
     std::vector<std::shared_ptr<const CloudRadiance>> inUse;
@@ -73,7 +73,12 @@ int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed, const 
         ++uploaded;
     }
     keep_ = std::move(inUse);
-    // The boxes, camera-relative (float precision stays at the eye).
+    check("uploading the cloud light grids");
+    return uploaded;
+}
+
+void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, const Vec3& eye) {
+    // Camera-relative (float precision stays at the eye).
     std::vector<float> boxes;
     for (const PlacedRadiance& p : placed) {
         const Vec3 lo = p.boxMin() - eye, inv = 1.0 / p.grid->boxExtent;
@@ -83,8 +88,6 @@ int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed, const 
                                    float(origin.x), float(origin.y), float(origin.z), 0.0f});
     }
     uploadDynamic(boxes_, boxesCapacity_, boxes.data(), boxes.size() * sizeof(float));
-    check("uploading the cloud light grids");
-    return uploaded;
 }
 
 void CloudLightTextures::bind(const Program& program) const {

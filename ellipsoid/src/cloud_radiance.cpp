@@ -219,7 +219,8 @@ struct Beam {
 // Sun photons, stratified over the beam's square (a jittered m x m grid). The first flight ends
 // at the first scattering, which single scattering accounts for exactly; every later flight is
 // scored: fluence and net flux, per unit irradiance.
-void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& out) {
+void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& out,
+              const std::atomic<bool>* cancel) {
     out.assign(g.sigma.size(), glm::vec4(0.0f));
     if (s.sunPhotons == 0) return;
     const Beam beam(g, -scene.sun.direction);
@@ -229,6 +230,7 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
     const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
     std::vector<std::vector<glm::vec4>> tallies(kBatches);
     parallelFor(kBatches, [&](int b) {
+        if (cancel && *cancel) return;
         Rng rng(std::uint64_t(s.seed) * 0x9E3779B97F4A7C15ull + std::uint64_t(b) * 2 + 1);
         std::vector<glm::vec4>& tally = tallies[b];
         tally.assign(g.sigma.size(), glm::vec4(0.0f));
@@ -262,7 +264,7 @@ Vec3 skyRadianceAlong(const Sky& sky, const Vec3& v) {
 // the environment's radiance from where it comes. Every flight is scored (the unscattered
 // skylight inside the cloud is part of this light): rgb fluence, luminance flux and c20.
 void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& rgb,
-              std::vector<glm::vec4>& flux) {
+              std::vector<glm::vec4>& flux, const std::atomic<bool>* cancel) {
     rgb.assign(g.sigma.size(), glm::vec4(0.0f));
     flux.assign(g.sigma.size(), glm::vec4(0.0f));
     if (s.skyPhotons == 0) return;
@@ -271,6 +273,7 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
     const double turn = 2 * kPi * Rng(s.seed ^ 0xABCDEFull).uniform();
     std::vector<std::vector<glm::vec4>> tallyRgb(kBatches), tallyFlux(kBatches);
     parallelFor(kBatches, [&](int b) {
+        if (cancel && *cancel) return;
         Rng rng(std::uint64_t(s.seed) * 0xC2B2AE3D27D4EB4Full + std::uint64_t(b) * 2 + 1);
         tallyRgb[b].assign(g.sigma.size(), glm::vec4(0.0f));
         tallyFlux[b].assign(g.sigma.size(), glm::vec4(0.0f));
@@ -349,7 +352,8 @@ void validate(const RadianceGridSettings& s) {
     if (s.smoothing < 0 || s.smoothing > 8) throw std::invalid_argument("radiance grid smoothing must be 0..8 passes");
 }
 
-CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s) {
+CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s,
+                                   const std::atomic<bool>* cancel) {
     validate(s);
     const auto start = std::chrono::steady_clock::now();
     CloudRadiance out;
@@ -363,8 +367,9 @@ CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const
     g.lo = out.boxMin;
     g.cell = out.boxExtent / double(s.size);
     g.sigma = voxelise(scene, cloud, g);
-    traceSun(scene, g, s, out.sunDiffuse);
-    traceSky(scene, g, s, out.skyTau, out.skyFlux);
+    traceSun(scene, g, s, out.sunDiffuse, cancel);
+    traceSky(scene, g, s, out.skyTau, out.skyFlux, cancel);
+    if (cancel && *cancel) return CloudRadiance{};
     const float perVolume = float(1 / (g.cell.x * g.cell.y * g.cell.z));  // track length per volume: fluence
     for (std::size_t i = 0; i < out.voxels(); ++i) {
         out.sunDiffuse[i] *= perVolume;

@@ -8,6 +8,7 @@
 #include "nephele/light_cache.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/packer.hpp"
+#include "nephele/per_view.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -102,36 +103,48 @@ struct EllipsoidRenderer::Impl {
     Sampler linearClamp;
     CloudRadianceCache lightCache;      // the clouds' radiance grids
     CloudLightTextures lightTextures;   // ... on the GPU
+    std::vector<PlacedRadiance> light;  // updateLights(): the scene clouds' grids, one each
     Buffer tiles, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0;
-    // The atlas: one layer per pass.
-    Texture atlasTerms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
-    int atlasW = 0, atlasH = 0, atlasLayers = 0;
-    std::vector<Framebuffer> layerFbos;
-    FrameDepth depth;  // copy of the frame's depth (fraction mode)
-    // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
-    Texture accum, reveal;
-    Framebuffer weightedFbo;
-    int weightedW = 0, weightedH = 0;
-    std::vector<TileDebug> lastTiles;  // the last plan's tiles (debug views)
+    std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
 
-    void weightedTarget(int w, int h) {
-        if (weightedFbo && w == weightedW && h == weightedH) return;
+    int lightUploads = 0;    // light volume slots uploaded since the last render (stats)
+    int lightsComputed = 0;  // light volumes computed since the last render (stats)
+    void updateLights(const EllipsoidSettings& s, const Scene& scene);
+
+    // The atlas: one layer per pass; one per atlas size (the frame's by default), kept.
+    struct Atlas {
+        Texture terms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
+        int width = 0, height = 0, layers = 0;
+        std::vector<Framebuffer> fbos;
+    };
+    PerViewCache<Atlas> atlases;
+    Atlas* atlas = nullptr;  // plan()'s
+    PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
+    // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
+    struct WeightedTarget {
+        Texture accum, reveal;
+        Framebuffer fbo;
+    };
+    PerViewCache<WeightedTarget> weightedTargets;
+
+    WeightedTarget& weightedTarget(int w, int h) {
+        WeightedTarget& t = weightedTargets.get({w, h});
+        if (t.fbo) return t;
         // 32-bit floats: the weights span (tRef / t)^k over the whole depth range (half floats
         // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
-        accum = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(accum.id(), 1, GL_RGBA32F, w, h);
-        reveal = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(reveal.id(), 1, GL_R32F, w, h);
-        weightedFbo = Framebuffer::create();
-        glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT0, accum.id(), 0);
-        glNamedFramebufferTexture(weightedFbo.id(), GL_COLOR_ATTACHMENT1, reveal.id(), 0);
+        t.accum = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.accum.id(), 1, GL_RGBA32F, w, h);
+        t.reveal = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.reveal.id(), 1, GL_R32F, w, h);
+        t.fbo = Framebuffer::create();
+        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.accum.id(), 0);
+        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, t.reveal.id(), 0);
         const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-        glNamedFramebufferDrawBuffers(weightedFbo.id(), 2, buffers);
-        if (glCheckNamedFramebufferStatus(weightedFbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
+        if (glCheckNamedFramebufferStatus(t.fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
             throw GlError("weighted composite: framebuffer incomplete");
-        weightedW = w;
-        weightedH = h;
+        return t;
     }
 
     const IndexedMesh& mesh(int slices) {
@@ -184,6 +197,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     }
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     m.empty = VertexArray::create();
+    HostStateScope scope;  // the uploads below see a tightly packed pixel store whatever the host set
 
     // The projective radial falloff texture (the paper's figure 4), F(b) = (1 - b^2)^(5/2).
     constexpr int kFalloff = 256;
@@ -236,6 +250,18 @@ int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSi
 
 }  // namespace
 
+// The clouds' light volumes for `scene`, side by side in one 3D texture (cloud c in slot c).
+// Recomputed only when the clouds, the medium or the sun changed; clouds that only moved
+// (wind, near-LOD cells) keep their volumes (light_cache.hpp). Slots whose volume did not
+// change are not uploaded again, and the texture is made again only when the clouds outgrow
+// it (its slots are a power of two), so a windy frame uploads nothing.
+void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Scene& scene) {
+    int computed = 0;
+    light = lightCache.update(scene, s.light, &computed);
+    lightsComputed += computed;
+    lightUploads += lightTextures.update(light);
+}
+
 // Everything before the first draw: projection, culling, tile sizes, packing, the GPU
 // tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
 FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view) {
@@ -282,7 +308,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     });
 
     // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
-    const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light);
+    m.updateLights(s, scene);
+    const std::vector<PlacedRadiance>& light = m.light;
 
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     std::vector<GpuTile>& gpu = out.gpu;
@@ -329,22 +356,26 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     // ---- Resources.
     uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
     uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
-    m.lightTextures.update(light, view.eye);
+    m.lightTextures.setBoxes(m.light, view.eye);
 
-    if (m.atlasW != atlasW || m.atlasH != atlasH || m.atlasLayers < packed.passes) {
+    Atlas& atlas = m.atlases.get({atlasW, atlasH});
+    m.atlas = &atlas;
+    atlas.width = atlasW;
+    atlas.height = atlasH;
+    if (atlas.layers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
-        m.atlasLayers = std::max(packed.passes, m.atlasW == atlasW && m.atlasH == atlasH ? m.atlasLayers : 0);
-        m.atlasW = atlasW;
-        m.atlasH = atlasH;
-        m.atlasTerms = Texture::create(GL_TEXTURE_2D_ARRAY);
-        glTextureStorage3D(m.atlasTerms.id(), 1, termsFormat, atlasW, atlasH, m.atlasLayers);
-        m.layerFbos.clear();
-        for (int l = 0; l < m.atlasLayers; ++l) {
+        // Grown by half at least (within the memory budget), so that clouds growing frame by
+        // frame (a layer's near cells made again, thicker) do not remake it every frame.
+        atlas.layers = std::max(packed.passes, std::min(maxPasses, (3 * atlas.layers + 1) / 2));
+        atlas.terms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        glTextureStorage3D(atlas.terms.id(), 1, termsFormat, atlasW, atlasH, atlas.layers);
+        atlas.fbos.clear();
+        for (int l = 0; l < atlas.layers; ++l) {
             Framebuffer fbo = Framebuffer::create();
-            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, m.atlasTerms.id(), 0, l);
+            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, atlas.terms.id(), 0, l);
             if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
                 throw GlError("ellipsoid atlas: framebuffer incomplete");
-            m.layerFbos.push_back(std::move(fbo));
+            atlas.fbos.push_back(std::move(fbo));
         }
     }
     out.atlasW = atlasW;
@@ -352,12 +383,28 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     return out;
 }
 
+int EllipsoidRenderer::updateLights(const Scene& scene) {
+    HostStateScope scope;  // the uploads
+    impl_->updateLights(settings_, scene);
+    return std::exchange(impl_->lightsComputed, 0);
+}
+
 EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
+    HostFrame frame;
+    frame.framebuffer = framebuffer;
+    frame.hasDepth = opaqueDepth;
+    return render(scene, view, frame);
+}
+
+EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, const HostFrame& frame) {
     Impl& m = *impl_;
     const EllipsoidSettings& s = settings_;
+    HostStateScope scope;  // before the plan: it uploads
     PartTimer timer(s.timings);
     const FramePlan plan = m.plan(s, scene, view);
     EllipsoidStats stats = plan.stats;
+    stats.lightVolumes = std::exchange(m.lightsComputed, 0);
+    stats.lightUploads = std::exchange(m.lightUploads, 0);
     if (plan.order.empty()) {
         m.lastTiles.clear();
         stats.tilesMs = timer.lap();
@@ -371,16 +418,9 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     const int atlasW = plan.atlasW, atlasH = plan.atlasH;
     const int frameW = view.camera.width, frameH = view.camera.height;
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
-    GlStateGuard guard;
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
-    glDisable(GL_SCISSOR_TEST);
     glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    glDisable(GL_RASTERIZER_DISCARD);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glFrontFace(GL_CCW);
     const glm::vec2 atlasSize(atlasW, atlasH);
 
@@ -416,12 +456,12 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     for (int pass = 0, first = 0; pass < packed.passes; ++pass) {
         int count = 0;
         while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
-        glBindFramebuffer(GL_FRAMEBUFFER, m.layerFbos[pass].id());
+        glBindFramebuffer(GL_FRAMEBUFFER, m.atlas->fbos[pass].id());
         glViewport(0, 0, atlasW, atlasH);
         glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
         // T2 = D in red, T1 / D = 0 in alpha; 1 in green and blue (colour, subtracted from).
         const float terms[4] = {model::kTranslucence, 1.0f, 1.0f, 0.0f};
-        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, terms);
+        glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, terms);
 
         // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
         const bool polygon = s.geometry == TileGeometry::Polygon;
@@ -473,7 +513,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
             continue;
         }
         glTextureBarrier();
-        glBindTextureUnit(3, m.atlasTerms.id());
+        glBindTextureUnit(3, m.atlas->terms.id());
         glBindSampler(3, 0);
         glBlendEquation(GL_FUNC_REVERSE_SUBTRACT);
         glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_TRUE);
@@ -488,17 +528,20 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
 
     // ---- Composite over the frame: back to front, or weighted into a target of its own
     // and resolved over the frame (the stencil fly-through is per ellipsoid: back to front).
-    const bool stencil = s.flyThrough == FlyThrough::Stencil && opaqueDepth;
-    const bool fraction = s.flyThrough == FlyThrough::Fraction && opaqueDepth;
+    const DepthSource depth = frame.hasDepth && s.flyThrough == FlyThrough::Fraction
+                                  ? m.depths.get({frameW, frameH}).source(frame, view)
+                                  : DepthSource{};
+    const bool stencil = s.flyThrough == FlyThrough::Stencil && frame.hasDepth;
+    const bool fraction = depth.texture != 0;
     const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
     stats.tilesMs = timer.lap();
-    if (fraction) m.depth.copy(framebuffer, frameW, frameH);
 
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
+    Impl::WeightedTarget* wt = weighted ? &m.weightedTarget(frameW, frameH) : nullptr;
+    int x0w = 0, y0w = 0, x1w = 0, y1w = 0;  // the weighted target's scissor (the tiles' area)
     if (weighted) {
-        m.weightedTarget(frameW, frameH);
         // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
         // the frame-sized clear and resolve were most of the weighted composite's cost.
         float lo[2] = {1, 1}, hi[2] = {-1, -1};
@@ -510,17 +553,18 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         const int y1 = std::clamp(int(std::ceil((hi[1] * 0.5f + 0.5f) * frameH)) + 1, 0, frameH);
         glEnable(GL_SCISSOR_TEST);
         glScissor(x0, y0, std::max(x1 - x0, 0), std::max(y1 - y0, 0));
-        glBindFramebuffer(GL_FRAMEBUFFER, m.weightedFbo.id());
+        x0w = x0, y0w = y0, x1w = std::max(x1, x0), y1w = std::max(y1, y0);
+        glBindFramebuffer(GL_FRAMEBUFFER, wt->fbo.id());
+        glViewport(0, 0, frameW, frameH);
         const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
-        glClearNamedFramebufferfv(m.weightedFbo.id(), GL_COLOR, 0, zero);
-        glClearNamedFramebufferfv(m.weightedFbo.id(), GL_COLOR, 1, one);
+        glClearNamedFramebufferfv(wt->fbo.id(), GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(wt->fbo.id(), GL_COLOR, 1, one);
         glBlendFunci(0, GL_ONE, GL_ONE);                  // sums
         glBlendFunci(1, GL_ZERO, GL_ONE_MINUS_SRC_COLOR);  // product of (1 - a)
     } else {
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        bindFrame(frame, view);
         glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     }
-    glViewport(0, 0, frameW, frameH);
     const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
                                  : (fraction ? m.compositeFraction : m.composite);
     cp.set("atlasTerms", 3);
@@ -532,14 +576,15 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     cp.set("useOrder", 1);
     cp.set("colourMatrix", colourMatrix);
     cp.set("forward", glm::vec3(view.forward));
-    cp.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
-    cp.set("upScaled", glm::vec3(view.up * view.tanHalfY));
+    cp.set("rayCentre", glm::vec3(view.rayCentre()));
+    cp.set("rightScaled", glm::vec3(view.rightScaled()));
+    cp.set("upScaled", glm::vec3(view.upScaled()));
     cp.set("nearClip", float(view.camera.nearClip));
-    cp.set("farClip", float(view.camera.farClip));
     cp.set("weightExponent", s.weightExponent);
     cp.set("weightReference", float(weightReferenceDepth(prepared, view)));
-    glBindTextureUnit(3, m.atlasTerms.id());
-    glBindTextureUnit(5, fraction ? m.depth.texture() : 0);
+    setViewFrameUniforms(cp, view, !weighted, depth);
+    glBindTextureUnit(3, m.atlas->terms.id());
+    glBindTextureUnit(5, depth.texture);
     glBindSampler(3, m.linearClamp.id());
     glBindSampler(5, 0);
     glBindVertexArray(m.empty.id());
@@ -565,12 +610,18 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
         glEnable(GL_STENCIL_TEST);
         glStencilMask(0xFF);
         glClearStencil(0);
-        glClear(GL_STENCIL_BUFFER_BIT);
-        glDepthFunc(GL_LESS);
+        auto clearStencil = [&] {  // the view's viewport only: other channels share the framebuffer
+            glEnable(GL_SCISSOR_TEST);
+            glScissor(view.origin.x, view.origin.y, frameW, frameH);
+            glClear(GL_STENCIL_BUFFER_BIT);
+            glDisable(GL_SCISSOR_TEST);
+        };
+        clearStencil();
+        frameDepthTest(view);
         for (int k = 0; k < n; ++k) {
             // A reference value of its own per ellipsoid, so that no stale stencil is reused.
             const int ref = k % 255 + 1;
-            if (ref == 1 && k > 0) glClear(GL_STENCIL_BUFFER_BIT);
+            if (ref == 1 && k > 0) clearStencil();
             const int t = order[k];
             const IndexedMesh& mesh = m.mesh(meshSlices(s, int(gpu[t].atlasRect[2])));
             glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
@@ -598,13 +649,15 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
     check("compositing the ellipsoid tiles");
     if (weighted) {
         // The resolve: colour sum(w a c) / sum(w a), opacity 1 - prod(1 - a), "over" the frame.
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+        bindFrame(frame, view);  // (the scissor stays: the tiles' area, moved to the view's place)
+        glScissor(view.origin.x + x0w, view.origin.y + y0w, x1w - x0w, y1w - y0w);
         glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
         glUseProgram(m.resolve.id());
         m.resolve.set("accumTexture", 3);
         m.resolve.set("revealTexture", 4);
-        glBindTextureUnit(3, m.accum.id());
-        glBindTextureUnit(4, m.reveal.id());
+        setViewFrameUniforms(m.resolve, view, true);
+        glBindTextureUnit(3, wt->accum.id());
+        glBindTextureUnit(4, wt->reveal.id());
         glBindSampler(3, 0);
         glBindSampler(4, 0);
         glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -616,24 +669,22 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, G
 }
 
 const std::vector<TileDebug>& EllipsoidRenderer::lastTiles() const { return impl_->lastTiles; }
-GLuint EllipsoidRenderer::atlasTexture() const { return impl_->atlasTerms.id(); }
-glm::ivec3 EllipsoidRenderer::atlasSize() const { return {impl_->atlasW, impl_->atlasH, impl_->atlasLayers}; }
+GLuint EllipsoidRenderer::atlasTexture() const { return impl_->atlas ? impl_->atlas->terms.id() : 0; }
+glm::ivec3 EllipsoidRenderer::atlasSize() const {
+    const Impl::Atlas* a = impl_->atlas;
+    return a ? glm::ivec3(a->width, a->height, a->layers) : glm::ivec3(0);
+}
 
 EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
     Impl& m = *impl_;
+    HostStateScope scope;
     const FramePlan plan = m.plan(settings_, scene, view);
     EllipsoidStats stats = plan.stats;
     if (plan.order.empty()) return stats;
     if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});
-    GlStateGuard guard;
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
-    glDisable(GL_SCISSOR_TEST);
     glDisable(GL_DEPTH_TEST);
-    glDisable(GL_STENCIL_TEST);
-    glDisable(GL_CULL_FACE);
-    glDepthMask(GL_FALSE);
-    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
@@ -643,20 +694,19 @@ EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& vi
     f.set("atlasSize", glm::vec2(plan.atlasW, plan.atlasH));
     f.set("atlasTerms", 3);
     f.set("useOrder", 0);
-    glBindTextureUnit(3, m.atlasTerms.id());
+    glBindTextureUnit(3, m.atlas->terms.id());
     glBindSampler(3, m.linearClamp.id());
     for (int pass = 0, first = 0; pass < plan.packed.passes; ++pass) {
         int count = 0;
         while (first + count < int(plan.placements.size()) && plan.placements[first + count].pass == pass) ++count;
-        glBindFramebuffer(GL_FRAMEBUFFER, m.layerFbos[pass].id());
+        glBindFramebuffer(GL_FRAMEBUFFER, m.atlas->fbos[pass].id());
         glViewport(0, 0, plan.atlasW, plan.atlasH);
         const float zero[4] = {0, 0, 0, 0};
-        glClearNamedFramebufferfv(m.layerFbos[pass].id(), GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, zero);
         f.set("onScreen", 0);
         f.set("instanceBase", first);
         glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-        glViewport(0, 0, view.camera.width, view.camera.height);
+        bindFrame(HostFrame{framebuffer}, view);
         f.set("onScreen", 1);
         glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
         stats.drawCalls += 2;

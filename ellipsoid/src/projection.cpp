@@ -35,6 +35,9 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     // ends before the near plane contributes nothing to the image.
     if (p.boxMin.z > -n || p.boxMax.z < -f) return p;
 
+    // NDC of an eye-space tangent x / -z: (tangent - c) / tanHalf per axis, c the frustum's centre
+    // (0 for a symmetric frustum: an off-axis channel of a wider view has its own).
+    const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
     ScreenRect r{-1, -1, 1, 1};
     if (!p.eyeInside) {
         // Clip the box to the depths -f <= z <= -n. On that slab depth d = -z > 0, so x / d is
@@ -43,12 +46,12 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
         r = {1e300, 1e300, -1e300, -1e300};
         for (const double d : {dNear, dFar}) {
             for (const double x : {p.boxMin.x, p.boxMax.x}) {
-                r.x0 = std::min(r.x0, x / (d * view.tanHalfX));
-                r.x1 = std::max(r.x1, x / (d * view.tanHalfX));
+                r.x0 = std::min(r.x0, (x - cx * d) / (d * view.tanHalfX));
+                r.x1 = std::max(r.x1, (x - cx * d) / (d * view.tanHalfX));
             }
             for (const double y : {p.boxMin.y, p.boxMax.y}) {
-                r.y0 = std::min(r.y0, y / (d * view.tanHalfY));
-                r.y1 = std::max(r.y1, y / (d * view.tanHalfY));
+                r.y0 = std::min(r.y0, (y - cy * d) / (d * view.tanHalfY));
+                r.y1 = std::max(r.y1, (y - cy * d) / (d * view.tanHalfY));
             }
         }
         if (!p.crossesNear) {
@@ -67,8 +70,9 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
                 const double disc = s[i][i] * c.z * c.z - 2 * s[2][i] * c[i] * c.z + s[2][2] * c[i] * c[i] -
                                     (s[i][i] * s[2][2] - s[2][i] * s[2][i]);
                 const double root = std::sqrt(std::max(disc, 0.0)), tanHalf = i ? view.tanHalfY : view.tanHalfX;
-                lo[i] = (-qb - root) / qa / tanHalf;
-                hi[i] = (-qb + root) / qa / tanHalf;
+                const double centre = i ? cy : cx;
+                lo[i] = ((-qb - root) / qa - centre) / tanHalf;
+                hi[i] = ((-qb + root) / qa - centre) / tanHalf;
                 const double margin = 1e-13 * kappa * (1 + std::max(std::abs(lo[i]), std::abs(hi[i])));
                 lo[i] -= margin;
                 hi[i] += margin;
@@ -83,9 +87,10 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     p.rect = r;
     p.pixelWidth = 0.5 * (r.x1 - r.x0) * view.camera.width;
     p.pixelHeight = 0.5 * (r.y1 - r.y0) * view.camera.height;
-    // The near-plane window of the rect, in eye-space metres (NDC x on the near plane is x / (n tanHalfX)).
+    // The near-plane window of the rect, in eye-space metres (NDC x on the near plane is
+    // (x / n - cx) / tanHalfX).
     const double sx = n * view.tanHalfX, sy = n * view.tanHalfY;
-    p.projection = glm::frustum(r.x0 * sx, r.x1 * sx, r.y0 * sy, r.y1 * sy, n, f);
+    p.projection = glm::frustum(r.x0 * sx + n * cx, r.x1 * sx + n * cx, r.y0 * sy + n * cy, r.y1 * sy + n * cy, n, f);
     return p;
 }
 

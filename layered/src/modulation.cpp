@@ -84,7 +84,8 @@ double nearFade(const LayeredSettings& s, double horizontal) {
 
 namespace {
 double threshold(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, double x, double y, double t) {
-    return m.sample((x - t * layer.wind.x) / ms.period, (y - t * layer.wind.y) / ms.period, 0);
+    const Vec2 drift = layerDrift(layer, t);
+    return m.sample((x - drift.x) / ms.period, (y - drift.y) / ms.period, 0);
 }
 }  // namespace
 
@@ -98,7 +99,8 @@ double layerDensity(const Layer& layer, const ModulationTexture& m, const Modula
     const double z = (p.z - layer.base) / layer.thickness;
     if (z < 0 || z > 1) return 0;
     const double period = light.settings.tilePeriod;
-    const double a = light.sampleDensity((p.x - t * layer.wind.x) / period, (p.y - t * layer.wind.y) / period, z);
+    const Vec2 drift = layerDrift(layer, t);
+    const double a = light.sampleDensity((p.x - drift.x) / period, (p.y - drift.y) / period, z);
     const double r = threshold(layer, m, ms, p.x, p.y, t);
     return layer.density * std::max(a - (r + 1 - layer.coverage), 0.0);  // eq. (16)
 }

@@ -3,6 +3,7 @@
 #include "nephele/near_lod.hpp"
 
 #include "nephele/generate.hpp"
+#include "layer_assets.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -112,72 +113,110 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     return cell;
 }
 
+// One layer's cells and the state of the layer they were made for.
 struct NearLod::LayerCache {
-    bool valid = false;
-    double base = 0, thickness = 0, coverage = 0, density = 0;
-    unsigned seed = 0;
-    LightingParameters lightKey;
-    ModulationTexture modulation;
-    LightingVolume light;
-    std::map<std::pair<std::int64_t, std::int64_t>, NearCell> cells;
+    struct Made {  // what a cell's cloud depends on besides (i, j)
+        unsigned seed = 0;
+        double base = 0, coverage = 0, density = 0;
+        LightingParameters lightKey;
+        bool operator==(const Made&) const = default;
+    };
+    Made made;       // the layer as its current data is for
+    int version = 0; // bumped when `made`, the modulation or the light change: older cells are stale
+    std::shared_ptr<const ModulationTexture> modulation;
+    std::shared_ptr<const LightingVolume> light;
+    struct Cell {
+        NearCell cell;
+        int version = 0;
+    };
+    std::map<std::pair<std::int64_t, std::int64_t>, Cell> cells;
 };
 
-NearLod::NearLod(NearLodSettings settings, LayeredSettings layered) : settings_(settings), layered_(std::move(layered)) {
+struct NearLod::Job {
+    double distance = 0;  // of the spawn point from the eye (m): nearest first
+    int layer = 0;
+    std::int64_t i = 0, j = 0;
+};
+
+NearLod::NearLod(NearLodSettings settings, LayeredSettings layered)
+    : settings_(settings), layered_(std::move(layered)), assets_(std::make_shared<LayerAssets>(layered_)) {
     validate(settings_, layered_);
 }
 
 NearLod::~NearLod() = default;
 
-std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats) {
-    NearLodStats st;
-    std::vector<Cloud> out;
+void NearLod::shareAssets(std::shared_ptr<LayerAssets> assets) { assets_ = std::move(assets); }
+
+void NearLod::refreshLayer(const Scene& scene, int li, const Vec3& eye, double t, std::vector<Job>& jobs,
+                           NearLodStats& st) {
+    const Layer& layer = scene.layers[li];
+    LayerCache& c = *layers_[li];
     const double r = reach(layered_), size = settings_.cellSize, jit = settings_.jitter;
+    const LayerCache::Made made{layer.seed, layer.base, layer.coverage, layer.density,
+                                lightingParameters(scene.medium, layer)};
+    std::shared_ptr<const ModulationTexture> modulation = assets_->modulation(layer.seed);
+    std::shared_ptr<const LightingVolume> light = assets_->lighting(made.lightKey);
+    const bool ready = modulation && light;  // else: the cells stay as they are, none is made
+    if (ready && (!(made == c.made) || modulation != c.modulation || light != c.light)) {
+        c.made = made, c.modulation = std::move(modulation), c.light = std::move(light);
+        ++c.version;
+    }
+    const Vec2 e = Vec2(eye.x, eye.y) - layerDrift(layer, t);  // the eye in pattern coordinates
+    // Spawn points lie within jitter cells of their cell's centre.
+    const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)), i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
+    const auto j0 = std::int64_t(std::floor((e.y - r) / size - 0.5 - jit)), j1 = std::int64_t(std::ceil((e.y + r) / size - 0.5 + jit));
+    std::map<std::pair<std::int64_t, std::int64_t>, LayerCache::Cell> next;
+    for (std::int64_t j = j0; j <= j1; ++j)
+        for (std::int64_t i = i0; i <= i1; ++i) {
+            const double distance = glm::length(spawnPoint(layer.seed, i, j, settings_) - e);
+            if (distance >= r) continue;
+            auto old = c.cells.find({i, j});
+            const bool have = old != c.cells.end();
+            if (have) {
+                next.emplace(old->first, std::move(old->second));
+                c.cells.erase(old);
+            }
+            if (c.light && (!have || next[{i, j}].version != c.version)) jobs.push_back({distance, li, i, j});
+        }
+    st.retired += int(c.cells.size());
+    c.cells = std::move(next);
+}
+
+std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats, int maxCells) {
+    NearLodStats st;
     const std::size_t before = layers_.size();
     for (std::size_t li = scene.layers.size(); li < before; ++li) st.retired += int(layers_[li]->cells.size());
     layers_.resize(scene.layers.size());
+    std::vector<Job> jobs;
     for (std::size_t li = 0; li < scene.layers.size(); ++li) {
-        const Layer& layer = scene.layers[li];
         if (!layers_[li]) layers_[li] = std::make_unique<LayerCache>();
-        LayerCache& c = *layers_[li];
-        if (!layer.nearLod || !(r > 0)) {
-            st.retired += int(c.cells.size());
-            c.cells.clear();
+        if (!scene.layers[li].nearLod || !(reach(layered_) > 0)) {
+            st.retired += int(layers_[li]->cells.size());
+            layers_[li]->cells.clear();
             continue;
         }
-        if (!c.valid || c.seed != layer.seed) c.modulation = makeModulation(layered_.modulation, layer.seed);
-        const LightingParameters key = lightingParameters(scene.medium, layer);
-        const bool newLight = !c.valid || !(c.lightKey == key);
-        if (newLight) c.light = lightingCached(layered_.lighting, key, layered_.cacheDir);
-        if (newLight || c.seed != layer.seed || c.base != layer.base || c.coverage != layer.coverage ||
-            c.density != layer.density) {
-            st.retired += int(c.cells.size());
-            c.cells.clear();
-        }
-        c.valid = true, c.seed = layer.seed, c.lightKey = key, c.base = layer.base, c.thickness = layer.thickness;
-        c.coverage = layer.coverage, c.density = layer.density;
-
-        const Vec2 drift = t * layer.wind;
-        const Vec2 e = Vec2(eye.x, eye.y) - drift;  // the eye in pattern coordinates
-        // Spawn points lie within jitter cells of their cell's centre.
-        const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)), i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
-        const auto j0 = std::int64_t(std::floor((e.y - r) / size - 0.5 - jit)), j1 = std::int64_t(std::ceil((e.y + r) / size - 0.5 + jit));
-        std::map<std::pair<std::int64_t, std::int64_t>, NearCell> next;
-        for (std::int64_t j = j0; j <= j1; ++j)
-            for (std::int64_t i = i0; i <= i1; ++i) {
-                if (glm::length(spawnPoint(layer.seed, i, j, settings_) - e) >= r) continue;
-                auto old = c.cells.find({i, j});
-                if (old != c.cells.end()) {
-                    next.emplace(old->first, std::move(old->second));
-                    c.cells.erase(old);
-                } else {
-                    next.emplace(std::make_pair(i, j),
-                                 makeNearCell(scene, int(li), i, j, settings_, c.modulation, layered_.modulation, c.light));
-                    ++st.generated;
-                }
-            }
-        st.retired += int(c.cells.size());
-        c.cells = std::move(next);
-        for (const auto& [ij, cell] : c.cells) {
+        refreshLayer(scene, int(li), eye, t, jobs, st);
+    }
+    // The cells due, nearest first, as many as the budget allows.
+    std::stable_sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) { return a.distance < b.distance; });
+    const std::size_t budget = maxCells > 0 ? std::size_t(maxCells) : jobs.size();
+    for (std::size_t k = 0; k < std::min(budget, jobs.size()); ++k) {
+        const Job& job = jobs[k];
+        LayerCache& c = *layers_[job.layer];
+        c.cells[{job.i, job.j}] = {makeNearCell(scene, job.layer, job.i, job.j, settings_, *c.modulation, layered_.modulation,
+                                                *c.light),
+                                   c.version};
+        ++st.generated;
+    }
+    st.pending = int(jobs.size() - std::min(budget, jobs.size()));
+    // The clouds: made cells in (layer, i, j) order, moved with the wind, weighted by distance.
+    std::vector<Cloud> out;
+    for (std::size_t li = 0; li < layers_.size(); ++li) {
+        const Layer& layer = scene.layers[li];
+        const Vec2 drift = layerDrift(layer, t);
+        const Vec2 e = Vec2(eye.x, eye.y) - drift;
+        for (const auto& [ij, made] : layers_[li]->cells) {
+            const NearCell& cell = made.cell;
             ++st.cells;
             if (cell.cloud.ellipsoids.empty()) continue;
             Cloud cloud = cell.cloud;
@@ -197,7 +236,7 @@ std::vector<const NearCell*> NearLod::cells() const {
     std::vector<const NearCell*> out;
     for (const auto& c : layers_)
         if (c)
-            for (const auto& [ij, cell] : c->cells) out.push_back(&cell);
+            for (const auto& [ij, made] : c->cells) out.push_back(&made.cell);
     return out;
 }
 

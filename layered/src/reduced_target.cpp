@@ -20,42 +20,48 @@ const Program& ReducedTarget::program(int shadowLayers) {
     return p;
 }
 
-glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int divisor) {
+void ReducedTarget::prepare() {
+    for (int layers = 0; layers <= 4; ++layers) program(layers);
+}
+
+glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view, int divisor) {
+    const int width = view.camera.width, height = view.camera.height;
     const glm::ivec2 size((width + divisor - 1) / divisor, (height + divisor - 1) / divisor);
-    if (size != size_ || fbo_.id() == 0) {
-        color_ = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(color_.id(), 1, GL_RGBA16F, size.x, size.y);
-        glTextureParameteri(color_.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(color_.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        depth_ = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(depth_.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
-        glTextureParameteri(depth_.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTextureParameteri(depth_.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTextureParameteri(depth_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(depth_.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        fbo_ = Framebuffer::create();
-        glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
-        glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_ATTACHMENT, depth_.id(), 0);
-        const GLenum status = glCheckNamedFramebufferStatus(fbo_.id(), GL_FRAMEBUFFER);
+    Target& t = targets_.get(size);
+    if (!t.fbo) {
+        t.color = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.color.id(), 1, GL_RGBA16F, size.x, size.y);
+        glTextureParameteri(t.color.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(t.color.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        t.depth = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.depth.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
+        glTextureParameteri(t.depth.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTextureParameteri(t.depth.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        t.fbo = Framebuffer::create();
+        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
+        glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);
+        const GLenum status = glCheckNamedFramebufferStatus(t.fbo.id(), GL_FRAMEBUFFER);
         if (status != GL_FRAMEBUFFER_COMPLETE)
             throw GlError("layered sky: reduced target incomplete (status 0x" + std::to_string(status) + ")");
-        size_ = size;
     }
+    current_ = &t;
+    size_ = size;
     full_ = glm::ivec2(width, height);
-    divisor_ = divisor;
-    glBindFramebuffer(GL_FRAMEBUFFER, fbo_.id());
+    glBindFramebuffer(GL_FRAMEBUFFER, t.fbo.id());
     glViewport(0, 0, size.x, size.y);
     glDisable(GL_SCISSOR_TEST);
     glDisable(GL_BLEND);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     const float zero[4] = {0, 0, 0, 0};
-    glClearNamedFramebufferfv(fbo_.id(), GL_COLOR, 0, zero);
+    glClearNamedFramebufferfv(t.fbo.id(), GL_COLOR, 0, zero);
     glDepthMask(GL_TRUE);
-    if (frameDepth == 0) {
-        const float one = 1;
-        glClearNamedFramebufferfv(fbo_.id(), GL_DEPTH, 0, &one);
+    if (frameDepth.texture == 0) {
+        const float far = float(view.farDepth());
+        glClearNamedFramebufferfv(t.fbo.id(), GL_DEPTH, 0, &far);
         return size;
     }
     // Each texel's depth = the farthest of its block of the frame (written, always passing).
@@ -65,7 +71,8 @@ glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int di
     reduce_.set("frameDepth", 0);
     reduce_.set("fullSize", glm::vec2(full_));
     reduce_.set("reducedSize", glm::vec2(size));
-    glBindTextureUnit(0, frameDepth);
+    setViewFrameUniforms(reduce_, view, false, frameDepth);
+    glBindTextureUnit(0, frameDepth.texture);
     glBindSampler(0, 0);
     glUseProgram(reduce_.id());
     glBindVertexArray(empty_.id());
@@ -75,9 +82,8 @@ glm::ivec2 ReducedTarget::begin(GLuint frameDepth, int width, int height, int di
     return size;
 }
 
-void ReducedTarget::composite(GLuint framebuffer, GLuint frameDepth, const View& view, int shadowLayers) {
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, full_.x, full_.y);
+void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers) {
+    bindFrame(frame, view);
     glDisable(GL_DEPTH_TEST);
     glDepthMask(GL_FALSE);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
@@ -88,13 +94,12 @@ void ReducedTarget::composite(GLuint framebuffer, GLuint frameDepth, const View&
     p.set("cloud", 0);
     p.set("cloudDepth", 1);
     p.set("frameDepth", 2);
-    p.set("hasDepth", frameDepth != 0 ? 1 : 0);
+    p.set("hasDepth", frameDepth.texture != 0 ? 1 : 0);
     p.set("scale", glm::vec2(size_) / glm::vec2(full_));
-    p.set("nearClip", float(view.camera.nearClip));
-    p.set("farClip", float(view.camera.farClip));
-    glBindTextureUnit(0, color_.id());
-    glBindTextureUnit(1, depth_.id());
-    glBindTextureUnit(2, frameDepth);
+    setViewFrameUniforms(p, view, true, frameDepth);
+    glBindTextureUnit(0, current_->color.id());
+    glBindTextureUnit(1, current_->depth.id());
+    glBindTextureUnit(2, frameDepth.texture);
     for (int u = 0; u < 3; ++u) glBindSampler(u, 0);
     glUseProgram(p.id());
     glBindVertexArray(empty_.id());

@@ -3,6 +3,8 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/frame_depth.hpp"
+#include "nephele/per_view.hpp"
 #include "nephele/shader.hpp"
 
 namespace nephele {
@@ -16,26 +18,31 @@ namespace nephele {
 class ReducedTarget {
 public:
     ReducedTarget();  // builds its shaders in the current context
-    // Binds a (width/d) x (height/d) target (premultiplied RGBA16F cleared to 0, depth = the
-    // frame's depth reduced per block; 1 when frameDepth is 0) as the draw framebuffer and
-    // sets the viewport to it. Changes depth, blend, colour mask, program, vertex array,
-    // texture unit 0. Returns the target's size.
-    glm::ivec2 begin(GLuint frameDepth, int width, int height, int divisor);
-    // Composites the target "over" `framebuffer` (premultiplied) at full resolution, the frame
-    // multiplied by the cloud shadows set in program() (ShadowPass::setUniforms; none when
+    // Binds a (width/d) x (height/d) target for the view's viewport (premultiplied RGBA16F
+    // cleared to 0, depth = the frame's depth reduced per block, in the view's convention; the
+    // far plane without depth) as the draw framebuffer and sets the viewport to it. Changes
+    // depth, blend, colour mask, program, vertex array, texture unit 0. Returns its size.
+    glm::ivec2 begin(const DepthSource& frameDepth, const View& view, int divisor);
+    // Composites the target "over" the frame's viewport (premultiplied) at full resolution, the
+    // frame multiplied by the cloud shadows set in program() (ShadowPass::setUniforms; none when
     // shadowLayerCount is 0) before. Changes the same state as begin() and texture units 0..2.
     // shadowLayers: how many layers program(shadowLayers) was given (0..4).
-    void composite(GLuint framebuffer, GLuint frameDepth, const View& view, int shadowLayers);
-    // The upsampling program compiled for `shadowLayers` shadowing layers (0..4; built on first use).
+    void composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers);
+    // The upsampling program compiled for `shadowLayers` shadowing layers (0..4; built on first
+    // use, or by prepare()).
     const Program& program(int shadowLayers);
+    void prepare();  // builds every upsampling program now
 
 private:
+    struct Target {  // at one reduced size (views of several sizes each keep theirs)
+        gl::Texture color, depth;
+        gl::Framebuffer fbo;
+    };
     Program reduce_, upsample_[5];
     gl::VertexArray empty_;
-    gl::Texture color_, depth_;
-    gl::Framebuffer fbo_;
+    PerViewCache<Target> targets_;
+    Target* current_ = nullptr;  // begin()'s
     glm::ivec2 size_{0}, full_{0};
-    int divisor_ = 0;
 };
 
 }  // namespace nephele

@@ -1,13 +1,15 @@
 // The layered sky on the GPU: per scene layer, one instanced draw of N annuli (LOD1) and one
 // of the billboard slices (LOD0), into the host's frame with "over" blending.
+#include "nephele/frame_depth.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
+#include "nephele/per_view.hpp"
 #include "nephele/shader.hpp"
+#include "layer_assets.hpp"
 #include "layer_light.hpp"
 #include "reduced_target.hpp"
 #include "shadow_pass.hpp"
-#include "nephele/frame_depth.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,15 +19,15 @@ namespace nephele {
 using namespace gl;
 
 namespace {
-struct LayerResources {
-    LightingParameters lightKey;
-    unsigned seed = 0;
-    bool valid = false;
-    LightingVolume light;
-    ModulationTexture modulation;
+// One scene layer's GPU textures and the CPU data they hold (LayerAssets'). The textures are
+// made once and refilled when the data changes (same sizes: the settings fix them).
+struct LayerSlot {
+    std::shared_ptr<const LightingVolume> light;
+    std::shared_ptr<const ModulationTexture> modulation;
     Texture lightTexture, modulationTexture;
-    Texture columnTexture;             // the light's column knots (2D)
-    Texture sunTable, skyTable;        // the frame's light tables (layer_light.hpp), refreshed every frame
+    Texture columnTexture;       // the light's column knots (2D)
+    Texture sunTable, skyTable;  // the frame's light tables (layer_light.hpp), refreshed every frame
+    bool ready() const { return light && modulation; }
 };
 
 // An RGBA 2D texture, linear, repeating or clamped.
@@ -51,12 +53,14 @@ glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
 struct LayeredRenderer::Impl {
     Program program, programGlow;  // the layer shader without and with city glow (CITY_GLOW)
     IndexedMesh annulus, quad;
-    std::vector<LayerResources> layers;
-    Medium medium;  // the medium the lighting volumes were made for
+    std::shared_ptr<LayerAssets> assets;  // lighting volumes and modulation textures
+    std::vector<LayerSlot> layers;        // by scene layer
     ShadowPass shadows;
-    ReducedTarget reduced;  // LayeredSettings::downsample > 1
-    FrameDepth depth;       // a copy of the host frame's depth, for the shadows and the upsampling
+    ReducedTarget reduced;               // LayeredSettings::downsample > 1
+    PerViewCache<FrameDepth> depths;     // copies of the host frame's depth, for the shadows and the upsampling
     Program floor;  // the bench's floor (renderFloor)
+
+    void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s, LayeredStats& stats);
 };
 
 namespace {
@@ -103,23 +107,6 @@ void drawLayerGeometry(const P& p, const IndexedMesh& annulus, const IndexedMesh
     stats.instances += slices * pieces;
 }
 
-// The directional lights: the sun and the skylight (none: irradiance 0), each with the side of
-// the column it shines from and its elevation's sine (at least 0.01: the slant of tauSun).
-template <class P>
-void setLightUniforms(const P& p, const Scene& scene) {
-    auto light = [&](const char* direction, const char* fromAbove, const char* mu, const Vec3& l) {
-        p.set(direction, glm::vec3(l));
-        p.set(fromAbove, l.z >= 0 ? 1.0f : 0.0f);
-        p.set(mu, float(std::max(std::abs(l.z), 0.01)));
-    };
-    light("sunDirection", "sunFromAbove", "sunMu", scene.sun.direction);
-    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    const glm::dvec2 h(scene.sun.direction.x, scene.sun.direction.y);
-    p.set("sunHorizontal", glm::length(h) > 1e-9 ? glm::vec3(glm::normalize(h), 0.0f) : glm::vec3(1, 0, 0));
-    light("skyDirection", "skyFromAbove", "skyMu", scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
-    p.set("skyIrradiance", scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
-}
-
 // An annulus of radius 1 around the origin: rings at r = (j / rings)^2, so that the triangles
 // are small near the eye, where perspective makes them large on screen.
 IndexedMesh makeAnnulus(int segments) {
@@ -143,115 +130,32 @@ IndexedMesh makeAnnulus(int segments) {
         }
     return makeIndexedMesh(v, idx, 1);
 }
-}  // namespace
 
-LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
-    validate(settings_);
-    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}});
-    // llvmpipe runs both sides of a branch, so the city map's fetch is compiled in only where a
-    // layer glows (10% of the frame time without it on llvmpipe).
-    impl_->programGlow = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}},
-                                        "#define CITY_GLOW 1\n");
-    impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
-    std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
-    impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);
-    impl_->floor = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_floor.frag"}});
+// The directional lights: the sun and the skylight (none: irradiance 0), each with the side of
+// the column it shines from and its elevation's sine (at least 0.01: the slant of tauSun).
+void setLightUniforms(const ProgramPair& p, const Scene& scene) {
+    auto light = [&](const char* direction, const char* fromAbove, const char* mu, const Vec3& l) {
+        p.set(direction, glm::vec3(l));
+        p.set(fromAbove, l.z >= 0 ? 1.0f : 0.0f);
+        p.set(mu, float(std::max(std::abs(l.z), 0.01)));
+    };
+    light("sunDirection", "sunFromAbove", "sunMu", scene.sun.direction);
+    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+    const glm::dvec2 h(scene.sun.direction.x, scene.sun.direction.y);
+    p.set("sunHorizontal", glm::length(h) > 1e-9 ? glm::vec3(glm::normalize(h), 0.0f) : glm::vec3(1, 0, 0));
+    light("skyDirection", "skyFromAbove", "skyMu", scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
+    p.set("skyIrradiance", scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
 }
 
-LayeredRenderer::~LayeredRenderer() = default;
-
-const LightingVolume* LayeredRenderer::lighting(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].light : nullptr;
-}
-const ModulationTexture* LayeredRenderer::modulation(int index) const {
-    return index >= 0 && index < int(impl_->layers.size()) && impl_->layers[index].valid ? &impl_->layers[index].modulation
-                                                                                         : nullptr;
+// Billboards face the horizontal view direction (the camera's up when looking straight up or down).
+glm::vec2 billboardAxis(const View& view) {
+    glm::dvec2 axis(view.forward.x, view.forward.y);
+    if (glm::length(axis) < 1e-3) axis = glm::dvec2(view.up.x, view.up.y) * (view.forward.z > 0 ? -1.0 : 1.0);
+    return glm::vec2(glm::length(axis) > 0 ? glm::normalize(axis) : glm::dvec2(0, 1));
 }
 
-
-LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
-    LayeredStats stats;
-    stats.sceneLayers = int(scene.layers.size());
-    if (scene.layers.empty()) return stats;
-    Impl& m = *impl_;
-    const LayeredSettings& s = settings_;
-
-    GlStateGuard guard;
-    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    // ---- Per layer resources, rebuilt only when what they depend on changes.
-    m.layers.resize(scene.layers.size());
-    for (std::size_t i = 0; i < scene.layers.size(); ++i) {
-        const Layer& layer = scene.layers[i];
-        LayerResources& r = m.layers[i];
-        const LightingParameters key = lightingParameters(scene.medium, layer);
-        if (!r.valid || !(r.lightKey == key)) {
-            r.light = lightingCached(s.lighting, key, s.cacheDir);
-            stats.precomputeMs += r.light.precomputeMs;
-            const LightingSettings& ls = s.lighting;
-            r.lightTexture = Texture::create(GL_TEXTURE_3D);
-            glTextureStorage3D(r.lightTexture.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width,
-                               ls.height, ls.depth);
-            glTextureSubImage3D(r.lightTexture.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE,
-                                r.light.texels.data());
-            glGenerateTextureMipmap(r.lightTexture.id());
-            // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
-            r.columnTexture = makeTexture2D(GL_RGBA8, ls.width, ls.height, mipLevels(std::max(ls.width, ls.height)), true);
-            glTextureSubImage2D(r.columnTexture.id(), 0, 0, 0, ls.width, ls.height, GL_RGBA, GL_UNSIGNED_BYTE,
-                                r.light.columns.data());
-            glGenerateTextureMipmap(r.columnTexture.id());
-            const int bins = r.light.tables.bins;
-            r.sunTable = makeTexture2D(GL_RGBA32F, bins, bins, 1, false);
-            r.skyTable = makeTexture2D(GL_RGBA32F, bins, bins, 1, false);
-            r.lightKey = key;
-        }
-        if (!r.valid || r.seed != layer.seed) {
-            r.modulation = makeModulation(s.modulation, layer.seed);
-            const int n = r.modulation.size;
-            r.modulationTexture = Texture::create(GL_TEXTURE_2D);
-            glTextureStorage2D(r.modulationTexture.id(), mipLevels(n), GL_RG32F, n, n);
-            glTextureSubImage2D(r.modulationTexture.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, r.modulation.texels.data());
-            glGenerateTextureMipmap(r.modulationTexture.id());
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-            r.seed = layer.seed;
-        }
-        r.valid = true;
-        // The light tables of this frame's sun and sky (cheap: bins x bins nodes).
-        const LayerFrameTables frame = layerFrameTables(r.light.tables, scene);
-        glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, frame.bins, frame.bins, GL_RGBA, GL_FLOAT, frame.sun.data());
-        glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, frame.bins, frame.bins, GL_RGBA, GL_FLOAT, frame.sky.data());
-    }
-    check("uploading the layered sky's textures");
-
-    // ---- A copy of the frame's depth (0 without one), for the shadows and the upsampling.
-    GLuint frameDepth = 0;
-    if (s.shadows || s.downsample > 1) {
-        GLint depthBits = 0;
-        glGetNamedFramebufferAttachmentParameteriv(framebuffer, framebuffer == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT,
-                                                   GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &depthBits);
-        if (depthBits > 0) frameDepth = m.depth.copy(framebuffer, view.camera.width, view.camera.height);
-    }
-    // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them:
-    // fused into the upsampling at reduced resolution, else a pass of their own.
-    const std::vector<int> shadowing = s.shadows ? ShadowPass::shadowingLayers(scene) : std::vector<int>{};
-    const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;
-    std::vector<GLuint> modulationTextures;
-    for (const LayerResources& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
-    stats.shadowLayers = int(shadowing.size());
-    if (!fuseShadows)
-        stats.shadowDrawCalls = m.shadows.draw(scene, view, framebuffer, frameDepth, t, shadowing, modulationTextures,
-                                               s.modulation, s.groundHeight);
-
-    // ---- Shared uniforms.
-    const ProgramPair p{m.program, m.programGlow};
+// The uniforms every layer of the frame shares.
+void setFrameUniforms(const ProgramPair& p, const Scene& scene, const View& view, const LayeredSettings& s, double t) {
     glm::dmat4 rotation = view.viewMatrix;
     rotation[3] = glm::dvec4(0, 0, 0, 1);
     p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
@@ -276,42 +180,28 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
             p.set(name.c_str(), glm::vec4(glm::vec3(l.position - view.eye), float(l.intensity)));
         }
     p.set("flashCount", flashes);
-    // Billboards face the horizontal view direction (the camera's up when looking straight up or down).
-    glm::dvec2 axis(view.forward.x, view.forward.y);
-    if (glm::length(axis) < 1e-3) axis = glm::dvec2(view.up.x, view.up.y) * (view.forward.z > 0 ? -1.0 : 1.0);
-    axis = glm::length(axis) > 0 ? glm::normalize(axis) : glm::dvec2(0, 1);
-    p.set("sliceAxis", glm::vec2(axis));
+    p.set("sliceAxis", billboardAxis(view));
+}
 
-    const int width = view.camera.width, height = view.camera.height;
-    if (s.downsample > 1) {  // into the reduced target (bound, viewport set), upsampled at the end
-        m.reduced.begin(frameDepth, width, height, s.downsample);
-    } else {
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-        glViewport(0, 0, width, height);
-    }
-    resetPassState();
-    glEnable(GL_DEPTH_TEST);  // behind the opaque objects already in the frame
-    glDepthFunc(GL_LESS);
-    glEnable(GL_BLEND);
-    glBlendEquation(GL_FUNC_ADD);
-    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    for (GLuint unit = 0; unit <= 4; ++unit) glBindSampler(unit, 0);
-
-    // Scene layers far to near (by the distance of their band from the eye's height).
-    std::vector<int> order(scene.layers.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+// The scene's layers far to near (by the distance of their band from the eye's height), those
+// whose textures are ready, each with its own uniforms.
+void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const IndexedMesh& annulus,
+                const IndexedMesh& quad, const Scene& scene, const View& view, const LayeredSettings& s, double t,
+                LayeredStats& stats) {
+    std::vector<int> order;
+    for (std::size_t i = 0; i < scene.layers.size(); ++i)
+        if (slots[i].ready()) order.push_back(int(i));
     auto bandDistance = [&](int i) {
         const Layer& l = scene.layers[i];
         return std::max({l.base - view.eye.z, view.eye.z - (l.base + l.thickness), 0.0});
     };
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return bandDistance(a) > bandDistance(b); });
-
     const int n = s.layers;
     for (int li : order) {
         const Layer& layer = scene.layers[li];
-        const LayerResources& r = m.layers[li];
+        const LayerSlot& r = slots[li];
         const double lp = s.lighting.tilePeriod, mp = s.modulation.period;
-        const glm::dvec2 eye(view.eye.x, view.eye.y), drift = t * layer.wind;
+        const glm::dvec2 eye(view.eye.x, view.eye.y), drift = layerDrift(layer, t);
         p.set("uvLightEye", fract2((eye - drift) / lp));
         p.set("uvModEye", fract2((eye - drift) / mp));
         p.set("uvCityEye", fract2(eye / mp));
@@ -339,18 +229,165 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
         glBindTextureUnit(2, r.columnTexture.id());
         glBindTextureUnit(3, r.sunTable.id());
         glBindTextureUnit(4, r.skyTable.id());
-        glUseProgram(layer.cityGlow ? m.programGlow.id() : m.program.id());
-
+        glUseProgram(layer.cityGlow ? p.b.id() : p.a.id());
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
         // it the two share the volume's optical depth and their order changes colour only.
-        drawLayerGeometry(p, m.annulus, m.quad, s, layer, n, stats);
+        drawLayerGeometry(p, annulus, quad, s, layer, n, stats);
         check("drawing the layered sky");
     }
+}
+}  // namespace
+
+LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
+    validate(settings_);
+    HostStateScope scope;  // the meshes' uploads and bindings
+    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}});
+    // llvmpipe runs both sides of a branch, so the city map's fetch is compiled in only where a
+    // layer glows (10% of the frame time without it on llvmpipe).
+    impl_->programGlow = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}},
+                                        "#define CITY_GLOW 1\n");
+    impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
+    std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
+    impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);
+    impl_->floor = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_floor.frag"}});
+    impl_->assets = std::make_shared<LayerAssets>(settings_);
+}
+
+LayeredRenderer::~LayeredRenderer() = default;
+
+void LayeredRenderer::prepare() {
+    HostStateScope scope;
+    impl_->reduced.prepare();
+    // llvmpipe builds its mipmap generation per texture kind at the first use: 150 ms for the
+    // lighting volume's (measured), then 6 ms per refill. Build both kinds now.
+    for (const auto& [target, format] : {std::pair{GL_TEXTURE_3D, GL_RGBA8}, std::pair{GL_TEXTURE_2D, GL_RG32F}}) {
+        Texture t = Texture::create(target);
+        if (target == GL_TEXTURE_3D) glTextureStorage3D(t.id(), 2, format, 2, 2, 2);
+        else glTextureStorage2D(t.id(), 2, format, 2, 2);
+        glGenerateTextureMipmap(t.id());
+    }
+    check("preparing the layered sky");
+}
+
+void LayeredRenderer::shareAssets(std::shared_ptr<LayerAssets> assets) { impl_->assets = std::move(assets); }
+
+const LightingVolume* LayeredRenderer::lighting(int index) const {
+    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].light.get() : nullptr;
+}
+const ModulationTexture* LayeredRenderer::modulation(int index) const {
+    return index >= 0 && index < int(impl_->layers.size()) ? impl_->layers[index].modulation.get() : nullptr;
+}
+
+// The slot's textures for the layer: refilled when LayerAssets has newer data for it (at once, or
+// when its background job is done: until then the slot keeps what it had).
+void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const Layer& layer, const LayeredSettings& s,
+                                       LayeredStats& stats) {
+    std::shared_ptr<const LightingVolume> light = assets->lighting(lightingParameters(scene.medium, layer));
+    if (!light) stats.pendingLayers += 1;  // its job runs: drawn with the volume it had, if any
+    if (light && light != r.light) {
+        const LightingSettings& ls = s.lighting;
+        if (!r.lightTexture) {
+            r.lightTexture = Texture::create(GL_TEXTURE_3D);
+            glTextureStorage3D(r.lightTexture.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width,
+                               ls.height, ls.depth);
+            // One mip level per fetch (8 texels, not 16): llvmpipe pays per texel.
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+            glTextureParameteri(r.lightTexture.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+            r.columnTexture = makeTexture2D(GL_RGBA8, ls.width, ls.height, mipLevels(std::max(ls.width, ls.height)), true);
+            r.sunTable = makeTexture2D(GL_RGBA32F, ls.tableBins, ls.tableBins, 1, false);
+            r.skyTable = makeTexture2D(GL_RGBA32F, ls.tableBins, ls.tableBins, 1, false);
+        }
+        glTextureSubImage3D(r.lightTexture.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE,
+                            light->texels.data());
+        glGenerateTextureMipmap(r.lightTexture.id());
+        glTextureSubImage2D(r.columnTexture.id(), 0, 0, 0, ls.width, ls.height, GL_RGBA, GL_UNSIGNED_BYTE, light->columns.data());
+        glGenerateTextureMipmap(r.columnTexture.id());
+        r.light = std::move(light);
+        ++stats.uploads;
+    }
+    std::shared_ptr<const ModulationTexture> modulation = assets->modulation(layer.seed);
+    if (modulation && modulation != r.modulation) {
+        const int n = modulation->size;
+        if (!r.modulationTexture) {
+            r.modulationTexture = Texture::create(GL_TEXTURE_2D);
+            glTextureStorage2D(r.modulationTexture.id(), mipLevels(n), GL_RG32F, n, n);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+            glTextureParameteri(r.modulationTexture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+        }
+        glTextureSubImage2D(r.modulationTexture.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, modulation->texels.data());
+        glGenerateTextureMipmap(r.modulationTexture.id());
+        r.modulation = std::move(modulation);
+        ++stats.uploads;
+    }
+    if (r.light) {  // the light tables of this frame's sun and sky (cheap: bins x bins nodes)
+        const LayerFrameTables tables = layerFrameTables(r.light->tables, scene);
+        glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sun.data());
+        glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sky.data());
+    }
+}
+
+LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
+    return render(scene, view, HostFrame{framebuffer}, t);
+}
+
+LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const HostFrame& frame, double t) {
+    LayeredStats stats;
+    stats.sceneLayers = int(scene.layers.size());
+    if (scene.layers.empty()) return stats;
+    Impl& m = *impl_;
+    const LayeredSettings& s = settings_;
+
+    HostStateScope scope;
+    // ---- Per layer resources, refilled only when what they depend on changes.
+    m.layers.resize(scene.layers.size());
+    for (std::size_t i = 0; i < scene.layers.size(); ++i) m.updateSlot(m.layers[i], scene, scene.layers[i], s, stats);
+    stats.precomputeMs = m.assets->takeComputeMs();
+    check("uploading the layered sky's textures");
+
+    // ---- The frame's depth (none without one), for the shadows and the upsampling.
+    const DepthSource frameDepth = s.shadows || s.downsample > 1
+                                       ? m.depths.get({view.camera.width, view.camera.height}).source(frame, view)
+                                       : DepthSource{};
+    // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them:
+    // fused into the upsampling at reduced resolution, else a pass of their own.
+    std::vector<int> shadowing;
+    if (s.shadows)
+        for (int li : ShadowPass::shadowingLayers(scene))
+            if (m.layers[li].ready()) shadowing.push_back(li);
+    const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;
+    std::vector<GLuint> modulationTextures;
+    for (const LayerSlot& r : m.layers) modulationTextures.push_back(r.modulationTexture.id());
+    stats.shadowLayers = int(shadowing.size());
+    if (!fuseShadows)
+        stats.shadowDrawCalls = m.shadows.draw(scene, view, frame, frameDepth, t, shadowing, modulationTextures,
+                                               s.modulation, s.groundHeight);
+
+    const ProgramPair p{m.program, m.programGlow};
+    setFrameUniforms(p, scene, view, s, t);
+    if (s.downsample > 1) {  // into the reduced target (bound, viewport set), upsampled at the end
+        m.reduced.begin(frameDepth, view, s.downsample);
+    } else {
+        bindFrame(frame, view);
+    }
+    resetPassState();
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    if (s.downsample == 1 && frame.srgb) glEnable(GL_FRAMEBUFFER_SRGB);
+    frameDepthTest(view);  // behind the opaque objects already in the frame
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    for (GLuint unit = 0; unit <= 4; ++unit) glBindSampler(unit, 0);
+    drawLayers(p, m.layers, m.annulus, m.quad, scene, view, s, t, stats);
     if (s.downsample > 1) {
         const int fused = fuseShadows ? int(shadowing.size()) : 0;
         ShadowPass::setUniforms(m.reduced.program(fused), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
                                 modulationTextures, s.modulation, s.groundHeight);
-        m.reduced.composite(framebuffer, frameDepth, view, fused);
+        m.reduced.composite(frame, frameDepth, view, fused);
         ++stats.upsampleDrawCalls;
     }
     return stats;
@@ -362,7 +399,7 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
     Impl& m = *impl_;
     if (m.layers.size() != scene.layers.size()) throw std::logic_error("LayeredRenderer::renderFloor: call render() first");
     const LayeredSettings& s = settings_;
-    GlStateGuard guard;
+    HostStateScope scope;
     const Program& p = m.floor;
     glm::dmat4 rotation = view.viewMatrix;
     rotation[3] = glm::dvec4(0, 0, 0, 1);
@@ -372,15 +409,9 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
     p.set("lod0Spacing", float(s.lod0Spacing));
     p.set("modulation", 1);
     p.set("invModPeriod", float(1 / s.modulation.period));
-    glm::dvec2 axis(view.forward.x, view.forward.y);
-    if (glm::length(axis) < 1e-3) axis = glm::dvec2(view.up.x, view.up.y) * (view.forward.z > 0 ? -1.0 : 1.0);
-    axis = glm::length(axis) > 0 ? glm::normalize(axis) : glm::dvec2(0, 1);
-    p.set("sliceAxis", glm::vec2(axis));
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, view.camera.width, view.camera.height);
-    resetPassState();
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
+    p.set("sliceAxis", billboardAxis(view));
+    bindFrame(HostFrame{framebuffer}, view);
+    frameDepthTest(view);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
@@ -389,7 +420,7 @@ LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, 
     const int n = s.layers;
     for (std::size_t li = 0; li < scene.layers.size(); ++li) {
         const Layer& layer = scene.layers[li];
-        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - t * layer.wind) / s.modulation.period;
+        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - layerDrift(layer, t)) / s.modulation.period;
         p.set("uvModEye", glm::vec2(uv - glm::floor(uv)));
         p.set("base", float(layer.base));
         p.set("thickness", float(layer.thickness));

@@ -27,10 +27,9 @@ int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& vi
                             double groundHeight) {
     const int count = std::clamp(int(layers.size()) - first, 0, kLayersPerPass);
     p.set("shadowLayerCount", count);
-    p.set("shadowForward", glm::vec3(view.forward));
-    p.set("shadowRightScaled", glm::vec3(view.right * view.tanHalfX));
-    p.set("shadowUpScaled", glm::vec3(view.up * view.tanHalfY));
-    p.set("shadowNear", float(view.camera.nearClip));
+    p.set("shadowRayCentre", glm::vec3(view.rayCentre()));
+    p.set("shadowRightScaled", glm::vec3(view.rightScaled()));
+    p.set("shadowUpScaled", glm::vec3(view.upScaled()));
     p.set("shadowFar", float(view.camera.farClip));
     p.set("shadowEyeHeight", float(view.eye.z));
     p.set("groundHeight", float(groundHeight));
@@ -46,7 +45,7 @@ int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& vi
         if (k >= count) continue;
         const int li = layers[first + k];
         const Layer& layer = scene.layers[li];
-        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - t * layer.wind) / ms.period;
+        const glm::dvec2 uv = (glm::dvec2(view.eye.x, view.eye.y) - layerDrift(layer, t)) / ms.period;
         p.set(("shadowUvModEye" + i).c_str(), glm::vec2(uv - glm::floor(uv)));
         p.set(("shadowMiddle" + i).c_str(), float(layer.base + 0.5 * layer.thickness));
         p.set(("shadowCoverage" + i).c_str(), float(layer.coverage));
@@ -56,18 +55,18 @@ int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& vi
     return count;
 }
 
-int ShadowPass::draw(const Scene& scene, const View& view, GLuint framebuffer, GLuint frameDepth, double t,
+int ShadowPass::draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth, double t,
                      const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
                      const ModulationSettings& ms, double groundHeight) {
     if (layers.empty()) return 0;
     const Program& p = program_;
-    p.set("hasDepth", frameDepth != 0 ? 1 : 0);
+    p.set("hasDepth", frameDepth.texture != 0 ? 1 : 0);
     p.set("frameDepth", 0);
-    if (frameDepth != 0) glBindTextureUnit(0, frameDepth);
+    setViewFrameUniforms(p, view, true, frameDepth);
+    glBindTextureUnit(0, frameDepth.texture);
     glBindSampler(0, 0);
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, view.camera.width, view.camera.height);
     resetPassState();
+    bindFrame(frame, view);
     glDisable(GL_DEPTH_TEST);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/frame_depth.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
 
@@ -30,11 +31,11 @@ public:
     static int setUniforms(const Program& program, const Scene& scene, const View& view, double timeSeconds,
                            const std::vector<int>& layers, int first, const std::vector<GLuint>& modulationTextures,
                            const ModulationSettings& modulation, double groundHeight);
-    // Multiplies the rgb of `framebuffer` (alpha untouched) by the shadows of `layers`.
-    // frameDepth: a copy of the frame's depth (FrameDepth), 0 when the frame has none. Expects
-    // the caller to hold a GlStateGuard; changes blend, depth, program, vertex array, texture
-    // units 0 and kFirstUnit... Returns the draw calls issued.
-    int draw(const Scene& scene, const View& view, GLuint framebuffer, GLuint frameDepth, double timeSeconds,
+    // Multiplies the rgb of the frame's viewport (alpha untouched) by the shadows of `layers`.
+    // frameDepth: the frame's depth (FrameDepth::source), texture 0 when the frame has none.
+    // Expects the caller to hold a HostStateScope; changes blend, depth, program, vertex array,
+    // texture units 0 and kFirstUnit... Returns the draw calls issued.
+    int draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth, double timeSeconds,
              const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
              const ModulationSettings& modulation, double groundHeight);
 

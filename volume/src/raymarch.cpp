@@ -103,10 +103,12 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const Medium& medium = scene.medium;
     const double kappa = std::max(medium.noise, 0.0);
 
+    HostStateScope scope;  // before the uploads
     if (kappa > 0) m.ensureNoise(s);
     // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
     const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light, &stats.lightGridsComputed);
-    m.lightTextures.update(light, view.eye);
+    m.lightTextures.update(light);
+    m.lightTextures.setBoxes(light, view.eye);
 
     // ---- This frame's data, camera-relative (float precision stays at the eye).
     std::vector<GpuEllipsoid> ells;
@@ -135,17 +137,20 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     uploadDynamic(m.ellipsoids, m.ellipsoidCapacity, ells.data(), ells.size() * sizeof(GpuEllipsoid));
     uploadDynamic(m.clouds, m.cloudCapacity, clouds.data(), clouds.size() * sizeof(GpuCloud));
 
-    const int width = view.camera.width, height = view.camera.height;
-    GlStateGuard guard;
-    if (opaqueDepth) m.depth.copy(framebuffer, width, height);
+    HostFrame frame;
+    frame.framebuffer = framebuffer;
+    frame.hasDepth = opaqueDepth;
+    const DepthSource depth = m.depth.source(frame, view);
 
     const Program& p = m.march;
     p.set("forward", glm::vec3(view.forward));
-    p.set("rightScaled", glm::vec3(view.right * view.tanHalfX));
-    p.set("upScaled", glm::vec3(view.up * view.tanHalfY));
+    p.set("rayCentre", glm::vec3(view.rayCentre()));
+    p.set("rightScaled", glm::vec3(view.rightScaled()));
+    p.set("upScaled", glm::vec3(view.upScaled()));
+    setViewFrameUniforms(p, view, true, depth);
     p.set("nearClip", float(view.camera.nearClip));
     p.set("farClip", float(view.camera.farClip));
-    p.set("useDepth", opaqueDepth ? 1 : 0);
+    p.set("useDepth", depth.texture != 0 ? 1 : 0);
     p.set("sceneDepth", 2);
     p.set("cloudCount", int(clouds.size()));
     p.set("stepBase", float(s.step));
@@ -165,13 +170,11 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.ellipsoids.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.clouds.id());
     glBindTextureUnit(0, kappa > 0 ? m.noise.id() : 0);
-    glBindTextureUnit(2, opaqueDepth ? m.depth.texture() : 0);
+    glBindTextureUnit(2, depth.texture);
     glBindSampler(0, 0);
     glBindSampler(2, 0);
 
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, width, height);
-    resetPassState();
+    bindFrame(frame, view);
     glDisable(GL_DEPTH_TEST);
     // The shader writes premultiplied (radiance, 1 - T): colour' = radiance + T colour,
     // alpha' = (1 - T) + T alpha.

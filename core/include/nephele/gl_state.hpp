@@ -3,14 +3,16 @@
 //
 // What is covered: framebuffer bindings and draw/read buffers of the default framebuffer
 // binding, viewport, scissor, enables (blend, depth, stencil, cull, scissor, polygon
-// offset, sRGB, multisample, primitive restart, rasterizer discard, program point size,
-// depth clamp, dither), blend equations/functions/colour, colour/depth/stencil write masks,
-// depth function and range, stencil functions and operations (front and back), clear
-// values, cull face, front face, polygon mode, polygon offset, program, vertex array,
-// array/element/uniform/pixel buffers, active texture unit and the 2D/3D/2D-array/
-// rectangle/buffer textures and samplers of units 0..15, pixel store alignment, clip
-// distances 0..7, shader storage buffer bindings 0..7. Blend enables and functions are
-// restored for all draw buffers alike (from draw buffer 0's state).
+// offset fill/line/point, sRGB, multisample, sample alpha-to-coverage/alpha-to-one/coverage/
+// mask, colour logic op, primitive restart, rasterizer discard, program point size, depth
+// clamp, dither), blend equations/functions/colour, colour/depth/stencil write masks, depth
+// function and range, clip control (origin, depth mode), stencil functions and operations
+// (front and back), clear values, cull face, front face, polygon mode, polygon offset,
+// program, vertex array, array/element/uniform/pixel buffers, active texture unit and the
+// 2D/3D/2D-array/rectangle/buffer textures and samplers of units 0..15, the pixel store
+// (pack and unpack: alignment, row length, image height, skips, byte order), clip distances
+// 0..7, shader storage buffer bindings 0..7. Blend enables and functions are restored for
+// all draw buffers alike (from draw buffer 0's state).
 #pragma once
 
 #include "nephele/gl.hpp"
@@ -27,15 +29,16 @@ struct GlStateSnapshot {
     GLint drawFramebuffer, readFramebuffer, renderbuffer;
     GLint viewport[4];
     GLint scissorBox[4];
-    GLboolean blend, depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill,
-        framebufferSrgb, multisample, primitiveRestart, rasterizerDiscard, programPointSize,
-        depthClamp, dither;
+    GLboolean blend, depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill, polygonOffsetLine,
+        polygonOffsetPoint, framebufferSrgb, multisample, sampleAlphaToCoverage, sampleAlphaToOne, sampleCoverage,
+        sampleMask, colorLogicOp, primitiveRestart, rasterizerDiscard, programPointSize, depthClamp, dither;
     GLint blendEquationRgb, blendEquationAlpha, blendSrcRgb, blendDstRgb, blendSrcAlpha, blendDstAlpha;
     GLfloat blendColor[4];
     GLboolean colorMask[4];
     GLboolean depthMask;
     GLint depthFunc;
     GLdouble depthRange[2];
+    GLint clipOrigin, clipDepthMode;
     Stencil front, back;
     GLfloat clearColor[4];
     GLdouble clearDepth;
@@ -47,7 +50,8 @@ struct GlStateSnapshot {
     GLint activeTexture;
     std::array<std::array<GLint, 5>, kUnits> textures;  // 2D, 3D, 2D array, rectangle, buffer
     std::array<GLint, kUnits> samplers;
-    GLint packAlignment, unpackAlignment;
+    struct PixelStore { GLint alignment, rowLength, imageHeight, skipPixels, skipRows, skipImages, swapBytes, lsbFirst; };
+    PixelStore pack, unpack;
     std::array<GLboolean, 8> clipDistance;
     GLint shaderStorageBuffer;
     struct Range { GLint buffer; GLint64 start, size; };
@@ -61,9 +65,15 @@ struct GlStateSnapshot {
 
 // The fixed-function state a Nephele pass starts from, whatever the host left (call it inside
 // a GlStateGuard): no scissor, stencil, face culling, sRGB conversion, rasterizer discard,
-// polygon offset or clip distances; filled polygons; every colour channel written; no depth
-// writes. The depth test and blending are each pass's own to set.
+// polygon offset, depth clamp, clip distances, logic op or sample coverage/alpha-to-coverage/
+// mask; OpenGL's clip control (lower left, depth [-1, 1]) and depth range [0, 1]; filled
+// polygons; every colour channel written; no depth writes. The depth test and blending are
+// each pass's own to set.
 void resetPassState();
+// The pixel store for tightly packed client memory, pack and unpack (alignment 4; no row
+// length, image height, skips or byte swapping), and no pixel pack/unpack buffer bound, so
+// that uploads and read-backs do not see the host's settings (call it inside a GlStateGuard).
+void resetPixelStore();
 
 // Captures on construction, restores on destruction (also when an exception unwinds).
 class GlStateGuard {
@@ -75,6 +85,19 @@ public:
 
 private:
     GlStateSnapshot saved_;
+};
+
+// How the library enters a host's frame: saves the GL state, then resets the pass state and
+// the pixel store (resetPassState, resetPixelStore); restores the host's state on destruction.
+class HostStateScope {
+public:
+    HostStateScope() {
+        resetPassState();
+        resetPixelStore();
+    }
+
+private:
+    GlStateGuard guard_;
 };
 
 }  // namespace nephele

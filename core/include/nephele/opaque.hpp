@@ -37,9 +37,9 @@ private:
 class OpaquePass {
 public:
     OpaquePass();  // builds shaders and meshes in the current context
-    // Clears colour (alpha 0), depth and stencil of `framebuffer`, draws the sky and the
-    // objects into its (0, 0, view.camera.width, view.camera.height) region. Leaves the
-    // GL state as it found it.
+    // Clears colour (alpha 0), depth and stencil of the view's viewport in `framebuffer` (at
+    // view.origin, view.camera.width x height), draws the sky and the objects into it, in the
+    // view's depth convention. Leaves the GL state as it found it.
     void draw(const Scene& scene, const View& view, GLuint framebuffer) const;
 
 private:

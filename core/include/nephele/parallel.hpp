@@ -12,9 +12,24 @@
 
 namespace nephele {
 
+// The calling thread's bound on parallelFor's workers (0: all cores). Background jobs set 1
+// (ParallelLimit) so that they never take more than one core from the frame.
+inline thread_local int tParallelLimit = 0;
+class ParallelLimit {
+public:
+    explicit ParallelLimit(int workers) : previous_(tParallelLimit) { tParallelLimit = workers; }
+    ~ParallelLimit() { tParallelLimit = previous_; }
+    ParallelLimit(const ParallelLimit&) = delete;
+    ParallelLimit& operator=(const ParallelLimit&) = delete;
+
+private:
+    int previous_;
+};
+
 template <class F>
 void parallelFor(int n, F&& f) {
-    const int workers = std::max(1, std::min<int>(n, int(std::thread::hardware_concurrency())));
+    const int cores = tParallelLimit > 0 ? tParallelLimit : int(std::thread::hardware_concurrency());
+    const int workers = std::max(1, std::min<int>(n, cores));
     std::atomic<int> next{0};
     std::exception_ptr error;
     std::mutex errorMutex;

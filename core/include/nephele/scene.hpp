@@ -148,6 +148,10 @@ struct Layer {
     unsigned seed = 1;
     bool nearLod = true;
     std::optional<CityGlow> cityGlow;
+    // Set in code, never read from a scene file: the pattern's displacement at t = 0 (m), so that
+    // at time t it has moved by windOffset + t * wind (SkyRenderer::update keeps that continuous
+    // when the wind changes).
+    Vec2 windOffset{0.0};
 };
 
 struct Skylight {

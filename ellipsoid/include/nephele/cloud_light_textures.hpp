@@ -21,9 +21,11 @@ public:
     static constexpr GLuint kFirstUnit = 6;     // texture units of the three grids: 6, 7, 8
 
     // Makes the grids of `placed` (one per scene cloud, all of one size) resident, uploading
-    // only grids that are new, and writes the boxes relative to `eye`. Returns how many grids
-    // were uploaded. Throws GlError when the slots would exceed GL_MAX_3D_TEXTURE_SIZE.
-    int update(const std::vector<PlacedRadiance>& placed, const Vec3& eye);
+    // only grids that are new. Returns how many grids were uploaded. Throws GlError when the
+    // slots would exceed GL_MAX_3D_TEXTURE_SIZE.
+    int update(const std::vector<PlacedRadiance>& placed);
+    // Writes the boxes of `placed` (as given to update()) relative to `eye`: once per view.
+    void setBoxes(const std::vector<PlacedRadiance>& placed, const Vec3& eye);
     // Binds the buffer and the textures (with a linear, clamp-to-edge sampler) and sets the
     // sampling uniforms of `program` (which includes cloud_light_grid.glsl).
     void bind(const Program& program) const;

@@ -24,6 +24,7 @@
 
 #include "nephele/scene.hpp"
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -50,8 +51,10 @@ struct CloudRadiance {
 void validate(const RadianceGridSettings& settings);
 
 // The grid of `cloud` for the scene's sun, sky and medium. Deterministic for a seed, whatever
-// the thread count. An empty cloud gives a 1 m box with no light.
-CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {});
+// the thread count. An empty cloud gives a 1 m box with no light. With `cancel`, the work
+// stops soon after *cancel becomes true and the grid returned is incomplete (size 0).
+CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {},
+                                   const std::atomic<bool>* cancel = nullptr);
 
 // The three texels at a world point, trilinear between voxel centres and clamped to the
 // outermost ones, as the GPU's GL_LINEAR, clamp-to-edge 3D textures read them.

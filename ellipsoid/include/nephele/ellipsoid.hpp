@@ -21,6 +21,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/frame_depth.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/scene.hpp"
@@ -97,8 +98,10 @@ struct EllipsoidStats {
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
     std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
+    int lightVolumes = 0;       // clouds' radiance grids computed for this frame (new or changed clouds, a new sun or sky)
+    int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     // With EllipsoidSettings::timings, the wall time of each part (ms, gl::PartTimer); else 0.
-    double tilesMs = 0;      // projection, packing, light volumes and the tile passes
+    double tilesMs = 0;      // projection, packing, light grids and the tile passes
     double compositeMs = 0;  // the tiles composited over the frame (with the weighted resolve)
 };
 
@@ -125,6 +128,14 @@ public:
     // depth in its depth attachment when `opaqueDepth` is true). Blending accumulates the
     // cloud opacity into alpha ("over").
     EllipsoidStats render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth);
+    // The same into a host's frame: the view's viewport and depth convention, the frame's
+    // depth as the host gave it (or a copy), its sRGB encoding. frame.hasDepth is opaqueDepth.
+    EllipsoidStats render(const Scene& scene, const View& view, const HostFrame& frame);
+    // Brings the clouds' light volumes up to date for `scene` (what render() does first when the
+    // clouds, the medium or the sun changed), so that a later render() of it computes none:
+    // SkyRenderer::update() calls it once per frame, before the channels draw. Returns how many
+    // volumes it computed.
+    int updateLights(const Scene& scene);
 
     // The bench's floor for the same frame: the same tiles, passes and CPU work, but only
     // the unavoidable pixel work: each tile's pixels blended once per pass, and each tile's

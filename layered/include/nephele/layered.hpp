@@ -51,6 +51,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/frame_depth.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/scene.hpp"
 
@@ -188,6 +189,9 @@ struct LayeredSettings {
 // Throws std::invalid_argument naming the setting.
 void validate(const LayeredSettings& settings);
 
+// How far the wind has moved the layer's pattern at time t (m): windOffset + t * wind, eq. (18).
+inline Vec2 layerDrift(const Layer& layer, double t) { return layer.windOffset + t * layer.wind; }
+
 // The near-LOD hook. Weight in [0, 1] of the layer at horizontal distance `horizontal` (m)
 // from the eye: 0 within nearRadius, smoothstep across the blend band, 1 beyond (the shader
 // multiplies every fragment's optical depth by it).
@@ -231,8 +235,14 @@ struct LayeredStats {
     int shadowLayers = 0;    // layers casting cloud shadows this frame
     int shadowDrawCalls = 0; // full-screen cloud-shadow passes of their own (0 when fused into the upsampling)
     int upsampleDrawCalls = 0;  // full-screen passes that upsample the layers (1 with downsample > 1)
-    double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded)
+    double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded; in the background:
+                             // what the worker finished since the last call)
+    int pendingLayers = 0;   // layers whose lighting is being computed in the background (drawn with the
+                             // last volume they had meanwhile; not drawn when they had none)
+    int uploads = 0;         // textures refilled in this call (new lighting or modulation data)
 };
+
+class LayerAssets;  // internal (layered/src/layer_assets.hpp): the layers' lighting and modulation data
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class LayeredRenderer {
@@ -245,8 +255,16 @@ public:
 
     // Draws the scene's layers over `framebuffer` (colour attachment 0: rgb = radiance, a =
     // cloud opacity; with a depth buffer holding the opaque objects, which are depth-tested),
-    // premultiplied "over". timeSeconds drives wind and lightning.
+    // premultiplied "over", in the view's viewport and depth convention. timeSeconds drives wind
+    // (layerDrift) and lightning.
     LayeredStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
+    LayeredStats render(const Scene& scene, const View& view, const HostFrame& frame, double timeSeconds);
+    // Builds every shader variant now (the upsampling per shadowing-layer count) and the
+    // driver's mipmap generation for the layers' textures, so that no frame builds one.
+    void prepare();
+    // Takes its lighting volumes and modulation textures from `assets` (SkyRenderer's, shared
+    // with the near LOD and computed in the background) instead of its own (synchronous).
+    void shareAssets(std::shared_ptr<LayerAssets> assets);
     // The bench's floor (`nephele bench --layered`): the same annulus and billboard instances
     // (same vertex shader, depth test, blending) with a trivial fragment shader that fetches
     // the 2D modulation texture once and blends every fragment: the unavoidable pixel work of
@@ -254,7 +272,7 @@ public:
     LayeredStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
 
     // The lighting volume and modulation texture used for scene layer `index` at the last
-    // render (nullptr before).
+    // render (nullptr before, or while a background job makes the first).
     const LightingVolume* lighting(int index) const;
     const ModulationTexture* modulation(int index) const;
 

@@ -25,7 +25,11 @@
 // - Wind: a cloud is made once in pattern coordinates and drawn moved by t * wind, so it
 //   drifts with the layer's pattern.
 // - Cache: spawned cells are kept by (layer, i, j) while they stay within reach and
-//   dropped (retired) when they leave it; a cell is generated once while it stays near.
+//   dropped (retired) when they leave it; a cell is generated once while it stays near. When
+//   the layer changes (seed, base, coverage, density, or its lighting volume: the medium or the
+//   thickness), its cells are made again; given a budget (update's maxCells), at most that
+//   many cells are made per update, nearest first, and the others keep their old cloud until their turn
+//   (a cell that is new is drawn from its turn on: it enters at the reach, where its weight is 0).
 // - Weights: a cloud's Cloud::weight (the fraction of its optical depth the eye sees) is
 //   1 - nearFade(d), d the horizontal distance of its spawn point from the eye, while the
 //   layer's own optical depth is multiplied by nearFade of each fragment's distance: the sum
@@ -91,7 +95,10 @@ struct NearLodStats {
     int generated = 0;     // cells generated in this call (entered reach, or after a change of the layer)
     int retired = 0;       // cells dropped in this call (left reach)
     int fading = 0;        // clouds in the blend band (0 < weight < 1)
+    int pending = 0;       // cells due to be made (new, or of a changed layer) left for later updates
 };
+
+class LayerAssets;  // internal (layered/src/layer_assets.hpp): the layers' lighting and modulation data
 
 // The layer's own cell: same arguments, same cloud (pure; what NearLod caches). `light` is
 // the layer's lighting volume (its density A), as the layered sky uses it.
@@ -112,14 +119,25 @@ public:
     // The near clouds of the scene's near_lod layers for the eye at time t (world, wind
     // applied), weights set (Cloud::weight) and noise ids stable per cell; spawns the cells
     // that came within reach and retires those that left it. Clouds are ordered by (layer, i, j).
-    std::vector<Cloud> update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats = nullptr);
+    // maxCells > 0: at most that many cells are made in this call, nearest first (the rest
+    // next time: NearLodStats::pending); 0: all that are due.
+    std::vector<Cloud> update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats = nullptr,
+                              int maxCells = 0);
     // The cells cached now (after the last update), ordered by (layer, i, j).
     std::vector<const NearCell*> cells() const;
+    // Takes the layers' lighting volumes and modulation textures from `assets` (SkyRenderer's,
+    // shared with the layered sky and made in the background: a layer whose data is not ready
+    // keeps its cells as they are and makes none) instead of its own (made in the call).
+    void shareAssets(std::shared_ptr<LayerAssets> assets);
 
 private:
     struct LayerCache;
+    struct Job;
+    // The layer's cache after a change of the layer or its data; the cells it has to make.
+    void refreshLayer(const Scene& scene, int li, const Vec3& eye, double t, std::vector<Job>& jobs, NearLodStats& st);
     NearLodSettings settings_;
     LayeredSettings layered_;
+    std::shared_ptr<LayerAssets> assets_;
     std::vector<std::unique_ptr<LayerCache>> layers_;
 };
 

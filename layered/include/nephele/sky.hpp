@@ -3,12 +3,22 @@
 // faded across a blend band), then, in one compositor call, the scene's explicit ellipsoid
 // clouds and the near LOD's cumulus that stand in for the layer near the eye (faded by the
 // complement). A scene without layers is drawn exactly as EllipsoidRenderer draws it.
+//
+// The host API (see the README, "Embedding"): prepare(scene) once; per frame update(dt,
+// weather, eye) once, then draw(viewDesc) per display channel. All channels share the clouds,
+// their light volumes, the layers' lighting and the near LOD; nothing is reallocated from frame
+// to frame while the channels stay the same; weather changes never stall a frame (the layers'
+// lighting is computed on a worker thread while the last good one is drawn).
 #pragma once
 
 #include "nephele/ellipsoid.hpp"
+#include "nephele/host_view.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/near_lod.hpp"
+#include "nephele/per_view.hpp"
+#include "nephele/weather.hpp"
 
+#include <map>
 #include <memory>
 
 namespace nephele {
@@ -22,6 +32,10 @@ LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 // (see the README, "Composite order").
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base = {});
 
+// Near-LOD cells made per update() at most (nearest first): a change of a layer remakes its
+// cells over a few frames instead of in one (render() makes them all).
+inline constexpr int kCellsPerUpdate = 4;
+
 struct SkySettings {
     LayeredSettings layered = autoLayeredSettings();
     NearLodSettings nearLod;
@@ -31,11 +45,19 @@ struct SkySettings {
 
 struct SkyStats {
     LayeredStats layered;      // the far field (sceneLayers 0 when the scene has no layers)
-    NearLodStats nearLod;      // what the near LOD spawned
+    NearLodStats nearLod;      // what the near LOD spawned (render() only: update() reports it)
     EllipsoidStats ellipsoids; // the compositor, explicit and near clouds together (tilesMs, compositeMs)
     // With SkySettings::timings, the wall time of each part (ms); else 0.
     double farFieldMs = 0;     // the layered sky
     double nearLodMs = 0;      // the near LOD's update (spawning and retiring cells)
+};
+
+struct SkyUpdateStats {
+    NearLodStats nearLod;  // what the near LOD spawned and retired
+    int lightVolumes = 0;  // clouds' light volumes computed (new near clouds, a new sun)
+    double lightMs = 0;    // wall time of that (EllipsoidRenderer::updateLights), ms
+    int layers = 0;        // enabled layers
+    int backgroundJobs = 0;  // lighting and modulation jobs queued or running
 };
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
@@ -48,10 +70,37 @@ public:
     SkyRenderer& operator=(const SkyRenderer&) = delete;
     const SkySettings& settings() const { return settings_; }
 
-    // Draws every cloud of `scene` over `framebuffer` (as EllipsoidRenderer::render and
-    // LayeredRenderer::render: colour attachment 0 rgb = radiance, a = cloud opacity; the
-    // opaque objects' depth in its depth attachment when `opaqueDepth`). timeSeconds drives
-    // wind, lightning and the near LOD's drift.
+    // ---- The host API.
+    // Takes the scene (its explicit clouds, medium, sky, objects are not drawn; its sun and layers
+    // are the weather until the first update), compiles every shader (and draws the scene once
+    // off-screen, so that the driver builds its variants), and makes the lighting of its layers
+    // and its clouds' light volumes: the one call that waits. Time starts at 0.
+    void prepare(const Scene& scene);
+    // Once per frame, before the channels draw: advances the time by dtSeconds (>= 0: wind,
+    // lightning), takes the weather (sun, sky, cloud layers by CIGI layer id; a layer's drift is
+    // integrated, so a change of wind moves its pattern on from where it is), updates the near
+    // LOD around `eye` (the first update after prepare() makes all its cells; later ones at most
+    // kCellsPerUpdate, nearest first) and the clouds' light volumes, and queues what a changed
+    // layer needs on the worker thread (until it is done, the layer is drawn with the lighting it had).
+    // Throws std::logic_error before prepare(), std::invalid_argument for a bad dt or weather
+    // (Weather::validate).
+    SkyUpdateStats update(double dtSeconds, const Weather& weather, const Vec3& eye);
+    // Per display channel, after the host drew its terrain and aircraft into the frame: every
+    // cloud of the current weather over the channel's viewport (ViewDesc: the host's matrices,
+    // depth convention, viewport, depth, colour encoding). Throws std::invalid_argument for a
+    // bad ViewDesc (makeView), std::logic_error before prepare().
+    SkyStats draw(const ViewDesc& view);
+    double time() const { return time_; }
+    // Background jobs queued or running; waitForBackgroundWork() blocks until there are none
+    // (tests and benches; a host never needs to).
+    int backgroundJobs() const;
+    void waitForBackgroundWork();
+
+    // ---- One synchronous call for one view (the command line, tests): draws every cloud of
+    // `scene` over `framebuffer` (as EllipsoidRenderer::render and LayeredRenderer::render:
+    // colour attachment 0 rgb = radiance, a = cloud opacity; the opaque objects' depth in its
+    // depth attachment when `opaqueDepth`), computing what it needs in the call. timeSeconds
+    // drives wind, lightning and the near LOD's drift.
     SkyStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth);
 
     // For a host's debug views: the compositor (its last tiles and atlas), and the near LOD
@@ -60,10 +109,22 @@ public:
     const NearLod* nearLod() const { return nearLod_.get(); }
 
 private:
+    void makeLayered();
+    void warmUp(const Scene& scene);
     SkySettings settings_;
     EllipsoidRenderer clouds_;
-    std::unique_ptr<LayeredRenderer> layered_;  // made at the first scene with layers
+    std::shared_ptr<LayerAssets> assets_;
+    std::unique_ptr<LayeredRenderer> layered_;  // made by prepare(), or at render()'s first scene with layers
     std::unique_ptr<NearLod> nearLod_;
+    // The host API's state.
+    bool prepared_ = false;
+    Scene scene_;        // the prepared scene with the current weather's sun, sky and layers
+    Scene frame_;        // scene_ with the near LOD's clouds after its explicit ones (what the compositor draws)
+    std::size_t explicitClouds_ = 0;
+    double time_ = 0;
+    long long updates_ = 0;      // since prepare()
+    std::map<int, Vec2> drift_;  // by CIGI layer id: how far its wind has moved it (m)
+    PerViewCache<FrameDepth> depths_;
 };
 
 }  // namespace nephele

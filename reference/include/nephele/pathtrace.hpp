@@ -32,6 +32,7 @@
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -64,5 +65,11 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 // (temporary name, then rename); an unreadable or mismatching file is recomputed.
 Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
                              const NoiseVolume* noise, const std::string& cacheDir);
+
+namespace detail {
+// How many images renderPathTraced has computed in this process (not read from a cache): for
+// the tests and for tools that report what the cache saved.
+std::uint64_t pathTracedImagesComputed();
+}  // namespace detail
 
 }  // namespace nephele

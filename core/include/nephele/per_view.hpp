@@ -1,0 +1,40 @@
+// GPU resources sized to a view (depth copies, reduced and accumulation targets, atlases),
+// kept per size: display channels of different sizes drawn every frame then reallocate
+// nothing, and channels of the same size, drawn one after the other, share them.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <list>
+#include <tuple>
+#include <utility>
+
+namespace nephele {
+
+template <class T>
+class PerViewCache {
+public:
+    explicit PerViewCache(std::size_t capacity = 8) : capacity_(capacity) {}
+
+    // The resources for views of `size` (default-constructed the first time). The least
+    // recently used beyond `capacity` sizes are dropped.
+    T& get(glm::ivec2 size) {
+        for (auto it = entries_.begin(); it != entries_.end(); ++it)
+            if (it->first == size) {
+                entries_.splice(entries_.begin(), entries_, it);  // most recent first
+                return entries_.front().second;
+            }
+        entries_.emplace_front(std::piecewise_construct, std::forward_as_tuple(size), std::forward_as_tuple());
+        if (entries_.size() > capacity_) entries_.pop_back();
+        return entries_.front().second;
+    }
+    std::size_t size() const { return entries_.size(); }
+
+private:
+    std::size_t capacity_;
+    std::list<std::pair<glm::ivec2, T>> entries_;
+};
+
+}  // namespace nephele

@@ -1,0 +1,162 @@
+#include "accuracy_reference.hpp"
+
+#include "nephele/opaque.hpp"
+#include "nephele/pathtrace.hpp"
+
+#include <chrono>
+#include <cmath>
+
+namespace nephele::cli {
+
+Scene sunOnly(Scene scene) {
+    scene.sky.zenith = scene.sky.horizon = scene.sky.ground = Vec3(0.0);
+    return scene;
+}
+
+Scene skyOnly(Scene scene) {
+    scene.sun.intensity = 0;
+    return scene;
+}
+
+Image blockMean(const Image& a, int block) {
+    Image out(a.width / block, a.height / block, a.channels);
+    for (int y = 0; y < out.height; ++y)
+        for (int x = 0; x < out.width; ++x)
+            for (int k = 0; k < a.channels; ++k) {
+                double sum = 0;
+                for (int j = 0; j < block; ++j)
+                    for (int i = 0; i < block; ++i) sum += a.at(x * block + i, y * block + j, k);
+                out.at(x, y, k) = float(sum / (block * block));
+            }
+    return out;
+}
+
+namespace {
+
+// RMSE of rgb(a - b) over the cloud's blocks (either alpha > 0.02, alphas from `mask`),
+// relative to `norm`.
+double rmseOver(const Image& a, const Image& b, const Image& maskA, const Image& maskB, double norm) {
+    double se = 0;
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < std::size_t(a.width) * a.height; ++p) {
+        if (!(maskA.pixels[4 * p + 3] > 0.02f || maskB.pixels[4 * p + 3] > 0.02f)) continue;
+        for (int k = 0; k < 3; ++k) {
+            const double d = double(a.pixels[4 * p + k]) - b.pixels[4 * p + k];
+            se += d * d;
+        }
+        n += 3;
+    }
+    return n == 0 || norm <= 0 ? 0 : std::sqrt(se / n) / norm;
+}
+
+// The reference's mean radiance over the blocks where it has cloud.
+double cloudMean(const Image& ref) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < std::size_t(ref.width) * ref.height; ++p) {
+        if (!(ref.pixels[4 * p + 3] > 0.02f)) continue;
+        for (int k = 0; k < 3; ++k) sum += ref.pixels[4 * p + k];
+        n += 3;
+    }
+    return n ? sum / n : 0;
+}
+
+Image add(const Image& a, const Image& b) {
+    Image out = a;
+    for (std::size_t i = 0; i < out.pixels.size(); ++i)
+        if (i % 4 != 3) out.pixels[i] += b.pixels[i];
+    return out;
+}
+
+Image subtract(const Image& a, const Image& b) {
+    Image out = a;
+    for (std::size_t i = 0; i < out.pixels.size(); ++i)
+        if (i % 4 != 3) out.pixels[i] -= b.pixels[i];
+    return out;
+}
+
+}  // namespace
+
+double relativeRmse(const Image& a, const Image& b) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < std::size_t(a.width) * a.height; ++p) {
+        if (!(a.pixels[4 * p + 3] > 0.02f || b.pixels[4 * p + 3] > 0.02f)) continue;
+        for (int k = 0; k < 3; ++k) sum += b.pixels[4 * p + k];
+        n += 3;
+    }
+    return n == 0 ? 0 : rmseOver(a, b, a, b, sum / n);
+}
+
+Reference makeReference(const Scene& scene, const View& view, const NoiseVolume& noise, const ReferenceSettings& s) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t before = detail::pathTracedImagesComputed();
+    auto trace = [&](const Scene& sc, int spp, int bounces, unsigned seed) {
+        PathTraceSettings p;
+        p.spp = std::max(1, spp);
+        p.maxBounces = bounces;
+        p.seed = seed;
+        const Image image = s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise)
+                                               : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
+        return blockMean(image, s.block);
+    };
+    const Scene sun = sunOnly(scene), sky = skyOnly(scene);
+    const int bounces = PathTraceSettings{}.maxBounces;
+    const Image sunA = trace(sun, s.spp / 2, bounces, 1), sunB = trace(sun, s.spp / 2, bounces, 2);
+    const Image skyA = trace(sky, s.skySpp / 2, bounces, 1), skyB = trace(sky, s.skySpp / 2, bounces, 2);
+    Reference r;
+    r.sun = sunA;
+    r.sky = skyA;
+    for (std::size_t i = 0; i < r.sun.pixels.size(); ++i) {
+        r.sun.pixels[i] = 0.5f * (sunA.pixels[i] + sunB.pixels[i]);
+        r.sky.pixels[i] = 0.5f * (skyA.pixels[i] + skyB.pixels[i]);
+    }
+    r.total = add(r.sun, r.sky);
+    r.single = trace(sun, s.singleSpp, 0, 3);
+    // The mean of two independent halves: its noise is half the RMSE of their difference.
+    r.noise = 0.5 * rmseOver(add(sunA, skyA), add(sunB, skyB), r.total, r.total, cloudMean(r.total));
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.traced = int(detail::pathTracedImagesComputed() - before);
+    return r;
+}
+
+ComponentErrors componentErrors(const Scene& scene, const View& view, const Reference& ref, int block,
+                                const std::function<Image(const Scene&, bool)>& render) {
+    const Image sun = blockMean(render(sunOnly(scene), false), block);
+    const Image sky = blockMean(render(skyOnly(scene), false), block);
+    const Image single = blockMean(render(sunOnly(scene), true), block);
+    const Image background = blockMean(renderOpaqueCpu(scene, view), block);
+    const double norm = cloudMean(ref.total);
+    ComponentErrors e;
+    e.total = rmseOver(add(sun, sky), ref.total, sun, ref.total, norm);
+    e.single = rmseOver(single, ref.single, sun, ref.total, norm);
+    e.multiple = rmseOver(subtract(sun, single), subtract(ref.sun, ref.single), sun, ref.total, norm);
+    e.sky = rmseOver(sky, ref.sky, sun, ref.total, norm);
+    // The background seen through the cloud, with the method's opacity against the reference's.
+    Image mine = background, theirs = background;
+    for (std::size_t p = 0; p < std::size_t(background.width) * background.height; ++p)
+        for (int k = 0; k < 3; ++k) {
+            mine.pixels[4 * p + k] *= 1 - sun.pixels[4 * p + 3];
+            theirs.pixels[4 * p + k] *= 1 - ref.total.pixels[4 * p + 3];
+        }
+    e.opacity = rmseOver(mine, theirs, sun, ref.total, norm);
+    return e;
+}
+
+ReferenceShares referenceShares(const Reference& ref) {
+    const double total = cloudMean(ref.total);
+    if (total <= 0) return {};
+    // Means over the same blocks: cloudMean's mask is the image's own alpha, so use the total's.
+    auto over = [&](const Image& part) {
+        Image masked = part;
+        for (std::size_t p = 0; p < std::size_t(part.width) * part.height; ++p) masked.pixels[4 * p + 3] = ref.total.pixels[4 * p + 3];
+        return cloudMean(masked) / total;
+    };
+    ReferenceShares s;
+    s.single = over(ref.single);
+    s.multiple = over(ref.sun) - s.single;
+    s.sky = over(ref.sky);
+    return s;
+}
+
+}  // namespace nephele::cli

@@ -1,0 +1,64 @@
+// The accuracy bench's yardstick: the path-traced reference of a case split by light source
+// (the sun alone, the sky and ground alone, the sun's single scattering), its own noise, and
+// a fast method's error split the same way (issue #10's diagnosis).
+#pragma once
+
+#include "nephele/camera.hpp"
+#include "nephele/image.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/scene.hpp"
+
+#include <functional>
+#include <string>
+
+namespace nephele::cli {
+
+// The scene lit by the sun alone (a black sky and ground) or by the sky and ground alone (a
+// dark sun). Every method here is linear in its light sources, so the two sum to the scene.
+Scene sunOnly(Scene scene);
+Scene skyOnly(Scene scene);
+
+// The mean of each block x block square of pixels (RGBA), the last partial ones dropped.
+Image blockMean(const Image& image, int block);
+
+// Relative RMSE of `a` against reference `b` over the pixels where either has cloud
+// (alpha > 0.02), normalised by the reference's mean radiance there. 0 when no pixel has cloud.
+double relativeRmse(const Image& a, const Image& b);
+
+// The path-traced reference of one case, at block means. total = sun + sky.
+struct Reference {
+    Image total, sun, sky, single;  // RGBA block means; a = cloud opacity (the sun part's)
+    double noise = 0;               // relative RMSE of `total` from its own Monte Carlo noise
+    double seconds = 0;             // wall time of the path traces (near 0 when all were cached)
+    int traced = 0;                 // path-traced images computed (not from the cache)
+};
+struct ReferenceSettings {
+    int spp = 512;            // samples per pixel of the sun part, in two halves of independent seeds
+    int skySpp = 128;         // of the sky part (smoother: skylight comes from every side), likewise
+    int singleSpp = 64;       // of the sun's single scattering (bounces 0)
+    int block = 4;
+    std::string cacheDir;     // "" = no cache
+};
+Reference makeReference(const Scene& scene, const View& view, const NoiseVolume& noise, const ReferenceSettings& s);
+
+// A fast method's error against the reference, split by light (all relative RMSE against the
+// reference's mean total radiance over the cloud's blocks): the sun's single scattering, its
+// multiple scattering, the sky's and the ground's light, and the opacity alone (the
+// background through the cloud: (alpha_ref - alpha) times the background).
+struct ComponentErrors {
+    double total = 0, single = 0, multiple = 0, sky = 0, opacity = 0;
+};
+// `render(scene, singleOnly)` draws the method's image of `scene` (RGBA, the view's size);
+// with singleOnly it must light by single scattering alone (no diffuse light).
+ComponentErrors componentErrors(const Scene& scene, const View& view, const Reference& ref, int block,
+                                const std::function<Image(const Scene&, bool singleOnly)>& render);
+
+// The reference's mean radiance over the cloud's blocks by source: single scattering,
+// multiple scattering, the sky (including the background seen through the cloud), each as a
+// share of the total.
+struct ReferenceShares {
+    double single = 0, multiple = 0, sky = 0;
+};
+ReferenceShares referenceShares(const Reference& ref);
+
+}  // namespace nephele::cli

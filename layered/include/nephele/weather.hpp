@@ -1,0 +1,78 @@
+// The weather a host changes while the aircraft flies, shaped after CIGI 3.3: the cloud fields
+// of the Weather Control packet (ICD section 4.1.12, packet 12) per cloud layer, plus the sun
+// and the sky. SkyRenderer::update() takes a Weather every frame and applies what changed
+// without a stall (see nephele/sky.hpp and the README's CIGI table).
+#pragma once
+
+#include "nephele/scene.hpp"
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+namespace nephele {
+
+// CIGI 3.3 Weather Control, Cloud Type.
+enum class CigiCloudType : std::uint8_t {
+    None = 0, Altocumulus = 1, Altostratus = 2, Cirrocumulus = 3, Cirrostratus = 4, Cirrus = 5, Cumulonimbus = 6,
+    Cumulus = 7, Nimbostratus = 8, Stratocumulus = 9, Stratus = 10, Other1 = 11, Other2 = 12, Other3 = 13,
+    Other4 = 14, Other5 = 15
+};
+// CIGI 3.3 Weather Control, Scope.
+enum class CigiWeatherScope : std::uint8_t { Global = 0, Regional = 1, Entity = 2 };
+
+// The fields of a CIGI 3.3 Weather Control packet that apply to a cloud layer, in the ICD's
+// units. Humidity, air temperature, visibility, scud, random winds and lightning, severity,
+// barometric pressure and aerosol concentration do not apply to Nephele's clouds and are left
+// out (the README's table says what each field becomes).
+struct CloudLayerControl {
+    int layerId = 1;               // 1..3: CIGI's cloud layers 1..3; 10..255: IG-defined, taken as further cloud layers
+    bool weatherEnable = true;     // false: the layer is not drawn (Nephele keeps its state for a later enable)
+    CigiWeatherScope scope = CigiWeatherScope::Global;  // Global only: Nephele's layers cover the world
+    CigiCloudType cloudType = CigiCloudType::Cumulus;   // sets the layer's density and near LOD (cloudTypeLook)
+    double coverage = 60;          // percent, 0..100
+    double baseElevation = 1500;   // m, the layer's base (Nephele's z)
+    double thickness = 600;        // m, > 0
+    double transitionBand = 0;     // m, >= 0 (not rendered: the layer's density already fades to 0 at its base and top)
+    double horizontalWindSpeed = 0;  // m/s, >= 0
+    double verticalWindSpeed = 0;  // m/s (not rendered: the layers stay at their base)
+    double windDirection = 0;      // degrees clockwise from true north (+y), the direction the wind blows FROM
+};
+
+// How a cloud type looks: the layer's density and whether its near clouds become ellipsoid
+// cumulus (puffy types) or the layer is drawn all the way in (sheet types). Other1..5 keep
+// the layer's own values.
+struct CloudTypeLook {
+    double density = 1;
+    bool nearLod = true;
+};
+CloudTypeLook cloudTypeLook(CigiCloudType type);
+
+// The CIGI layer id of the scene's layer `index` (0, 1, 2 -> 1, 2, 3; 3, 4, ... -> 10, 11, ...).
+int cigiLayerId(int index);
+
+struct Weather {
+    struct CloudLayer {
+        bool enabled = true;
+        Layer layer;  // windOffset is SkyRenderer's (it integrates the drift): ignored here
+    };
+    Sun sun;
+    Sky sky;
+    std::map<int, CloudLayer> layers;  // by CIGI layer id; drawn in this order when enabled
+
+    // The scene's sun, sky and layers (ids cigiLayerId(0), cigiLayerId(1), ...).
+    static Weather of(const Scene& scene);
+    // Applies a packet to its layer (made with Layer's defaults and seed = layer id when new).
+    // Throws std::invalid_argument naming the layer and the field for a value out of range, a
+    // layer id that is no cloud layer (0 ground fog, 4..9 precipitation, sand, dust) or a
+    // regional or entity scope.
+    void apply(const CloudLayerControl& control);
+    // The enabled layers in id order: the scene's `layers`.
+    std::vector<Layer> enabledLayers() const;
+    // Throws std::invalid_argument naming the layer id and the field for what a scene file
+    // could not hold (thickness or extent <= 0, coverage or density outside [0, 1], a non-finite
+    // base or wind) or a sun direction that is not a direction. SkyRenderer::update calls it.
+    void validate() const;
+};
+
+}  // namespace nephele

@@ -1,0 +1,142 @@
+#include "layer_assets.hpp"
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include "nephele/parallel.hpp"
+
+#include <algorithm>
+
+namespace nephele {
+
+namespace {
+constexpr std::size_t kCapacity = 12;  // entries kept (a lighting volume is 8 MB at the default size)
+constexpr int kWorkerNice = 19;        // the worker yields to the frame (Linux: niceness is per thread)
+}  // namespace
+
+LayerAssets::LayerAssets(LayeredSettings settings) : settings_(std::move(settings)) {}
+
+LayerAssets::~LayerAssets() {
+    {
+        std::lock_guard lock(mutex_);
+        stop_ = true;
+        queue_.clear();
+    }
+    changed_.notify_all();
+    if (worker_.joinable()) worker_.join();
+}
+
+void LayerAssets::setBackground(bool background) {
+    std::lock_guard lock(mutex_);
+    background_ = background;
+}
+
+std::shared_ptr<LayerAssets::Entry> LayerAssets::request(bool isLight, const LightingParameters& parameters,
+                                                        unsigned seed) {
+    std::unique_lock lock(mutex_);
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+    auto it = std::find_if(entries_.begin(), entries_.end(), [&](const std::shared_ptr<Entry>& e) {
+        return e->isLight == isLight && (isLight ? e->parameters == parameters : e->seed == seed);
+    });
+    std::shared_ptr<Entry> entry;
+    if (it != entries_.end()) {
+        entry = *it;
+        entries_.erase(it);
+    } else {
+        entry = std::make_shared<Entry>();
+        entry->isLight = isLight;
+        entry->parameters = parameters;
+        entry->seed = seed;
+    }
+    entry->lastUse = ++clock_;
+    entries_.push_back(entry);
+    // Least recently used first; the one just asked for and those with a job stay.
+    for (auto e = entries_.begin(); entries_.size() > kCapacity && *e != entry;)
+        e = (*e)->queued ? e + 1 : entries_.erase(e);
+    if (entry->done || entry->queued) return entry;
+    if (!background_) {
+        compute(*entry, lock);
+        if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+        return entry;
+    }
+    entry->queued = true;
+    queue_.push_back(entry);
+    if (!worker_.joinable()) worker_ = std::thread([this] { run(); });
+    changed_.notify_all();
+    return entry;
+}
+
+void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
+    const bool isLight = e.isLight;
+    const LightingParameters parameters = e.parameters;
+    const unsigned seed = e.seed;
+    lock.unlock();
+    std::shared_ptr<const LightingVolume> light;
+    std::shared_ptr<const ModulationTexture> texture;
+    std::exception_ptr error;
+    try {
+        if (isLight)
+            light = std::make_shared<const LightingVolume>(lightingCached(settings_.lighting, parameters, settings_.cacheDir));
+        else
+            texture = std::make_shared<const ModulationTexture>(makeModulation(settings_.modulation, seed));
+    } catch (...) {
+        error = std::current_exception();
+    }
+    lock.lock();
+    e.queued = false;
+    if (error) {
+        error_ = error;
+        return;
+    }
+    e.light = light;
+    e.texture = texture;
+    e.done = true;
+    if (light) computeMs_ += light->precomputeMs;
+}
+
+void LayerAssets::run() {
+    setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), kWorkerNice);
+    const ParallelLimit oneCore(1);  // the lighting's parallelFor: this thread alone
+    std::unique_lock lock(mutex_);
+    for (;;) {
+        changed_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (stop_) return;
+        std::shared_ptr<Entry> e = queue_.front();
+        queue_.pop_front();
+        ++running_;
+        compute(*e, lock);
+        --running_;
+        changed_.notify_all();
+    }
+}
+
+std::shared_ptr<const LightingVolume> LayerAssets::lighting(const LightingParameters& parameters) {
+    const std::shared_ptr<Entry> e = request(true, parameters, 0);
+    std::lock_guard lock(mutex_);
+    return e->done ? e->light : nullptr;
+}
+
+std::shared_ptr<const ModulationTexture> LayerAssets::modulation(unsigned seed) {
+    const std::shared_ptr<Entry> e = request(false, {}, seed);
+    std::lock_guard lock(mutex_);
+    return e->done ? e->texture : nullptr;
+}
+
+int LayerAssets::pending() const {
+    std::lock_guard lock(mutex_);
+    return int(queue_.size()) + running_;
+}
+
+void LayerAssets::wait() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return queue_.empty() && running_ == 0; });
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+}
+
+double LayerAssets::takeComputeMs() {
+    std::lock_guard lock(mutex_);
+    return std::exchange(computeMs_, 0.0);
+}
+
+}  // namespace nephele

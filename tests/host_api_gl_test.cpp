@@ -1,0 +1,421 @@
+// The host API of SkyRenderer (prepare, update, draw): it draws what render() draws, display
+// channels stitch into the wide view, every depth convention and viewport place gives the same
+// image, a hostile host state changes nothing and is restored, weather changes are applied
+// without a stall (the last good lighting meanwhile) and without a jump of the wind's drift.
+#include "gl_test_util.hpp"
+
+#include "nephele/gl_state.hpp"
+#include "nephele/host_view.hpp"
+#include "nephele/opaque.hpp"
+#include "nephele/sky.hpp"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <array>
+#include <cmath>
+
+using namespace nephele;
+using namespace nephele::gl;
+
+namespace {
+
+// Small lighting textures keep the precomputation in milliseconds; the geometry is the real one.
+SkySettings testSettings() {
+    SkySettings s;
+    s.layered.lighting.width = 32, s.layered.lighting.height = 32, s.layered.lighting.depth = 8;
+    s.layered.modulation.size = 128;
+    s.ellipsoid.light.size = 8;
+    s.ellipsoid.light.sunPhotons = s.ellipsoid.light.skyPhotons = 4096;
+    return s;
+}
+
+// The eye under a layer (2000-2600 m) looking 8 degrees up towards +x, an explicit cumulus
+// ahead and a box inside its edge (fly-through) under the layer's shadows.
+Scene testScene(int width, int height) {
+    Scene s;
+    s.camera.position = Vec3(0, 0, 1000);
+    s.camera.direction = Vec3(std::cos(glm::radians(8.0)), 0, std::sin(glm::radians(8.0)));
+    s.camera.width = width, s.camera.height = height;
+    s.camera.fovYDeg = 40;
+    Layer l;
+    l.base = 2000, l.thickness = 600, l.coverage = 0.6, l.density = 0.8, l.seed = 5, l.extent = 30000;
+    l.wind = Vec2(12, -4);
+    s.layers.push_back(l);
+    Cloud c;
+    c.name = "cumulus";
+    for (int k = 0; k < 9; ++k) {
+        Ellipsoid e;
+        e.center = Vec3(3000 + 120 * (k % 3), -400 + 330 * (k % 4) - 60 * k, 1150 + 70 * (k % 2));
+        e.radii = Vec3(260, 200, 150);
+        e.rotationDeg = Vec3(0, 0, 20.0 * k);
+        c.ellipsoids.push_back(e);
+    }
+    s.clouds.push_back(c);
+    Object box;
+    box.center = Vec3(2750, 150, 1100);
+    box.size = Vec3(200, 200, 200);
+    box.color = Vec3(0.6, 0.3, 0.2);
+    s.objects.push_back(box);
+    return s;
+}
+
+// A frame of the host's: colour (of `format`) and depth/stencil, at any size.
+struct HostTarget {
+    Texture color, depth;
+    Framebuffer fbo;
+    int width, height;
+    HostTarget(int w, int h, GLenum format = GL_RGBA32F) : width(w), height(h) {
+        color = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(color.id(), 1, format, w, h);
+        depth = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(depth.id(), 1, GL_DEPTH24_STENCIL8, w, h);
+        fbo = Framebuffer::create();
+        glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT0, color.id(), 0);
+        glNamedFramebufferTexture(fbo.id(), GL_DEPTH_STENCIL_ATTACHMENT, depth.id(), 0);
+        EXPECT_EQ(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE));
+    }
+    // RGBA as stored (sRGB formats: the encoded values), top row first.
+    Image read() const {
+        GlStateGuard guard;
+        resetPixelStore();
+        std::vector<float> bottomUp(std::size_t(width) * height * 4);
+        glGetTextureImage(color.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(bottomUp.size() * sizeof(float)), bottomUp.data());
+        Image image(width, height, 4);
+        for (int y = 0; y < height; ++y)
+            std::copy_n(bottomUp.data() + std::size_t(height - 1 - y) * width * 4, std::size_t(width) * 4,
+                        image.pixels.data() + std::size_t(y) * width * 4);
+        return image;
+    }
+};
+
+// A sub-rectangle of an image (x, y from the top left).
+Image crop(const Image& im, int x, int y, int w, int h) {
+    Image out(w, h, im.channels);
+    for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c)
+            for (int k = 0; k < im.channels; ++k) out.at(c, r, k) = im.at(x + c, y + r, k);
+    return out;
+}
+
+// sRGB-encoded colour in [0, 1] and the opacity, as a display shows them.
+Image displayed(const Image& rgba) {
+    Image out = rgba;
+    for (std::size_t i = 0; i < out.pixels.size(); ++i)
+        if (i % 4 != 3) out.pixels[i] = linearToSrgb(out.pixels[i]);
+        else out.pixels[i] = std::clamp(out.pixels[i], 0.0f, 1.0f);
+    return out;
+}
+
+// The scene's sky and objects (the host's own drawing), then `draw` (the clouds).
+template <class Draw>
+Image frameOf(const Scene& scene, const View& view, HostTarget& target, Draw&& draw) {
+    OpaquePass().draw(scene, view, target.fbo.id());
+    draw();
+    return target.read();
+}
+
+class HostApiGLTest : public test::EglTest {};
+
+}  // namespace
+
+// prepare + update + draw is render() for the same time and view, pixel for pixel.
+TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    HostTarget a(96, 64), b(96, 64);
+    SkyRenderer once(testSettings()), host(testSettings());
+    const Image rendered = frameOf(scene, view, a, [&] { once.render(scene, view, a.fbo.id(), 1.5, true); });
+    host.prepare(scene);
+    const SkyUpdateStats up = host.update(1.5, Weather::of(scene), view.eye);
+    EXPECT_GT(up.nearLod.clouds, 0);
+    EXPECT_EQ(up.nearLod.pending, 0);  // the first update makes every cell
+    const Image drawn = frameOf(scene, view, b, [&] { host.draw(viewDescOf(view, b.fbo.id())); });
+    EXPECT_EQ(drawn.pixels, rendered.pixels);
+}
+
+// Three off-axis channels side by side in one framebuffer (viewport offsets) are the one wide
+// view: the compositor's tiles, the layered sky's half-resolution upsampling and shadows, and
+// the near LOD see the same clouds in the same places.
+TEST_F(HostApiGLTest, StitchedChannelsAreTheWideView) {
+    const Scene scene = testScene(192, 64);
+    const Frustum wide{-1.2, 1.2, -0.4, 0.4};
+    const View wideView = makeView(scene.camera, wide);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    sky.update(0.5, Weather::of(scene), wideView.eye);
+    HostTarget one(192, 64), three(192, 64);
+    const Image w = displayed(frameOf(scene, wideView, one, [&] { sky.draw(viewDescOf(wideView, one.fbo.id())); }));
+    Camera channelCamera = scene.camera;
+    channelCamera.width = 64;
+    for (int ch = 0; ch < 3; ++ch) {
+        View v = makeView(channelCamera, Frustum{-1.2 + 0.8 * ch, -0.4 + 0.8 * ch, -0.4, 0.4});
+        v.origin = glm::ivec2(64 * ch, 0);
+        OpaquePass().draw(scene, v, three.fbo.id());
+        sky.draw(viewDescOf(v, three.fbo.id()));
+    }
+    const Image s = displayed(three.read());
+    // Within 16 px of each seam: at most 1/255 mean difference (the bound) in colour
+    // and opacity. A gap or a doubled puff would change whole columns of the band: no
+    // column's mean opacity may differ by more than 3/255 (the channels' own edges differ
+    // by the upsampling's clamp at a viewport border and the tiles' own sizes, well below).
+    for (int seam : {64, 128}) {
+        const ImageDifference d = compareImages(crop(s, seam - 16, 0, 32, 64), crop(w, seam - 16, 0, 32, 64), 1.0);
+        EXPECT_LE(d.meanAbs, 1.0 / 255) << "seam at " << seam;
+        for (int x = seam - 16; x < seam + 16; ++x) {
+            double column = 0;
+            for (int y = 0; y < 64; ++y) column += std::abs(s.at(x, y, 3) - w.at(x, y, 3)) / 64;
+            EXPECT_LE(column, 3.0 / 255) << "column " << x;
+        }
+    }
+    EXPECT_LE(compareImages(s, w, 1.0).meanAbs, 1.0 / 255);
+    double opacity = 0;
+    for (int y = 0; y < 64; ++y)
+        for (int x = 48; x < 80; ++x) opacity += w.at(x, y, 3) / (64 * 32);
+    EXPECT_GT(opacity, 0.05) << "the first seam should cross clouds";
+    if (HasFailure()) {
+        writePng(test::outputDir() + "/channels_wide.png", channels(w, 0, 3), Encoding::Linear);
+        writePng(test::outputDir() + "/channels_stitched.png", channels(s, 0, 3), Encoding::Linear);
+    }
+}
+
+// The host's depth in any convention: reversed Z and [0, 1] clip depth give the standard
+// image (objects inside clouds, shadows on them, the upsampling's depth test).
+TEST_F(HostApiGLTest, EveryDepthConventionGivesTheSameImage) {
+    const Scene scene = testScene(96, 64);
+    const View standard = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    sky.update(0.5, Weather::of(scene), standard.eye);
+    HostTarget target(96, 64);
+    const Image reference = frameOf(scene, standard, target, [&] { sky.draw(viewDescOf(standard, target.fbo.id())); });
+    const double n = scene.camera.nearClip, f = scene.camera.farClip;
+    for (bool reversed : {false, true})
+        for (bool zeroToOne : {false, true}) {
+            if (!reversed && !zeroToOne) continue;
+            View v = standard;
+            v.depth = {reversed, zeroToOne};
+            // The same frustum with the convention's depth mapping (clip depth c at -n and -f).
+            const double cn = reversed ? 1 : (zeroToOne ? 0 : -1), cf = reversed ? (zeroToOne ? 0 : -1) : 1;
+            v.projectionMatrix[2][2] = (cf * f - cn * n) / (n - f);
+            v.projectionMatrix[3][2] = cn * n + v.projectionMatrix[2][2] * n;
+            const Image image = frameOf(scene, v, target, [&] { sky.draw(viewDescOf(v, target.fbo.id())); });
+            // 24-bit depth quantises the convention's depths differently: a few object-edge
+            // pixels may flip; anywhere else the image is the same.
+            const ImageDifference d = compareImages(image, reference, 2.0 / 255);
+            EXPECT_LE(d.fractionOver, 0.005) << "reversed " << reversed << " zeroToOne " << zeroToOne;
+            EXPECT_LE(d.meanAbs, 0.5 / 255) << "reversed " << reversed << " zeroToOne " << zeroToOne;
+        }
+}
+
+// A channel anywhere in the host's framebuffer is the same image as alone, leaves the rest of
+// the framebuffer alone, and the host's depth texture serves as well as a copy of its depth.
+TEST_F(HostApiGLTest, ViewportOffsetAndTheHostsDepthTexture) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    sky.update(0.25, Weather::of(scene), view.eye);
+    HostTarget alone(96, 64), big(160, 112);
+    const Image reference = frameOf(scene, view, alone, [&] { sky.draw(viewDescOf(view, alone.fbo.id())); });
+    View placed = view;
+    placed.origin = glm::ivec2(40, 30);  // from the lower left: rows 18..81 from the top
+    const float marker[4] = {0.25f, 0.5f, 0.75f, 1.0f};
+    for (bool hostTexture : {false, true}) {
+        glClearNamedFramebufferfv(big.fbo.id(), GL_COLOR, 0, marker);
+        OpaquePass().draw(scene, placed, big.fbo.id());
+        ViewDesc d = viewDescOf(placed, big.fbo.id());
+        if (hostTexture) d.depthTexture = big.depth.id();  // the framebuffer's own depth attachment
+        sky.draw(d);
+        const Image image = big.read();
+        // Rasterised at other window positions, interpolants round differently in the last bits
+        // of a float (3e-8 here): anything a display could show would be 1e-3 and more.
+        const ImageDifference diff = compareImages(crop(image, 40, 112 - 30 - 64, 96, 64), reference, 1e-5);
+        EXPECT_LE(diff.maxAbs, 1e-5) << "host texture " << hostTexture;
+        int outside = 0;
+        for (int y = 0; y < 112; ++y)
+            for (int x = 0; x < 160; ++x) {
+                const bool in = x >= 40 && x < 136 && y >= 18 && y < 82;
+                for (int k = 0; k < 4 && !in; ++k) outside += image.at(x, y, k) != marker[k];
+            }
+        EXPECT_EQ(outside, 0) << "host texture " << hostTexture;
+    }
+}
+
+// An sRGB frame holds the float frame's colours, sRGB-encoded (blending in linear light).
+TEST_F(HostApiGLTest, AnSrgbFrameGetsTheFloatFramesColoursEncoded) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    sky.update(0.25, Weather::of(scene), view.eye);
+    HostTarget linear(96, 64), srgb(96, 64, GL_SRGB8_ALPHA8);
+    ViewDesc d = viewDescOf(view, srgb.fbo.id());
+    EXPECT_EQ(colorTargetOf(d), ColorTarget::Srgb8);
+    EXPECT_EQ(colorTargetOf(viewDescOf(view, linear.fbo.id())), ColorTarget::Float);
+    const Image a = displayed(frameOf(scene, view, linear, [&] { sky.draw(viewDescOf(view, linear.fbo.id())); }));
+    const Image b = frameOf(scene, view, srgb, [&] { sky.draw(d); });
+    // Each blend into 8 bits rounds (the sky, the layers, the tiles, the resolve): a few /255.
+    // Without GL_FRAMEBUFFER_SRGB the stored values would be the linear ones, far darker.
+    const ImageDifference diff = compareImages(channels(b, 0, 3), channels(a, 0, 3), 4.0 / 255);
+    EXPECT_LE(diff.fractionOver, 0.01);
+    EXPECT_LE(diff.meanAbs, 1.5 / 255);
+}
+
+// A host's state as hostile as it gets changes nothing in the image, and is restored.
+TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    HostTarget clean(96, 64, GL_SRGB8_ALPHA8), hostile(96, 64, GL_SRGB8_ALPHA8);
+    SkyRenderer reference(testSettings());
+    reference.prepare(scene);
+    reference.update(0.5, Weather::of(scene), view.eye);
+    const Image expected = frameOf(scene, view, clean, [&] { reference.draw(viewDescOf(view, clean.fbo.id())); });
+
+    OpaquePass().draw(scene, view, hostile.fbo.id());
+    // Programs, vertex arrays, textures and samplers bound everywhere; buffers bound where
+    // uploads and SSBOs look; every fixed-function setting away from its default.
+    const Program program = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
+    VertexArray vao = VertexArray::create();
+    Buffer buffer = Buffer::create();
+    glNamedBufferStorage(buffer.id(), 4096, nullptr, GL_DYNAMIC_STORAGE_BIT);
+    Sampler sampler = Sampler::create();
+    glSamplerParameteri(sampler.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glSamplerParameteri(sampler.id(), GL_TEXTURE_WRAP_S, GL_MIRRORED_REPEAT);
+    std::vector<Texture> textures;
+    for (GLenum target : {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE}) {
+        textures.push_back(Texture::create(target));
+        if (target == GL_TEXTURE_2D || target == GL_TEXTURE_RECTANGLE) glTextureStorage2D(textures.back().id(), 1, GL_RGBA8, 4, 4);
+        else glTextureStorage3D(textures.back().id(), 1, GL_RGBA8, 4, 4, 4);
+    }
+    Framebuffer other = Framebuffer::create();
+    glNamedFramebufferTexture(other.id(), GL_COLOR_ATTACHMENT0, textures[0].id(), 0);
+    for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
+        glActiveTexture(GL_TEXTURE0 + u);
+        for (std::size_t t = 0; t < textures.size(); ++t)
+            glBindTexture(std::array<GLenum, 4>{GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE}[t],
+                          textures[t].id());
+        glBindSampler(GLuint(u), sampler.id());
+    }
+    glActiveTexture(GL_TEXTURE5);
+    glUseProgram(program.id());
+    glBindVertexArray(vao.id());
+    for (GLenum target : {GL_PIXEL_UNPACK_BUFFER, GL_PIXEL_PACK_BUFFER, GL_ARRAY_BUFFER, GL_UNIFORM_BUFFER, GL_DRAW_INDIRECT_BUFFER})
+        glBindBuffer(target, buffer.id());
+    for (GLuint i = 0; i < 8; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffer.id());
+    glBindFramebuffer(GL_FRAMEBUFFER, other.id());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 7);
+    glPixelStorei(GL_UNPACK_SKIP_PIXELS, 2);
+    glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 3);
+    glPixelStorei(GL_PACK_ALIGNMENT, 8);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 5);
+    for (GLenum cap : {GL_SCISSOR_TEST, GL_POLYGON_OFFSET_FILL, GL_FRAMEBUFFER_SRGB, GL_DEPTH_TEST, GL_STENCIL_TEST,
+                       GL_CULL_FACE, GL_BLEND, GL_COLOR_LOGIC_OP, GL_DEPTH_CLAMP, GL_PRIMITIVE_RESTART,
+                       GL_SAMPLE_ALPHA_TO_COVERAGE, GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE3})
+        glEnable(cap);
+    glDisable(GL_DITHER);
+    glScissor(5, 5, 10, 10);
+    glPolygonOffset(4, 40);
+    glColorMask(GL_TRUE, GL_FALSE, GL_TRUE, GL_FALSE);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_NEVER);
+    glDepthRange(0.3, 0.6);
+    glClipControl(GL_UPPER_LEFT, GL_ZERO_TO_ONE);
+    glStencilFunc(GL_NEVER, 3, 0x0F);
+    glStencilOp(GL_INCR, GL_DECR, GL_INVERT);
+    glCullFace(GL_FRONT_AND_BACK);
+    glFrontFace(GL_CW);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    glBlendEquation(GL_MIN);
+    glBlendFunc(GL_DST_COLOR, GL_ZERO);
+    glLogicOp(GL_XOR);
+    glViewport(7, 9, 11, 13);
+    check("setting up the hostile host state");
+
+    const GlStateSnapshot before = GlStateSnapshot::capture();
+    SkyRenderer sky(testSettings());  // made, prepared and drawn in the hostile state
+    sky.prepare(scene);
+    sky.update(0.5, Weather::of(scene), view.eye);
+    sky.draw(viewDescOf(view, hostile.fbo.id()));
+    EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "");
+    EXPECT_EQ(hostile.read().pixels, expected.pixels);  // (read() resets the pixel store itself)
+}
+
+// A change of a layer's thickness or medium needs a new lighting volume (0.3 s at the default
+// size): update() only queues it, the frames meanwhile draw the layer with the volume it had,
+// and the first frame after the job uploads the new one.
+TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
+    Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkySettings settings = testSettings();
+    settings.layered.lighting = LightingSettings{};  // the paper's 256 x 256 x 32: a job of 0.3 s or more
+    settings.layered.cacheDir = "";                  // computed, never loaded
+    SkyRenderer sky(settings);
+    sky.prepare(scene);
+    Weather weather = Weather::of(scene);
+    sky.update(0.1, weather, view.eye);
+    HostTarget target(96, 64);
+    const Image before = frameOf(scene, view, target, [&] { EXPECT_EQ(sky.draw(viewDescOf(view, target.fbo.id())).layered.pendingLayers, 0); });
+    weather.layers.begin()->second.layer.thickness = 900;
+    const SkyUpdateStats up = sky.update(0.0, weather, view.eye);
+    EXPECT_GE(up.backgroundJobs, 1);
+    const SkyStats during = sky.draw(viewDescOf(view, target.fbo.id()));
+    EXPECT_EQ(during.layered.pendingLayers, 1);
+    EXPECT_EQ(during.layered.uploads, 0);
+    sky.waitForBackgroundWork();
+    EXPECT_EQ(sky.backgroundJobs(), 0);
+    sky.update(0.0, weather, view.eye);
+    Image after;
+    SkyStats done;
+    after = frameOf(scene, view, target, [&] { done = sky.draw(viewDescOf(view, target.fbo.id())); });
+    EXPECT_EQ(done.layered.pendingLayers, 0);
+    EXPECT_EQ(done.layered.uploads, 1);  // the new volume, into the texture the layer had
+    EXPECT_GT(compareImages(after, before, 1.0).meanAbs, 1e-3) << "a thicker layer looks different";
+}
+
+// The wind's drift is integrated: a change of wind moves the pattern on from where it is, so
+// the frame right after the change is the frame right before it (t * wind would jump by
+// t * the change of wind).
+TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    Weather weather = Weather::of(scene);
+    sky.update(30.0, weather, view.eye);
+    HostTarget target(96, 64);
+    auto draw = [&] { return frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); }); };
+    const Image before = draw();
+    CloudLayerControl gust;
+    gust.layerId = 1, gust.coverage = 60, gust.baseElevation = 2000, gust.thickness = 600;
+    gust.cloudType = CigiCloudType::Other1;  // keeps the layer's density and near LOD
+    gust.horizontalWindSpeed = 25, gust.windDirection = 200;
+    weather.apply(gust);
+    sky.update(0.0, weather, view.eye);
+    EXPECT_EQ(draw().pixels, before.pixels);
+    sky.update(10.0, weather, view.eye);  // then it moves with the new wind
+    EXPECT_GT(compareImages(draw(), before, 1.0).meanAbs, 1e-3);
+}
+
+// With wind every near cloud moves each frame; a cloud that only moved keeps its light volume
+// and its slot in the light texture: a windy frame computes and uploads none.
+TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
+    const Scene scene = testScene(96, 64);
+    const View view = makeView(scene.camera);
+    SkyRenderer sky(testSettings());
+    sky.prepare(scene);
+    const Weather weather = Weather::of(scene);
+    ASSERT_GT(glm::length(weather.layers.at(1).layer.wind), 0);
+    HostTarget target(96, 64);
+    sky.update(0.5, weather, view.eye);
+    const Image first = frameOf(scene, view, target, [&] { sky.draw(viewDescOf(view, target.fbo.id())); });
+    const SkyUpdateStats up = sky.update(0.2, weather, view.eye);  // 2.5 m of drift: no cell enters or leaves
+    ASSERT_EQ(up.nearLod.generated + up.nearLod.retired, 0);
+    ASSERT_GT(up.nearLod.clouds, 0);
+    EXPECT_EQ(up.lightVolumes, 0);
+    SkyStats st;
+    const Image second = frameOf(scene, view, target, [&] { st = sky.draw(viewDescOf(view, target.fbo.id())); });
+    EXPECT_EQ(st.ellipsoids.lightUploads, 0);
+    EXPECT_EQ(st.layered.uploads, 0);
+    EXPECT_GT(compareImages(second, first, 1.0).meanAbs, 1e-6) << "the clouds should have moved";
+}
