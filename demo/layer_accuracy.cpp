@@ -1,6 +1,7 @@
 // The layered sky and auto's hand-off against the path tracer (demo/layer_accuracy.hpp).
 #include "layer_accuracy.hpp"
 
+#include "accuracy_reference.hpp"
 #include "bench_util.hpp"
 #include "render_command.hpp"
 
@@ -11,6 +12,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 
@@ -49,35 +51,15 @@ Scene viewScene(const Scene& base, const LayerView& v, int width) {
     return s;
 }
 
-// The mean of each block x block square of pixels (RGBA); partial blocks at the edges dropped.
-Image blockMeans(const Image& a, int block) {
-    Image out(a.width / block, a.height / block, 4);
-    for (int y = 0; y < out.height * block; ++y)
-        for (int x = 0; x < out.width * block; ++x)
-            for (int k = 0; k < 4; ++k) out.at(x / block, y / block, k) += a.at(x, y, k) / float(block * block);
-    return out;
-}
-
-// The accuracy bench's error (its relativeRmse()'s contract): RMSE of rgb over the pixels where
-// either image has alpha > 0.02, over the reference's mean radiance there; and the ratio of the
-// means. 0 and 1 when no pixel has cloud.
-struct Error {
-    double relative = 0, ratio = 1;
-};
-Error errorAgainst(const Image& mine, const Image& reference) {
-    double squares = 0, sumMine = 0, sumRef = 0;
-    std::size_t n = 0;
-    for (int y = 0; y < mine.height; ++y)
-        for (int x = 0; x < mine.width; ++x) {
-            if (!(mine.at(x, y, 3) > 0.02f || reference.at(x, y, 3) > 0.02f)) continue;
-            for (int k = 0; k < 3; ++k) {
-                const double d = double(mine.at(x, y, k)) - reference.at(x, y, k);
-                squares += d * d, sumMine += mine.at(x, y, k), sumRef += reference.at(x, y, k);
-            }
-            n += 3;
-        }
-    if (n == 0 || sumRef <= 0) return {};
-    return {std::sqrt(squares / n) / (sumRef / n), sumMine / sumRef};
+// The mean radiance of `mine` over the reference's, over the blocks where either has cloud
+// (relativeRmse()'s blocks); 1 when there are none.
+double meanRatio(const Image& mine, const Image& reference) {
+    double sumMine = 0, sumRef = 0;
+    for (std::size_t p = 0; p < std::size_t(mine.width) * mine.height; ++p) {
+        if (!(mine.pixels[4 * p + 3] > 0.02f || reference.pixels[4 * p + 3] > 0.02f)) continue;
+        for (int k = 0; k < 3; ++k) sumMine += mine.pixels[4 * p + k], sumRef += reference.pixels[4 * p + k];
+    }
+    return sumRef > 0 ? sumMine / sumRef : 1;
 }
 
 double meanAlpha(const Image& a) {
@@ -105,6 +87,7 @@ bool meetsSlab(const Vec3& o, const Vec3& d, double base, double top, double fro
 struct Renderers {
     LayeredSettings layered;
     std::unique_ptr<LayeredRenderer> sky;  // --method layered
+    std::unique_ptr<LayeredRenderer> single;  // --method layered lit by single scattering alone (no photons)
     std::unique_ptr<SkyRenderer> autoSky;  // --method auto
     OpaquePass opaque;
 };
@@ -116,14 +99,39 @@ Image drawFrame(const Scene& scene, const View& view, const OpaquePass& opaque, 
     return target.readColor();
 }
 
-// The path-traced reference at `spp` with `seed`, the layer a volume of the renderers' density.
-Image reference(const Scene& scene, const View& view, const LayerAccuracyOptions& o, const LayeredSettings& ls, int spp,
-                unsigned seed, const NoiseVolume& noise) {
-    PathTraceSettings ps;
-    ps.spp = spp, ps.seed = seed;
-    ps.layers = std::make_shared<LayerVolumes>(scene, ls, 0.0);
-    return o.cacheDir.empty() ? renderPathTraced(scene, view, ps, &noise)
-                              : renderPathTracedCached(scene, view, ps, &noise, o.cacheDir);
+// The path-traced reference split by light as the accuracy bench's (accuracy_reference.hpp:
+// the sun's light and the sky's each in two halves of independent seeds, the sun's single
+// scattering), the layer a volume of the renderers' density, at block means.
+Reference layerReference(const Scene& scene, const View& view, const LayerAccuracyOptions& o, const LayeredSettings& ls,
+                         const NoiseVolume& noise) {
+    const auto start = std::chrono::steady_clock::now();
+    auto trace = [&](const Scene& sc, int spp, int bounces, unsigned seed) {
+        PathTraceSettings ps;
+        ps.spp = std::max(1, spp), ps.maxBounces = bounces, ps.seed = seed;
+        ps.layers = std::make_shared<LayerVolumes>(sc, ls, 0.0);
+        const Image image = o.cacheDir.empty() ? renderPathTraced(sc, view, ps, &noise)
+                                               : renderPathTracedCached(sc, view, ps, &noise, o.cacheDir);
+        return blockMean(image, o.block);
+    };
+    const int spp = o.quick ? 4 : o.referenceSpp, skySpp = std::max(2, spp / 4), bounces = PathTraceSettings{}.maxBounces;
+    const Scene sun = sunOnly(scene), sky = skyOnly(scene);
+    const Image sunA = trace(sun, spp / 2, bounces, 1), sunB = trace(sun, spp / 2, bounces, 2);
+    const Image skyA = trace(sky, skySpp / 2, bounces, 1), skyB = trace(sky, skySpp / 2, bounces, 2);
+    Reference r;
+    r.sun = sunA, r.sky = skyA;
+    Image a = sunA, b = sunB;
+    for (std::size_t i = 0; i < sunA.pixels.size(); ++i) {
+        r.sun.pixels[i] = 0.5f * (sunA.pixels[i] + sunB.pixels[i]);
+        r.sky.pixels[i] = 0.5f * (skyA.pixels[i] + skyB.pixels[i]);
+        if (i % 4 != 3) a.pixels[i] += skyA.pixels[i], b.pixels[i] += skyB.pixels[i];
+    }
+    r.total = r.sun;
+    for (std::size_t i = 0; i < r.total.pixels.size(); ++i)
+        if (i % 4 != 3) r.total.pixels[i] += r.sky.pixels[i];
+    r.single = trace(sun, std::max(1, spp / 4), 0, 3);
+    r.noise = 0.5 * relativeRmse(a, b);  // the mean of two independent halves: half their difference
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return r;
 }
 
 // The near LOD against the layer it stands for within auto's reach: the near cumulus alone with
@@ -168,27 +176,31 @@ void measureHandOff(const Scene& scene, const View& view, const Renderers& r, La
     out.nearRadiance = sums[3] / b, out.layerRadiance = sums[4] / b;
 }
 
-LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o, Renderers& r, const NoiseVolume& noise) {
+LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o, Renderers& r, const NoiseVolume& noise,
+                              int index) {
     LayerViewAccuracy a;
     const View view = makeView(scene.camera);
-    const int spp = o.quick ? 4 : o.referenceSpp, lowSpp = std::max(1, spp / 4);
-    const auto start = std::chrono::steady_clock::now();
-    const Image ref = reference(scene, view, o, r.layered, spp, 1, noise);
-    const Image low = reference(scene, view, o, r.layered, lowSpp, 2, noise);
-    a.referenceSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const Image refBlocks = blockMeans(ref, o.block);
-    // RMSE(low, ref)^2 = s^2 (1/n + 1/N) for per-sample noise s: the reference's own share is s^2 / N.
-    a.referenceNoise = errorAgainst(blockMeans(low, o.block), refBlocks).relative *
-                       std::sqrt((1.0 / spp) / (1.0 / lowSpp + 1.0 / spp));
-    a.referenceOpacity = meanAlpha(ref);
+    const Reference ref = layerReference(scene, view, o, r.layered, noise);
+    a.referenceSeconds = ref.seconds, a.referenceNoise = ref.noise;
+    a.referenceOpacity = meanAlpha(ref.total);
+    a.shares = referenceShares(ref);
     const auto layered = [&](GLuint fb) { r.sky->render(scene, view, fb, 0); };
     const auto autoDraw = [&](GLuint fb) { r.autoSky->render(scene, view, fb, 0, false); };
     const Image layeredFrame = drawFrame(scene, view, r.opaque, layered);
     const Image autoFrame = drawFrame(scene, view, r.opaque, autoDraw);
-    const Error le = errorAgainst(blockMeans(layeredFrame, o.block), refBlocks);
-    const Error ae = errorAgainst(blockMeans(autoFrame, o.block), refBlocks);
-    a.layeredError = le.relative, a.layeredRatio = le.ratio, a.autoError = ae.relative, a.autoRatio = ae.ratio;
-    a.layeredOpacity = meanAlpha(layeredFrame);
+    const Image layeredBlocks = blockMean(layeredFrame, o.block), autoBlocks = blockMean(autoFrame, o.block);
+    a.layeredError = relativeRmse(layeredBlocks, ref.total), a.layeredRatio = meanRatio(layeredBlocks, ref.total);
+    a.autoError = relativeRmse(autoBlocks, ref.total), a.autoRatio = meanRatio(autoBlocks, ref.total);
+    a.layeredOpacity = meanAlpha(layeredBlocks);
+    a.layeredParts = componentErrors(scene, view, ref, o.block, [&](const Scene& sc, bool single) {
+        return drawFrame(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });
+    });
+    if (!o.imageDir.empty()) {  // the block means side by side: reference, layered, auto
+        const std::string stem = o.imageDir + "/layer-view" + std::to_string(index);
+        writePng(stem + "-reference.png", ref.total);
+        writePng(stem + "-layered.png", layeredBlocks);
+        writePng(stem + "-auto.png", autoBlocks);
+    }
     FrameTarget target(scene.camera.width, scene.camera.height);
     const GLuint fb = target.framebuffer();
     const std::vector<double> ms = timeFrames(o.quick ? 1 : o.frames, target, r.opaque, scene, view,
@@ -204,6 +216,7 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     if (o.width < 16 || o.width > 4096) throw std::invalid_argument("layer accuracy: width must be 16..4096");
     if (o.referenceSpp < 1 || o.block < 1 || o.frames < 1)
         throw std::invalid_argument("layer accuracy: spp, block and frames must be >= 1");
+    if (!o.imageDir.empty()) std::filesystem::create_directories(o.imageDir);
     Scene base = loadScene(o.scenesDir + "/near_and_far.json");
     if (base.layers.empty()) throw UsageError(base.file + ": the layer accuracy needs a scene with layers");
     base.clouds.clear();
@@ -211,13 +224,16 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     Renderers r;
     r.layered.cacheDir = o.cacheDir;
     r.sky = std::make_unique<LayeredRenderer>(r.layered);
+    LayeredSettings single = r.layered;
+    single.lighting.photons = 0;  // no diffuse light
+    r.single = std::make_unique<LayeredRenderer>(single);
     r.autoSky = std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), {}, autoEllipsoidSettings()});
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
     std::vector<LayerViewAccuracy> out;
     for (const LayerView& v : layerViews(base, o.quick)) {
         const Scene scene = viewScene(base, v, o.quick ? 64 : o.width);
-        LayerViewAccuracy a = measureView(scene, o, r, noise);
+        LayerViewAccuracy a = measureView(scene, o, r, noise, int(out.size()));
         a.view = v.name;
         gl::checkAlways("layer accuracy");
         std::cerr << "bench: layer accuracy, " << v.name << ": layered " << fmt("%.1f%%", 100 * a.layeredError) << ", auto "
@@ -243,6 +259,17 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
            << fmt("%.1f%%", 100 * a.autoError) << " | " << fmt("%.2f", a.autoRatio) << " | "
            << fmt("%.1f%%", 100 * a.referenceNoise) << " | " << fmt("%.3f", a.referenceOpacity) << " / "
            << fmt("%.3f", a.layeredOpacity) << " | " << fmt("%.1f", a.layeredMs) << " | " << fmt("%.1f", a.autoMs) << " |\n";
+    md << "\nThe layered sky's error split by light (componentErrors(): the sun's single scattering, its multiple "
+          "scattering, the sky's and the ground's light, the opacity alone; each relative to the reference's mean "
+          "radiance) and the reference's radiance by light:\n\n";
+    md << "| view | single | multiple | sky | opacity | reference: single / multiple / sky |\n|---|---:|---:|---:|---:|---:|\n";
+    for (const LayerViewAccuracy& a : results) {
+        const ComponentErrors& e = a.layeredParts;
+        md << "| " << a.view << " | " << fmt("%.1f%%", 100 * e.single) << " | " << fmt("%.1f%%", 100 * e.multiple) << " | "
+           << fmt("%.1f%%", 100 * e.sky) << " | " << fmt("%.1f%%", 100 * e.opacity) << " | "
+           << fmt("%.2f", a.shares.single) << " / " << fmt("%.2f", a.shares.multiple) << " / " << fmt("%.2f", a.shares.sky)
+           << " |\n";
+    }
     md << "\nThe near LOD against the layer within auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
        << " m): the near cumulus alone (every cell at weight 1) and the layered sky cut at the reach, over the pixels "
           "whose ray meets the layer within the reach (opacity; the volume's is the CPU integral of its density) and "

@@ -367,6 +367,7 @@ int main(int argc, char** argv) {
             if (widthGiven) lao.width = bo.width;
             if (bench->count("--spp") > 0) lao.referenceSpp = ao.referenceSpp;
             lao.cacheDir = noCache ? "" : defaultCacheDir(benchCache);
+            if (bench->count("--out-dir") > 0) lao.imageDir = bo.outDir;  // the views' images
             return runLayerAccuracyBench(lao, bo.backend);
         }
         if (layeredMode) {

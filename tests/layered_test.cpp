@@ -53,7 +53,8 @@ TEST(LayeredTest, ColumnDepthsAreTheIntegralOfTheThresholdedDensity) {
                     }
                     auto tolerance = [](double tau) { return 0.7 * 4 * (0.5 / 255) * std::exp(tau / 0.7 / 4) + 0.01; };
                     EXPECT_NEAR(depths.x, above, tolerance(above)) << i << " " << j << " " << k << " theta " << theta;
-                    EXPECT_NEAR(depths.y, below, tolerance(above + below)) << i << " " << j << " " << k << " theta " << theta;
+                    // below = the column's depth minus the depth above: both encoded, their errors add.
+                    EXPECT_NEAR(depths.y, below, tolerance(above + below) + tolerance(above)) << i << " " << j << " " << k << " theta " << theta;
                     deepest = std::max(deepest, above + below);
                     ++checked;
                 }
@@ -77,7 +78,7 @@ TEST(LayeredTest, SkyTablesConserveEnergyInAWhiteFurnace) {
     // below): the radiance is 1 everywhere in the layer, so at every node the fluence is 4 pi,
     // the net flux and the zonal harmonic 0.
     LightingSettings s = small();
-    s.photons = 1 << 12;
+    s.photons = 1 << 14;  // the nodes' noise: about 1 / sqrt(scores per node)
     LightingParameters p;
     p.albedo = 1;
     const LightingVolume v = precomputeLighting(s, p);

@@ -211,7 +211,7 @@ LayerLightTables traceLayerLight(const LightingVolume& v) {
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     t.sun.assign(nodes * t.sunMu.size(), glm::vec4(0.0f));
     t.sky.assign(nodes * 3, glm::vec4(0.0f));
-    if (media.empty()) return t;
+    if (media.empty() || s.photons == 0) return t;  // no matter, or single scattering alone
     const std::vector<double> extinction = extinctionPerNode(media, v);
     double largest = 0;
     for (double e : extinction) largest = std::max(largest, e);

@@ -42,7 +42,8 @@ void checkSettings(const LightingSettings& s, const LightingParameters& p) {
         bad("size must be 2..4096 x 2..4096 x 2..1024 texels, got " + std::to_string(s.width) + "x" +
             std::to_string(s.height) + "x" + std::to_string(s.depth));
     if (!(s.tilePeriod > 0)) bad("tilePeriod must be > 0 m, got " + num(s.tilePeriod));
-    if (s.photons < 64 || s.photons > (1 << 22)) bad("photons must be 64..2^22, got " + std::to_string(s.photons));
+    if (s.photons != 0 && (s.photons < 64 || s.photons > (1 << 22)))
+        bad("photons must be 0 (no diffuse light) or 64..2^22, got " + std::to_string(s.photons));
     if (s.tableBins < 4 || s.tableBins > 64) bad("tableBins must be 4..64, got " + std::to_string(s.tableBins));
     if (s.octaves < 1 || s.octaves > 8) bad("octaves must be 1..8, got " + std::to_string(s.octaves));
     if (s.cells < 1 || s.cells > 64) bad("cells must be 1..64, got " + std::to_string(s.cells));

@@ -12,6 +12,9 @@ namespace nephele {
 namespace {
 
 constexpr int kCellTexels = 8;  // modulation texels per coarse majorant cell and side
+// Bump when the layers' density or their tracking changes: part of the path tracer's cache key of
+// scenes with rendered layers only (pathtrace.cpp's kVersion is left to the cloud-only references).
+constexpr std::uint32_t kLayerKeyVersion = 1;
 
 double smoothstep(double e0, double e1, double x) {
     if (!(e1 > e0)) return x < e0 ? 0.0 : 1.0;
@@ -198,6 +201,7 @@ void LayerVolumes::cellBounds(const Entry& e, const Vec3& o, const Vec3& d, doub
 std::string LayerVolumes::key() const {
     KeyBytes k;
     const ModulationSettings& ms = modulationSettings_;
+    k.add(kLayerKeyVersion);
     k.add(extinction_).add(extentFade_).add(time_);
     k.add(ms.size).add(ms.period).add(ms.octaves).add(ms.cells).add(ms.maxThreshold);
     k.add(layers_.size());

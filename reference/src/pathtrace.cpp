@@ -50,8 +50,9 @@ constexpr int kPieces = 4;           // majorant pieces per chord
 constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
 // Bump when the estimator or the field changes: invalidates caches. 2: the noise is read per
 // ellipsoid at x / period + ellipsoidNoiseOffset(cloud, index, seed), as the compositor reads it.
-// 3: the scene's layers as volumes (PathTraceSettings::layers), in the key when rendered.
-constexpr std::uint32_t kVersion = 3;
+// (The scene's layers, when rendered, carry their own version in LayerVolumes::key(): scenes
+// without rendered layers keep their keys.)
+constexpr std::uint32_t kVersion = 2;
 
 // One ellipsoid of matter.
 struct Shape {
