@@ -5,6 +5,8 @@
 #include "bench_util.hpp"
 #include "render_command.hpp"
 
+#include "../layered/src/hand_off.hpp"
+
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/layer_volume.hpp"
@@ -69,21 +71,6 @@ double meanAlpha(const Image& a) {
     return sum / (double(a.width) * a.height);
 }
 
-// The ray o + s d meets the slab [base, top] at some horizontal distance from o in [from, to].
-bool meetsSlab(const Vec3& o, const Vec3& d, double base, double top, double from, double to) {
-    double s0 = 0, s1 = 1e300;
-    if (std::abs(d.z) > 1e-12) {
-        double a = (base - o.z) / d.z, b = (top - o.z) / d.z;
-        if (a > b) std::swap(a, b);
-        s0 = std::max(s0, a), s1 = b;
-    } else if (o.z < base || o.z > top) {
-        return false;
-    }
-    const double h = std::hypot(d.x, d.y);
-    if (h < 1e-12) return s1 > s0 && from <= 0;
-    return std::min(s1, to / h) > std::max(s0, from / h);
-}
-
 struct Renderers {
     LayeredSettings layered;
     std::unique_ptr<LayeredRenderer> sky;  // --method layered
@@ -92,12 +79,6 @@ struct Renderers {
     OpaquePass opaque;
 };
 
-Image drawFrame(const Scene& scene, const View& view, const OpaquePass& opaque, const std::function<void(GLuint)>& draw) {
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    opaque.draw(scene, view, target.framebuffer());
-    draw(target.framebuffer());
-    return target.readColor();
-}
 
 // The path-traced reference split by light as the accuracy bench's (accuracy_reference.hpp:
 // the sun's light and the sky's each in two halves of independent seeds, the sun's single
@@ -134,46 +115,13 @@ Reference layerReference(const Scene& scene, const View& view, const LayerAccura
     return r;
 }
 
-// The near LOD against the layer it stands for within auto's reach: the near cumulus alone with
-// every cell at weight 1, the layer alone cut at the reach (extent = reach, no rim fade).
+// The near LOD against the layer it stands for within auto's reach (hand_off.hpp).
 void measureHandOff(const Scene& scene, const View& view, const Renderers& r, LayerViewAccuracy& out) {
-    const double reach = kAutoNearRadius + kAutoBlendBand;
-    LayeredSettings nearSettings = r.layered;
-    nearSettings.nearRadius = reach, nearSettings.blendBand = 0;
-    NearLod nearLod(NearLodSettings{}, nearSettings);
-    const std::vector<Cloud> cumulus = nearLod.update(scene, view.eye, 0);
-    EllipsoidRenderer compositor(autoEllipsoidSettings());
-    const Image nearOnly = drawFrame(scene, view, r.opaque, [&](GLuint fb) {
-        compositor.render(withNearClouds(scene, cumulus), view, fb, false);
-    });
-    Scene cut = scene;
-    cut.layers.front().extent = reach;
-    LayeredSettings cutSettings = r.layered;
-    cutSettings.extentFade = 0;
-    LayeredRenderer cutSky(cutSettings);
-    const Image layerOnly = drawFrame(cut, view, r.opaque, [&](GLuint fb) { cutSky.render(cut, view, fb, 0); });
-    const Layer& l = scene.layers.front();
-    const double extinction = scene.medium.extinction;
-    double sums[5] = {0, 0, 0, 0, 0};  // near alpha, layer alpha, volume alpha; near, layer luminance in the band
-    auto luminance = [](const Image& im, int x, int y) {
-        return 0.2126 * im.at(x, y, 0) + 0.7152 * im.at(x, y, 1) + 0.0722 * im.at(x, y, 2);
-    };
-    for (int y = 0; y < nearOnly.height; ++y)
-        for (int x = 0; x < nearOnly.width; ++x) {
-            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
-            if (!meetsSlab(view.eye, d, l.base, l.base + l.thickness, 0, reach)) continue;
-            ++out.reachPixels;
-            sums[0] += nearOnly.at(x, y, 3), sums[1] += layerOnly.at(x, y, 3);
-            const double tau = extinction * layerDensityIntegral(l, *cutSky.modulation(0), r.layered.modulation,
-                                                                 *cutSky.lighting(0), view.eye, d, reach, 0);
-            sums[2] += 1 - std::exp(-tau);
-            if (!meetsSlab(view.eye, d, l.base, l.base + l.thickness, kAutoNearRadius, reach)) continue;
-            ++out.bandPixels;
-            sums[3] += luminance(nearOnly, x, y), sums[4] += luminance(layerOnly, x, y);
-        }
-    const double n = std::max(out.reachPixels, 1), b = std::max(out.bandPixels, 1);
-    out.nearOpacity = sums[0] / n, out.layerOpacity = sums[1] / n, out.volumeOpacity = sums[2] / n;
-    out.nearRadiance = sums[3] / b, out.layerRadiance = sums[4] / b;
+    const HandOff h = nephele::measureHandOff(scene, view, r.layered, kAutoNearRadius, kAutoNearRadius + kAutoBlendBand,
+                                                 autoEllipsoidSettings());
+    out.reachPixels = h.reachPixels, out.bandPixels = h.bandPixels;
+    out.nearOpacity = h.nearOpacity, out.layerOpacity = h.layerOpacity, out.volumeOpacity = h.volumeOpacity;
+    out.nearRadiance = h.nearRadiance, out.layerRadiance = h.layerRadiance;
 }
 
 LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o, Renderers& r, const NoiseVolume& noise,
@@ -186,14 +134,14 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
     a.shares = referenceShares(ref);
     const auto layered = [&](GLuint fb) { r.sky->render(scene, view, fb, 0); };
     const auto autoDraw = [&](GLuint fb) { r.autoSky->render(scene, view, fb, 0, false); };
-    const Image layeredFrame = drawFrame(scene, view, r.opaque, layered);
-    const Image autoFrame = drawFrame(scene, view, r.opaque, autoDraw);
+    const Image layeredFrame = drawOver(scene, view, r.opaque, layered);
+    const Image autoFrame = drawOver(scene, view, r.opaque, autoDraw);
     const Image layeredBlocks = blockMean(layeredFrame, o.block), autoBlocks = blockMean(autoFrame, o.block);
     a.layeredError = relativeRmse(layeredBlocks, ref.total), a.layeredRatio = meanRatio(layeredBlocks, ref.total);
     a.autoError = relativeRmse(autoBlocks, ref.total), a.autoRatio = meanRatio(autoBlocks, ref.total);
     a.layeredOpacity = meanAlpha(layeredBlocks);
     a.layeredParts = componentErrors(scene, view, ref, o.block, [&](const Scene& sc, bool single) {
-        return drawFrame(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });
+        return drawOver(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });
     });
     if (!o.imageDir.empty()) {  // the block means side by side: reference, layered, auto
         const std::string stem = o.imageDir + "/layer-view" + std::to_string(index);

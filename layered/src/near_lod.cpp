@@ -43,8 +43,10 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     if (!(s.cellSize > 0) || !std::isfinite(s.cellSize)) bad("cellSize must be > 0 m");
     if (!(s.jitter >= 0 && s.jitter < 0.5)) bad("jitter must be in [0, 0.5) cells");
     if (s.columns < 1 || s.columns > 16) bad("columns must be 1..16, got " + std::to_string(s.columns));
+    if (s.stack < 1 || s.stack > 4) bad("stack must be 1..4, got " + std::to_string(s.stack));
     if (s.samples < 1 || s.samples > 16) bad("samples must be 1..16, got " + std::to_string(s.samples));
-    if (s.levels < 1 || s.levels > 64) bad("levels must be 1..64, got " + std::to_string(s.levels));
+    if (s.levels < 1 || s.levels > 64 || s.levels % s.stack != 0)
+        bad("levels must be 1..64 and a multiple of stack, got " + std::to_string(s.levels));
     if (!(s.columnDepth > 0) || !std::isfinite(s.columnDepth)) bad("columnDepth must be > 0");
     if (!(s.minColumnDepth >= 0) || !std::isfinite(s.minColumnDepth)) bad("minColumnDepth must be >= 0");
     if (!(s.overlap >= 0.5 && s.overlap <= 2)) bad("overlap must be in [0.5, 2] columns");
@@ -73,32 +75,41 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     // The layer's matter over the cell, column by column (pattern coordinates are the world at
     // t = 0): columns x columns columns of side w, each sampled at samples x samples points
     // and `levels` heights: its mean density (eq. 16) and its optical depth.
-    const int n = s.columns, m = s.samples;
+    const int n = s.columns, m = s.samples, stack = s.stack;
     const double w = s.cellSize / n, dz = layer.thickness / s.levels;
     std::vector<Vec2> cloudy;
+    std::vector<double> mean(static_cast<std::size_t>(stack));  // per level of the stack: the column's mean density there
     for (int b = 0; b < n; ++b)
         for (int a = 0; a < n; ++a) {
-            double mean = 0;
+            std::fill(mean.begin(), mean.end(), 0.0);
             for (int y = 0; y < m; ++y)
                 for (int x = 0; x < m; ++x) {
                     const Vec2 xy(double(i) * s.cellSize + (a + (x + 0.5) / m) * w, double(j) * s.cellSize + (b + (y + 0.5) / m) * w);
                     double tau = 0;
-                    for (int k = 0; k < s.levels; ++k)
-                        tau += layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
-                    mean += tau / (double(s.levels) * m * m);
+                    for (int k = 0; k < s.levels; ++k) {
+                        const double rho = layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
+                        tau += rho;
+                        mean[std::size_t(k * stack / s.levels)] += rho * stack / (double(s.levels) * m * m);
+                    }
                     if (scene.medium.extinction * tau * dz >= s.columnDepth) cloudy.push_back(xy);
                 }
-            if (!(scene.medium.extinction * mean * layer.thickness >= s.minColumnDepth)) continue;
-            // One ellipsoid per column, through the layer's thickness, overlapping its neighbours
-            // (horizontal radius `overlap` w), carrying the column's matter: density d with
-            // d kKernelVolume R^2 (thickness / 2) = mean w^2 thickness.
-            Ellipsoid e;
+            double columnMean = 0;
+            for (double v : mean) columnMean += v / stack;
+            if (!(scene.medium.extinction * columnMean * layer.thickness >= s.minColumnDepth)) continue;
+            // Per level of the stack an ellipsoid centred in its band of the layer, vertical radius
+            // half the thickness (neighbours in the stack overlap as in the row), horizontal radius
+            // `overlap` w, carrying the band's matter: d kKernelVolume R^2 (thickness / 2) =
+            // mean w^2 thickness / stack.
             const double radius = s.overlap * w;
-            e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w, double(j) * s.cellSize + (b + 0.5) * w,
-                            layer.base + 0.5 * layer.thickness);
-            e.radii = Vec3(radius, radius, 0.5 * layer.thickness);
-            e.density = mean * 2 * w * w / (kKernelVolume * radius * radius);
-            cell.cloud.ellipsoids.push_back(e);
+            for (int k = 0; k < stack; ++k) {
+                if (!(mean[std::size_t(k)] > 0)) continue;
+                Ellipsoid e;
+                e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w, double(j) * s.cellSize + (b + 0.5) * w,
+                                layer.base + (k + 0.5) / stack * layer.thickness);
+                e.radii = Vec3(radius, radius, 0.5 * layer.thickness);
+                e.density = mean[std::size_t(k)] * 2 * w * w / (stack * kKernelVolume * radius * radius);
+                cell.cloud.ellipsoids.push_back(e);
+            }
         }
     cell.cover = double(cloudy.size()) / (double(n) * n * m * m);
     if (cloudy.empty()) {

@@ -12,10 +12,12 @@
 //   clouds must cover the sky as the layer does): the cell is cut into columns x columns
 //   columns, each integrated through the layer's density as the shader has it (layerDensity():
 //   eq. 16 with the lighting volume's A, at samples x samples points and `levels` heights); a
-//   column whose mean optical depth reaches minColumnDepth becomes one ellipsoid through the
-//   layer's thickness (centred at mid-layer, vertical radius thickness / 2, horizontal radius
-//   overlap x the column's side, so that neighbours merge) whose density makes its matter (the
-//   integral of its extinction) the column's. The layer's optical depth along any ray is thus
+//   column whose mean optical depth reaches minColumnDepth becomes `stack` ellipsoids, one
+//   centred in each band of the layer's height (vertical radius thickness / 2, so that with
+//   stack > 1 they reach a quarter of the thickness beyond the slab; horizontal radius overlap x
+//   the column's side, so that neighbours merge), each carrying its band's matter (the integral
+//   of its extinction). (One ellipsoid per column concentrates the matter at mid-height, its
+//   kernel's (1 - z^2)^3 profile: rays that climb or descend through the layer saw too little.) The layer's optical depth along any ray is thus
 //   carried at the columns' resolution. cover = the fraction of the sample points whose column
 //   has optical depth >= columnDepth (0: no cloud); `center` is the cloudy point nearest to
 //   their centroid (there layerModulation() > 0). The cloud depends on the layer and (i, j)
@@ -63,6 +65,7 @@ struct NearLodSettings {
     double cellSize = 1000;     // m, side of a cell (about a cumulus's width), > 0
     double jitter = 0.2;        // cells, largest offset of a spawn point from its cell's centre per axis, [0, 0.5)
     int columns = 4;            // ellipsoid columns per cell side, 1..16 (each carries its column of the layer)
+    int stack = 1;              // ellipsoids per column, one per band of the layer's height, 1..4
     int samples = 2;            // points per column side sampled through the layer, 1..16
     int levels = 8;             // heights per point, 1..64
     double columnDepth = 0.5;   // optical depth of a point's column that counts as cloud (the cell's cover), > 0
