@@ -4,6 +4,7 @@
 #include "compare_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
+#include "layer_accuracy.hpp"
 #include "render_command.hpp"
 
 #include "nephele/context.hpp"
@@ -260,7 +261,8 @@ namespace {
 struct BenchArgs {
     BenchOptions bo;
     std::string gl = "egl", cache;
-    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, quick = false, noCache = false;
+    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false;
+    bool quick = false, noCache = false;
     LayeredBenchOptions lbo;
     WeatherBenchOptions wbo;
     ScaleBenchOptions sbo;
@@ -283,6 +285,9 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
                     "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
     bench->add_flag("--flicker", b.flicker, "Instead: frame-to-frame change along camera paths against the exact model");
     bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
+    bench->add_flag("--layer-accuracy", b.layerAccuracy,
+                    "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
+                    "layer (markdown on stdout; --width, --frames, --spp, --cache, --out-dir for its images)");
     bench->add_flag("--weather", b.weather,
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
     bench->add_flag("--scale", b.scale,
@@ -298,21 +303,33 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--reference-noise", b.ao.referenceNoise, "--accuracy: trace the reference until its own noise is at most this")
         ->check(within(0.001, 0.5))
         ->capture_default_str();
-    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference")
+    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference; --layer-accuracy: its sun part's (256)")
         ->check(within(1, 1 << 20))
         ->capture_default_str();
     bench->add_option("--fps", b.flo.fps, "--flicker, --weather: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
-    bench->add_option("--cache", b.cache, "--accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
+    bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
-    bench->add_flag("--no-cache", b.noCache, "--accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--flicker/--layered/--weather/--scale: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
+    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
+}
+
+// `bench --layer-accuracy`: the options it shares with the others (ranged there).
+int runLayerAccuracyArgs(const BenchArgs& b) {
+    LayerAccuracyOptions lao;
+    lao.scenesDir = b.bo.scenesDir, lao.frames = b.bo.frames, lao.quick = b.quick;
+    if (b.cmd->count("--width") > 0) lao.width = b.bo.width;
+    if (b.cmd->count("--spp") > 0) lao.referenceSpp = b.ao.referenceSpp;
+    lao.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
+    if (b.cmd->count("--out-dir") > 0) lao.imageDir = b.bo.outDir;  // the views' images
+    return runLayerAccuracyBench(lao, b.bo.backend);
 }
 
 int runBenchArgs(BenchArgs& b) {
     b.bo.backend = parseBackend(b.gl);
-    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) > 1) {
-        std::cerr << "nephele: bench: --accuracy, --flicker, --layered, --weather and --scale are separate runs; give one\n";
+    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) > 1) {
+        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather and --scale are separate "
+                     "runs; give one\n";
         return 2;
     }
     const BenchOptions& bo = b.bo;
@@ -325,6 +342,7 @@ int runBenchArgs(BenchArgs& b) {
         if (!b.noCache) ao.cacheDir = defaultCacheDir(b.cache);
         return runAccuracyBench(ao);
     }
+    if (b.layerAccuracy) return runLayerAccuracyArgs(b);
     if (b.layered) {
         LayeredBenchOptions& lbo = b.lbo;
         lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;

@@ -4,6 +4,7 @@
 
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/layer_volume.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/png.hpp"
@@ -162,6 +163,7 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
     } else if (options_.method == Method::Pathtrace) {
         PathTraceSettings ps = options_.pathtrace;
         ps.progress = ::isatty(2) != 0;
+        if (!scene.layers.empty()) ps.layers = std::make_shared<LayerVolumes>(scene, options_.layered, time);
         rgba = options_.cacheDir.empty() ? renderPathTraced(scene, view, ps, &noise_)
                                          : renderPathTracedCached(scene, view, ps, &noise_, options_.cacheDir);
     } else {
@@ -192,7 +194,7 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
             std::cerr << "nephele: note: --method layered draws the far-field layers only; " << clouds
                       << " explicit ellipsoid cloud(s) left out\n";
         if (scene.layers.empty()) std::cerr << "nephele: note: the scene has no layers; --method layered draws only the sky\n";
-    } else if (!scene.layers.empty() && o.method != Method::Auto)
+    } else if (!scene.layers.empty() && o.method != Method::Auto && o.method != Method::Pathtrace)
         std::cerr << "nephele: note: --method " << methodName(o.method) << " does not draw far-field layers; "
                   << scene.layers.size() << " layer(s) left out (--method auto or layered draws them)\n";
     return FrameRenderer(o).render(scene, o.time);

@@ -1,11 +1,17 @@
-// Wang, Ji & Zhang 2011 appearance: density by the 2D modulation texture (eqs. 14-16), light
-// from the precomputed 3D texture (vectors of length I: lit = max(n . l, 0)), skylight as a
-// second directional light, eye scattering (17), wind (18), city glow (20), lightning (21).
+// Wang, Ji & Zhang 2011 appearance: density by the 2D modulation texture (eqs. 14-16), wind
+// (18), city glow (20), lightning (21); the light of the shared model (cloud_light.glsl) from the
+// layer's column depths and photon-traced light tables (layer_light.glsl), the skylight as a
+// second directional light (its single scattering).
 // Output premultiplied: (radiance * alpha, alpha), blended ONE, ONE_MINUS_SRC_ALPHA.
+#define MODEL_FN
+#include "gardner_model.glsl"
+#include "layer_light.glsl"
 in vec3 rel;
 out vec4 color;
 uniform int mode;                  // 0 = annuli, 1 = billboards
-uniform sampler3D lightVolume;     // rgb = n / 2 + 0.5, a = density A
+uniform sampler3D lightVolume;     // rgb = encoded knots of the optical depth above, a = density A
+uniform sampler2D columns;         // rgb = encoded knots of the whole column's optical depth
+uniform sampler2D sunTable, skyTable;  // the frame's light tables (layerSource())
 uniform sampler2D modulation;      // r = threshold, g = city map
 uniform vec2 uvLightEye;           // fract((eye.xy - t wind) / tilePeriod)
 uniform vec2 uvModEye;             // fract((eye.xy - t wind) / modulationPeriod)
@@ -23,9 +29,11 @@ uniform float steepTan;            // tan of the elevation where annuli and bill
 uniform float extent, fadeStart;   // m
 uniform float nearRadius, blendBand;  // m
 uniform vec3 sunDirection, sunIrradiance;  // unit; colour * intensity
+uniform vec3 sunHorizontal;        // unit, the sun's horizontal direction
+uniform float sunFromAbove, sunMu; // 1 when the sun is above the horizon, else 0; max(|s.z|, 0.01)
 uniform vec3 skyDirection, skyIrradiance;  // skylight (0 when the scene has none)
-uniform vec3 ambient;
-uniform float eyePeak, eyeCosPhi, eyeHeightCoeff;  // I_e0, cos(phi), f_e of eq. (17)
+uniform float skyFromAbove, skyMu;
+uniform float hgG;                 // medium.hg_g
 uniform vec3 glow;                 // city glow colour * strength (0: none)
 uniform float glowHeightCoeff;     // f_c of eq. (20)
 uniform int flashCount;
@@ -66,17 +74,17 @@ void main() {
     float r = textureGrad(modulation, uvMod, uvMdx, uvMdy).r;
     if (r >= coverage) discard;
     vec4 t3 = textureGrad(lightVolume, vec3(uvw.xy, clamp(zf, 0.0, 1.0)), uvwdx, uvwdy);
-    float rho = density * max(t3.a - (r + 1.0 - coverage), 0.0);  // eq. (16)
+    float theta = r + 1.0 - coverage;
+    float rho = density * max(t3.a - theta, 0.0);  // eq. (16)
     float alpha = 1.0 - exp(-extinction * rho * path * share);
     if (alpha <= 0.0) discard;
-    vec3 n = t3.rgb * 2.0 - 1.0;  // length = intensity I
-    float litSun = max(dot(n, sunDirection), 0.0);
-    float litSky = max(dot(n, skyDirection), 0.0);
-    vec3 radiance = albedo * (sunIrradiance / PI * litSun + skyIrradiance / PI * litSky + ambient * (0.5 + 0.5 * zf));
-    // Eye scattering, eq. (17).
-    // (smoothstep of the paper's linear term: the linear one shows the cone's rim as a ring)
-    float toward = smoothstep(0.0, 1.0, (dot(d, sunDirection) - eyeCosPhi) / (1.0 - eyeCosPhi));
-    radiance += sunIrradiance * eyePeak * toward * (eyeHeightCoeff * clamp(zf, 0.0, 1.0) + 1.0);
+    // The column's optical depths above and below, the light tables there, the source function.
+    vec3 depths = layerColumnDepths(t3.rgb, textureGrad(columns, uvw.xy, uvwdx.xy, uvwdy.xy).rgb, theta, density);
+    vec2 uvTable = vec2(layerTableCoord(depths.x), layerTableCoord(depths.y));
+    float tauSun = mix(depths.y, depths.x, sunFromAbove) / sunMu;
+    vec3 radiance = layerSource(textureLod(sunTable, uvTable, 0.0), textureLod(skyTable, uvTable, 0.0), tauSun, d,
+                                sunDirection, sunHorizontal, hgG, sunIrradiance, albedo);
+    radiance += albedo * skyIrradiance * singleScatter(d, skyDirection, hgG, mix(depths.y, depths.x, skyFromAbove) / skyMu);
     // City glow, eq. (20).
 #ifdef CITY_GLOW  // (a program of its own: llvmpipe would fetch the city map even where no layer glows)
     if (glow != vec3(0.0)) {

@@ -119,20 +119,10 @@ Image volumeOpacity(const Scene& scene, const Result& r, const LayeredSettings& 
     const double reach = layer.extent * (1 - s.extentFade);
     parallelFor(out.height, [&](int y) {
         for (int x = 0; x < out.width; ++x) {
-            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
-            double t0 = 0, t1 = reach / std::max(std::hypot(d.x, d.y), 1e-9);
-            if (std::abs(d.z) > 1e-12) {
-                double a = (layer.base - view.eye.z) / d.z, b = (layer.base + layer.thickness - view.eye.z) / d.z;
-                if (a > b) std::swap(a, b);
-                t0 = std::max(t0, a), t1 = std::min(t1, b);
-            }
-            if (t1 <= t0) continue;
-            const int steps = std::min(2000, std::max(1, int((t1 - t0) / 20)));
-            const double dt = (t1 - t0) / steps;
-            double tau = 0;
-            for (int i = 0; i < steps; ++i)
-                tau += layerDensity(layer, r.modulation, s.modulation, r.light, view.eye + d * (t0 + (i + 0.5) * dt), 0) * dt;
-            out.at(x, y, 0) = float(1 - std::exp(-scene.medium.extinction * tau));
+            const double tau = scene.medium.extinction * layerDensityIntegral(layer, r.modulation, s.modulation, r.light,
+                                                                              view.eye, view.rayDirection(x + 0.5, y + 0.5),
+                                                                              reach, 0, 20, 2000);
+            out.at(x, y, 0) = float(1 - std::exp(-tau));
         }
     });
     return out;

@@ -2,6 +2,7 @@
 // on the grid, the sun's optical depth in closed form, and the diffuse light by photons traced
 // through the voxelised extinction with the path tracer's physics, scored by track length.
 #include "nephele/cloud_radiance.hpp"
+#include "photon_sampling.hpp"
 
 #include "nephele/gardner_model.hpp"
 #include "parallel.hpp"
@@ -21,55 +22,9 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// PCG32 (O'Neill 2014), as the path tracer's (reference/src/tracking.hpp).
-class Rng {
-public:
-    explicit Rng(std::uint64_t seed) : state_(0), inc_((mix(seed) << 1) | 1u) {
-        next();
-        state_ += mix(seed ^ 0x5DEECE66Dull);
-        next();
-    }
-    std::uint32_t next() {
-        const std::uint64_t old = state_;
-        state_ = old * 6364136223846793005ull + inc_;
-        const auto x = std::uint32_t(((old >> 18) ^ old) >> 27);
-        const auto rot = std::uint32_t(old >> 59);
-        return (x >> rot) | (x << ((32u - rot) & 31u));
-    }
-    double uniform() { return (next() + 0.5) * 0x1.0p-32; }  // (0, 1)
-
-private:
-    static std::uint64_t mix(std::uint64_t x) {
-        x += 0x9E3779B97F4A7C15ull;
-        x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-        x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-        return x ^ (x >> 31);
-    }
-    std::uint64_t state_, inc_;
-};
-
-// An orthonormal basis about unit w (Duff et al. 2017).
-void basis(const Vec3& w, Vec3& u, Vec3& v) {
-    const double sign = std::copysign(1.0, w.z), a = -1 / (sign + w.z), b = w.x * w.y * a;
-    u = Vec3(1 + sign * w.x * w.x * a, sign * b, -sign * w.x);
-    v = Vec3(b, sign + w.y * w.y * a, -w.y);
-}
-
-// A direction about w with the Henyey-Greenstein distribution of its angle to w.
-Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
-    const double xi = rng.uniform(), phi = 2 * kPi * rng.uniform();
-    double c;
-    if (std::fabs(g) < 1e-4) {
-        c = 1 - 2 * xi;
-    } else {
-        const double s = (1 - g * g) / (1 - g + 2 * g * xi);
-        c = std::clamp((1 + g * g - s * s) / (2 * g), -1.0, 1.0);
-    }
-    const double sn = std::sqrt(std::max(0.0, 1 - c * c));
-    Vec3 u, v;
-    basis(w, u, v);
-    return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
-}
+using Rng = detail::PhotonRng;
+using detail::basis;
+using detail::sampleHg;
 
 // The voxel grid a photon walks: extinction per voxel (1/m), world box.
 struct Grid {

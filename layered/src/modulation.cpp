@@ -74,7 +74,7 @@ void validate(const LayeredSettings& s) {
     if (!(s.blendBand >= 0)) bad("blendBand must be >= 0 m");
     if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
     if (s.downsample < 1 || s.downsample > 4) bad("downsample must be 1..4, got " + std::to_string(s.downsample));
-    if (!std::isfinite(s.eyeScatterHeight) || !std::isfinite(s.glowHeight)) bad("eyeScatterHeight and glowHeight must be finite");
+    if (!std::isfinite(s.glowHeight)) bad("glowHeight must be finite");
     if (s.resourceMegabytes < 1 || s.resourceMegabytes > 65536) bad("resourceMegabytes must be 1..65536");
 }
 
@@ -105,6 +105,25 @@ double layerDensity(const Layer& layer, const ModulationTexture& m, const Modula
     const double a = light.sampleDensity((p.x - drift.x) / period, (p.y - drift.y) / period, z);
     const double r = threshold(layer, m, ms, p.x, p.y, t);
     return layer.density * std::max(a - (r + 1 - layer.coverage), 0.0);  // eq. (16)
+}
+
+double layerDensityIntegral(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms,
+                            const LightingVolume& light, const Vec3& o, const Vec3& d, double reach, double t, double step,
+                            int maxSteps) {
+    double t0 = 0, t1 = reach / std::max(std::hypot(d.x, d.y), 1e-12);
+    if (std::abs(d.z) > 1e-12) {
+        double a = (layer.base - o.z) / d.z, b = (layer.base + layer.thickness - o.z) / d.z;
+        if (a > b) std::swap(a, b);
+        t0 = std::max(t0, a), t1 = std::min(t1, b);
+    } else if (o.z < layer.base || o.z > layer.base + layer.thickness) {
+        return 0;
+    }
+    if (!(t1 > t0)) return 0;
+    const int steps = std::clamp(int(std::ceil((t1 - t0) / step)), 1, maxSteps);
+    const double dt = (t1 - t0) / steps;
+    double sum = 0;
+    for (int i = 0; i < steps; ++i) sum += layerDensity(layer, m, ms, light, o + d * (t0 + (i + 0.5) * dt), t);
+    return sum * dt;
 }
 
 double sunTransmittance(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, const Vec3& sun,

@@ -2,7 +2,6 @@
 // (nephele/near_lod.hpp).
 #include "nephele/near_lod.hpp"
 
-#include "nephele/generate.hpp"
 #include "layer_assets.hpp"
 
 #include <algorithm>
@@ -43,14 +42,14 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     auto bad = [](const std::string& what) { throw std::invalid_argument("near LOD settings: " + what); };
     if (!(s.cellSize > 0) || !std::isfinite(s.cellSize)) bad("cellSize must be > 0 m");
     if (!(s.jitter >= 0 && s.jitter < 0.5)) bad("jitter must be in [0, 0.5) cells");
-    if (s.samples < 1 || s.samples > 64) bad("samples must be 1..64, got " + std::to_string(s.samples));
-    if (s.levels < 1 || s.levels > 64) bad("levels must be 1..64, got " + std::to_string(s.levels));
+    if (s.columns < 1 || s.columns > 16) bad("columns must be 1..16, got " + std::to_string(s.columns));
+    if (s.stack < 1 || s.stack > 4) bad("stack must be 1..4, got " + std::to_string(s.stack));
+    if (s.samples < 1 || s.samples > 16) bad("samples must be 1..16, got " + std::to_string(s.samples));
+    if (s.levels < 1 || s.levels > 64 || s.levels % s.stack != 0)
+        bad("levels must be 1..64 and a multiple of stack, got " + std::to_string(s.levels));
     if (!(s.columnDepth > 0) || !std::isfinite(s.columnDepth)) bad("columnDepth must be > 0");
-    if (s.ellipsoids < 1 || s.ellipsoids > 1000) bad("ellipsoids must be 1..1000, got " + std::to_string(s.ellipsoids));
-    if (!(s.widthScale > 0) || !std::isfinite(s.widthScale)) bad("widthScale must be > 0");
-    if (!(s.minWidth > 0 && s.minWidth <= s.maxWidth && s.maxWidth <= 1.5))
-        bad("minWidth and maxWidth must satisfy 0 < minWidth <= maxWidth <= 1.5 (fractions of cellSize)");
-    if (!(s.minHeight > 0 && s.minHeight <= 1)) bad("minHeight must be in (0, 1] (fraction of the layer's thickness)");
+    if (!(s.minColumnDepth >= 0) || !std::isfinite(s.minColumnDepth)) bad("minColumnDepth must be >= 0");
+    if (!(s.overlap >= 0.5 && s.overlap <= 2)) bad("overlap must be in [0.5, 2] columns");
     if (s.maxCellsPerAxis < 1 || s.maxCellsPerAxis > 4096) bad("maxCellsPerAxis must be 1..4096");
     validate(l);
     if (!std::isfinite(reach(l))) bad("nearRadius + blendBand must be finite");
@@ -58,6 +57,12 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
         bad("2 (nearRadius + blendBand) / cellSize = " + std::to_string(2 * reach(l) / s.cellSize) + " cells per axis exceeds " +
             std::to_string(s.maxCellsPerAxis) + "; raise cellSize or lower the near radius / blend band");
 }
+
+namespace {
+// The matter of the kernel (1 - r^2)^2 over the unit ball, the ellipsoids' density profile
+// (gardner_model.glsl): 4 pi (1/3 - 2/5 + 1/7) = 32 pi / 105.
+constexpr double kKernelVolume = 32 * 3.14159265358979323846 / 105;
+}  // namespace
 
 NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j, const NearLodSettings& s,
                       const ModulationTexture& modulation, const ModulationSettings& ms, const LightingVolume& light) {
@@ -67,49 +72,56 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     cell.spawn = spawnPoint(layer.seed, i, j, s);
     cell.cloud.name = "near" + std::to_string(li) + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
     cell.cloud.noiseId = cellHash(layer.seed, i, j, 3) | 1;  // never 0 ("the cloud's index")
-    // The layer's columns over the cell (pattern coordinates are the world at t = 0).
+    // The layer's matter over the cell, column by column (pattern coordinates are the world at
+    // t = 0): columns x columns columns of side w, each sampled at samples x samples points
+    // and `levels` heights: its mean density (eq. 16) and its optical depth.
+    const int n = s.columns, m = s.samples, stack = s.stack;
+    const double w = s.cellSize / n, dz = layer.thickness / s.levels;
     std::vector<Vec2> cloudy;
-    const double dz = layer.thickness / s.levels;
-    for (int b = 0; b < s.samples; ++b)
-        for (int a = 0; a < s.samples; ++a) {
-            const Vec2 xy((double(i) + (a + 0.5) / s.samples) * s.cellSize, (double(j) + (b + 0.5) / s.samples) * s.cellSize);
-            double tau = 0;
-            for (int k = 0; k < s.levels; ++k)
-                tau += layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
-            if (scene.medium.extinction * tau * dz >= s.columnDepth) cloudy.push_back(xy);
+    std::vector<double> mean(static_cast<std::size_t>(stack));  // per level of the stack: the column's mean density there
+    for (int b = 0; b < n; ++b)
+        for (int a = 0; a < n; ++a) {
+            std::fill(mean.begin(), mean.end(), 0.0);
+            for (int y = 0; y < m; ++y)
+                for (int x = 0; x < m; ++x) {
+                    const Vec2 xy(double(i) * s.cellSize + (a + (x + 0.5) / m) * w, double(j) * s.cellSize + (b + (y + 0.5) / m) * w);
+                    double tau = 0;
+                    for (int k = 0; k < s.levels; ++k) {
+                        const double rho = layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
+                        tau += rho;
+                        mean[std::size_t(k * stack / s.levels)] += rho * stack / (double(s.levels) * m * m);
+                    }
+                    if (scene.medium.extinction * tau * dz >= s.columnDepth) cloudy.push_back(xy);
+                }
+            double columnMean = 0;
+            for (double v : mean) columnMean += v / stack;
+            if (!(scene.medium.extinction * columnMean * layer.thickness >= s.minColumnDepth)) continue;
+            // Per level of the stack an ellipsoid centred in its band of the layer, vertical radius
+            // half the thickness (neighbours in the stack overlap as in the row), horizontal radius
+            // `overlap` w, carrying the band's matter: d kKernelVolume R^2 (thickness / 2) =
+            // mean w^2 thickness / stack.
+            const double radius = s.overlap * w;
+            for (int k = 0; k < stack; ++k) {
+                if (!(mean[std::size_t(k)] > 0)) continue;
+                Ellipsoid e;
+                e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w, double(j) * s.cellSize + (b + 0.5) * w,
+                                layer.base + (k + 0.5) / stack * layer.thickness);
+                e.radii = Vec3(radius, radius, 0.5 * layer.thickness);
+                e.density = mean[std::size_t(k)] * 2 * w * w / (stack * kKernelVolume * radius * radius);
+                cell.cloud.ellipsoids.push_back(e);
+            }
         }
-    cell.cover = double(cloudy.size()) / (s.samples * s.samples);
-    if (cloudy.empty()) return cell;
+    cell.cover = double(cloudy.size()) / (double(n) * n * m * m);
+    if (cloudy.empty()) {
+        cell.cloud.ellipsoids.clear();  // only faint matter: nothing that counts as cloud
+        return cell;
+    }
     Vec2 centroid(0.0);
     for (const Vec2& c : cloudy) centroid += c / double(cloudy.size());
     cell.center = *std::min_element(cloudy.begin(), cloudy.end(), [&](const Vec2& a, const Vec2& b) {
         return glm::length(a - centroid) < glm::length(b - centroid);
     });
     cell.modulation = layerModulation(layer, modulation, ms, cell.center.x, cell.center.y, 0);
-    const double q = cell.cover;
-
-    // Cumulus geometry (generate.hpp): offsets clamped to [-2, 2] sigma per horizontal axis
-    // and [-0.5, 2] sigma vertically, radii <= maxRadius * aspect. With R the largest radius
-    // and a_z its vertical aspect, the cloud spans 2.5 sigma_z + 2 R a_z vertically and lies
-    // within 2 sqrt(2) sigma_xy + R of its centre horizontally (a corner of the clamp box).
-    Generator g;
-    g.type = Generator::Type::Cumulus;
-    g.name = cell.cloud.name;
-    g.seed = unsigned(cellHash(layer.seed, i, j, 4) >> 32);
-    g.density = layer.density;
-    g.count = std::max(4, int(std::lround(s.ellipsoids * (0.3 + 0.7 * q))));
-    g.clampLo = Vec3(-2, -2, -0.5);
-    g.clampHi = Vec3(2, 2, 2);
-    g.aspect = Vec3(1, 1, 0.7);
-    const double height = layer.thickness * (s.minHeight + (1 - s.minHeight) * q);
-    const double halfWidth = 0.5 * s.cellSize * std::clamp(s.widthScale * std::sqrt(q), s.minWidth, s.maxWidth);
-    g.maxRadius = std::min(0.28 * height / g.aspect.z, halfWidth / 1.5);  // R a_z <= 0.28 of the height
-    const double sigmaZ = (height - 2 * g.maxRadius * g.aspect.z) / 2.5;
-    const double sigmaXY = (halfWidth - g.maxRadius) / (2 * std::sqrt(2.0));  // > 0: R <= halfWidth / 1.5
-    g.sigma = Vec3(sigmaXY, sigmaXY, sigmaZ);
-    // The lowest point is at most 0.5 sigma_z + R a_z below the centre: the base on the layer's.
-    g.center = Vec3(cell.center, layer.base + 0.5 * sigmaZ + g.maxRadius * g.aspect.z);
-    cell.cloud.ellipsoids = generateCumulus(g).ellipsoids;
     return cell;
 }
 

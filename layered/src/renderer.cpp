@@ -8,6 +8,7 @@
 #include "nephele/resources.hpp"
 #include "nephele/shader.hpp"
 #include "layer_assets.hpp"
+#include "layer_light.hpp"
 #include "reduced_target.hpp"
 #include "shadow_pass.hpp"
 
@@ -26,6 +27,7 @@ template <class T>
 struct SharedTexture {
     std::shared_ptr<const T> data;
     Texture texture;
+    Texture columns;  // a lighting volume's column knots (2D); none for a modulation texture
 };
 template <class T>
 using TexturePool = std::vector<std::weak_ptr<const SharedTexture<T>>>;
@@ -34,8 +36,20 @@ using TexturePool = std::vector<std::weak_ptr<const SharedTexture<T>>>;
 struct LayerSlot {
     std::shared_ptr<const SharedTexture<LightingVolume>> light;
     std::shared_ptr<const SharedTexture<ModulationTexture>> modulation;
+    Texture sunTable, skyTable;  // the frame's light tables (layer_light.hpp), refreshed every frame
     bool ready() const { return light && modulation; }
 };
+
+// An RGBA 2D texture, linear, repeating or clamped.
+Texture makeTexture2D(GLenum format, int width, int height, int levels, bool repeat) {
+    Texture t = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(t.id(), levels, format, width, height);
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, levels > 1 ? GL_LINEAR_MIPMAP_NEAREST : GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    return t;
+}
 
 int mipLevels(int size) {
     int levels = 1;
@@ -129,6 +143,22 @@ IndexedMesh makeAnnulus(int segments) {
     return makeIndexedMesh(v, idx, 1);
 }
 
+// The directional lights: the sun and the skylight (none: irradiance 0), each with the side of
+// the column it shines from and its elevation's sine (at least 0.01: the slant of tauSun).
+void setLightUniforms(const ProgramPair& p, const Scene& scene) {
+    auto light = [&](const char* direction, const char* fromAbove, const char* mu, const Vec3& l) {
+        p.set(direction, glm::vec3(l));
+        p.set(fromAbove, l.z >= 0 ? 1.0f : 0.0f);
+        p.set(mu, float(std::max(std::abs(l.z), 0.01)));
+    };
+    light("sunDirection", "sunFromAbove", "sunMu", scene.sun.direction);
+    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+    const glm::dvec2 h(scene.sun.direction.x, scene.sun.direction.y);
+    p.set("sunHorizontal", glm::length(h) > 1e-9 ? glm::vec3(glm::normalize(h), 0.0f) : glm::vec3(1, 0, 0));
+    light("skyDirection", "skyFromAbove", "skyMu", scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
+    p.set("skyIrradiance", scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
+}
+
 // Billboards face the horizontal view direction (the camera's up when looking straight up or down).
 glm::vec2 billboardAxis(const View& view) {
     glm::dvec2 axis(view.forward.x, view.forward.y);
@@ -142,24 +172,18 @@ void setFrameUniforms(const ProgramPair& p, const Scene& scene, const View& view
     rotation[3] = glm::dvec4(0, 0, 0, 1);
     p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
     p.set("eyeHeight", float(view.eye.z));
-    p.set("sunDirection", glm::vec3(scene.sun.direction));
-    p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    if (scene.skylight) {
-        p.set("skyDirection", glm::vec3(glm::normalize(scene.skylight->direction)));
-        p.set("skyIrradiance", glm::vec3(scene.skylight->color * scene.skylight->intensity));
-    } else {
-        p.set("skyDirection", glm::vec3(0, 0, 1));
-        p.set("skyIrradiance", glm::vec3(0));
-    }
-    p.set("ambient", glm::vec3(cloudAmbient(scene.sky)));  // as the compositor: near ellipsoids and layers lit alike
+    setLightUniforms(p, scene);
     p.set("extinction", float(scene.medium.extinction));
     p.set("albedo", float(scene.medium.albedo));
-    p.set("eyeHeightCoeff", float(s.eyeScatterHeight));
+    p.set("hgG", float(scene.medium.hgG));
     p.set("glowHeightCoeff", float(s.glowHeight));
     p.set("lod0Radius", float(s.lod0Radius));
     p.set("lod0Spacing", float(s.lod0Spacing));
     p.set("lightVolume", 0);
     p.set("modulation", 1);
+    p.set("columns", 2);
+    p.set("sunTable", 3);
+    p.set("skyTable", 4);
     p.set("gradScale", float(1.0 / s.downsample));
     int flashes = 0;
     for (const Lightning& l : scene.lightning)
@@ -211,11 +235,12 @@ void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const
         p.set("steepTan", float(std::sqrt(layer.thickness / n / s.lod0Spacing)));
         p.set("extent", float(layer.extent));
         p.set("fadeStart", float(layer.extent * (1 - s.extentFade)));
-        p.set("eyePeak", float(r.light->data->eyeScatterPeak));
-        p.set("eyeCosPhi", float(std::min(r.light->data->eyeScatterCosPhi, 1.0 - 1e-6)));
         p.set("glow", layer.cityGlow ? glm::vec3(layer.cityGlow->color * layer.cityGlow->strength) : glm::vec3(0));
         glBindTextureUnit(0, r.light->texture.id());
         glBindTextureUnit(1, r.modulation->texture.id());
+        glBindTextureUnit(2, r.light->columns.id());
+        glBindTextureUnit(3, r.sunTable.id());
+        glBindTextureUnit(4, r.skyTable.id());
         glUseProgram(layer.cityGlow ? p.b.id() : p.a.id());
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
         // it the two share the volume's optical depth and their order changes colour only.
@@ -269,11 +294,14 @@ const ModulationTexture* LayeredRenderer::modulation(int index) const {
 
 namespace {
 
-// The 3D texture of a lighting volume, with mipmaps (its size checked against the driver's).
-Texture uploadLighting(const LightingVolume& v) {
+// The 3D texture of a lighting volume and its columns' 2D texture, with mipmaps (sizes checked
+// against the driver's).
+SharedTexture<LightingVolume> uploadLighting(const LightingVolume& v) {
     const LightingSettings& ls = v.settings;
     checkTextureSize("the layered lighting volume", ls.width, ls.height, ls.depth);
-    Texture t = Texture::create(GL_TEXTURE_3D);
+    SharedTexture<LightingVolume> shared;
+    Texture& t = shared.texture;
+    t = Texture::create(GL_TEXTURE_3D);
     glTextureStorage3D(t.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width, ls.height, ls.depth);
     checkAllocation("the layered lighting volume's texture", v.texels.size() * 8 / 7);
     glTextureSubImage3D(t.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE, v.texels.data());
@@ -284,12 +312,18 @@ Texture uploadLighting(const LightingVolume& v) {
     glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
     glTextureParameteri(t.id(), GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
-    return t;
+    shared.columns = makeTexture2D(GL_RGBA8, ls.width, ls.height, mipLevels(std::max(ls.width, ls.height)), true);
+    checkAllocation("the layered lighting volume's columns", v.columns.size() * 4 / 3);
+    glTextureSubImage2D(shared.columns.id(), 0, 0, 0, ls.width, ls.height, GL_RGBA, GL_UNSIGNED_BYTE, v.columns.data());
+    glGenerateTextureMipmap(shared.columns.id());
+    return shared;
 }
 
-Texture uploadModulation(const ModulationTexture& m) {
+SharedTexture<ModulationTexture> uploadModulation(const ModulationTexture& m) {
     const int n = m.size;
-    Texture t = Texture::create(GL_TEXTURE_2D);
+    SharedTexture<ModulationTexture> shared;
+    Texture& t = shared.texture;
+    t = Texture::create(GL_TEXTURE_2D);
     glTextureStorage2D(t.id(), mipLevels(n), GL_RG32F, n, n);
     checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 8 * 4 / 3);
     glTextureSubImage2D(t.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, m.texels.data());
@@ -298,7 +332,7 @@ Texture uploadModulation(const ModulationTexture& m) {
     glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-    return t;
+    return shared;
 }
 
 // The pool's texture of `data`, uploaded (and counted in `uploads`) when no layer holds one.
@@ -308,8 +342,9 @@ std::shared_ptr<const SharedTexture<T>> shareTexture(TexturePool<T>& pool, std::
     std::erase_if(pool, [](const auto& w) { return w.expired(); });
     for (const auto& w : pool)
         if (auto held = w.lock(); held && held->data == data) return held;
-    Texture texture = upload(*data);
-    auto made = std::make_shared<const SharedTexture<T>>(SharedTexture<T>{std::move(data), std::move(texture)});
+    SharedTexture<T> uploaded = upload(*data);
+    uploaded.data = std::move(data);
+    auto made = std::make_shared<const SharedTexture<T>>(std::move(uploaded));
     pool.push_back(made);
     ++uploads;
     return made;
@@ -327,7 +362,9 @@ void checkLayerBudget(const Scene& scene, const LayeredSettings& s) {
         if (std::find(seeds.begin(), seeds.end(), layer.seed) == seeds.end()) seeds.push_back(layer.seed);
     }
     const LightingSettings& ls = s.lighting;
-    const std::uint64_t volumeBytes = std::uint64_t(ls.width) * std::uint64_t(ls.height) * std::uint64_t(ls.depth) * 4 * 15 / 7;
+    // A volume's texels and columns on the CPU and in GL with mipmaps (the light tables are small).
+    const std::uint64_t columns = std::uint64_t(ls.width) * std::uint64_t(ls.height);
+    const std::uint64_t volumeBytes = columns * std::uint64_t(ls.depth) * 4 * 15 / 7 + columns * 4 * 7 / 3;
     const std::uint64_t texels = std::uint64_t(s.modulation.size) * std::uint64_t(s.modulation.size);
     const std::uint64_t modulationBytes = texels * 8 + texels * 8 * 4 / 3;
     const std::uint64_t need = keys.size() * volumeBytes + seeds.size() * modulationBytes;
@@ -351,6 +388,15 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
     std::shared_ptr<const ModulationTexture> modulation = assets->modulation(layer.seed);
     if (modulation && (!r.modulation || r.modulation->data != modulation))
         r.modulation = shareTexture(modulationPool, std::move(modulation), uploadModulation, stats.uploads);
+    if (r.light) {  // the light tables of this frame's sun and sky (cheap: bins x bins nodes)
+        const LayerFrameTables tables = layerFrameTables(r.light->data->tables, scene);
+        if (!r.sunTable) {
+            r.sunTable = makeTexture2D(GL_RGBA32F, tables.bins, tables.bins, 1, false);
+            r.skyTable = makeTexture2D(GL_RGBA32F, tables.bins, tables.bins, 1, false);
+        }
+        glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sun.data());
+        glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sky.data());
+    }
 }
 
 LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
@@ -404,8 +450,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    glBindSampler(0, 0);
-    glBindSampler(1, 0);
+    for (GLuint unit = 0; unit <= 4; ++unit) glBindSampler(unit, 0);
     drawLayers(p, m.layers, m.annulus, m.quad, scene, view, s, t, stats);
     if (s.downsample > 1) {
         const int fused = fuseShadows ? int(shadowing.size()) : 0;

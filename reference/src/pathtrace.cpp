@@ -7,6 +7,7 @@
 // flights and ratio tracking estimates transmittance.
 #include "nephele/pathtrace.hpp"
 
+#include "layer_tracking.hpp"
 #include "tracking.hpp"
 
 #include "cache_file.hpp"
@@ -53,6 +54,8 @@ constexpr double kEstimateAboveSamples = 1e6;  // renders of fewer samples are n
 // Bump when the estimator or the field changes: invalidates caches. 2: the noise is read per
 // ellipsoid at x / period + ellipsoidNoiseOffset(cloud, index, seed), as the compositor reads it.
 // 3: the file ends with a checksum; dense media are clamped and graded (the same images below).
+// (The scene's layers, when rendered, carry their own version in LayerVolumes::key(): scenes
+// without rendered layers keep their keys.)
 constexpr std::uint32_t kVersion = 3;
 
 // Throws std::invalid_argument naming what of the scene the path tracer cannot render: a
@@ -121,6 +124,7 @@ struct RayData {
     std::vector<MajorantPiece> pieces;
     std::vector<std::pair<double, double>> events;
     std::vector<MajorantSegment> segs;
+    detail::LayerRay layers;  // the layers' own majorant (layer_tracking.hpp), when the scene's layers are rendered
 };
 
 // Scratch space of one row of pixels (one thread at a time), reused from pixel to pixel.
@@ -152,7 +156,9 @@ Vec3 sampleHg(const Vec3& w, double g, Pcg32& rng) {
 
 class World {
 public:
-    World(const Scene& scene, const NoiseVolume* noise) : scene_(scene), noise_(noise) {
+    // `layers` (may be null: no layers) centred on the eye `eye`, as the layered sky is.
+    World(const Scene& scene, const NoiseVolume* noise, const LayerVolumes* layers = nullptr, const Vec3& eye = Vec3(0.0))
+        : scene_(scene), noise_(noise), layers_(layers && !layers->empty() ? layers : nullptr), eye_(eye) {
         const Medium& m = scene.medium;
         amp_ = m.noise;
         period_ = m.noiseScale * NoiseSettings{}.cells;  // m: one period of the noise volume
@@ -188,7 +194,8 @@ public:
     }
 
     const Scene& scene() const { return scene_; }
-    bool noisy() const { return amp_ > 0; }
+    // The primary rays' transmittance is estimated (noise or layers), not in closed form.
+    bool estimatesTransmittance() const { return amp_ > 0 || layers_; }
 
     // The chords of the ray o + t d (unit d) within [t0, t1], sorted by entry.
     void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
@@ -223,6 +230,11 @@ public:
             detail::chordPieces({c.tIn, c.tOut, c.len, c.tc, 1 - c.b2}, shapes_[c.shape].sigma * noiseBound_, r.breaks,
                                 r.pieces);
         detail::buildMajorant(r.pieces, r.events, r.segs);
+        prepareLayers(o, d, t0, t1, r);
+    }
+
+    void prepareLayers(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
+        if (layers_) detail::prepareLayerRay(*layers_, eye_, o, d, t0, t1, r.layers);
     }
 
     // Extinction (1/m) at o + t d, from the ray's chords: per ellipsoid sigma_i (1 - q)^2, with
@@ -244,13 +256,20 @@ public:
         return s;
     }
 
+    // The first collision: with the ellipsoids' matter, or nearer with the layers' (each sampled
+    // in its own medium).
     double deltaTrack(const Vec3& o, const Vec3& d, const RayData& r, Pcg32& rng) const {
-        return detail::deltaTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, rng);
+        const double t = detail::deltaTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, rng);
+        return layers_ ? std::min(t, detail::layerFreeFlight(*layers_, eye_, o, d, r.layers, rng)) : t;
     }
 
     // Cloud transmittance over [t0, t1] of a ray prepared in r: closed form (model::segmentDepth,
     // as exactDensityOpacity) without noise, ratio tracking with it.
     double transmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
+        if (layers_) return ellipsoidTransmittance(o, d, t0, t1, r, rng) * detail::layerTransmittance(*layers_, eye_, o, d, r.layers, *rng);
+        return ellipsoidTransmittance(o, d, t0, t1, r, rng);
+    }
+    double ellipsoidTransmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
         if (amp_ > 0) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
         double tau = 0;
         for (const Crossing& c : r.cross) {
@@ -268,8 +287,12 @@ public:
     double sunTransmittance(const Vec3& x, double tMinObjects, RayData& r, Pcg32& rng) const {
         const Vec3& l = scene_.sun.direction;
         if (intersectObjects(scene_, x, l, tMinObjects, kInf)) return 0;
-        if (amp_ > 0) prepare(x, l, 0, kInf, r);
-        else collect(x, l, 0, kInf, r);  // the closed form needs only the chords
+        if (amp_ > 0) {
+            prepare(x, l, 0, kInf, r);
+        } else {
+            collect(x, l, 0, kInf, r);  // the closed form needs only the chords
+            prepareLayers(x, l, 0, kInf, r);
+        }
         return transmittance(x, l, 0, kInf, r, &rng);
     }
 
@@ -356,6 +379,8 @@ private:
 
     const Scene& scene_;
     const NoiseVolume* noise_;
+    const LayerVolumes* layers_;
+    Vec3 eye_;
     double amp_ = 0, period_ = 1, noiseBound_ = 1;
     Vec3 sunE_{0.0};  // sun irradiance, colour * intensity
     std::vector<Shape> shapes_;
@@ -415,9 +440,9 @@ void tracePixels(const World& world, const View& view, int spp, int maxBounces, 
         for (int k = 0; k < spp; ++k) {
             Pcg32 rng = detail::sampleRng(seed, pixel, std::uint64_t(k));
             sum += world.trace(view.eye, d, hit, maxBounces, rng, ws);
-            if (world.noisy()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
+            if (world.estimatesTransmittance()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
         }
-        transmittance = world.noisy() ? transmittance / spp : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
+        transmittance = world.estimatesTransmittance() ? transmittance / spp : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
         for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(sum[k] / spp);
         image.at(x, y, 3) = float(1 - transmittance);
     }
@@ -482,14 +507,14 @@ std::string durationText(double seconds) {
 double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
     checkSettings(s);
     checkScene(scene);
-    const World world(scene, noise);
+    const World world(scene, noise, s.layers.get(), view.eye);
     return pilotSeconds(world, view, s);
 }
 
 Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
     checkSettings(s);
     checkScene(scene);
-    const World world(scene, noise);
+    const World world(scene, noise, s.layers.get(), view.eye);
     const int width = view.camera.width, height = view.camera.height;
     requireMemory("the path tracer's " + std::to_string(width) + "x" + std::to_string(height) + " RGBA float image",
                   std::uint64_t(width) * std::uint64_t(height) * 16);
@@ -562,6 +587,11 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     for (const Object& o : sc.objects) {
         k.num(std::int64_t(o.type)), k.vec(o.center), k.vec(o.rotationDeg), k.vec(o.color);
         if (o.type == Object::Type::Box) k.vec(o.size); else k.num(o.radius);
+    }
+    if (s.layers && !s.layers->empty()) {  // only rendered layers change the image
+        k.tag("layers");
+        const std::string layers = s.layers->key();
+        k.add(layers.data(), layers.size());
     }
     k.tag("settings");
     k.num(std::int64_t(s.spp)), k.num(std::int64_t(s.maxBounces)), k.num(std::int64_t(s.seed));

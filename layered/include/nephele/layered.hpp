@@ -64,40 +64,6 @@
 namespace nephele {
 
 // ---------------------------------------------------------------------------------------
-// Phase function and the scattering recurrences (pure functions, unit-tested)
-
-// Cornette-Shanks phase function, eq. (10): F(theta) with the paper's normalisation
-// (1/4pi integral over the sphere of F = 1). cosTheta in [-1, 1], f asymmetry in (-1, 1).
-double cornetteShanks(double cosTheta, double f);
-
-// Multiple forward scattering along the light, eqs. (5)-(7): particles k = 1..n with optical
-// depths taus[k-1] (>= 0), I_1 = i0, I_k = g_{k-1} + T_{k-1} I_{k-1} with T = exp(-tau) and
-// g_j = forward * tau_j * I_j, forward = albedo * F(0) * gamma / 4pi (eq. 6). Returns I_k for
-// every particle (the light incident on it) and, in *exit, the light leaving the last one.
-std::vector<double> forwardScatter(const std::vector<double>& taus, double forward, double i0 = 1.0,
-                                   double* exit = nullptr);
-// Eye scattering, eq. (8): E_k = S_k + T_k E_{k-1}, E_0 = 0, S_k = albedo tau_k F(theta) I_k / 4pi
-// (phase = F(theta), the phase function at the angle between the view and the light).
-// Returns E_n, the light leaving the last particle towards the eye (relative to the I's unit).
-double eyeScatter(const std::vector<double>& taus, const std::vector<double>& incident, double albedo,
-                  double phase);
-// One column of slices lit from above, as the precomputation lights it: slice k of optical
-// depth sliceTaus[k] (k = 0 at the top) is split into n = ceil(tau / 0.1) equal particles (the
-// Riemann sum of eq. 5 needs thin ones), and the n identical steps of eqs. (7) and (8) are
-// summed in closed form, so the cost is one step per slice whatever the optical depth (the same
-// as forwardScatter() and eyeScatter() over the particles, to round-off). Sets incident[k] to
-// the light on slice k's first particle (I_0 = 1) and returns the eye scattering E_n.
-double lightColumn(const std::vector<double>& sliceTaus, double forward, double albedo, double phase,
-                   std::vector<double>& incident);
-// The forward-scattering coefficient albedo * F(0) * gamma / 4pi for a cone of half-angle
-// coneDeg (degrees, > 0), clamped to albedo (energy: no more than is scattered).
-double forwardCoefficient(double albedo, double f, double coneDeg);
-
-// Vectors n (|n| <= 1 per component) stored in 8 bits as n' = n / 2 + 0.5.
-std::uint8_t encodeComponent(double n);
-double decodeComponent(std::uint8_t byte);
-
-// ---------------------------------------------------------------------------------------
 // The lighting volume
 
 // The largest lighting volume per side: GL 4.5's least GL_MAX_3D_TEXTURE_SIZE, so every
@@ -107,10 +73,31 @@ inline constexpr int kMaxLightingSize = 2048;
 struct LightingSettings {
     int width = 256, height = 256, depth = 32;  // texels (the paper's 256 x 256 x 32), 2..kMaxLightingSize each
     double tilePeriod = 8000;     // m, horizontal period of the 3D texture (the paper: 16000 units)
-    double forwardConeDeg = 10;   // degrees, half-angle of gamma in eq. (4)/(6), (0, 90]
     int octaves = 4;              // fBm octaves of the volume's density, 1..8
     int cells = 8;                // fBm lattice cells per tile period, >= 1
     unsigned seed = 1;            // of the volume's density (not the layer's modulation seed)
+    int photons = 1 << 13;        // photons traced per light source and threshold for the diffuse light, 64..2^22
+                                  // (0: no diffuse light, single scattering alone: the accuracy bench's split)
+    int tableBins = 16;           // nodes of the light tables per optical-depth axis, 4..64
+};
+
+// The layer's diffuse light (layered/src/layer_light.cpp; the model is shaders/layer_light.glsl):
+// photons traced through the lighting volume's density at the thresholds theta_k with the
+// medium's albedo and Henyey-Greenstein phase, scored at their collisions into the nodes of
+// (tableCoord(tauAbove), tableCoord(tauBelow)) of the collision's column, over the volume's
+// extinction there: the extinction-weighted mean light of the points of the layer that have
+// those optical depths above and below them.
+struct LayerLightTables {
+    int bins = 0;                  // nodes per axis; node (i, j) at above u = (i + 0.5) / bins, below (j + 0.5) / bins
+    std::vector<float> sunMu;      // the sun's elevations (sines) the sun tables are for, ascending
+    // Per sun elevation, bins x bins (i fastest): the sunlight scattered at least once, per unit
+    // irradiance: (phi0 fluence, phi1 net flux along the sun's horizontal direction, phi1 z, 0).
+    std::vector<glm::vec4> sun;
+    // Per sky basis (0: radiance 1 from every direction above the horizon, 1: radiance d.z
+    // there, 2: radiance 1 from below; the format's sky is horizon, zenith - horizon and ground
+    // times these), bins x bins: (phi0, phi1 z, c20, 0) of its light, scattered or not.
+    std::vector<glm::vec4> sky;
+    std::size_t node(int i, int j) const { return std::size_t(j) * bins + i; }
 };
 
 // What the volume depends on (besides LightingSettings): the medium and the layer's thickness.
@@ -130,18 +117,22 @@ public:
 struct LightingVolume {
     LightingSettings settings;
     LightingParameters parameters;
-    double eyeScatterPeak = 0;   // I_e0 of eq. (17): radiance per unit sun irradiance and per unit
-                                 // opacity looking at the sun through the layer, from eq. (8)
-    double eyeScatterCosPhi = 1; // cos(phi) of eq. (17): where F falls to 10% of F(0)
     double precomputeMs = 0;     // CPU time it took (0 when loaded)
     std::vector<std::uint8_t> texels;  // RGBA8, x fastest, then y, then z (z = 0 the layer's bottom)
+    std::vector<std::uint8_t> columns; // RGBA8, width x height: rgb = the whole column's encoded knots (see below)
+    LayerLightTables tables;           // the diffuse light
 
-    // The decoded vector n (length = intensity) and density A at texel (i, j, k).
-    glm::dvec3 vectorAt(int i, int j, int k) const;
+    // The density A at texel (i, j, k).
     double densityAt(int i, int j, int k) const;
     // GL_LINEAR sampling of the alpha channel (A) with repeat in x, y and clamp in z, at
     // texture coordinates (u, v) and z in [0, 1] (height fraction in the layer).
     double sampleDensity(double u, double v, double z) const;
+    // GL_LINEAR sampling of all four channels (bytes / 255), as sampleDensity; and of the columns.
+    glm::dvec4 sampleTexel(double u, double v, double z) const;
+    glm::dvec4 sampleColumn(double u, double v) const;
+    // The optical depths (above, below) of the column at (u, v, z) for the threshold theta =
+    // r + 1 - C and density D of eq. (16), from the encoded knots as the shader reads them.
+    glm::dvec2 columnDepths(double u, double v, double z, double theta, double density) const;
 
     // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels, and
     // a checksum (core/src/cache_file.hpp); load() verifies it and refuses a damaged file.
@@ -157,8 +148,9 @@ std::uint64_t lightingBytes(const LightingSettings& settings);
 
 // The density A of the volume at texel centres: an fBm cloud field shaped by a vertical
 // profile (0 at the bottom and the top of the layer, 1 inside), tileable in x and y.
-// Then the light. Time and memory grow with the texel count only, whatever the optical depth
-// (a slice's particles are summed in closed form). Throws std::invalid_argument for bad
+// Then the column knots and the light tables. Time and memory grow with the texel count and
+// the photons, not with the optical depth past the loader's largest (extinction x thickness
+// 2e5: a denser layer is lit as that one, identically dark inside). Throws std::invalid_argument for bad
 // settings, ResourceError (nephele/resources.hpp) when lightingBytes() is more than the
 // memory available.
 LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
@@ -200,7 +192,6 @@ struct LayeredSettings {
     double extentFade = 0.1;      // fraction of the extent over which the layer fades out at its rim
     double nearRadius = 0;        // m: within this horizontal distance from the eye the layer adds nothing
     double blendBand = 0;         // m: across [nearRadius, nearRadius + blendBand] it fades in (smoothstep)
-    double eyeScatterHeight = 1;  // f_e of eq. (17)
     double glowHeight = 1;        // f_c of eq. (20)
     int segments = 96;            // angular segments of the annulus mesh, >= 8
     bool shadows = true;          // cloud shadows, eq. (19), on the frame's surfaces and the ground
@@ -234,6 +225,13 @@ double layerModulation(const Layer& layer, const ModulationTexture& modulation, 
 // A from the lighting volume at that point. 0 outside [base, base + thickness].
 double layerDensity(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
                     const LightingVolume& light, const Vec3& point, double t);
+// The integral of layerDensity() (m; times medium.extinction it is the optical depth) along
+// o + s d (unit d, s >= 0) over the part of the ray inside the layer's slab within horizontal
+// distance `reach` (m) of o, by the midpoint rule in steps of at most `step` m (at most
+// `maxSteps` of them): the CPU twin of the opacity the layered sky stands for.
+double layerDensityIntegral(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
+                            const LightingVolume& light, const Vec3& o, const Vec3& d, double reach, double t,
+                            double step = 10, int maxSteps = 4000);
 // Cloud shadows, eq. (19): the sun's transmittance through the layer at a world point below
 // it, S = 1 - D max(T_S - (r + 1 - C), 0) with T_S = 1 (the column's peak alpha) and r read
 // where the ray towards the sun crosses the layer's middle. 1 at or above the layer's middle

@@ -8,20 +8,21 @@
 //   the cell's centre moved by a jitter of at most `jitter` cells per axis, so that the grid
 //   does not show.
 // - Spawning: a cell whose spawn point lies within nearRadius + blendBand (LayeredSettings)
-//   of the eye, horizontally, is made. It holds a cloud where the layer itself has one: its
-//   `samples` x `samples` columns are integrated through the layer's density as the shader
-//   has it (layerDensity(): eq. 16 with the lighting volume's A, at `levels` heights), and a
-//   column counts as cloud when its optical depth is >= columnDepth. With cover = the
-//   fraction of such columns (> 0), the cloud is a Gaussian cumulus (generateCumulus,
-//   Jimenez de Parga eqs. 14-17) centred on the cloudy column nearest to their centroid
-//   (there layerModulation() > 0: eq. 16 needs C - r > 1 - A >= 0), its width
-//   cellSize * clamp(widthScale sqrt(cover), minWidth, maxWidth) (the area follows the
-//   cover), its height thickness * (minHeight + (1 - minHeight) cover), its base on the
-//   layer's base and its top within the layer; ellipsoid density = the layer's D. (Sampling
-//   only layerModulation(), the 3D texture's peak, spawned cumulus where the layer shows
-//   blue sky and single puffs where it shows a deck.) The cumulus's seed comes from the
-//   layer's seed and (i, j) alone, never from the eye: the same cell always gives the same
-//   cloud, whatever path the eye took to it.
+//   of the eye, horizontally, is made. It holds the layer's own matter (issue #10: the near
+//   clouds must cover the sky as the layer does): the cell is cut into columns x columns
+//   columns, each integrated through the layer's density as the shader has it (layerDensity():
+//   eq. 16 with the lighting volume's A, at samples x samples points and `levels` heights); a
+//   column whose mean optical depth reaches minColumnDepth becomes `stack` ellipsoids, one
+//   centred in each band of the layer's height (vertical radius thickness / 2, so that with
+//   stack > 1 they reach a quarter of the thickness beyond the slab; horizontal radius overlap x
+//   the column's side, so that neighbours merge), each carrying its band's matter (the integral
+//   of its extinction). (One ellipsoid per column concentrates the matter at mid-height, its
+//   kernel's (1 - z^2)^3 profile: rays that climb or descend through the layer saw too little.) The layer's optical depth along any ray is thus
+//   carried at the columns' resolution. cover = the fraction of the sample points whose column
+//   has optical depth >= columnDepth (0: no cloud); `center` is the cloudy point nearest to
+//   their centroid (there layerModulation() > 0). The cloud depends on the layer and (i, j)
+//   alone, never on the eye: the same cell always gives the same cloud, whatever path the eye
+//   took to it.
 // - Wind: a cloud is made once in pattern coordinates and drawn moved by t * wind, so it
 //   drifts with the layer's pattern.
 // - Cache: spawned cells are kept by (layer, i, j) while they stay within reach and
@@ -63,14 +64,13 @@ inline constexpr double kAutoLod0Margin = 1000;  // m
 struct NearLodSettings {
     double cellSize = 1000;     // m, side of a cell (about a cumulus's width), > 0
     double jitter = 0.2;        // cells, largest offset of a spawn point from its cell's centre per axis, [0, 0.5)
-    int samples = 8;            // columns per cell side sampled through the layer, 1..64
-    int levels = 8;             // heights per column, 1..64
-    double columnDepth = 0.5;   // optical depth of a column that counts as cloud, > 0
-    int ellipsoids = 40;        // cumulus `count` at cover 1, 1..1000; 0.3 of it at cover -> 0, at least 4
-    double widthScale = 1.2;    // width = widthScale * sqrt(cover) cells, clamped to [minWidth, maxWidth], > 0
-    double minWidth = 0.5;      // cells, (0, maxWidth]
-    double maxWidth = 1.4;      // cells, <= 1.5 (> 1: neighbours merge where the layer is a deck)
-    double minHeight = 0.4;     // cloud height at cover -> 0, as a fraction of the layer's thickness, (0, 1]
+    int columns = 4;            // ellipsoid columns per cell side, 1..16 (each carries its column of the layer)
+    int stack = 1;              // ellipsoids per column, one per band of the layer's height, 1..4
+    int samples = 2;            // points per column side sampled through the layer, 1..16
+    int levels = 8;             // heights per point, 1..64
+    double columnDepth = 0.5;   // optical depth of a point's column that counts as cloud (the cell's cover), > 0
+    double minColumnDepth = 0.02;  // a column with less optical depth on average gets no ellipsoid, >= 0
+    double overlap = 0.75;      // horizontal radius of a column's ellipsoid, in columns, [0.5, 2]
     int maxCellsPerAxis = 256;  // bound on 2 (nearRadius + blendBand) / cellSize (a setting error beyond)
 };
 // Throws std::invalid_argument naming the setting (NearLodSettings and the reach of `layered`).

@@ -14,13 +14,17 @@
 // - the sky: a path that leaves the medium sees skyRadiance() (ground colour below the horizon);
 // - opaque objects: Lambert under the sun only, shadowed by clouds and other objects, and no
 //   sky or indirect light (the format's rule); paths end at objects.
-// Only scene.clouds are rendered: `generate` entries must be expanded beforehand; layers,
-// skylight and lightning are not part of this reference.
+// - the scene's layers, when PathTraceSettings::layers holds them: each a volume of the layered
+//   sky's density (nephele/layer_volume.hpp), with the medium's albedo and phase, lit and
+//   shadowing as the clouds do.
+// `generate` entries must be expanded beforehand; skylight and lightning are not part of this
+// reference.
 //
 // One ray per sample through each pixel centre (as the fast methods sample), clipped to the
 // camera's near/far planes as the GPU clips. Free flights by delta tracking under a
 // piecewise-constant majorant, sun transmittance in closed form when medium.noise == 0 (ratio
-// tracking otherwise), no Russian roulette.
+// tracking otherwise; through layers ratio tracking, with Russian roulette below 1%), no
+// Russian roulette of paths.
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -29,9 +33,12 @@
 #include "nephele/scene.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 namespace nephele {
+
+class LayerVolumes;  // nephele/layer_volume.hpp
 
 // What it takes as given, whatever Scene it is handed (a host may build one in code, past the
 // loader's limits), so that a render ends in bounded time:
@@ -50,6 +57,8 @@ struct PathTraceSettings {
     int maxBounces = 32;  // scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only
     unsigned seed = 1;    // same seed, scene and settings -> bit-identical image, whatever the thread count
     bool progress = false;  // report progress through nephele::reportProgress (nephele/log.hpp)
+    // The scene's layers as volumes (made for this scene and time); null: layers are left out.
+    std::shared_ptr<const LayerVolumes> layers;
 };
 
 // Seconds renderPathTraced would take here for these settings on an otherwise idle machine
@@ -60,7 +69,8 @@ double estimatePathTraceSeconds(const Scene& scene, const View& view, const Path
 
 // RGBA: rgb linear radiance, a = cloud opacity along the primary ray (1 - transmittance of
 // cloud matter between the near plane and the first opaque surface or the far plane; exact
-// closed form when medium.noise == 0, the mean of ratio-tracking estimates otherwise).
+// closed form when medium.noise == 0 and no layers are rendered, the mean of ratio-tracking
+// estimates otherwise).
 // `noise` may be null only when scene.medium.noise == 0. Throws std::invalid_argument on bad
 // settings or a scene it cannot render (non-finite numbers, medium.noise over
 // kMaxPathTraceNoise), ResourceError (nephele/resources.hpp) when the image does not fit in
@@ -69,7 +79,8 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 
 // The same, cached under cacheDir (created if missing): the file name is a hash of every
 // input that affects the image (the view's camera, sun, sky, medium, clouds, objects, the
-// noise volume when medium.noise > 0, spp, maxBounces, seed and a version constant), and the
+// noise volume when medium.noise > 0, the layers with their textures and time when rendered,
+// spp, maxBounces, seed and a version constant), and the
 // file holds the whole key, so a hash collision is a miss. Files are written atomically
 // (temporary name, then rename) and end with a checksum (core/src/cache_file.hpp); a damaged
 // file (checksum, length, a NaN, a negative radiance, an opacity over 1) or something other

@@ -1,0 +1,61 @@
+// The layered sky and auto's hand-off against physics (issue #10, item 6): views of
+// data/scenes/near_and_far.json's layer (its explicit clouds removed) rendered with
+// `--method layered`, `--method auto` and the path tracer, which renders the layer as a volume
+// of the layered sky's own density (nephele/layer_volume.hpp). Per view:
+// - the error of each against the path tracer, with the accuracy bench's definition
+//   (relativeRmse() of demo/accuracy_reference.hpp on block x block pixel means), and the
+//   layered sky's error split by light as the accuracy bench splits it (componentErrors());
+// - the near LOD against the layer it stands for within auto's reach (near radius + blend band):
+//   the near cumulus alone (every cell at weight 1) and the layer alone cut at the reach, over
+//   the pixels whose ray meets the layer's slab within the reach: their mean opacities (and the
+//   volume's own, the CPU integral of layerDensity()), and their mean radiance over the pixels
+//   whose ray meets the slab across the blend band.
+#pragma once
+
+#include "accuracy_reference.hpp"
+
+#include "nephele/context.hpp"
+
+#include <string>
+#include <vector>
+
+namespace nephele::cli {
+
+struct LayerAccuracyOptions {
+    std::string scenesDir = "data/scenes";
+    std::string cacheDir;     // path-traced references and lighting volumes ("" = neither is cached)
+    int width = 320;          // px, the views' width (16:9)
+    int referenceSpp = 256;   // samples per pixel of the reference's sun part (1/4 of it for the sky part and the single scattering)
+    std::string imageDir;     // "" = none; else the block-mean images of each view (reference, layered, auto) as PNG
+    int block = 4;            // errors on block x block pixel means
+    int frames = 3;           // timed frames per GPU method (median)
+    bool quick = false;       // one view at 64 px, 4 spp, one frame (for tests)
+};
+
+struct LayerViewAccuracy {
+    std::string view;
+    double referenceSeconds = 0;  // wall time of the reference and its noise estimate (about 0 when cached)
+    double referenceNoise = 0;    // the reference's own relative RMSE, from its two halves
+    double layeredError = 0, autoError = 0;  // relative RMSE against the reference
+    double layeredRatio = 0, autoRatio = 0;  // mean radiance over the cloud blocks / the reference's
+    double referenceOpacity = 0, layeredOpacity = 0;  // mean alpha over the frame
+    ComponentErrors layeredParts;  // the layered sky's error split by light (accuracy_reference.hpp)
+    ReferenceShares shares;        // the reference's radiance split by light
+    double layeredMs = 0, autoMs = 0;        // median ms per frame
+    // The near LOD against the layer within auto's reach.
+    int reachPixels = 0, bandPixels = 0;
+    double nearOpacity = 0, layerOpacity = 0, volumeOpacity = 0;  // mean over the reach pixels
+    double nearRadiance = 0, layerRadiance = 0;                   // mean luminance over the band pixels
+};
+
+// Needs a current OpenGL 4.5 context. Throws on failure (std::invalid_argument for bad options).
+std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& options);
+
+// The results as markdown tables (the errors; the near LOD against the layer).
+std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results, const LayerAccuracyOptions& options);
+
+// `nephele bench --layer-accuracy`: makes a context, measures, prints the markdown on stdout.
+// Returns the exit code (2 bad options, 1 a runtime failure).
+int runLayerAccuracyBench(const LayerAccuracyOptions& options, GlBackend backend);
+
+}  // namespace nephele::cli

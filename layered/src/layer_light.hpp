@@ -1,0 +1,41 @@
+// The layered sky's light, internal (the model: shaders/layer_light.glsl): the photon-traced
+// light tables of a lighting volume, and the tables of one frame, for the scene's sun and sky.
+#pragma once
+
+#include "nephele/layered.hpp"
+#include "nephele/limits.hpp"
+
+#include <vector>
+
+namespace nephele {
+
+// The optical depth (extinction x thickness at A = 1, per unit D) the precomputation gives a
+// layer at most: the largest the loader lets through (nephele/limits.hpp), so no loaded scene
+// is changed. Beyond it the knots are saturated below the top texel and photons never cross the
+// layer, so a denser layer lights as this one; it bounds the photons' null collisions (majorant
+// x path) for a layer built in code past the loader's limits (10^9 m at extinction 10^4).
+inline constexpr double kMaxLightingOpticalDepth = limits::kExtinction.value * limits::kLayerThickness.value;
+// The extinction (1/m) the column knots and the photons use: the medium's, capped as above.
+double lightingExtinction(const LightingParameters& parameters);
+
+// The sun's elevations (sines) the sun tables are made for.
+inline constexpr float kLayerSunMu[] = {0.05f, 0.25f, 0.5f, 0.75f, 1.0f};
+
+// Traces the volume's photons (LightingSettings::photons per source and threshold; the sun from
+// each elevation of kLayerSunMu along +x, and the three sky bases) through its density at the
+// thresholds 0.25, 0.5 and 0.75 with D = 1 and the medium's albedo and phase. Deterministic.
+LayerLightTables traceLayerLight(const LightingVolume& volume);
+
+// The two tables of one frame (bins x bins, node (i, j) at i + j bins), as the shader reads
+// them (layerSource() in shaders/layer_light.glsl): sun = (phi0, phi1 along the sun's horizontal
+// direction, phi1 z, the sky's c20), sky = (the sky's fluence rgb, phi1 z of its luminance), both
+// indexed by (above, below). The sun's tables interpolated to its elevation, mirrored when it is
+// below the horizon; a skylight's diffuse light added to the sun's fluence in the ratio of their
+// luminances (its flux left out: a broad lobe); the sky's from the bases and the scene's colours.
+struct LayerFrameTables {
+    int bins = 0;
+    std::vector<glm::vec4> sun, sky;
+};
+LayerFrameTables layerFrameTables(const LayerLightTables& tables, const Scene& scene);
+
+}  // namespace nephele
