@@ -10,7 +10,7 @@
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/layer_volume.hpp"
-#include "parallel.hpp"
+#include "nephele/png.hpp"
 
 #include <chrono>
 #include <cmath>
