@@ -544,9 +544,10 @@ int runAccuracyBench(const AccuracyOptions& o) {
           "spread, is at most " << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has "
        << refSettings.spp << " spp (" << sppRange(refInfo) << " spp per case here): its own noise is "
        << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
-       << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0 and "
-       << fmt("%.1f%%", refCount[1] ? 100 * refNoise[1] / refCount[1] : 0) << " (at most " << fmt("%.1f%%", 100 * refWorst[1])
-       << ") with the scenes' noise. "
+       << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0"
+       << (refCount[1] ? " and " + fmt("%.1f%%", 100 * refNoise[1] / refCount[1]) + " (at most " +
+                             fmt("%.1f%%", 100 * refWorst[1]) + ") with the scenes' noise. "
+                       : std::string("; the scenes' noise was not run (--noise-modes 0). "))
        << (traced > 0 ? "Making the references took " + fmt("%.0f", refSeconds / 60) + " min in this run (" +
                             std::to_string(traced) + " path traces; they are cached for later runs). "
                       : std::string("The references came from the cache. "))
