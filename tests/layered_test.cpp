@@ -2,7 +2,6 @@
 // integral, the light tables (white furnace, no albedo, the flow of the sun's light, the frame's
 // tables), the lighting file, the modulation texture and the near-LOD hook.
 #include "nephele/layered.hpp"
-#include "nephele/limits.hpp"
 #include "cache_test_util.hpp"
 
 #include "../layered/src/layer_light.hpp"
@@ -297,11 +296,11 @@ TEST(LayeredTest, BadSettingsAreRefusedByName) {
     EXPECT_THROW(precomputeLighting(ls, LightingParameters{}), std::invalid_argument);
 }
 
-// Optical depth past the loader's largest (extinction x thickness 2e5) costs no more: a 10^9 m
-// layer at extinction 10^4 (10^13, built in code; its photons' null collisions did not end in
-// minutes before) is lit exactly as the loader's largest layer of that thickness, in bounded
+// Optical depth past kMaxLightingOpticalDepth (extinction x thickness 1000) costs no more: a
+// 10^9 m layer at extinction 10^4 (10^13, built in code; its photons' null collisions did not
+// end in minutes before) is lit exactly as a layer of that thickness at the cap, in bounded
 // time, and is dark inside (the knots above mid-height saturated).
-TEST(LayeredTest, OpticalDepthsPastTheLoadersLargestAreLitAsIt) {
+TEST(LayeredTest, OpticalDepthsPastTheCapAreLitAsIt) {
     const LightingSettings s = small();
     LightingParameters huge;
     huge.extinction = 1e4;
@@ -313,7 +312,7 @@ TEST(LayeredTest, OpticalDepthsPastTheLoadersLargestAreLitAsIt) {
     // 30 s leaves room for a machine shared by several test runs, and fails a hang.
     EXPECT_LT(seconds, 30.0);
     LightingParameters largest = huge;
-    largest.extinction = limits::kExtinction.value * limits::kLayerThickness.value / huge.thickness;
+    largest.extinction = kMaxLightingOpticalDepth / huge.thickness;
     const LightingVolume w = precomputeLighting(s, largest);
     EXPECT_TRUE(v.texels == w.texels);
     EXPECT_TRUE(v.columns == w.columns);

@@ -149,8 +149,8 @@ std::uint64_t lightingBytes(const LightingSettings& settings);
 // The density A of the volume at texel centres: an fBm cloud field shaped by a vertical
 // profile (0 at the bottom and the top of the layer, 1 inside), tileable in x and y.
 // Then the column knots and the light tables. Time and memory grow with the texel count and
-// the photons, not with the optical depth past the loader's largest (extinction x thickness
-// 2e5: a denser layer is lit as that one, identically dark inside). Throws std::invalid_argument for bad
+// the photons, not with the optical depth: past extinction x thickness 1000 a layer is lit as
+// one at 1000 (dark inside either way). Throws std::invalid_argument for bad
 // settings, ResourceError (nephele/resources.hpp) when lightingBytes() is more than the
 // memory available.
 LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
