@@ -86,9 +86,9 @@ std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene
     Fingerprint f;
     f.add(step).add(s.seed);
     addLight(f, scene);
-    auto& slot = templates_[f.value()];
-    if (slot) return slot;
-    if (templates_.size() > 64) templates_.clear(), slot = nullptr;  // suns of long ago
+    const std::uint64_t key = f.value();
+    if (auto it = templates_.find(key); it != templates_.end()) return it->second;
+    if (templates_.size() > 64) templates_.clear();  // suns of long ago
     Scene sphere;
     sphere.sun = scene.sun, sphere.sky = scene.sky, sphere.medium = scene.medium;
     Cloud c;
@@ -100,7 +100,7 @@ std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene
     small.size = std::min(8, s.size);
     small.sunPhotons = small.skyPhotons = 4096;
     auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(sphere, c, small));
-    templates_[f.value()] = grid;
+    templates_.emplace(key, grid);
     return grid;
 }
 
