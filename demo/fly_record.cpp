@@ -5,6 +5,7 @@
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/log.hpp"
 #include "nephele/png.hpp"
 
 #define GLFW_INCLUDE_NONE
@@ -120,9 +121,8 @@ void play(const Recording& rec, const FlyOptions& o, const fs::path& temp) {
                       st.totalMs, st.opaqueMs, st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs, st.volumeMs,
                       st.ellipsoids.visible, st.ellipsoids.passes);
         csv << row;
-        std::cerr << "\rnephele: frame " << k + 1 << "/" << cameras.size() << std::flush;
+        reportProgress("recording", double(k + 1) / double(cameras.size()));
     }
-    std::cerr << "\n";
     if (!csv.flush()) throw std::runtime_error("cannot write frames.csv");
     std::ofstream(temp / "flight.json") << flightJson(rec.flight);
 }

@@ -225,10 +225,7 @@ void CloudRadianceCache::work() {
     for (;;) {
         wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
         if (stop_) return;
-        auto best = std::max_element(queue_.begin(), queue_.end(),
-                                     [](const Job& a, const Job& b) { return a.priority < b.priority; });
-        Job job = std::move(*best);
-        queue_.erase(best);
+        Job job = takeBest();
         running_ = job.key;
         cancel_ = false;
         lock.unlock();
@@ -236,13 +233,33 @@ void CloudRadianceCache::work() {
         lock.lock();
         running_ = 0;
         if (!cancel_ && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
-        if (queue_.empty()) idle_.notify_all();
+        idle_.notify_all();
     }
+}
+
+CloudRadianceCache::Job CloudRadianceCache::takeBest() {
+    auto best = std::max_element(queue_.begin(), queue_.end(),
+                                 [](const Job& a, const Job& b) { return a.priority < b.priority; });
+    Job job = std::move(*best);
+    queue_.erase(best);
+    return job;
 }
 
 void CloudRadianceCache::waitIdle() {
     std::unique_lock lock(mutex_);
-    idle_.wait(lock, [&] { return stop_ || (queue_.empty() && running_ == 0); });
+    for (;;) {
+        if (stop_) return;
+        if (!queue_.empty()) {  // help: nothing cancels these (schedule() runs on this thread)
+            Job job = takeBest();
+            lock.unlock();
+            auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings));
+            lock.lock();
+            if (grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
+            continue;
+        }
+        if (running_ == 0) return;
+        idle_.wait(lock, [&] { return stop_ || running_ == 0 || !queue_.empty(); });
+    }
 }
 
 }  // namespace nephele

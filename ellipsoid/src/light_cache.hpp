@@ -57,7 +57,8 @@ public:
     std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings, const Vec3* eye = nullptr,
                                        RadianceUpdateStats* stats = nullptr, bool takeFinished = true);
     // Blocks until the worker has nothing left to do (tests, benches, a host's loading screen);
-    // the next update() uses what it made.
+    // the next update() uses what it made. The waiting thread makes queued grids itself
+    // meanwhile, on every core at its own priority: a host that waits wants them now.
     void waitIdle();
 
 private:
@@ -78,6 +79,7 @@ private:
     std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s);
     void schedule(std::vector<Job> jobs);
     void work();
+    Job takeBest();  // the queue's highest priority; with mutex_ held, the queue not empty
 
     std::unordered_map<std::uint64_t, Entry> entries_;
     std::unordered_map<std::uint64_t, std::shared_ptr<const CloudRadiance>> templates_;
