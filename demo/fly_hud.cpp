@@ -28,6 +28,7 @@ const char* const kHelp =
     "Tab         live controls (method, sun, layers)\n"
     "F1          HUD    F2 atlas    F3 tile rectangles\n"
     "F4          near-LOD cells and the near/far blend band\n"
+    "F12         screenshot (nephele_fly_N.png in the working directory)\n"
     "H           this help    Esc  quit";
 
 namespace {
