@@ -2,6 +2,7 @@
 // integration of the format's density field, and the exact CPU renderer's bookkeeping; the
 // light model every method shares (shaders/cloud_light.glsl) against quadrature and its limits.
 #include "nephele/gardner.hpp"
+#include "nephele/projection.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"

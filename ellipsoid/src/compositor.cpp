@@ -2,6 +2,7 @@
 #include "nephele/ellipsoid.hpp"
 
 #include "nephele/gardner_model.hpp"
+#include "prepared_clouds.hpp"
 #include "fingerprint.hpp"
 #include "nephele/frame_depth.hpp"
 #include "cloud_light_textures.hpp"

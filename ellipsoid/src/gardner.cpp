@@ -3,6 +3,7 @@
 #include "nephele/gardner.hpp"
 
 #include "nephele/gardner_model.hpp"
+#include "prepared_clouds.hpp"
 #include "nephele/opaque.hpp"
 #include "parallel.hpp"
 

@@ -15,23 +15,11 @@
 #include "nephele/gardner_model.hpp"
 #include "nephele/image.hpp"
 #include "nephele/noise.hpp"
-#include "nephele/projection.hpp"
 #include "nephele/scene.hpp"
 
 #include <vector>
 
 namespace nephele {
-
-struct PreparedEllipsoid {
-    int cloud = 0, index = 0;          // where it is in scene.clouds
-    Ellipsoid shape;
-    glm::dmat3 unit{1.0};              // M = diag(1/r) R^T: world offset -> unit sphere
-    glm::dmat3 axes{1.0};              // R diag(r): unit sphere -> world offset
-    double sigma = 0;                  // extinction * density, 1/m
-    double ac = 0;                     // largest opacity (centre ray, or a bound when cut by the near plane)
-    Vec3 noiseOffset{0.0};             // in noise-volume texture coordinates, deterministic per ellipsoid
-    EllipsoidProjection projection;
-};
 
 struct NoiseSettings {
     int size = 64;      // texels per side of the tileable volume
@@ -39,31 +27,6 @@ struct NoiseSettings {
     int octaves = 4;
     unsigned seed = 7;
 };
-
-struct PreparedClouds {
-    std::vector<PreparedEllipsoid> ellipsoids;  // visible ones, back to front
-    int culled = 0;                             // ellipsoids culled by the projection
-    double noisePeriod = 1;                     // m: medium.noise_scale * cells
-};
-
-// Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
-PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);
-// The weighted composite's reference depth tRef (m), one for the whole frame: the nearest
-// visible ellipsoid's centre distance minus its largest radius, at least the near plane and
-// model::kWeightNearDepth (matter nearer than that weighs alike). The weights
-// (tRef / max(tShade, tRef))^k are at most 1; only their ratios reach the image; tRef keeps
-// them within float range (model::compositeWeight).
-double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
-// The light an ellipsoid's chord sends to the eye, per unit of the sun's irradiance and of the
-// sky's chroma (model::lightScalars averaged over model::kChordSamples points of the chord
-// beyond tStart, weighted by what the eye sees of them): x = sun, y = sky. The ray is
-// o' + t d' in the ellipsoid's unit space from the eye at `eye`, d its unit world direction.
-glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
-                     const glm::vec3& dUnit, float tStart, float sigma);
-
-// The sky light's colour at an ellipsoid (model::skyChroma of the grid's fluence at its centre):
-// one per ellipsoid, as the compositor's tiles carry it.
-glm::vec3 ellipsoidSkyChroma(const CloudRadiance& grid, const Ellipsoid& e);
 
 // Mean radiance of the environment over the whole sphere of directions: the format's sky over
 // the upper hemisphere ((zenith + horizon) / 2 there), the ground colour over the lower one.
