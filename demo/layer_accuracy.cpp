@@ -5,7 +5,7 @@
 #include "bench_util.hpp"
 #include "render_command.hpp"
 
-#include "../layered/src/hand_off.hpp"
+#include "hand_off.hpp"  // private to Nephele::layered: the bench measures it (nephele_internal)
 
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
