@@ -1,6 +1,8 @@
 // Running the `nephele` binary from a test with its time and address space bounded.
 #pragma once
 
+#include "test_build.hpp"
+
 #include <sys/wait.h>
 
 #include <array>
@@ -15,9 +17,12 @@ struct BoundedRun {
 };
 
 // `nephele ARGS` with its address space capped at `megabytes` and killed after `seconds`.
+// In the sanitizer build there is no cap (ASan cannot start under one: the release build's run
+// of the same test checks the memory bound) and the time is `seconds` x kTimeScale.
 inline BoundedRun runBounded(const std::string& args, int megabytes, int seconds) {
-    const std::string cmd = "ulimit -v " + std::to_string(megabytes * 1024) + "; timeout -s KILL " +
-                            std::to_string(seconds) + " " + NEPHELE_BINARY + " " + args + " 2>&1";
+    const std::string cap = kSanitized ? std::string() : "ulimit -v " + std::to_string(megabytes * 1024) + "; ";
+    const std::string cmd = cap + "timeout -s KILL " + std::to_string(int(seconds * kTimeScale)) + " " + NEPHELE_BINARY +
+                            " " + args + " 2>&1";
     FILE* pipe = popen(cmd.c_str(), "r");
     BoundedRun r;
     if (!pipe) return r;

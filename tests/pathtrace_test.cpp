@@ -14,6 +14,8 @@
 #include "nephele/opaque.hpp"
 #include "nephele/projection.hpp"
 
+#include "test_build.hpp"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -584,8 +586,11 @@ TEST(PathTraceTest, EstimatesItsTimeBeforeItStarts) {
     const int threads = std::max(1, std::min<int>(scene.camera.height, int(std::thread::hardware_concurrency())));
     const double took = (processCpu() - before) / threads;
     std::printf("[ figure ] estimated %.2f s, took %.2f s of CPU per thread\n", estimate, took);
-    EXPECT_GT(estimate, took / 3);
-    EXPECT_LT(estimate, took * 3);
+    // Under the sanitizers the pilot's sparse rows pay each row's fixed cost (ASan's allocator)
+    // for an eighth of the pixels: measured 1.8x (alone) to 3.5x (beside another test) over.
+    const double factor = test::kSanitized ? 6 : 3;
+    EXPECT_GT(estimate, took / factor);
+    EXPECT_LT(estimate, took * factor);
 }
 
 // A cache file with its last 4 KiB overwritten, with a NaN, truncated or replaced by a FIFO
