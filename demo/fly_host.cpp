@@ -128,11 +128,8 @@ void FlyHost::drawSky(const Scene& scene, const View& view, double t, FlyFrameSt
     if (settings_.waitEachFrame) sky.renderer->waitForBackgroundWork();
     st.nearLodMs = part.lap();
     const SkyStats s = sky.renderer->draw(viewDescOf(view, r_->target->framebuffer(), !scene.objects.empty()));
-    const double drawMs = part.lap();
     st.layered = s.layered, st.ellipsoids = s.ellipsoids;
-    st.tilesMs = s.ellipsoids.tilesMs, st.compositeMs = s.ellipsoids.compositeMs;
-    // draw() times no parts: the far field is what the compositor's parts leave of it.
-    if (m != FlyMethod::Ellipsoid) st.farFieldMs = std::max(0.0, drawMs - st.tilesMs - st.compositeMs);
+    st.farFieldMs = s.farFieldMs, st.tilesMs = s.ellipsoids.tilesMs, st.compositeMs = s.ellipsoids.compositeMs;
 }
 
 void FlyHost::present(GLuint framebuffer, int w, int h) {

@@ -136,6 +136,27 @@ TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
     EXPECT_EQ(drawn.pixels, rendered.pixels);
 }
 
+// With SkySettings::timings, draw() reports the wall time of its parts (the far field, the
+// tiles, the composite) as render() does; without, none (it costs the GL pipelining).
+TEST_F(HostApiGLTest, DrawReportsItsPartsTimesWhenAsked) {
+    const Scene scene = testScene(64, 48);
+    const View view = makeView(scene.camera);
+    HostTarget target(64, 48);
+    for (bool timings : {true, false}) {
+        SkySettings settings = testSettings();
+        settings.timings = settings.ellipsoid.timings = timings;
+        SkyRenderer host(settings);
+        host.prepare(scene);
+        host.update(0, Weather::of(scene), view.eye);
+        SkyStats st;
+        frameOf(scene, view, target, [&] { st = host.draw(viewDescOf(view, target.fbo.id())); });
+        EXPECT_GT(st.ellipsoids.visible, 0);
+        EXPECT_EQ(st.farFieldMs > 0, timings);
+        EXPECT_EQ(st.ellipsoids.tilesMs > 0, timings);
+        EXPECT_EQ(st.ellipsoids.compositeMs > 0, timings);
+    }
+}
+
 // After the first update the near LOD's new cells are spread, kCellsPerUpdate an update by
 // default, or all made at once with cellsPerUpdate 0 (a recording that must equal render()).
 TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {

@@ -141,7 +141,9 @@ SkyStats SkyRenderer::draw(const ViewDesc& desc) {
     // The frame's depth once for both renderers: the host's texture, or one copy.
     if (desc.hasDepth && desc.depthTexture != 0) frame.depth = {desc.depthTexture, view.origin};
     else frame.depth = depths_.get({view.camera.width, view.camera.height}).source(frame, view);
+    gl::PartTimer timer(settings_.timings);
     if (!scene_.layers.empty()) stats.layered = layered_->render(scene_, view, frame, time_);
+    stats.farFieldMs = timer.lap();
     stats.ellipsoids = clouds_.render(frame_, view, frame);
     return stats;
 }
