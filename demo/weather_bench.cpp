@@ -84,6 +84,8 @@ struct FrameTime {
     double ms = 0, updateMs = 0, beforeMs = 0;
     SkyUpdateStats update;
     int uploads = 0, pendingLayers = 0, beforeLightVolumes = 0;
+    double farFieldMs = 0, tilesMs = 0, compositeMs = 0;
+    int passes = 0, visible = 0;
     std::string event;
 };
 
@@ -93,7 +95,9 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
     ls.cacheDir = cacheDir;
     EllipsoidSettings es = autoEllipsoidSettings();
     if (o.quick) ls.lighting.width = ls.lighting.height = 64, ls.lighting.depth = 8, es.light.size = 8, es.light.sunPhotons = es.light.skyPhotons = 4096;
-    SkyRenderer host(SkySettings{ls, {}, es}), before(SkySettings{ls, {}, es});
+    SkySettings hs{ls, {}, es};
+    hs.timings = hs.ellipsoid.timings = true;  // the draw's ms by part, to tell what a slow frame spent
+    SkyRenderer host(hs), before(SkySettings{ls, {}, es});
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass opaque;
     host.prepare(scene);
@@ -123,6 +127,8 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         gl::glFinish();
         ft.ms = msSince(t0);
         ft.uploads = st.layered.uploads, ft.pendingLayers = st.layered.pendingLayers;
+        ft.farFieldMs = st.farFieldMs, ft.tilesMs = st.ellipsoids.tilesMs, ft.compositeMs = st.ellipsoids.compositeMs;
+        ft.passes = st.ellipsoids.passes, ft.visible = st.ellipsoids.visible;
         opaque.draw(old, view, target.framebuffer());
         gl::glFinish();
         t0 = Clock::now();
@@ -138,7 +144,8 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
 std::string csvOf(const std::vector<FrameTime>& frames) {
     std::ostringstream csv;
     csv << "frame,ms,update_ms,draw_ms,before_ms,light_grids_finished,light_grids_pending,light_stand_ins,light_ms,"
-           "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,event\n";
+           "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,tiles_ms,"
+           "composite_ms,passes,visible,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs) << ","
@@ -146,7 +153,8 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << f.update.lightStandIns << "," << fmt("%.3f", f.update.lightMs) << ","
             << f.update.nearLod.generated << ","
             << f.update.nearLod.pending << "," << f.update.backgroundJobs << "," << f.uploads << "," << f.pendingLayers << ","
-            << f.beforeLightVolumes << ",\"" << f.event << "\"\n";
+            << f.beforeLightVolumes << "," << fmt("%.3f", f.farFieldMs) << "," << fmt("%.3f", f.tilesMs) << ","
+            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }
@@ -176,16 +184,25 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
        << ": " << frames.size() << " frames of a flight through near_and_far.json (" << fmt("%.0f", o.speed)
        << " m/s along its heading, " << fmt("%.0f", o.fps)
        << " frames per second of simulated time) while the weather changes as below. A frame is SkyRenderer::update + "
-          "draw of one channel, wall time to glFinish (the host's sky is drawn before the clock starts); before = the "
+          "draw of one channel, wall time to glFinish (the host's sky is drawn before the clock starts; the draw's parts "
+          "are timed, a glFinish between them); before = the "
           "same frames with the one-call SkyRenderer::render of before, the same weather applied to its scene; the two "
           "take turns frame by frame. The layers' lighting is computed, not loaded from a cache (the worst case). "
           "The clouds' radiance grids of new near-LOD clouds or a new sun are made on the worker thread, stand-ins "
           "lighting the clouds meanwhile (update() never waits for one; render() of before does).\n\n";
     md << "| | median ms | worst ms (frame) | worst × median |\n|---|---:|---:|---:|\n";
     md << summaryRow("update + draw", ms) << summaryRow("before: render()", beforeMs) << "\n";
+    {
+        const FrameTime& worst = frames[worstIn(ms, 0, ms.size())];
+        md << "The worst frame by part (SkySettings::timings; the CSV has every frame's): update " << fmt("%.1f", worst.updateMs)
+           << " ms, far field " << fmt("%.1f", worst.farFieldMs) << ", tiles " << fmt("%.1f", worst.tilesMs) << ", composite "
+           << fmt("%.1f", worst.compositeMs) << " (" << worst.passes << " atlas passes, " << worst.visible
+           << " ellipsoids visible).\n\n";
+    }
     md << "Per change, the worst frame from it to the next change (at most 10 frames):\n\n";
-    md << "| frame | change | update + draw ms | × median | grids made on the worker (most pending) | cells made | before ms | × median |\n"
-          "|---:|---|---:|---:|---:|---:|---:|---:|\n";
+    md << "| frame | change | update + draw ms | × median | × the 10 frames before | grids made on the worker (most pending) | "
+          "cells made | before ms | × median |\n"
+          "|---:|---|---:|---:|---:|---:|---:|---:|---:|\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         if (frames[i].event.empty()) continue;
         std::size_t end = std::min(frames.size(), i + 10);
@@ -196,8 +213,12 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
         for (std::size_t k = i; k < end; ++k)
             volumes += frames[k].update.lightVolumes, cells += frames[k].update.nearLod.generated,
                 pending = std::max(pending, frames[k].update.lightPending);
+        // The frames just before the change: the same clouds in view, so that a stall shows
+        // apart from what the flight itself brings into view.
+        const std::vector<double> lead(ms.begin() + std::ptrdiff_t(i >= 10 ? i - 10 : 0), ms.begin() + std::ptrdiff_t(i));
+        const std::string overLead = lead.empty() ? "" : fmt("%.2f", ms[w] / median(lead));
         md << "| " << i << " | " << frames[i].event << " | " << fmt("%.1f", ms[w]) << " | " << fmt("%.2f", ms[w] / med)
-           << " | " << volumes << " (" << pending << ") | " << cells << " | "
+           << " | " << overLead << " | " << volumes << " (" << pending << ") | " << cells << " | "
            << fmt("%.1f", beforeMs[b]) << " | " << fmt("%.2f", beforeMs[b] / beforeMed) << " |\n";
     }
     md << "\n![ms per frame along the flight](docs/weather_bench.png)\n";
