@@ -16,6 +16,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -23,6 +24,8 @@
 #include <numbers>
 
 namespace nephele {
+
+constexpr int kMinAtlasLayers = 8;  // an atlas is made with room for this many passes (see plan())
 using namespace gl;
 
 namespace {
@@ -381,9 +384,11 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     atlas.height = atlasH;
     if (atlas.layers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
-        // Grown by half at least (within the memory budget), so that clouds growing frame by
-        // frame (a layer's near cells made again, thicker) do not remake it every frame.
-        atlas.layers = std::max(packed.passes, std::min(maxPasses, (3 * atlas.layers + 1) / 2));
+        // A power of two of layers, 8 at least (within the memory budget): remaking it costs a
+        // frame about 200 ms at 1280x720 on llvmpipe (bench --weather: 3 -> 5 -> 8 layers as
+        // near clouds came into view stalled two frames), so it is made with room to grow.
+        atlas.layers =
+            std::max(packed.passes, std::min(maxPasses, std::max(kMinAtlasLayers, int(std::bit_ceil(unsigned(packed.passes))))));
         atlas.terms = Texture::create(GL_TEXTURE_2D_ARRAY);
         checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, atlas.layers);
         glTextureStorage3D(atlas.terms.id(), 1, termsFormat, atlasW, atlasH, atlas.layers);
