@@ -3,6 +3,7 @@
 #include "nephele/image.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/png.hpp"
+#include "parallel.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +11,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
+#include <thread>
+
+#include <sched.h>
+#include <sys/resource.h>
 
 using namespace nephele;
 
@@ -174,3 +179,16 @@ TEST(OpaqueCpuTest, RayHitsNearestObjectWithOutwardNormal) {
 }
 
 }  // namespace
+
+// The background workers (radiance grids, layer lighting) run below every normal thread:
+// SCHED_IDLE, else nice 19; the thread that asks only, not the process.
+TEST(ParallelTest, ABackgroundThreadRunsBelowTheFrame) {
+    int policy = -1, nice = 0;
+    std::thread([&] {
+        nephele::makeThisThreadBackground();
+        policy = sched_getscheduler(0);
+        nice = getpriority(PRIO_PROCESS, 0);
+    }).join();
+    EXPECT_TRUE(policy == SCHED_IDLE || nice == 19) << "policy " << policy << ", nice " << nice;
+    EXPECT_EQ(sched_getscheduler(0), SCHED_OTHER);  // the calling thread is untouched
+}

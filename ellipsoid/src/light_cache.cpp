@@ -8,12 +8,6 @@
 #include <numeric>
 #include <unordered_set>
 
-#ifdef __linux__
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-#endif
-
 namespace nephele {
 
 namespace {
@@ -216,10 +210,7 @@ void CloudRadianceCache::schedule(std::vector<Job> jobs) {
 }
 
 void CloudRadianceCache::work() {
-#ifdef __linux__
-    // Below the frame's threads: the grids come a little later, the frames stay on time.
-    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 19);  // as the layers' lighting jobs: they share
-#endif
+    makeThisThreadBackground();  // below the frame's threads: the grids come later, the frames stay on time
     ParallelLimit one(1);  // one core: the other stays the renderer's
     std::unique_lock lock(mutex_);
     for (;;) {

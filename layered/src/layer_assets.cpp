@@ -1,9 +1,5 @@
 #include "layer_assets.hpp"
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -12,7 +8,6 @@ namespace nephele {
 
 namespace {
 constexpr std::size_t kCapacity = 12;  // entries kept (a lighting volume is 8 MB at the default size)
-constexpr int kWorkerNice = 19;        // the worker yields to the frame (Linux: niceness is per thread)
 }  // namespace
 
 LayerAssets::LayerAssets(LayeredSettings settings) : settings_(std::move(settings)) {}
@@ -99,7 +94,7 @@ void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
 }
 
 void LayerAssets::run() {
-    setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), kWorkerNice);
+    makeThisThreadBackground();
     const ParallelLimit oneCore(1);  // the lighting's parallelFor: this thread alone
     std::unique_lock lock(mutex_);
     for (;;) {
