@@ -31,7 +31,11 @@
 namespace nephele {
 
 struct RadianceGridSettings {
-    int size = 32;              // voxels per side of the cloud's box, 4..128
+    // Voxels per side of the cloud's box, 4..128. 16 by the accuracy bench: the photons' noise
+    // per voxel outweighs the finer grid's detail at 32 (mean error 15.3% -> 13.4%, inside a
+    // cumulus 13% -> 8%), and a grid takes 0.3 MB instead of 2.4; a finer grid with the same
+    // photons is noisier still (64: 27% inside), except against the sun (README, "The light").
+    int size = 16;
     int sunPhotons = 1 << 17;   // photons traced from the sun per cloud, 0..2^26
     int skyPhotons = 1 << 17;   // photons traced from the sky and the ground per cloud, 0..2^26
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
