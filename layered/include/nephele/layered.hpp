@@ -2,21 +2,13 @@
 // large scale volumetric clouds rendering in real-time" (shared/papers/wang-ji-zhang-2011-*).
 //
 // 1. Lighting precomputation (CPU, all cores; precomputeLighting()): a tileable cloud volume
-//    of one layer (x, y tile `tilePeriod` metres, z the layer's thickness) is lit by a sun at
-//    the zenith with multiple forward scattering, eqs. (5)-(7), the recurrence
-//    I_k = g_{k-1} + T_{k-1} I_{k-1}, g_j = a tau_j F(0) gamma / 4pi I_j (6), F the
-//    Cornette-Shanks phase function (10). The result is stored as the paper stores it:
-//    RGBA8, rgb = n / 2 + 0.5 with n a vector whose length is the intensity I and whose
-//    direction is that of grad I (towards where the light comes from; the zenith where I is
-//    flat), alpha = the volume's density A in [0, 1]. At run time lit = max(n . l, 0) for any
-//    sun direction l, so the sun can move without recomputing. The eye-scattering recurrence
-//    (8) E_k = S_k + T_k E_{k-1} is evaluated towards the sun through every column to give
-//    I_e0, the peak of the run-time eye scattering (17).
-//    Where the paper has free constants the scene's medium is used: tau_j = extinction *
-//    A * dz (1/m, m), a = albedo, the Cornette-Shanks asymmetry f = hg_g, and gamma, the
-//    forward cone of eq. (4), is a cone of `forwardConeDeg` half-angle.
-//    Saved to / loaded from a binary file (LightingVolume::save/load) and cached by a hash
-//    of its parameters (lightingCached()).
+//    of one layer (x, y tile `tilePeriod` metres, z the layer's thickness) holds, per texel,
+//    the density A (alpha) and the optical depth of the column above it at three thresholds of
+//    eq. (16) (rgb, encoded; `columns` the whole column's), and the light tables photon-traced
+//    through it with the medium's extinction, albedo and phase (layered/src/layer_light.cpp).
+//    The paper's recurrences (5)-(8) are replaced by this (issue #10), so that the layer is lit
+//    by the model every other method uses. Saved to / loaded from a checksummed binary file
+//    (LightingVolume::save/load) and cached by a hash of its parameters (lightingCached()).
 // 2. Geometry: LOD1 = N instanced annuli at H_i = base + i thickness / (N - 1) (12), the eye
 //    at the centre, from lod0Radius out to the layer's extent; LOD0 = billboards, vertical
 //    slices facing the horizontal view direction every `lod0Spacing` m across the disc of
@@ -30,12 +22,15 @@
 //    opacity is 1 - exp(-extinction * density * path), path = the length of the eye ray in
 //    the slab the layer stands for (thickness / N / |d.z|), so that grazing rays see
 //    more matter, as they do in a volume. Colour (premultiplied, alpha = opacity, "over"):
-//      albedo * (E_sun / pi * lit_sun + E_sky / pi * lit_sky + ambient (0.5 + 0.5 z))
-//      + E_sun * I_e (17) + glow (20) + albedo / pi * sum I_l / d^2 (21)
-//    with E = colour * intensity, z the height fraction in the layer, ambient the compositor's
-//    sky ambient. Wind moves the 2D and 3D texture coordinates by t * wind (18).
-//    Eq. (17)'s angular term max(0, (cos - cos phi) / (1 - cos phi)) goes through a smoothstep
-//    (the linear term draws the cone's rim as a visible ring).
+//    the source function every method shares (shaders/cloud_light.glsl, README "The light"),
+//    S = albedo [E (p(d . s) exp(-tauSun) + J_sun) + J_sky], with the layer's own statistics
+//    standing in for a cloud's radiance grid (shaders/layer_light.glsl): tauSun from the
+//    optical depth of the fragment's column above it (the lighting volume's rgb holds those
+//    column depths at three thresholds), J_sun and J_sky from tables of the mean diffuse light
+//    at a given depth above and below, photon-traced through the lighting volume with the
+//    medium's physics (layered/src/layer_light.cpp); plus glow (20) and lightning (21).
+//    E = colour * intensity. Wind moves the 2D and 3D texture coordinates by the integrated
+//    drift (18).
 //    Textures are mipmapped (the 3D one GL_LINEAR_MIPMAP_NEAREST, fewer fetches on llvmpipe),
 //    so far away the GPU thresholds filtered A and r; the CPU twins below sample level 0.
 // 4. Shadows (19): the frame's surfaces are multiplied by S (shaders/layered_shadow.glsl,
