@@ -236,7 +236,9 @@ TEST(HostileSceneTest, ManyEllipsoidsInOneCloudLoadInLinearTime) {
     EXPECT_EQ(s.clouds[0].ellipsoids[199999].density, 0.5);
     std::printf("[ figure ] 50k ellipsoids %.2f s, 200k %.2f s of CPU\n", cpuSmall, cpu);
     EXPECT_LT(cpu, 8 * cpuSmall);  // linear: 4x; quadratic: 16x
-    if (!test::kSanitized) EXPECT_LT(cpu, 3.0);
+    if (!test::kSanitized) {
+        EXPECT_LT(cpu, 3.0);
+    }
 }
 
 TEST(HostileSceneTest, GeneratedEllipsoidsShareTheScenesBudget) {
