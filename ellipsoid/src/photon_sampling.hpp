@@ -4,6 +4,7 @@
 #pragma once
 
 #include "nephele/scene.hpp"
+#include "pcg32.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,40 +13,24 @@
 
 namespace nephele::detail {
 
-// PCG32 (O'Neill 2014), as the path tracer's (reference/src/tracking.hpp), seeded through
-// SplitMix64 in one of two ways (each tracer's images and tables depend on its own).
+// PCG32 (core/src/pcg32.hpp, the path tracer's generator), seeded through SplitMix64 in one of
+// two ways (each tracer's images and tables depend on its own), its uniform numbers in (0, 1).
 class PhotonRng {
 public:
-    // The radiance grids' seeding: the stream from the seed, then the state as PCG's srandom.
-    explicit PhotonRng(std::uint64_t seed) : state_(0), inc_((mix(seed) << 1) | 1u) {
-        next();
-        state_ += mix(seed ^ 0x5DEECE66Dull);
-        next();
-    }
+    // The radiance grids' seeding: PCG's srandom, the stream and the state from the seed.
+    explicit PhotonRng(std::uint64_t seed) : g_(mix64(seed ^ 0x5DEECE66Dull), mix64(seed)) {}
     // The light tables' seeding: the state and the stream from the seed, one step.
     static PhotonRng fromState(std::uint64_t seed) {
-        PhotonRng r(mix(seed), mix(seed ^ 0x5DEECE66Dull));
+        PhotonRng r(Pcg32::raw(mix64(seed), mix64(seed ^ 0x5DEECE66Dull)));
         r.next();
         return r;
     }
-    std::uint32_t next() {
-        const std::uint64_t old = state_;
-        state_ = old * 6364136223846793005ull + inc_;
-        const auto x = std::uint32_t(((old >> 18) ^ old) >> 27);
-        const auto rot = std::uint32_t(old >> 59);
-        return (x >> rot) | (x << ((32u - rot) & 31u));
-    }
-    double uniform() { return (next() + 0.5) * 0x1.0p-32; }  // (0, 1)
+    std::uint32_t next() { return g_.next(); }
+    double uniform() { return g_.uniformOpen(); }  // (0, 1)
 
 private:
-    PhotonRng(std::uint64_t state, std::uint64_t stream) : state_(state), inc_((stream << 1) | 1u) {}
-    static std::uint64_t mix(std::uint64_t x) {
-        x += 0x9E3779B97F4A7C15ull;
-        x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-        x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-        return x ^ (x >> 31);
-    }
-    std::uint64_t state_, inc_;
+    explicit PhotonRng(const Pcg32& g) : g_(g) {}
+    Pcg32 g_;
 };
 
 // An orthonormal basis about unit w (Duff et al. 2017).

@@ -5,6 +5,8 @@
 // ray, extinction coefficients in 1/m.
 #pragma once
 
+#include "pcg32.hpp"  // Pcg32, mix64: seeded per (seed, pixel, sample) below, so images do not depend on thread scheduling
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -14,36 +16,6 @@
 #include <vector>
 
 namespace nephele::detail {
-
-// PCG32 (O'Neill 2014): 64-bit LCG state, XSH-RR output. Seeded per (seed, pixel, sample)
-// by the renderer, so images do not depend on thread scheduling.
-class Pcg32 {
-public:
-    Pcg32(std::uint64_t state, std::uint64_t stream) : inc_((stream << 1) | 1u) {
-        next();
-        state_ += state;
-        next();
-    }
-    std::uint32_t next() {
-        const std::uint64_t old = state_;
-        state_ = old * 6364136223846793005ull + inc_;
-        const auto xorshifted = std::uint32_t(((old >> 18) ^ old) >> 27);
-        const auto rot = std::uint32_t(old >> 59);
-        return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
-    }
-    double uniform() { return next() * 0x1.0p-32; }  // [0, 1)
-
-private:
-    std::uint64_t state_ = 0, inc_;
-};
-
-// SplitMix64 finaliser: a well-mixed 64-bit hash.
-inline std::uint64_t mix64(std::uint64_t x) {
-    x += 0x9E3779B97F4A7C15ull;
-    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-    return x ^ (x >> 31);
-}
 
 // The generator of one sample of one pixel.
 inline Pcg32 sampleRng(unsigned seed, std::uint64_t pixel, std::uint64_t sample) {
