@@ -50,6 +50,7 @@ struct SceneArgs {
     CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr, *compositeOpt = nullptr;
     RaymarchSettings raymarch;
     RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
+    std::string lightGridFit = "on";  // --light-grid-fit
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
@@ -105,11 +106,16 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--lod-distance", a.raymarch.lodDistance, "Ray-marcher: the step grows as step (1 + d / this) (m; 0 = fixed)")
         ->check(within(0, 1e7))
         ->capture_default_str();
-    cmd->add_option("--light-grid", a.light.size, "Compositor, gardner-exact, ray-marcher: voxels per side of each cloud's radiance grid")
+    cmd->add_option("--light-grid", a.light.size,
+                    "Compositor, gardner-exact, ray-marcher: voxels per side of a big cloud's radiance grid (smaller or thinner clouds get 8 or 16 unless --light-grid-fit off)")
         ->check(within(4, 128))
         ->capture_default_str();
+    cmd->add_option("--light-grid-fit", a.lightGridFit,
+                    "on: each cloud's grid as fine as its optical size needs, up to --light-grid; off: every grid --light-grid")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
     cmd->add_option("--photons", a.light.sunPhotons,
-                    "Compositor, gardner-exact, ray-marcher: photons traced per cloud from the sun, and as many from the sky")
+                    "Compositor, gardner-exact, ray-marcher: photons traced from the sun for a grid of --light-grid voxels per side (as many per voxel for a smaller one), and as many from the sky")
         ->check(within(0, 1 << 24))
         ->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->check(within(1, 8))->capture_default_str();
@@ -194,6 +200,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
                                                  : CompositeOrder::PerEllipsoid;
     RadianceGridSettings light = a.light;
     light.skyPhotons = light.sunPhotons;
+    light.fitToCloud = a.lightGridFit == "on";
     es.light = light;
     ro.raymarch = a.raymarch;
     ro.raymarch.light = light;

@@ -1,10 +1,11 @@
-// The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): three
+// The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): four
 // RGBA16F 3D textures holding every cloud's grid in a slot of its own, and per cloud three
 // vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid extent (1/m), 0), (the slot's
 // first texel, the grid's voxels per side: a slot holds the largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost voxel centres, as
 // sampleRadiance() reads them on the CPU.
 layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
-uniform sampler3D lightSunDiffuse;  // (phi1 xyz, phi0) of the sun's scattered light, per unit irradiance
+uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
+uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, optical depth to the sun)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
 uniform vec3 lightInvTexels;        // 1 / the textures' size in texels
@@ -19,8 +20,8 @@ vec3 lightTexel(int cloud, vec3 rel) {
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     vec3 uvw = lightTexel(cloud, rel);
-    return lightScalars(textureLod(lightSunDiffuse, uvw, 0.0), textureLod(lightSkyTau, uvw, 0.0),
-                        textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
+    return lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0),
+                        textureLod(lightSkyTau, uvw, 0.0), textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
 }
 
 // S(x, d) of cloud `cloud` at camera-relative point `rel` (cloud_light.glsl), the sky light
@@ -28,8 +29,8 @@ vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
 vec3 cloudSourceAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g, vec3 sunIrradiance, float albedo) {
     vec3 uvw = lightTexel(cloud, rel);
     vec4 skyTau = textureLod(lightSkyTau, uvw, 0.0);
-    vec3 scalars = lightScalars(textureLod(lightSunDiffuse, uvw, 0.0), skyTau, textureLod(lightSkyFlux, uvw, 0.0), d,
-                                sunDirection, g);
+    vec3 scalars = lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0), skyTau,
+                                textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(skyTau.rgb), albedo);
 }
 

@@ -53,6 +53,8 @@ MODEL_FN vec3 layerSource(vec4 sunTable, vec4 skyTable, float tauSun, vec3 d, ve
     vec4 sunDiffuse = vec4(sunHorizontal.x * sunTable.y, sunHorizontal.y * sunTable.y, sunTable.z, sunTable.x);
     vec4 skyTau = vec4(skyTable.x, skyTable.y, skyTable.z, tauSun);
     vec4 skyFlux = vec4(0.0f, 0.0f, skyTable.w, sunTable.w);
-    vec3 scalars = lightScalars(sunDiffuse, skyTau, skyFlux, d, sunDirection, g);
+    // The tables hold one Henyey-Greenstein lobe of all the sun's diffuse light, read as J_few;
+    // J_many is empty (the layer's light as before the clouds' light was split in two).
+    vec3 scalars = lightScalars(sunDiffuse, vec4(0.0f), skyTau, skyFlux, d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(vec3(skyTable.x, skyTable.y, skyTable.z)), albedo);
 }

@@ -173,6 +173,30 @@ TEST(CloudLightModelTest, SunInScatterIsTheExactConvolutionOfAnHgLobe) {
     EXPECT_EQ(model::sunInScatter(glm::vec4(0.0f), glm::vec3(0, 0, 1), g), 0.0f);
 }
 
+// J_many: the in-scattering of a radiance field that IS its l <= 1 harmonics (the diffusion
+// regime), phi0 / 4 pi + 3 / (4 pi) phi1 . w, by quadrature of p(w . o) L(w); never negative.
+TEST(CloudLightModelTest, SunDiffuseInScatterIsTheExactConvolutionOfItsHarmonics) {
+    const float g = 0.85f, phi0 = 2.0f;
+    const glm::vec3 phi1 = 0.25f * phi0 * glm::normalize(glm::vec3(0.3f, -0.2f, -0.9f));  // |phi1| < phi0 / 3: L >= 0
+    const glm::vec4 field(phi1, phi0);
+    const int nc = 2000, np = 256;
+    const double dA = (2.0 / nc) * (2 * std::numbers::pi / np);
+    for (const glm::vec3 d : {glm::vec3(0, 1, 0), glm::normalize(phi1), -glm::normalize(phi1)}) {
+        double sum = 0;
+        for (int i = 0; i < nc; ++i)
+            for (int j = 0; j < np; ++j) {
+                const glm::vec3 w = polar(-1 + (i + 0.5) * 2.0 / nc, (j + 0.5) * 2 * std::numbers::pi / np);
+                const double radiance = phi0 / (4 * std::numbers::pi) + 3 / (4 * std::numbers::pi) * glm::dot(phi1, w);
+                sum += model::hgPhase(glm::dot(w, -d), g) * radiance * dA;
+            }
+        EXPECT_NEAR(model::sunDiffuseInScatter(field, d, g), sum, 0.01 * sum) << d.x << " " << d.y << " " << d.z;
+    }
+    // Looking straight down a flux the harmonics cannot hold (|phi1| = phi0): none, not negative.
+    const glm::vec3 m(0, 0, -1);
+    EXPECT_EQ(model::sunDiffuseInScatter(glm::vec4(phi0 * m, phi0), m, g), 0.0f);
+    EXPECT_GT(model::sunDiffuseInScatter(glm::vec4(phi0 * m, phi0), -m, g), phi0 / (4 * std::numbers::pi));
+}
+
 // The sky's in-scattering from its l <= 1 harmonics and the zonal l = 2 term: exact for a
 // radiance field made of exactly those, by quadrature of p(w . o) L(w).
 TEST(CloudLightModelTest, SkyInScatterIsTheExactConvolutionOfItsHarmonics) {

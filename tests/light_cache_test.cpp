@@ -51,7 +51,8 @@ void expectSame(const std::vector<PlacedRadiance>& placed, const Scene& s, const
         double worst = 0;
         for (const Ellipsoid& e : s.clouds[c].ellipsoids) {
             const RadianceSample a = placed[c].sample(e.center), b = sampleRadiance(fresh, e.center);
-            worst = std::max({worst, double(glm::length(a.sunDiffuse - b.sunDiffuse)), double(glm::length(a.skyTau - b.skyTau)),
+            worst = std::max({worst, double(glm::length(a.sunFew - b.sunFew)), double(glm::length(a.sunMany - b.sunMany)),
+                              double(glm::length(a.skyTau - b.skyTau)),
                               double(glm::length(a.skyFlux - b.skyFlux))});
         }
         // The same photons through the same voxels up to the rounding of world coordinates of a
@@ -131,7 +132,8 @@ TEST(CloudRadianceCacheTest, BackgroundGridsNeverWaitAndStandInsServeMeanwhile) 
         for (int k = 0; k < 3; ++k) EXPECT_NEAR(first[c].lo[k], lo[k], 1e-9);
         // The stand-in lights the cloud: diffuse sunlight and sky light at its first ellipsoid.
         const RadianceSample r = first[c].sample(s.clouds[c].ellipsoids[0].center);
-        EXPECT_GT(r.sunDiffuse.w, 0.0f);
+        EXPECT_GT(r.sunFew.w, 0.0f);
+        EXPECT_GT(r.sunMany.w, 0.0f);
         EXPECT_GT(r.skyTau.x, 0.0f);
     }
     cache.waitIdle();
@@ -172,8 +174,8 @@ TEST(CloudRadianceCacheTest, TheBudgetGivesGridsToTheCloudsLargestOnScreen) {
     CloudRadianceCache cache;
     Scene s = twoClouds();
     RadianceGridSettings g = cheap();
+    g.size = 32, g.fitToCloud = false;  // 3 MB a grid (the budget's least is 1 MB)
     g.megabytes = 1.5 * double(radianceGridBytes(g.size)) / 1048576.0;
-    if (g.megabytes < 1) g.size = 32, g.megabytes = 1.5 * double(radianceGridBytes(32)) / 1048576.0;
     RadianceUpdateStats stats;
     const Vec3 nearFirst = s.clouds[0].ellipsoids[0].center + Vec3(-300, 0, 0);
     auto placed = cache.update(s, g, &nearFirst, &stats);
@@ -219,5 +221,87 @@ TEST(CloudRadianceCacheTest, ACancelledGridIsEmpty) {
     std::atomic<bool> cancel{true};
     const CloudRadiance grid = computeCloudRadiance(s, s.clouds[0], cheap(), &cancel);
     EXPECT_EQ(grid.size, 0);
-    EXPECT_TRUE(grid.sunDiffuse.empty());
+    EXPECT_TRUE(grid.sunFew.empty());
+    EXPECT_TRUE(grid.sunMany.empty());
+}
+
+// The sun's diffuse light is split by how often it scattered (cloud_light.glsl): the part
+// scattered 1 to kFewScatterings times is forward-peaked, along the sun's travel; the part
+// scattered more often is broad, and in a thin cloud next to nothing.
+TEST(CloudRadianceTest, TheSunsLightSplitsIntoAForwardPeakAndABroadPart) {
+    auto sphere = [](double opticalRadius) {
+        Scene s;
+        s.sun.direction = glm::normalize(Vec3(0.3, 0.2, 0.93));
+        Cloud c;
+        Ellipsoid e;
+        e.radii = Vec3(200.0);
+        e.density = opticalRadius / (s.medium.extinction * 200.0 * 16.0 / 15.0);  // through the centre
+        c.ellipsoids.push_back(e);
+        s.clouds.push_back(c);
+        return s;
+    };
+    RadianceGridSettings g;
+    g.size = 8;
+    g.sunPhotons = 1 << 15;
+    g.skyPhotons = 0;
+    const Scene thick = sphere(20);
+    const RadianceSample centre = sampleRadiance(computeCloudRadiance(thick, thick.clouds[0], g), Vec3(0.0));
+    auto meanCosine = [&](const glm::vec4& lobe) {
+        return double(glm::dot(glm::vec3(lobe), glm::vec3(-thick.sun.direction))) / double(lobe.w);
+    };
+    ASSERT_GT(centre.sunFew.w, 0.0f);
+    ASSERT_GT(centre.sunMany.w, 0.0f);
+    EXPECT_GT(meanCosine(centre.sunFew), 0.3);                              // along the sun's travel
+    EXPECT_GT(meanCosine(centre.sunFew), meanCosine(centre.sunMany) + 0.2);  // and more so than the rest
+    EXPECT_LT(meanCosine(centre.sunMany), 0.5);
+    const Scene thin = sphere(0.3);
+    const RadianceSample t = sampleRadiance(computeCloudRadiance(thin, thin.clouds[0], g), Vec3(0.0));
+    ASSERT_GT(t.sunFew.w, 0.0f);
+    EXPECT_LT(t.sunMany.w, 0.05f * t.sunFew.w);
+}
+
+// Each cloud's grid as fine as its optical size needs: a thin puff 8^3, a thick cumulus the
+// largest; the budget counts the grids as they are.
+TEST(CloudRadianceTest, GridsFitTheCloudsOpticalSize) {
+    Scene s = twoClouds();
+    RadianceGridSettings g;
+    g.sunPhotons = g.skyPhotons = 1 << 12;
+    Cloud puff = s.clouds[0];
+    for (Ellipsoid& e : puff.ellipsoids) e.density = 0.05;
+    Cloud thick = s.clouds[0];
+    for (Ellipsoid& e : thick.ellipsoids) e.density = 8;
+    EXPECT_LT(cloudOpticalRadius(s, puff), 1.0);
+    EXPECT_GT(cloudOpticalRadius(s, thick), double(g.size));
+    EXPECT_EQ(radianceGridSize(s, puff, g), 8);
+    EXPECT_EQ(radianceGridSize(s, thick, g), g.size);
+    for (Ellipsoid& e : thick.ellipsoids) e.density = 2.2;  // optical radius between 8 and 16: 16
+    ASSERT_GT(cloudOpticalRadius(s, thick), 8.0);
+    ASSERT_LT(cloudOpticalRadius(s, thick), 16.0);
+    EXPECT_EQ(radianceGridSize(s, thick, g), 16);
+    EXPECT_EQ(computeCloudRadiance(s, puff, g).size, 8);
+    g.fitToCloud = false;
+    EXPECT_EQ(radianceGridSize(s, puff, g), g.size);
+    EXPECT_EQ(computeCloudRadiance(s, puff, g).size, g.size);
+}
+
+TEST(CloudRadianceCacheTest, TheBudgetCountsEachGridAtItsOwnSize) {
+    Scene s = twoClouds();
+    for (Ellipsoid& e : s.clouds[1].ellipsoids) e.density = 8;  // the second cloud's grid is 32^3, the first's 8^3
+    RadianceGridSettings g;
+    g.sunPhotons = g.skyPhotons = 1 << 12;
+    ASSERT_EQ(radianceGridSize(s, s.clouds[0], g), 8);
+    ASSERT_EQ(radianceGridSize(s, s.clouds[1], g), 32);
+    g.megabytes = (double(radianceGridBytes(32)) + 0.5 * double(radianceGridBytes(8))) / 1048576.0;  // not both
+    CloudRadianceCache cache;
+    RadianceUpdateStats stats;
+    const Vec3 nearSmall = s.clouds[0].ellipsoids[0].center + Vec3(-300, 0, 0);
+    auto placed = cache.update(s, g, &nearSmall, &stats);
+    EXPECT_TRUE(placed[0].exact);  // nearer: first in line, and small
+    EXPECT_FALSE(placed[1].exact);
+    EXPECT_EQ(placed[0].grid->size, 8);
+    g.megabytes = (double(radianceGridBytes(32)) + 1.1 * double(radianceGridBytes(8))) / 1048576.0;  // room for both
+    placed = cache.update(s, g, &nearSmall, &stats);
+    EXPECT_TRUE(placed[0].exact);
+    EXPECT_TRUE(placed[1].exact);
+    EXPECT_EQ(placed[1].grid->size, 32);
 }

@@ -220,7 +220,7 @@ TEST_F(RaymarchGLTest, RadianceMatchesTheLightModelIntegratedOnTheCpu) {
                 // The shared light model with the grid read on the CPU.
                 const RadianceSample r = sampleRadiance(grid, p);
                 const glm::vec3 scalars =
-                    model::lightScalars(r.sunDiffuse, r.skyTau, r.skyFlux, glm::vec3(d), glm::vec3(scene.sun.direction), float(m.hgG));
+                    model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d), glm::vec3(scene.sun.direction), float(m.hgG));
                 radiance += T * (1 - dT) *
                             Vec3(model::sourceFromScalars(scalars, sun, model::skyChroma(glm::vec3(r.skyTau)), float(m.albedo)));
                 T *= dT;

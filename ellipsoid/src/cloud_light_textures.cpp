@@ -15,20 +15,68 @@ void CloudLightTextures::grow(int slots) {
     const int gy = std::min(perAxis, int(std::ceil(std::sqrt(double(slots) / gx))));
     const int gz = (slots + gx * gy - 1) / (gx * gy);
     if (gz > perAxis)
-        throw GlError("cloud light grids: " + std::to_string(slots) + " clouds of " + std::to_string(size_) +
+        throw GlError("cloud light grids: " + std::to_string(slots) + " slots of " + std::to_string(size_) +
                       "^3 voxels do not fit GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + "; lower the grid size");
     slots_ = glm::ivec3(gx, gy, gz);
     for (Texture& t : textures_) {
         t = Texture::create(GL_TEXTURE_3D);
         glTextureStorage3D(t.id(), 1, GL_RGBA16F, gx * size_, gy * size_, gz * size_);
     }
+    slotUse_.assign(std::size_t(gx) * gy * gz, Slot{});
     resident_.clear();  // every grid is uploaded again into the new textures
 }
 
-void CloudLightTextures::upload(const CloudRadiance& grid, int slot) {
-    const int gx = slots_.x, gy = slots_.y;
-    const glm::ivec3 origin = glm::ivec3(slot % gx, slot / gx % gy, slot / (gx * gy)) * size_;
-    const std::vector<glm::vec4>* data[3] = {&grid.sunDiffuse, &grid.skyTau, &grid.skyFlux};
+std::size_t CloudLightTextures::textureBytes() const {
+    return std::size_t(slots_.x) * slots_.y * slots_.z * size_ * size_ * size_ * 4 * 8;
+}
+
+// The place of a grid: the smallest power of two at or above its size that divides the slot
+// (the whole slot when the slot's side is no power of two), in a slot of places of that side.
+bool CloudLightTextures::place(const CloudRadiance& grid, Place& out) {
+    int block = 1;
+    while (block < grid.size) block *= 2;
+    if (block > size_ || size_ % block != 0) block = size_;
+    const int per = size_ / block, places = per * per * per;
+    int freeSlot = -1;
+    for (int k = 0; k < int(slotUse_.size()); ++k) {
+        Slot& slot = slotUse_[k];
+        if (slot.block == 0) {
+            if (freeSlot < 0) freeSlot = k;
+            continue;
+        }
+        if (slot.block != block) continue;
+        for (int i = 0; i < places; ++i)
+            if (!slot.taken[i]) {
+                slot.taken[i] = true;
+                out = {k, i, block};
+                return true;
+            }
+    }
+    if (freeSlot < 0) return false;
+    Slot& slot = slotUse_[freeSlot];
+    slot.block = block;
+    slot.taken.assign(places, false);
+    slot.taken[0] = true;
+    out = {freeSlot, 0, block};
+    return true;
+}
+
+void CloudLightTextures::release(const Place& p) {
+    Slot& slot = slotUse_[p.slot];
+    slot.taken[p.index] = false;
+    if (std::none_of(slot.taken.begin(), slot.taken.end(), [](bool t) { return t; })) slot = Slot{};
+}
+
+glm::ivec3 CloudLightTextures::origin(const Place& p) const {
+    const int per = size_ / p.block;
+    const glm::ivec3 slot(p.slot % slots_.x, p.slot / slots_.x % slots_.y, p.slot / (slots_.x * slots_.y));
+    const glm::ivec3 within(p.index % per, p.index / per % per, p.index / (per * per));
+    return slot * size_ + within * p.block;
+}
+
+void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
+    const glm::ivec3 at = origin(p);
+    const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &grid.skyTau, &grid.skyFlux};
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
     constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
@@ -38,40 +86,58 @@ void CloudLightTextures::upload(const CloudRadiance& grid, int slot) {
     glGetIntegerv(GL_PIXEL_UNPACK_BUFFER_BINDING, &unpackBuffer);
     for (int i = 0; i < 6; ++i) glPixelStorei(kUnpack[i], i == 0 ? 4 : 0);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-    for (int k = 0; k < 3; ++k)
-        glTextureSubImage3D(textures_[k].id(), 0, origin.x, origin.y, origin.z, grid.size, grid.size, grid.size, GL_RGBA,
-                            GL_FLOAT, data[k]->data());
+    for (int k = 0; k < 4; ++k)
+        glTextureSubImage3D(textures_[k].id(), 0, at.x, at.y, at.z, grid.size, grid.size, grid.size, GL_RGBA, GL_FLOAT,
+                            data[k]->data());
     for (int i = 0; i < 6; ++i) glPixelStorei(kUnpack[i], saved[i]);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, GLuint(unpackBuffer));
-    resident_[&grid] = slot;
+    resident_[&grid] = p;
 }
 
 int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed) {
     if (!sampler_) sampler_ = linearSampler(GL_CLAMP_TO_EDGE);
-    int uploaded = 0;
     std::vector<std::shared_ptr<const CloudRadiance>> inUse;
     for (const PlacedRadiance& p : placed)
         if (std::find(inUse.begin(), inUse.end(), p.grid) == inUse.end()) inUse.push_back(p.grid);
-    // A slot holds the largest grid in use; smaller ones (the template) fill a corner of theirs.
+    // A slot holds the largest grid in use, or several smaller ones.
     int size = 4;
     for (const auto& g : inUse) size = std::max(size, g->size);
-    const int capacity = slots_.x * slots_.y * slots_.z;
-    if (size > size_ || int(inUse.size()) > capacity || !textures_[0]) {
+    if (size > size_ || !textures_[0]) {
         size_ = size;
-        grow(std::max({int(inUse.size()), 2 * capacity, 1}));
+        grow(std::max(int(slotUse_.size()), 1));
     }
-    // Slots of grids no longer in use are free again; new grids take the free ones.
-    std::map<const CloudRadiance*, int> kept;
-    std::vector<bool> taken(std::size_t(slots_.x) * slots_.y * slots_.z, false);
-    for (const auto& g : inUse)
-        if (auto it = resident_.find(g.get()); it != resident_.end()) kept[g.get()] = it->second, taken[it->second] = true;
-    resident_ = kept;
-    int next = 0;
+    // Room for them all at once (and for a part-filled slot of each smaller block size): no
+    // regrowth grid by grid on the first frame.
+    double need = 0;
     for (const auto& g : inUse) {
-        if (resident_.count(g.get())) continue;
-        while (taken[next]) ++next;
-        taken[next] = true;
-        upload(*g, next);
+        int block = 1;
+        while (block < g->size) block *= 2;
+        need += block > size_ || size_ % block != 0 ? 1.0 : std::pow(double(block) / size_, 3);
+    }
+    if (const int slots = int(std::ceil(need)) + 2; slots > int(slotUse_.size()))
+        grow(std::max(slots, 2 * int(slotUse_.size())));
+    // Places of grids no longer in use are free again; new grids take free ones, the textures
+    // growing (doubling their slots, every grid uploaded again) when none is left.
+    for (auto it = resident_.begin(); it != resident_.end();) {
+        const bool used = std::any_of(inUse.begin(), inUse.end(), [&](const auto& g) { return g.get() == it->first; });
+        if (used) {
+            ++it;
+        } else {
+            release(it->second);
+            it = resident_.erase(it);
+        }
+    }
+    int uploaded = 0;
+    for (std::size_t k = 0; k < inUse.size(); ++k) {
+        const CloudRadiance& g = *inUse[k];
+        if (resident_.count(&g)) continue;
+        Place p;
+        if (!place(g, p)) {
+            grow(2 * int(slotUse_.size()));
+            k = std::size_t(-1);  // again from the first, into the new textures
+            continue;
+        }
+        upload(g, p);
         ++uploaded;
     }
     keep_ = std::move(inUse);
@@ -84,18 +150,17 @@ void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, con
     std::vector<float> boxes;
     for (const PlacedRadiance& p : placed) {
         const Vec3 lo = p.lo - eye, inv = 1.0 / p.extent;
-        const int slot = resident_.at(p.grid.get());
-        const glm::ivec3 origin = glm::ivec3(slot % slots_.x, slot / slots_.x % slots_.y, slot / (slots_.x * slots_.y)) * size_;
+        const glm::ivec3 at = origin(resident_.at(p.grid.get()));
         boxes.insert(boxes.end(), {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y), float(inv.z), 0.0f,
-                                   float(origin.x), float(origin.y), float(origin.z), float(p.grid->size)});
+                                   float(at.x), float(at.y), float(at.z), float(p.grid->size)});
     }
     uploadDynamic(boxes_, boxesCapacity_, boxes.data(), boxes.size() * sizeof(float));
 }
 
 void CloudLightTextures::bind(const Program& program) const {
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kBoxesBinding, boxes_.id());
-    const char* names[3] = {"lightSunDiffuse", "lightSkyTau", "lightSkyFlux"};
-    for (int k = 0; k < 3; ++k) {
+    const char* names[4] = {"lightSunFew", "lightSunMany", "lightSkyTau", "lightSkyFlux"};
+    for (int k = 0; k < 4; ++k) {
         glBindTextureUnit(kFirstUnit + k, textures_[k].id());
         glBindSampler(kFirstUnit + k, sampler_.id());
         program.set(names[k], int(kFirstUnit + k));

@@ -1,5 +1,5 @@
 // The clouds' radiance grids (ellipsoid/src/light_cache.hpp) on the GPU, for the compositor and the
-// ray-marcher (shaders/cloud_light_grid.glsl reads them): three RGBA16F 3D textures with one
+// ray-marcher (shaders/cloud_light_grid.glsl reads them): four RGBA16F 3D textures with one
 // slot per grid, and a storage buffer of the grids' boxes relative to the eye. A grid keeps its
 // slot while it is in use, so a cloud that moves costs only its box: nothing is re-created or
 // uploaded while the clouds only drift. The textures grow (doubling their slots) when more
@@ -18,7 +18,7 @@ namespace nephele {
 class CloudLightTextures {
 public:
     static constexpr GLuint kBoxesBinding = 3;  // shader storage binding of cloudLightBoxes
-    static constexpr GLuint kFirstUnit = 6;     // texture units of the three grids: 6, 7, 8
+    static constexpr GLuint kFirstUnit = 6;     // texture units of the four grids: 6, 7, 8, 9
 
     // Makes the grids of `placed` (one per scene cloud) resident, uploading
     // only grids that are new. Returns how many grids were uploaded. Throws GlError when the
@@ -30,18 +30,34 @@ public:
     // sampling uniforms of `program` (which includes cloud_light_grid.glsl).
     void bind(const Program& program) const;
 
-private:
-    void grow(int slots);
-    void upload(const CloudRadiance& grid, int slot);
+    // Texels of GPU memory the grids' slots hold (all four textures), for the tests.
+    std::size_t textureBytes() const;
 
-    gl::Texture textures_[3];
+private:
+    // A slot of size_^3 texels holds one grid of up to size_ voxels per side, or (size_ / b)^3
+    // grids of up to b, b a power of two (8^3 grids of small clouds share a slot of 32^3).
+    struct Slot {
+        int block = 0;            // the side of its grids' places; 0: free
+        std::vector<bool> taken;  // per place
+    };
+    struct Place {
+        int slot = 0, index = 0, block = 0;
+    };
+    void grow(int slots);
+    bool place(const CloudRadiance& grid, Place& out);
+    void release(const Place& p);
+    glm::ivec3 origin(const Place& p) const;
+    void upload(const CloudRadiance& grid, const Place& p);
+
+    gl::Texture textures_[4];
     gl::Sampler sampler_;
     gl::Buffer boxes_;
     std::size_t boxesCapacity_ = 0;
-    int size_ = 0;                       // voxels per side of a slot
+    int size_ = 0;                       // texels per side of a slot
     glm::ivec3 slots_{0};                // slots along x, y, z
-    std::map<const CloudRadiance*, int> resident_;  // grid -> slot
-    std::vector<std::shared_ptr<const CloudRadiance>> keep_;  // the grids in use (their slots stay theirs)
+    std::vector<Slot> slotUse_;
+    std::map<const CloudRadiance*, Place> resident_;  // grid -> where it is
+    std::vector<std::shared_ptr<const CloudRadiance>> keep_;  // the grids in use (their places stay theirs)
 };
 
 }  // namespace nephele

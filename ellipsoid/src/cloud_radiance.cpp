@@ -163,22 +163,24 @@ struct Beam {
 
 // Sun photons, stratified over the beam's square (a jittered m x m grid). The first flight ends
 // at the first scattering, which single scattering accounts for exactly; every later flight is
-// scored: fluence and net flux, per unit irradiance.
-void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& out,
-              const std::atomic<bool>* cancel) {
-    out.assign(g.sigma.size(), glm::vec4(0.0f));
+// scored, fluence and net flux per unit irradiance: into `few` after 1 to kFewScatterings
+// scatterings, into `many` after more.
+void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, std::vector<glm::vec4>& few,
+              std::vector<glm::vec4>& many, const std::atomic<bool>* cancel) {
+    few.assign(g.sigma.size(), glm::vec4(0.0f));
+    many.assign(g.sigma.size(), glm::vec4(0.0f));
     if (s.sunPhotons == 0) return;
     const Beam beam(g, -scene.sun.direction);
     const int side = std::max(1, int(std::sqrt(double(s.sunPhotons))));
     const int total = side * side, perBatch = (total + kBatches - 1) / kBatches;
     const double power = beam.area() / total;
     const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
-    std::vector<std::vector<glm::vec4>> tallies(kBatches);
+    std::vector<std::vector<glm::vec4>> talliesFew(kBatches), talliesMany(kBatches);
     parallelFor(kBatches, [&](int b) {
         if (cancel && *cancel) return;
         Rng rng(std::uint64_t(s.seed) * 0x9E3779B97F4A7C15ull + std::uint64_t(b) * 2 + 1);
-        std::vector<glm::vec4>& tally = tallies[b];
-        tally.assign(g.sigma.size(), glm::vec4(0.0f));
+        talliesFew[b].assign(g.sigma.size(), glm::vec4(0.0f));
+        talliesMany[b].assign(g.sigma.size(), glm::vec4(0.0f));
         for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
             Vec3 x, w = beam.travel;
             if (!beam.launch(g, (j % side + rng.uniform()) / side, (j / side + rng.uniform()) / side, x)) continue;
@@ -188,6 +190,7 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
                 weight *= albedo;
                 w = sampleHg(w, hg, rng);
                 const glm::vec4 dir(glm::vec3(w), 1.0f);
+                std::vector<glm::vec4>& tally = bounce < kFewScatterings ? talliesFew[b] : talliesMany[b];
                 if (!flight(g, x, w, rng, [&](std::size_t i, double l) { tally[i] += float(weight * l) * dir; })) break;
                 if (weight < 1e-3 * power) {  // Russian roulette
                     if (rng.uniform() < 0.5) break;
@@ -196,7 +199,8 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
             }
         }
     });
-    sumBatches(tallies, out);
+    sumBatches(talliesFew, few);
+    sumBatches(talliesMany, many);
 }
 
 // The format's environment radiance seen looking along unit v.
@@ -309,10 +313,38 @@ void validate(const RadianceGridSettings& s) {
     if (!(s.megabytes >= 1 && s.megabytes <= 65536)) throw std::invalid_argument("radiance grid megabytes must be 1..65536");
 }
 
-CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s,
+double cloudOpticalRadius(const Scene& scene, const Cloud& cloud) {
+    Vec3 lo, hi;
+    cloudBox(cloud, lo, hi);
+    const Vec3 extent = glm::max(hi - lo, Vec3(1.0));
+    double sum = 0, volume = 0;
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        const double v = e.radii.x * e.radii.y * e.radii.z;
+        sum += v * e.density, volume += v;
+    }
+    const double density = volume > 0 ? sum / volume : 0;
+    return scene.medium.extinction * density * 0.5 * std::cbrt(extent.x * extent.y * extent.z);
+}
+
+int radianceGridSize(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s) {
+    if (!s.fitToCloud) return s.size;
+    const double tau = cloudOpticalRadius(scene, cloud);
+    int n = 8;
+    while (n < s.size && n < tau) n *= 2;
+    return std::min(n, s.size);
+}
+
+CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings,
                                    const std::atomic<bool>* cancel) {
-    validate(s);
+    validate(settings);
     const auto start = std::chrono::steady_clock::now();
+    RadianceGridSettings s = settings;
+    s.size = radianceGridSize(scene, cloud, settings);
+    if (s.size != settings.size) {  // photons in proportion to the cross-section (see fitToCloud)
+        const double share = std::pow(double(s.size) / settings.size, 2);
+        s.sunPhotons = int(std::lround(settings.sunPhotons * share));
+        s.skyPhotons = int(std::lround(settings.skyPhotons * share));
+    }
     CloudRadiance out;
     out.size = s.size;
     Vec3 lo, hi;
@@ -324,17 +356,19 @@ CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const
     g.lo = out.boxMin;
     g.cell = out.boxExtent / double(s.size);
     g.sigma = voxelise(scene, cloud, g);
-    traceSun(scene, g, s, out.sunDiffuse, cancel);
+    traceSun(scene, g, s, out.sunFew, out.sunMany, cancel);
     traceSky(scene, g, s, out.skyTau, out.skyFlux, cancel);
     if (cancel && *cancel) return CloudRadiance{};
     const float perVolume = float(1 / (g.cell.x * g.cell.y * g.cell.z));  // track length per volume: fluence
     for (std::size_t i = 0; i < out.voxels(); ++i) {
-        out.sunDiffuse[i] *= perVolume;
+        out.sunFew[i] *= perVolume;
+        out.sunMany[i] *= perVolume;
         out.skyTau[i] *= perVolume;
         out.skyFlux[i] *= perVolume;
     }
     for (int k = 0; k < s.smoothing; ++k) {
-        smooth(out.sunDiffuse, s.size);
+        smooth(out.sunFew, s.size);
+        smooth(out.sunMany, s.size);
         smooth(out.skyTau, s.size);
         smooth(out.skyFlux, s.size);
     }
@@ -355,7 +389,8 @@ RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
         const glm::vec3 t = glm::mix(glm::vec3(1.0f) - f, f, glm::vec3(o));
         const std::size_t i = (std::size_t(i0.z + o.z) * n + (i0.y + o.y)) * n + (i0.x + o.x);
         const float w = t.x * t.y * t.z;
-        r.sunDiffuse += w * grid.sunDiffuse[i];
+        r.sunFew += w * grid.sunFew[i];
+        r.sunMany += w * grid.sunMany[i];
         r.skyTau += w * grid.skyTau[i];
         r.skyFlux += w * grid.skyFlux[i];
     }

@@ -21,7 +21,7 @@ glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& 
     for (int k = 0; k < model::kChordSamples; ++k) {
         const float t = model::chordSampleDepth(oUnit, dUnit, tStart, sigma, k, model::kChordSamples);
         const RadianceSample r = sampleRadiance(grid, eye + double(t) * d);
-        sum += glm::vec2(model::lightScalars(r.sunDiffuse, r.skyTau, r.skyFlux, glm::vec3(d),
+        sum += glm::vec2(model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
                                              glm::vec3(scene.sun.direction), float(scene.medium.hgG)));
     }
     return sum / float(model::kChordSamples);

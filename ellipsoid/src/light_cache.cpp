@@ -21,7 +21,7 @@ void addLight(Fingerprint& f, const Scene& scene) {
 // The cloud's shape relative to its first ellipsoid, and the grid's settings.
 std::uint64_t shapeKey(const Cloud& cloud, const RadianceGridSettings& s) {
     Fingerprint f;
-    f.add(s.size).add(s.sunPhotons).add(s.skyPhotons).add(s.smoothing).add(s.seed);
+    f.add(s.size).add(s.fitToCloud).add(s.sunPhotons).add(s.skyPhotons).add(s.smoothing).add(s.seed);
     f.add(cloud.ellipsoids.size());
     const Vec3 anchor = cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center;
     // Offsets rounded to a millimetre: (c + d) - (a + d) differs from c - a in the last bits.
@@ -37,17 +37,6 @@ std::uint64_t lightKey(const Scene& scene, std::uint64_t shape) {
     f.add(shape);
     addLight(f, scene);
     return f.value();
-}
-
-// The cloud's optical size: its volume-weighted extinction times half its box's mean side.
-double opticalSize(const Scene& scene, const Cloud& cloud, const Vec3& extent) {
-    double sum = 0, volume = 0;
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        const double v = e.radii.x * e.radii.y * e.radii.z;
-        sum += v * e.density, volume += v;
-    }
-    const double density = volume > 0 ? sum / volume : 0;
-    return scene.medium.extinction * density * 0.5 * std::cbrt(extent.x * extent.y * extent.z);
 }
 
 // The share of the smaller of two boxes inside the other.
@@ -73,9 +62,7 @@ CloudRadianceCache::~CloudRadianceCache() {
 // the scene's sun and sky: cheap (8^3 voxels, 4096 photons each), made once per sun and size.
 std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene& scene, const Cloud& cloud,
                                                                      const RadianceGridSettings& s) {
-    Vec3 lo, hi;
-    cloudBox(cloud, lo, hi);
-    const double tau = opticalSize(scene, cloud, glm::max(hi - lo, Vec3(1.0)));
+    const double tau = cloudOpticalRadius(scene, cloud);
     const int step = tau > 0 ? std::clamp(int(std::lround(4 * std::log2(tau))), -12, 36) : -12;
     Fingerprint f;
     f.add(step).add(s.seed);
@@ -92,6 +79,7 @@ std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene
     c.ellipsoids.push_back(e);
     RadianceGridSettings small = s;
     small.size = std::min(8, s.size);
+    small.fitToCloud = false;
     small.sunPhotons = small.skyPhotons = 4096;
     auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(sphere, c, small));
     templates_.emplace(key, grid);
@@ -135,10 +123,18 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
     std::vector<std::size_t> order(n);
     std::iota(order.begin(), order.end(), std::size_t(0));
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return wants[a].priority > wants[b].priority; });
-    const std::size_t maxGrids = std::max<std::size_t>(1, std::size_t(s.megabytes * 1048576.0 / double(radianceGridBytes(s.size))));
+    // Past the budget (at least one grid), the clouds smaller on screen keep a stand-in.
     std::unordered_set<std::uint64_t> own;
-    for (std::size_t i : order)
-        if (own.size() < maxGrids || own.count(wants[i].key)) own.insert(wants[i].key);
+    double bytes = 0;
+    bool full = false;
+    for (std::size_t i : order) {
+        if (own.count(wants[i].key)) continue;
+        const double b = double(radianceGridBytes(radianceGridSize(scene, scene.clouds[i], s)));
+        full = full || (!own.empty() && bytes + b > s.megabytes * 1048576.0);
+        if (full) continue;
+        own.insert(wants[i].key);
+        bytes += b;
+    }
 
     std::unordered_map<std::uint64_t, std::uint64_t> byShape;  // shape -> key of its last grid
     for (const auto& [key, e] : entries_) byShape[e.shape] = key;

@@ -3,11 +3,15 @@
 // LOD) reads to light the format's density field as the path tracer does. The model that reads
 // it is shaders/cloud_light.glsl.
 //
-// Per voxel (x fastest; texel centres at boxMin + (i + 0.5) / size * boxExtent), three vec4,
-// the layout of the GPU's three RGBA16F 3D textures:
-//   sunDiffuse = (phi1 xyz, phi0): the sunlight scattered at least once in the cloud, by its
-//                fluence phi0 (integral of the radiance over the sphere) and net flux phi1
-//                (integral of radiance times the direction it travels), per unit irradiance;
+// Per voxel (x fastest; texel centres at boxMin + (i + 0.5) / size * boxExtent), four vec4,
+// the layout of the GPU's four RGBA16F 3D textures:
+//   sunFew     = (phi1 xyz, phi0): the sunlight scattered 1 to kFewScatterings times in the
+//                cloud, by its fluence phi0 (integral of the radiance over the sphere) and net
+//                flux phi1 (integral of radiance times the direction it travels), per unit
+//                irradiance: forward-peaked, close to the sun's direction;
+//   sunMany    = (phi1 xyz, phi0): the sunlight scattered more often: broad, following the
+//                cloud's shape. Two lobes fit the light's angular spread where one lobe of the
+//                same mean cosine cannot (README, "The light");
 //   skyTau     = (phi0 r, g, b, tauSun): the fluence of the sky's and the ground's light
 //                (scattered or not), per colour channel, and the optical depth sigma_t * m from
 //                the voxel centre to the sun (closed form through the cloud's ellipsoids);
@@ -31,13 +35,20 @@
 namespace nephele {
 
 struct RadianceGridSettings {
-    // Voxels per side of the cloud's box, 4..128. 16 by the accuracy bench: the photons' noise
-    // per voxel outweighs the finer grid's detail at 32 (mean error 15.3% -> 13.4%, inside a
-    // cumulus 13% -> 8%), and a grid takes 0.3 MB instead of 2.4; a finer grid with the same
-    // photons is noisier still (64: 27% inside), except against the sun (README, "The light").
-    int size = 16;
-    int sunPhotons = 1 << 17;   // photons traced from the sun per cloud, 0..2^26
-    int skyPhotons = 1 << 17;   // photons traced from the sky and the ground per cloud, 0..2^26
+    // Voxels per side of the grid of a big cloud, 4..128. 32 by the accuracy bench: with the
+    // light in two parts (cloud_light.glsl) a finer grid is better everywhere it was measured,
+    // most against the sun (the ray-marcher back-lit: 31% at 16^3, 17% at 32^3, 12% at 48^3),
+    // at 8 times the photons and memory of 16^3 (README, "The light").
+    int size = 32;
+    // Each cloud's grid as fine as its optical size needs (radianceGridSize): a small or thin
+    // cloud gets 8^3 or 16^3 voxels, and photons in proportion to the grid's cross-section
+    // (n^2: a photon crosses about n voxels, so each voxel's tally keeps its noise). false:
+    // every grid `size`^3 with all the photons.
+    bool fitToCloud = true;
+    // Photons traced from the sun, and from the sky and the ground, for a grid of `size`^3,
+    // 0..2^26. 2^18 at 32^3: the accuracy bench's cumulus lost under a point against 2^20.
+    int sunPhotons = 1 << 18;
+    int skyPhotons = 1 << 18;
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
     unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
     // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
@@ -57,17 +68,28 @@ struct RadianceUpdateStats {
     double workerMs = 0;  // the worker's time for the grids it finished since the last call
 };
 
-// Bytes one grid of `size`^3 voxels holds: 3 vec4 of floats on the CPU, 3 RGBA16F on the GPU.
-inline std::size_t radianceGridBytes(int size) { return std::size_t(size) * size * size * (3 * 16 + 3 * 8); }
+// Scatterings in the cloud that the sunFew lobe holds; the sunMany lobe holds the rest.
+inline constexpr int kFewScatterings = 3;
+
+// Bytes one grid of `size`^3 voxels holds: 4 vec4 of floats on the CPU, 4 RGBA16F on the GPU.
+inline std::size_t radianceGridBytes(int size) { return std::size_t(size) * size * size * (4 * 16 + 4 * 8); }
 
 struct CloudRadiance {
     Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world (the cloud's axis-aligned box)
     int size = 0;
-    std::vector<glm::vec4> sunDiffuse, skyTau, skyFlux;  // size^3 each, see above
+    std::vector<glm::vec4> sunFew, sunMany, skyTau, skyFlux;  // size^3 each, see above
     double computeMs = 0;               // wall time it took
 
     std::size_t voxels() const { return std::size_t(size) * size * size; }
 };
+
+// A cloud's optical radius: its volume-weighted extinction times half its box's mean side.
+double cloudOpticalRadius(const Scene& scene, const Cloud& cloud);
+
+// The voxels per side of `cloud`'s grid: settings.size, or with fitToCloud the power of two at
+// or above its optical radius, between 8 and settings.size (a voxel then spans at most about
+// two optical depths; cumulus27.json's cloud gets 32, a puff of optical radius 3 gets 8).
+int radianceGridSize(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings);
 
 // Throws std::invalid_argument naming the setting that is out of range.
 void validate(const RadianceGridSettings& settings);
@@ -75,16 +97,17 @@ void validate(const RadianceGridSettings& settings);
 // The axis-aligned box of the cloud's ellipsoids (m, world); the point 0 for an empty cloud.
 void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 
-// The grid of `cloud` for the scene's sun, sky and medium. Deterministic for a seed, whatever
+// The grid of `cloud` for the scene's sun, sky and medium, radianceGridSize() voxels per side
+// with the photons scaled to its cross-section. Deterministic for a seed, whatever
 // the thread count. An empty cloud gives a 1 m box with no light. With `cancel`, the work
 // stops soon after *cancel becomes true and the grid returned is incomplete (size 0).
 CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {},
                                    const std::atomic<bool>* cancel = nullptr);
 
-// The three texels at a world point, trilinear between voxel centres and clamped to the
+// The four texels at a world point, trilinear between voxel centres and clamped to the
 // outermost ones, as the GPU's GL_LINEAR, clamp-to-edge 3D textures read them.
 struct RadianceSample {
-    glm::vec4 sunDiffuse{0.0f}, skyTau{0.0f}, skyFlux{0.0f};
+    glm::vec4 sunFew{0.0f}, sunMany{0.0f}, skyTau{0.0f}, skyFlux{0.0f};
 };
 RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world);
 
