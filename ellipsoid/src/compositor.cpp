@@ -93,6 +93,7 @@ struct FramePlan {
     std::vector<TilePlacement> placements;  // by pass, then mesh level
     std::vector<GpuTile> gpu;               // parallel to placements
     std::vector<int> order;                 // GPU tile indices, back to front
+    std::vector<char> perPixelLight;        // per prepared ellipsoid: mesh tiles lit per pixel (near the sun)
     int atlasW = 0, atlasH = 0;
     EllipsoidStats stats;
 };
@@ -102,6 +103,7 @@ struct EllipsoidRenderer::Impl {
 
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
+    std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
     Texture falloff, noise;
@@ -184,6 +186,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
                                 falloffTexture);
         m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                                    falloffTexture + "#define CUT 1\n");
+        m.rayDefines = unorm8;
     } else {
         m.tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
                                    unorm8);
@@ -252,9 +255,31 @@ int meshSlices(const EllipsoidSettings& s, int tileSize) {
 }
 
 // Tiles of one pass are drawn in groups, one instanced draw each: by program (cut by the
-// near plane: + 1000) and, for meshes, mesh level (slices).
-int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize) {
-    return (e.projection.crossesNear ? 1000 : 0) + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
+// near plane: + 1000; a mesh tile lit per pixel, drawn as a polygon tile: 2000) and, for
+// meshes, mesh level (slices).
+int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize, bool perPixelLight) {
+    if (e.projection.crossesNear) return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
+    if (s.geometry == TileGeometry::Polygon) return 0;
+    return perPixelLight ? 2000 : meshSlices(s, tileSize);
+}
+
+// Mesh tiles light per vertex (the paper's Gouraud light). Looking within the sun's phase
+// peak, the single scattering p(d . s) exp(-tauSun) magnifies every change of tauSun across a
+// tile (the thin, bright rim of a back-lit cloud), and the vertices miss it: there the tile is
+// drawn as a polygon tile, the model per pixel. Back-lit cumulus27, the sun's light alone:
+// 25% off per vertex, 10% per pixel, as the ray-marcher. The phase there is at least
+// kPerPixelPhase times the isotropic one (g = 0.85: within about 30 degrees of the sun).
+constexpr double kPerPixelPhase = 2;
+
+bool nearTheSun(const PreparedEllipsoid& e, const View& view, const Scene& scene) {
+    const Vec3 toCentre = e.shape.center - view.eye;
+    const double distance = glm::length(toCentre);
+    const double radius = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
+    if (distance <= radius) return true;  // around the eye: some of it is near the sun
+    const double angle = std::acos(std::clamp(glm::dot(toCentre / distance, scene.sun.direction), -1.0, 1.0));
+    const double nearest = std::max(0.0, angle - std::asin(radius / distance));
+    const double g = scene.medium.hgG;
+    return model::hgPhase(float(std::cos(nearest)), float(g)) >= kPerPixelPhase / (4 * std::numbers::pi);
 }
 
 }  // namespace
@@ -318,9 +343,21 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     stats.utilisation = packed.meanUtilisation();
     std::vector<TilePlacement>& placements = out.placements;
     placements = packed.placements;
+    // Mesh tiles near the sun are lit per pixel (nearTheSun).
+    out.perPixelLight.assign(prepared.ellipsoids.size(), 0);
+    if (s.geometry == TileGeometry::Mesh) {
+        for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
+            out.perPixelLight[i] = nearTheSun(prepared.ellipsoids[i], view, scene) ? 1 : 0;
+        if (!m.tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
+            m.tileRay = Program::build(
+                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, m.rayDefines);
+    }
     // Within a pass tiles never overlap, so any order will do: group them by program
-    // (cut by the near plane or not) and mesh level, one instanced draw per group.
-    auto group = [&](const TilePlacement& p) { return drawGroup(s, prepared.ellipsoids[p.id], p.size); };
+    // (cut by the near plane or not, lit per pixel or not) and mesh level, one instanced draw
+    // per group.
+    auto group = [&](const TilePlacement& p) {
+        return drawGroup(s, prepared.ellipsoids[p.id], p.size, out.perPixelLight[p.id] != 0);
+    };
     std::stable_sort(placements.begin(), placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
         return a.pass != b.pass ? a.pass < b.pass : group(a) < group(b);
     });
@@ -511,21 +548,25 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
         glEnable(GL_BLEND);
         glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
         glBlendFunc(GL_ONE, GL_ONE);
-        auto group = [&](const TilePlacement& p) { return drawGroup(s, prepared.ellipsoids[p.id], p.size); };
+        auto group = [&](const TilePlacement& p) {
+            return drawGroup(s, prepared.ellipsoids[p.id], p.size, plan.perPixelLight[p.id] != 0);
+        };
         for (int k = first; k < first + count;) {
             const int key = group(placements[k]);
             int n = 0;
             while (k + n < first + count && group(placements[k + n]) == key) ++n;
-            const bool cut = key >= 1000;
-            const Program& tp = polygon ? (cut ? m.tileRayCut : m.tileRay) : (cut ? m.tileCut : m.tile);
+            const bool cut = key >= 1000 && key < 2000;
+            const bool ray = polygon || key >= 2000;  // polygon tiles, or mesh tiles lit per pixel
+            const Program& tp = ray ? (cut ? m.tileRayCut : m.tileRay) : (cut ? m.tileCut : m.tile);
             glUseProgram(tp.id());
-            const IndexedMesh* mesh = polygon ? nullptr : &m.mesh(key % 1000);
-            glBindVertexArray(polygon ? m.empty.id() : mesh->vao.id());
+            const IndexedMesh* mesh = ray ? nullptr : &m.mesh(key % 1000);
+            glBindVertexArray(ray ? m.empty.id() : mesh->vao.id());
+            if (!polygon) ray ? glDisable(GL_CULL_FACE) : glEnable(GL_CULL_FACE);
             // Clip distances keep the geometry in its tile (the polygon's whole-tile quad needs none).
-            const bool clip = !(polygon && cut);
+            const bool clip = !(ray && cut);
             for (int c = 0; c < 4; ++c) clip ? glEnable(GL_CLIP_DISTANCE0 + c) : glDisable(GL_CLIP_DISTANCE0 + c);
             auto draw = [&](int instances) {
-                if (polygon) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
+                if (ray) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
                 else glDrawElementsInstanced(GL_TRIANGLES, mesh->indexCount, GL_UNSIGNED_INT, nullptr, instances);
                 ++stats.drawCalls;
             };
