@@ -159,7 +159,8 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
     Image rgba;
     Frame frame;
     if (options_.method == Method::GardnerExact) {
-        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder);
+        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder, model::kWeightExponent,
+                                  options_.ellipsoid.light);
     } else if (options_.method == Method::Pathtrace) {
         PathTraceSettings ps = options_.pathtrace;
         ps.progress = ::isatty(2) != 0;
