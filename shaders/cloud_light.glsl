@@ -24,8 +24,8 @@
 //   One lobe for all the diffuse light could not hold both shapes: at the cloud's surface the
 //   many-times scattered light leaves in a broad half-space, which a lobe of its mean cosine
 //   makes 2-4x too bright along the normal; finer grids resolved that surface and got worse
-//   (a cumulus seen from 600 m: 15% off at 16^3, 22% at 32^3; with the two parts 10-11% at
-//   16^3 to 48^3, README "The light");
+//   (a cumulus seen from 600 m: 15% off at 16^3, 21% at 32^3; with the two parts 10-11% at
+//   16^3 to 48^3, with as many photons per voxel: README "The light");
 // - the sky's light is broad (bright towards the horizon, dark below it): its luminance by its
 //   spherical harmonics l = 0, 1 and the zonal l = 2 term, each band scaled by g^l (Funk-Hecke),
 //   coloured by the local fluence's colour.
