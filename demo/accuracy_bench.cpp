@@ -79,16 +79,16 @@ std::vector<Config> sweep(bool quick) {
         ell("8-bit atlas", [](EllipsoidSettings& s) { s.precision = AtlasPrecision::Unorm8; });
         ell("tessellation 6", [](EllipsoidSettings& s) { s.tessellation = 6; });
         ell("tessellation 48", [](EllipsoidSettings& s) { s.tessellation = 48; });
-        ell("light grid 32", [](EllipsoidSettings& s) { s.light.size = 32; });
-        ell("photons / 8", [](EllipsoidSettings& s) { s.light.sunPhotons /= 8, s.light.skyPhotons /= 8; });
+        ell("light grid 16", [](EllipsoidSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
+        ell("light grid not fitted", [](EllipsoidSettings& s) { s.light.fitToCloud = false; });
+        ell("photons x 4", [](EllipsoidSettings& s) { s.light.sunPhotons *= 4, s.light.skyPhotons *= 4; });
         ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
         ell("weighted composite", [](EllipsoidSettings& s) { s.order = CompositeOrder::Weighted; });
         ray("step 10 m", [](RaymarchSettings& s) { s.step = 10; });
         ray("step 50 m", [](RaymarchSettings& s) { s.step = 50; });
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
         ray("fixed step", [](RaymarchSettings& s) { s.lodDistance = 0; });
-        ray("light grid 32", [](RaymarchSettings& s) { s.light.size = 32; });
-        ray("light grid 64", [](RaymarchSettings& s) { s.light.size = 64; });
+        ray("light grid 16", [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
         ray("octaves 2", [](RaymarchSettings& s) { s.octaves = 2; }, true);
     }
     c.push_back({Kind::GardnerExact, "CPU, float", {}, {}, {}});
