@@ -76,10 +76,11 @@ struct Cloud {
     std::vector<Ellipsoid> ellipsoids;
     // Set in code, never read from a scene file (the near LOD sets them, nephele/near_lod.hpp):
     double weight = 1.0;        // [0, 1]: multiplies the optical depth the eye sees through the cloud,
-                                // not the matter that shadows it (its light volume is the whole
+                                // not the matter that shadows it (its radiance grid is the whole
                                 // cloud's), so a cloud fades without changing colour. Honoured by the
                                 // compositor, gardner-exact and exactDensityOpacity (one code path,
-                                // prepareClouds); the ray-marcher and the path tracer ignore it.
+                                // ellipsoid/src/gardner.cpp); the ray-marcher and the path tracer
+                                // ignore it.
     std::uint64_t noiseId = 0;  // 0: the noise offsets of its ellipsoids come from the cloud's index in
                                 // scene.clouds; else from this id, so that the cloud keeps its detail
                                 // when clouds before it come and go
