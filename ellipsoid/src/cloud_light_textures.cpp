@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <unordered_set>
 
 namespace nephele {
 using namespace gl;
@@ -30,12 +31,17 @@ std::size_t CloudLightTextures::textureBytes() const {
     return std::size_t(slots_.x) * slots_.y * slots_.z * size_ * size_ * size_ * 4 * 8;
 }
 
-// The place of a grid: the smallest power of two at or above its size that divides the slot
-// (the whole slot when the slot's side is no power of two), in a slot of places of that side.
-bool CloudLightTextures::place(const CloudRadiance& grid, Place& out) {
+// The side of a grid's place: the smallest power of two at or above its size that divides
+// the slot (the whole slot when the slot's side is no power of two).
+int CloudLightTextures::blockFor(int gridSize) const {
     int block = 1;
-    while (block < grid.size) block *= 2;
-    if (block > size_ || size_ % block != 0) block = size_;
+    while (block < gridSize) block *= 2;
+    return block > size_ || size_ % block != 0 ? size_ : block;
+}
+
+// A free place of blockFor(grid.size) in a slot of places of that side.
+bool CloudLightTextures::place(const CloudRadiance& grid, Place& out) {
+    const int block = blockFor(grid.size);
     const int per = size_ / block, places = per * per * per;
     int freeSlot = -1;
     for (int k = 0; k < int(slotUse_.size()); ++k) {
@@ -96,31 +102,26 @@ void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
 
 int CloudLightTextures::update(const std::vector<PlacedRadiance>& placed) {
     if (!sampler_) sampler_ = linearSampler(GL_CLAMP_TO_EDGE);
+    std::unordered_set<const CloudRadiance*> used;
     std::vector<std::shared_ptr<const CloudRadiance>> inUse;
     for (const PlacedRadiance& p : placed)
-        if (std::find(inUse.begin(), inUse.end(), p.grid) == inUse.end()) inUse.push_back(p.grid);
-    // A slot holds the largest grid in use, or several smaller ones.
+        if (used.insert(p.grid.get()).second) inUse.push_back(p.grid);
+    // A slot holds the largest grid in use, or several smaller ones; room for them all at once
+    // (and for a part-filled slot of each smaller block size): no regrowth grid by grid on the
+    // first frame.
     int size = 4;
     for (const auto& g : inUse) size = std::max(size, g->size);
-    if (size > size_ || !textures_[0]) {
-        size_ = size;
-        grow(std::max(int(slotUse_.size()), 1));
-    }
-    // Room for them all at once (and for a part-filled slot of each smaller block size): no
-    // regrowth grid by grid on the first frame.
+    const bool larger = size > size_ || !textures_[0];
+    if (larger) size_ = size;
     double need = 0;
-    for (const auto& g : inUse) {
-        int block = 1;
-        while (block < g->size) block *= 2;
-        need += block > size_ || size_ % block != 0 ? 1.0 : std::pow(double(block) / size_, 3);
-    }
-    if (const int slots = int(std::ceil(need)) + 2; slots > int(slotUse_.size()))
-        grow(std::max(slots, 2 * int(slotUse_.size())));
+    for (const auto& g : inUse) need += std::pow(double(blockFor(g->size)) / size_, 3);
+    const int slots = int(std::ceil(need)) + 2, have = int(slotUse_.size());
+    if (larger) grow(std::max(slots, have));
+    else if (slots > have) grow(std::max(slots, 2 * have));
     // Places of grids no longer in use are free again; new grids take free ones, the textures
     // growing (doubling their slots, every grid uploaded again) when none is left.
     for (auto it = resident_.begin(); it != resident_.end();) {
-        const bool used = std::any_of(inUse.begin(), inUse.end(), [&](const auto& g) { return g.get() == it->first; });
-        if (used) {
+        if (used.count(it->first)) {
             ++it;
         } else {
             release(it->second);

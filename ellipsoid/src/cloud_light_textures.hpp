@@ -44,6 +44,7 @@ private:
         int slot = 0, index = 0, block = 0;
     };
     void grow(int slots);
+    int blockFor(int gridSize) const;
     bool place(const CloudRadiance& grid, Place& out);
     void release(const Place& p);
     glm::ivec3 origin(const Place& p) const;

@@ -123,15 +123,16 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
     std::vector<std::size_t> order(n);
     std::iota(order.begin(), order.end(), std::size_t(0));
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return wants[a].priority > wants[b].priority; });
-    // Past the budget (at least one grid), the clouds smaller on screen keep a stand-in.
+    // Past the budget (at least one grid), the clouds smaller on screen keep a stand-in. A kept
+    // grid tells its size; only a missing one's is worked out from its cloud.
     std::unordered_set<std::uint64_t> own;
     double bytes = 0;
-    bool full = false;
     for (std::size_t i : order) {
         if (own.count(wants[i].key)) continue;
-        const double b = double(radianceGridBytes(radianceGridSize(scene, scene.clouds[i], s)));
-        full = full || (!own.empty() && bytes + b > s.megabytes * 1048576.0);
-        if (full) continue;
+        const auto kept = entries_.find(wants[i].key);
+        const int size = kept != entries_.end() ? kept->second.grid->size : radianceGridSize(scene, scene.clouds[i], s);
+        const double b = double(radianceGridBytes(size));
+        if (!own.empty() && bytes + b > s.megabytes * 1048576.0) break;
         own.insert(wants[i].key);
         bytes += b;
     }
