@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -20,6 +21,12 @@ using ::testing::AssertionResult;
 using ::testing::AssertionSuccess;
 
 namespace {
+
+int floorPow2Test(int v) {
+    int p = 1;
+    while (p * 2 <= v) p *= 2;
+    return p;
+}
 
 std::string describe(const TilePlacement& p) {
     return "tile " + std::to_string(p.id) + " (size " + std::to_string(p.size) + ", pass " + std::to_string(p.pass) +
@@ -465,3 +472,57 @@ TEST(PackerTest, TiesAreBrokenByIdRegardlessOfInputOrder) {
 }
 
 }  // namespace
+
+// The reuse allocator (EllipsoidSettings::reuse): random allocations and frees over many
+// "frames" never overlap and stay inside the atlas; freeing everything merges every block
+// back into its root, so that the largest tile fits again in layer 0.
+TEST(TileAllocatorTest, RandomAllocateAndFreeNeverOverlapsAndMergesBack) {
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1280, 720}, {512, 512}, {1000, 333}, {64, 48}}) {
+        SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+        const int layers = 3, minSize = 8, maxSize = std::min(256, floorPow2Test(std::min(w, h)));
+        TileAllocator a(w, h, minSize, layers);
+        const std::int64_t whole = a.freeArea();
+        std::mt19937 rng(7);
+        std::vector<TilePlacement> live;
+        for (int step = 0; step < 4000; ++step) {
+            if (!live.empty() && (rng() % 3 == 0 || a.freeArea() < whole / 8)) {
+                const std::size_t k = rng() % live.size();
+                a.free(live[k]);
+                live[k] = live.back();
+                live.pop_back();
+            } else {
+                const int size = minSize << (rng() % (std::bit_width(unsigned(maxSize / minSize))));
+                const TilePlacement p = a.allocate(size);
+                if (p.pass < 0) continue;
+                ASSERT_EQ(p.size, size);
+                ASSERT_TRUE(p.x % size == 0 && p.y % size == 0) << describe(p);
+                ASSERT_TRUE(p.x + size <= w && p.y + size <= h && p.pass < layers) << describe(p);
+                for (const TilePlacement& q : live)
+                    ASSERT_FALSE(q.pass == p.pass && p.x < q.x + q.size && q.x < p.x + p.size && p.y < q.y + q.size &&
+                                 q.y < p.y + p.size)
+                        << describe(p) << " overlaps " << describe(q);
+                live.push_back(p);
+            }
+            std::int64_t used = 0;
+            for (const TilePlacement& q : live) used += std::int64_t(q.size) * q.size;
+            ASSERT_EQ(a.freeArea() + used, whole);
+        }
+        for (const TilePlacement& q : live) a.free(q);
+        EXPECT_EQ(a.freeArea(), whole);
+        EXPECT_EQ(a.layersUsed(), 0);
+        const TilePlacement big = a.allocate(maxSize);
+        EXPECT_EQ(big.pass, 0);
+        EXPECT_EQ(a.layersUsed(), 1);
+    }
+}
+
+// Allocation fills the lowest layer first and reports when no layer has room.
+TEST(TileAllocatorTest, FillsTheLowestLayerFirstAndSaysWhenFull) {
+    TileAllocator a(64, 64, 8, 2);
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(a.allocate(32).pass, 0);
+    EXPECT_EQ(a.allocate(8).pass, 1);
+    EXPECT_EQ(a.allocate(64).pass, -1);  // layer 1 has an 8 px tile in it
+    EXPECT_EQ(a.layersUsed(), 2);
+    EXPECT_THROW(a.allocate(4), std::invalid_argument);
+    EXPECT_THROW(a.allocate(12), std::invalid_argument);
+}

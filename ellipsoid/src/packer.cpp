@@ -172,3 +172,111 @@ PackResult packTiles(std::vector<TileRequest> tiles, int atlasWidth, int atlasHe
 }
 
 }  // namespace nephele
+
+namespace nephele {
+
+namespace {
+std::uint64_t mortonOf(int x, int y) {
+    auto spread = [](std::uint64_t v) {
+        v &= 0xffffffffu;
+        v = (v | (v << 16)) & 0x0000ffff0000ffffu;
+        v = (v | (v << 8)) & 0x00ff00ff00ff00ffu;
+        v = (v | (v << 4)) & 0x0f0f0f0f0f0f0f0fu;
+        v = (v | (v << 2)) & 0x3333333333333333u;
+        v = (v | (v << 1)) & 0x5555555555555555u;
+        return v;
+    };
+    return spread(std::uint64_t(x)) | spread(std::uint64_t(y)) << 1;
+}
+}  // namespace
+
+bool TileAllocator::Block::operator<(const Block& o) const {
+    return layer != o.layer ? layer < o.layer : mortonOf(x, y) < mortonOf(o.x, o.y);
+}
+
+TileAllocator::TileAllocator(int atlasWidth, int atlasHeight, int minSize, int layers)
+    : width_(atlasWidth), height_(atlasHeight), minLevel_(levelOf(minSize)), layers_(layers) {
+    if (atlasWidth <= 0 || atlasHeight <= 0 || !isPowerOfTwo(minSize) || layers < 1)
+        throw std::invalid_argument("TileAllocator: a positive atlas size and layer count, and a power-of-two minimum size");
+    std::vector<Root> roots;
+    decompose(0, 0, std::bit_width(unsigned(std::max(atlasWidth, atlasHeight) - 1)), minLevel_, atlasWidth, atlasHeight,
+              roots);
+    for (const Root& r : roots) rootsXYLevel_.push_back({r.x, r.y}), rootLevel_.push_back(r.level);
+    clear();
+}
+
+void TileAllocator::clear() {
+    free_.assign(kLevels, {});
+    inUse_.assign(std::size_t(layers_), 0);
+    for (int l = 0; l < layers_; ++l)
+        for (std::size_t r = 0; r < rootLevel_.size(); ++r)
+            free_[std::size_t(rootLevel_[r])].insert({l, rootsXYLevel_[r].first, rootsXYLevel_[r].second});
+}
+
+int TileAllocator::rootLevelAt(int x, int y) const {
+    for (std::size_t r = 0; r < rootLevel_.size(); ++r) {
+        const int s = 1 << rootLevel_[r];
+        const auto [rx, ry] = rootsXYLevel_[r];
+        if (x >= rx && x < rx + s && y >= ry && y < ry + s) return rootLevel_[r];
+    }
+    throw std::logic_error("TileAllocator: a block outside every root");
+}
+
+TilePlacement TileAllocator::allocate(int size) {
+    if (!isPowerOfTwo(size) || levelOf(size) < minLevel_)
+        throw std::invalid_argument("TileAllocator: tile size " + std::to_string(size) + " is not a power of two >= the minimum");
+    const int level = levelOf(size);
+    // The free block in the lowest layer; among those, the smallest (least splitting).
+    int best = -1;
+    for (int l = level; l < kLevels; ++l)
+        if (!free_[std::size_t(l)].empty() && (best < 0 || free_[std::size_t(l)].begin()->layer < free_[std::size_t(best)].begin()->layer))
+            best = l;
+    if (best < 0) return {-1, -1, 0, 0, size};
+    Block b = *free_[std::size_t(best)].begin();
+    free_[std::size_t(best)].erase(free_[std::size_t(best)].begin());
+    for (int l = best; l > level; --l) {  // split: keep the bottom-left quadrant, free the others
+        const int half = 1 << (l - 1);
+        for (int q = 1; q < 4; ++q) free_[std::size_t(l - 1)].insert({b.layer, b.x + (q & 1) * half, b.y + (q >> 1) * half});
+    }
+    ++inUse_[std::size_t(b.layer)];
+    return {-1, b.layer, b.x, b.y, size};
+}
+
+void TileAllocator::free(const TilePlacement& t) {
+    if (t.pass < 0 || t.pass >= layers_ || !isPowerOfTwo(t.size)) throw std::invalid_argument("TileAllocator: not an allocated tile");
+    --inUse_[std::size_t(t.pass)];
+    int level = levelOf(t.size);
+    Block b{t.pass, t.x, t.y};
+    const int top = rootLevelAt(t.x, t.y);
+    for (; level < top; ++level) {  // merge with the three buddies while they are free
+        const int s = 1 << level, px = b.x & ~(2 * s - 1), py = b.y & ~(2 * s - 1);
+        std::set<Block>& f = free_[std::size_t(level)];
+        std::array<std::set<Block>::iterator, 3> buddies;
+        int found = 0;
+        for (int q = 0; q < 4; ++q) {
+            const Block o{b.layer, px + (q & 1) * s, py + (q >> 1) * s};
+            if (o.x == b.x && o.y == b.y) continue;
+            const auto it = f.find(o);
+            if (it == f.end()) break;
+            buddies[std::size_t(found++)] = it;
+        }
+        if (found < 3) break;
+        for (auto it : buddies) f.erase(it);
+        b = {b.layer, px, py};
+    }
+    free_[std::size_t(level)].insert(b);
+}
+
+int TileAllocator::layersUsed() const {
+    for (int l = layers_; l > 0; --l)
+        if (inUse_[std::size_t(l - 1)] > 0) return l;
+    return 0;
+}
+
+std::int64_t TileAllocator::freeArea() const {
+    std::int64_t a = 0;
+    for (int l = 0; l < kLevels; ++l) a += std::int64_t(free_[std::size_t(l)].size()) << (2 * l);
+    return a;
+}
+
+}  // namespace nephele

@@ -8,6 +8,8 @@
 // [x, x + size) x [y, y + size), which is what glViewport(x, y, size, size) selects.
 #pragma once
 
+#include <cstdint>
+#include <set>
 #include <vector>
 
 namespace nephele {
@@ -53,5 +55,41 @@ int tileSizeFor(double pixelExtent, int minSize, int maxSize);
 // smaller than the smallest tile (a few dozen for common window sizes): a radix sort, then a bump
 // pointer per root per pass, see packer.cpp. 4096 tiles into 1280x720 take about 0.1-0.3 ms.
 PackResult packTiles(std::vector<TileRequest> tiles, int atlasWidth, int atlasHeight);
+
+}  // namespace nephele
+
+namespace nephele {
+
+// Tiles that live across frames (EllipsoidSettings::reuse): a buddy allocator over the atlas's
+// layers, each layer decomposed into the same root blocks as packTiles. A tile is allocated
+// where it can stay, freed when its ellipsoid leaves the view or changes size, and freed
+// blocks merge with their buddies again, so that a long flight does not fragment the atlas
+// into small blocks. Allocation takes the free block in the lowest layer (then the smallest
+// block, then Morton order): the layers in use stay few.
+class TileAllocator {
+public:
+    // `layers` layers of atlasWidth x atlasHeight; blocks down to minSize (a power of two).
+    TileAllocator(int atlasWidth, int atlasHeight, int minSize, int layers);
+    // A place for a tile of `size` (a power of two >= minSize), or pass = -1 when no layer has
+    // room. The placement's id is -1 (the caller's to set).
+    TilePlacement allocate(int size);
+    // Gives a tile's place back (a placement allocate() returned and not freed since).
+    void free(const TilePlacement& tile);
+    void clear();                  // everything free
+    int layersUsed() const;        // the highest layer with a tile in it, + 1
+    std::int64_t freeArea() const;  // px, over all layers
+
+private:
+    struct Block {
+        int layer, x, y;
+        bool operator<(const Block& o) const;
+    };
+    int width_, height_, minLevel_, layers_;
+    std::vector<std::pair<int, int>> rootsXYLevel_;  // x, y of each root (its level in rootLevel_)
+    std::vector<int> rootLevel_;
+    std::vector<std::set<Block>> free_;             // by level
+    std::vector<int> inUse_;                        // tiles per layer
+    int rootLevelAt(int x, int y) const;
+};
 
 }  // namespace nephele
