@@ -101,3 +101,21 @@ struct ScaleBenchOptions {
 int runScaleBench(const ScaleBenchOptions& options);
 
 }  // namespace nephele::cli
+
+namespace nephele::cli {
+
+// `bench --cruise`: tiles that last (--reuse on) against every tile every frame on flights
+// (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json): ms per
+// frame, tiles rendered, PSNR against the fresh frame, flicker.
+struct CruiseBenchOptions {
+    std::string outDir = "docs";  // cruise_bench.csv, cruise_bench.md, cruise_bench.png
+    std::string readme;           // when set, its "cruise bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    double fps = 10;              // frames per second of scene time
+    int width = 1280, height = 720;
+    bool quick = false;           // approach.json's first second only (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runCruiseBench(const CruiseBenchOptions& options);
+
+}  // namespace nephele::cli

@@ -82,8 +82,12 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     const double t0 = p.scene.path.front().t;
     FrameRenderer renderer(o.render);
     FrameChanges changes;
+    nlohmann::json ms = nlohmann::json::array(), tiles = nlohmann::json::array(), tilePixels = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
         const Frame f = renderer.render(p.scene, t0 + k / o.fps);
+        ms.push_back(std::round(f.ms * 1000) / 1000);
+        tiles.push_back(f.stats.tilesRendered);
+        tilePixels.push_back(f.stats.tilePixelsRendered);
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04d.png", k);
         writePng((folder / name).string(), f.color, Encoding::Srgb);
@@ -93,7 +97,10 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     nlohmann::json summary = {{"scene", o.render.scene}, {"method", methodName(o.render.method)},
                               {"fps", o.fps},           {"frames", p.frames},
                               {"width", p.scene.camera.width}, {"height", p.scene.camera.height},
-                              {"mean_change", changes.mean()}};
+                              {"mean_change", changes.mean()},
+                              {"reuse", o.render.ellipsoid.reuse},
+                              {"frame_ms", ms},               {"tiles_rendered", tiles},
+                              {"tile_pixels_rendered", tilePixels}};
     if (!p.reference.empty()) {
         summary["reference_mean_change"] = p.reference["mean_change"];
         summary["flicker_index"] = changes.mean() - p.reference["mean_change"].get<double>();

@@ -51,6 +51,8 @@ struct SceneArgs {
     RaymarchSettings raymarch;
     RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
     std::string lightGridFit = "on";  // --light-grid-fit
+    std::string reuse;                // --reuse: on | off; empty: on under auto, off otherwise
+    double reuseError = EllipsoidSettings().reuseErrorPixels, reuseBudget = EllipsoidSettings().reuseBudget;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
@@ -157,6 +159,17 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
         ->capture_default_str();
+    cmd->add_option("--reuse", a.reuse,
+                    "Compositor: on keeps tiles across frames (reprojected until their error passes --reuse-error), off "
+                    "renders every tile every frame (default: on under auto, else off)")
+        ->check(CLI::IsMember({"on", "off"}));
+    cmd->add_option("--reuse-error", a.reuseError, "Compositor with --reuse on: a tile's error in pixels that renders it again")
+        ->check(within(0.01, 1000))
+        ->capture_default_str();
+    cmd->add_option("--reuse-budget", a.reuseBudget,
+                    "Compositor with --reuse on: tile pixels re-rendered a frame for tiles that have an image, in frames' pixels")
+        ->check(within(0, 1000))
+        ->capture_default_str();
 }
 
 // Throws UsageError for values the parser could not judge alone.
@@ -195,6 +208,9 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.order = a.composite == "weighted" ? CompositeOrder::Weighted : CompositeOrder::PerEllipsoid;
     // auto flies the eye through the near LOD's overlapping cumulus: no order flips there.
     if (ro.method == Method::Auto && !a.compositeOpt->count()) es.order = CompositeOrder::Weighted;
+    es.reuse = a.reuse.empty() ? ro.method == Method::Auto : a.reuse == "on";
+    es.reuseErrorPixels = a.reuseError;
+    es.reuseBudget = a.reuseBudget;
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted
                                                  : CompositeOrder::PerEllipsoid;
@@ -268,7 +284,7 @@ namespace {
 struct BenchArgs {
     BenchOptions bo;
     std::string gl = "egl", cache;
-    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false;
+    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
     bool quick = false, noCache = false;
     LayeredBenchOptions lbo;
     WeatherBenchOptions wbo;
@@ -297,6 +313,9 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
                     "layer (markdown on stdout; --width, --frames, --spp, --cache, --out-dir for its images)");
     bench->add_flag("--weather", b.weather,
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
+    bench->add_flag("--cruise", b.cruise,
+                    "Instead: --reuse on against off on flights (a 4000-ellipsoid cruise, a sharp turn, approach, flythrough, "
+                    "layer_flight): ms per frame, tiles rendered, PSNR against every tile fresh");
     bench->add_flag("--scale", b.scale,
                     "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
     bench->add_option("--scale-counts", b.sbo.counts, "--scale: ellipsoid counts")
@@ -313,11 +332,11 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference; --layer-accuracy: its sun part's (256)")
         ->check(within(1, 1 << 20))
         ->capture_default_str();
-    bench->add_option("--fps", b.flo.fps, "--flicker, --weather: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
+    bench->add_option("--fps", b.flo.fps, "--flicker, --weather, --cruise: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
     bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
     bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 }
 
@@ -334,9 +353,10 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
 
 int runBenchArgs(BenchArgs& b) {
     b.bo.backend = parseBackend(b.gl);
-    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) > 1) {
-        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather and --scale are separate "
-                     "runs; give one\n";
+    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
+            int(b.cruise) > 1) {
+        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale and --cruise are "
+                     "separate runs; give one\n";
         return 2;
     }
     const BenchOptions& bo = b.bo;
@@ -374,6 +394,16 @@ int runBenchArgs(BenchArgs& b) {
         if (heightGiven) wbo.height = bo.height;
         if (b.quick && !widthGiven) wbo.width = 320, wbo.height = 180;
         return runWeatherBench(wbo);
+    }
+    if (b.cruise) {
+        CruiseBenchOptions cbo;
+        cbo.outDir = bo.outDir, cbo.readme = bo.readme, cbo.scenesDir = bo.scenesDir, cbo.backend = bo.backend;
+        cbo.quick = b.quick;
+        if (b.cmd->count("--fps") > 0) cbo.fps = b.flo.fps;
+        if (widthGiven) cbo.width = bo.width, cbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
+        if (heightGiven) cbo.height = bo.height;
+        if (b.quick && !widthGiven) cbo.width = 160, cbo.height = 90;
+        return runCruiseBench(cbo);
     }
     if (b.scale) {
         ScaleBenchOptions& sbo = b.sbo;

@@ -10,6 +10,7 @@
 #include "nephele/png.hpp"
 #include "nephele/resources.hpp"
 
+#include <chrono>
 #include <unistd.h>
 
 #include <cmath>
@@ -173,12 +174,16 @@ Frame FrameRenderer::render(const Scene& scene, double time) {
             target_ = std::make_unique<FrameTarget>(camera.width, camera.height);
         opaque_->draw(scene, view, target_->framebuffer());
         const bool objects = !scene.objects.empty();
+        gl::glFinish();
+        const auto t0 = std::chrono::steady_clock::now();
         if (sky_) {  // auto: the far field, then the near LOD's clouds and the explicit ones
             const SkyStats st = sky_->render(scene, view, target_->framebuffer(), time, objects);
             frame.layered = st.layered, frame.nearLod = st.nearLod, frame.stats = st.ellipsoids;
         } else if (layered_) frame.layered = layered_->render(scene, view, target_->framebuffer(), time);
         else if (raymarch_) raymarch_->render(scene, view, target_->framebuffer(), objects);
         else frame.stats = clouds_->render(scene, view, target_->framebuffer(), objects);
+        gl::glFinish();
+        frame.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         rgba = target_->readColor();
     }
     if (!options_.densityAlpha.empty()) frame.densityAlpha = exactDensityOpacity(scene, view);

@@ -68,6 +68,7 @@ struct Frame {
     LayeredStats layered;  // the layered sky's, when it ran
     NearLodStats nearLod;  // auto: what the near LOD spawned
     Image densityAlpha;    // the exact opacity of the density field, when asked for
+    double ms = 0;         // wall time of the GPU methods' draw, to glFinish (not the read-back)
 };
 
 // Prints the error on stderr and returns the exit code: 2 for bad input (SceneError,

@@ -13,7 +13,7 @@
 flat in int tileIndex;
 flat in vec4 atlasRect;
 in vec2 atlasCoord;
-in vec2 ndc;
+noperspective in vec2 ndc;
 uniform sampler2DArray atlasTerms;    // green, blue: the light scalars (sun, sky; encodeLight), alpha: eq. (2)
 #ifdef FUSED
 uniform mat4 colourMatrix;            // red / D -> alpha (what the colour-matrix pass would subtract)

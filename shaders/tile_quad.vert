@@ -7,7 +7,7 @@ layout(std430, binding = 2) readonly buffer Order { int order[]; };  // composit
 uniform int useOrder;
 flat out int tileIndex;
 out vec2 atlasCoord;               // px in the atlas
-out vec2 ndc;                      // screen NDC (onScreen)
+noperspective out vec2 ndc;        // screen NDC (onScreen)
 flat out vec4 atlasRect;           // the tile's x, y, size (px) and layer
 void main() {
     int k = instanceBase + gl_InstanceID;
@@ -16,6 +16,14 @@ void main() {
     atlasRect = t.atlasRect;
     vec2 corner = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
     atlasCoord = t.atlasRect.xy + corner * t.atlasRect.z;
+    if (onScreen == 1 && t.params.z > 0.5) {
+        // A reused tile: its plane reprojected to this frame (tile_reuse.hpp), the atlas read
+        // perspective-correct across it; depth 0 keeps it from the near and far planes.
+        vec4 clip = t.reproject * vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+        ndc = clip.xy / clip.w;
+        gl_Position = vec4(clip.xy, 0.0, clip.w);
+        return;
+    }
     ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);
     gl_Position = vec4(onScreen == 1 ? ndc : atlasCoord / atlasSize * 2.0 - 1.0, 0.0, 1.0);
 }

@@ -12,12 +12,14 @@ struct Tile {
     mat4 tileViewProj;  // camera-relative world -> tile clip space ([-1,1]^2 = the tile)
     vec4 atlasRect;     // x, y, size (px) in the atlas; w: layer (pass)
     vec4 screenRect;    // NDC x0, y0, x1, y1 on the frame
-    vec4 params;        // x: 1 if cut by the near plane (or the eye inside); y: cloud index; z, w: unused
+    vec4 params;        // x: 1 if cut by the near plane (or the eye inside); y: cloud index; z: 1 if reused
+                        // (drawn through reproject, not screenRect); w: unused
     vec4 noiseOffset;   // xyz: offset in noise texture coordinates
     vec4 rayCentre;     // xyz: camera-relative direction through the tile's centre (unnormalised, m)
     vec4 rayX;          // xyz: its change per unit of tile clip x (tile clip space [-1,1]^2)
     vec4 rayY;          // xyz: its change per unit of tile clip y
     vec4 skyChroma;     // rgb: the sky light's colour at the ellipsoid (model::skyChroma)
+    mat4 reproject;     // params.z = 1 (a reused tile): tile clip (x, y, 0, 1) -> the frame's clip space
 };
 layout(std430, binding = 0) readonly buffer Tiles { Tile tiles[]; };
 

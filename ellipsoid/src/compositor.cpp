@@ -9,6 +9,7 @@
 #include "light_cache.hpp"
 #include "nephele/gl_state.hpp"
 #include "packer.hpp"
+#include "tile_reuse.hpp"
 #include "nephele/per_view.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
@@ -45,8 +46,9 @@ struct GpuTile {
     float rayX[4];
     float rayY[4];
     float skyChroma[4];
+    float reproject[16];  // reused tiles (params.z = 1): tile clip (x, y, 0, 1) -> the frame's clip space
 };
-static_assert(sizeof(GpuTile) == 16 * 16 + 64);
+static_assert(sizeof(GpuTile) == 16 * 16 + 2 * 64);
 
 void put(float* out, const Vec3& v, double w = 0) {
     out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
@@ -94,13 +96,18 @@ struct FramePlan {
     std::vector<GpuTile> gpu;               // parallel to placements
     std::vector<int> order;                 // GPU tile indices, back to front
     std::vector<char> perPixelLight;        // per prepared ellipsoid: mesh tiles lit per pixel (near the sun)
+    std::vector<TilePlacement> reused;      // reuse: tiles composited from an earlier frame (after placements in gpu)
+    std::vector<glm::mat4> reproject;       // per reused tile (tile_reuse.hpp)
+    std::vector<glm::vec4> reusedRect;      // per reused tile: its quad's NDC bounds
+    bool reuse = false;                     // placements share their layers with reused tiles: clear tile by tile
     int atlasW = 0, atlasH = 0;
     EllipsoidStats stats;
 };
 
 struct EllipsoidRenderer::Impl {
-    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view);
+    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse);
 
+    Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
@@ -122,13 +129,15 @@ struct EllipsoidRenderer::Impl {
     void updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye, bool background,
                       bool takeFinished = true);
 
-    // The atlas: one layer per pass; one per atlas size (the frame's by default), kept.
+    // The atlas: one layer per pass; one per atlas size (the frame's by default), kept; with
+    // reuse one per view size and place (each display channel keeps its own tiles).
     struct Atlas {
         Texture terms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
         int width = 0, height = 0, layers = 0;
         std::vector<Framebuffer> fbos;
+        TileReuse reuse;  // EllipsoidSettings::reuse: the tiles that live in it
     };
-    PerViewCache<Atlas> atlases;
+    PerViewCache<Atlas, glm::ivec4> atlases;
     Atlas* atlas = nullptr;  // plan()'s
     PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
     // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
@@ -176,6 +185,8 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.order == CompositeOrder::PerPixel)
         throw std::invalid_argument("order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
     if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
+    if (!(s.reuseErrorPixels > 0 && s.reuseErrorPixels <= 1e6)) throw std::invalid_argument("reuseErrorPixels must be in (0, 1e6]");
+    if (!(s.reuseBudget >= 0 && s.reuseBudget <= 1e6)) throw std::invalid_argument("reuseBudget must be in [0, 1e6]");
     Impl& m = *impl_;
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
@@ -302,9 +313,10 @@ void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Sce
 
 // Everything before the first draw: projection, culling, tile sizes, packing, the GPU
 // tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
-FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view) {
+FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse) {
     Impl& m = *this;
     FramePlan out;
+    out.reuse = reuse;
     EllipsoidStats& stats = out.stats;
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     out.prepared = prepareClouds(scene, view, s.noise);
@@ -317,25 +329,52 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     const int atlasH = s.atlasHeight > 0 ? s.atlasHeight : frameH;
     const int maxTile = std::min(s.maxTile, floorPow2(std::min(atlasW, atlasH)));
     const int minTile = std::min(s.minTile, maxTile);
+    // Without reuse one atlas per size; with it one per view size and place (a channel's tiles).
+    Atlas& atlas = m.atlases.get(reuse ? glm::ivec4(atlasW, atlasH, view.origin.x, view.origin.y) : glm::ivec4(atlasW, atlasH, -1, -1));
+    m.atlas = &atlas;
+
+    // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
+    // Driven by a host's updateLights(), the grids change only there: every channel of a frame
+    // draws with the same ones.
+    m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
+    const std::vector<PlacedRadiance>& light = m.light;
 
     // ---- Tiles: sizes, packing, per-pass order.
     // Each pass keeps an atlas layer until the composite: past the memory budget, the
     // largest tiles are halved (and the packing redone) so that memory stays bounded.
     const double layerBytes = double(atlasW) * atlasH * (s.precision == AtlasPrecision::Float16 ? 8 : 4);
     const int maxPasses = std::max(1, int(s.atlasMegabytes * 1048576.0 / layerBytes));
-    for (int limit = maxTile;; limit /= 2) {
-        std::vector<TileRequest> requests;
-        for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
-            const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
-            requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, limit)});
-        }
-        out.packed = packTiles(requests, atlasW, atlasH);
-        stats.maxTile = limit;
-        if (out.packed.passes <= maxPasses || limit <= minTile) break;
-    }
-    const PackResult& packed = out.packed;
     GLint maxLayers = 0;
     glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+    std::vector<TilePlacement>& placements = out.placements;
+    if (!reuse) {
+        for (int limit = maxTile;; limit /= 2) {
+            std::vector<TileRequest> requests;
+            for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
+                const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
+                requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, limit)});
+            }
+            out.packed = packTiles(requests, atlasW, atlasH);
+            stats.maxTile = limit;
+            if (out.packed.passes <= maxPasses || limit <= minTile) break;
+        }
+        placements = out.packed.placements;
+    } else {
+        ReuseSettings rs;
+        rs.atlasWidth = atlasW, rs.atlasHeight = atlasH, rs.frameWidth = frameW, rs.frameHeight = frameH;
+        rs.minTile = minTile, rs.maxTile = maxTile, rs.budgetLayers = maxPasses;
+        rs.maxLayers = std::max(1, std::min(int(maxLayers), std::max(4 * maxPasses, 64)));
+        rs.errorPixels = s.reuseErrorPixels, rs.budget = s.reuseBudget;
+        ReusePlan rp = atlas.reuse.plan(rs, scene, view, prepared, light);
+        placements = std::move(rp.fresh);
+        out.reused = std::move(rp.reused);
+        out.reproject = std::move(rp.reproject);
+        out.reusedRect = std::move(rp.screenRect);
+        out.packed.passes = rp.layers;
+        out.packed.utilisation = {rp.utilisation};
+        stats.maxTile = rp.maxTile;
+    }
+    const PackResult& packed = out.packed;
     if (packed.passes > maxLayers)
         throw GlError("ellipsoid atlas: " + std::to_string(prepared.ellipsoids.size()) + " visible ellipsoids need " +
                       std::to_string(packed.passes) + " passes of " + std::to_string(atlasW) + "x" + std::to_string(atlasH) +
@@ -343,8 +382,6 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
                       " atlas layers; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
-    std::vector<TilePlacement>& placements = out.placements;
-    placements = packed.placements;
     // Mesh tiles near the sun are lit per pixel (nearTheSun).
     out.perPixelLight.assign(prepared.ellipsoids.size(), 0);
     if (s.geometry == TileGeometry::Mesh) {
@@ -364,19 +401,15 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         return a.pass != b.pass ? a.pass < b.pass : group(a) < group(b);
     });
 
-    // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
-    // Driven by a host's updateLights(), the grids change only there: every channel of a frame
-    // draws with the same ones.
-    m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
-    const std::vector<PlacedRadiance>& light = m.light;
-
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     std::vector<GpuTile>& gpu = out.gpu;
-    gpu.resize(placements.size());
+    gpu.resize(placements.size() + out.reused.size());
     m.lastTiles.clear();
     std::vector<int> slot(prepared.ellipsoids.size());  // prepared index -> GPU tile index
-    for (std::size_t k = 0; k < placements.size(); ++k) {
-        const TilePlacement& tp = placements[k];
+    // The tiles rendered this frame, then those composited from an earlier frame's image.
+    for (std::size_t k = 0; k < gpu.size(); ++k) {
+        const bool fresh = k < placements.size();
+        const TilePlacement& tp = fresh ? placements[k] : out.reused[k - placements.size()];
         const PreparedEllipsoid& e = prepared.ellipsoids[tp.id];
         const EllipsoidProjection& p = e.projection;
         GpuTile& t = gpu[k];
@@ -397,16 +430,25 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         put(t.rayCentre, rc);
         put(t.rayX, nearPoint(1, 0) - rc);
         put(t.rayY, nearPoint(0, 1) - rc);
+        if (fresh && reuse) atlas.reuse.rendered(tp.id, rc, nearPoint(1, 0) - rc, nearPoint(0, 1) - rc);
         t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
-        t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
-        t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
-        put(t.params, Vec3(p.crossesNear ? 1.0 : 0.0, double(e.cloud), 0.0));
+        if (fresh) {
+            t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
+            t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
+        } else {
+            const std::size_t r = k - placements.size();
+            for (int c = 0; c < 4; ++c) t.screenRect[c] = out.reusedRect[r][c];
+            std::memcpy(t.reproject, glm::value_ptr(out.reproject[r]), sizeof t.reproject);
+        }
+        put(t.params, Vec3(p.crossesNear ? 1.0 : 0.0, double(e.cloud), fresh ? 0.0 : 1.0));
         put(t.noiseOffset, e.noiseOffset);
         put(t.skyChroma, Vec3(model::skyChroma(glm::vec3(light[e.cloud].sample(e.shape.center).skyTau))));
         slot[tp.id] = int(k);
         m.lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
         stats.tilePixels += std::int64_t(tp.size) * tp.size;
         stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
+        if (fresh) ++stats.tilesRendered, stats.tilePixelsRendered += std::int64_t(tp.size) * tp.size;
+        else ++stats.tilesReused;
     }
     // prepared.ellipsoids is back to front: that is the composite order.
     out.order = slot;
@@ -417,8 +459,6 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
     m.lightTextures.setBoxes(m.light, view.eye);
 
-    Atlas& atlas = m.atlases.get({atlasW, atlasH});
-    m.atlas = &atlas;
     atlas.width = atlasW;
     atlas.height = atlasH;
     if (atlas.layers < packed.passes) {
@@ -426,15 +466,21 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         // A power of two of layers, 8 at least (within the memory budget): remaking it costs a
         // frame about 200 ms at 1280x720 on llvmpipe (bench --weather: 3 -> 5 -> 8 layers as
         // near clouds came into view stalled two frames), so it is made with room to grow.
-        atlas.layers =
+        const int layers =
             std::max(packed.passes, std::min(maxPasses, std::max(kMinAtlasLayers, int(std::bit_ceil(unsigned(packed.passes))))));
-        atlas.terms = Texture::create(GL_TEXTURE_2D_ARRAY);
-        checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, atlas.layers);
-        glTextureStorage3D(atlas.terms.id(), 1, termsFormat, atlasW, atlasH, atlas.layers);
+        Texture terms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, layers);
+        glTextureStorage3D(terms.id(), 1, termsFormat, atlasW, atlasH, layers);
         checkAllocation("the ellipsoid atlas (" + std::to_string(atlasW) + "x" + std::to_string(atlasH) + ", " +
-                            std::to_string(atlas.layers) + " layers)",
-                        std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(atlas.layers) *
+                            std::to_string(layers) + " layers)",
+                        std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(layers) *
                             (termsFormat == GL_RGBA16F ? 8 : 4));
+        // Reused tiles keep their images: the old layers are copied into the new atlas.
+        if (reuse && atlas.layers > 0 && !out.reused.empty())
+            glCopyImageSubData(atlas.terms.id(), GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, terms.id(), GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0,
+                               atlasW, atlasH, atlas.layers);
+        atlas.terms = std::move(terms);
+        atlas.layers = layers;
         atlas.fbos.clear();
         for (int l = 0; l < atlas.layers; ++l) {
             Framebuffer fbo = Framebuffer::create();
@@ -476,7 +522,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     HostStateScope scope;  // before the plan: it uploads
     PartTimer timer(s.timings);
     const auto start = std::chrono::steady_clock::now();
-    const FramePlan plan = m.plan(s, scene, view);
+    const FramePlan plan = m.plan(s, scene, view, s.reuse);
     EllipsoidStats stats = plan.stats;
     stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     stats.lightVolumes = std::exchange(m.lightsComputed, 0);
@@ -534,12 +580,28 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     for (int pass = 0, first = 0; pass < packed.passes; ++pass) {
         int count = 0;
         while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
+        if (plan.reuse && count == 0) continue;  // the layer's tiles are all reused
         glBindFramebuffer(GL_FRAMEBUFFER, m.atlas->fbos[pass].id());
         glViewport(0, 0, atlasW, atlasH);
         glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
         // T2 = D in red, T1 / D = 0 in alpha; 1 in green and blue (colour, subtracted from).
         const float terms[4] = {model::kTranslucence, 1.0f, 1.0f, 0.0f};
-        glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, terms);
+        if (!plan.reuse) {
+            glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, terms);
+        } else {  // the layer keeps reused tiles: only the fresh tiles' rectangles are cleared
+            if (!m.tileClear)
+                m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
+            glDisable(GL_BLEND);
+            glUseProgram(m.tileClear.id());
+            m.tileClear.set("atlasSize", atlasSize);
+            m.tileClear.set("onScreen", 0);
+            m.tileClear.set("useOrder", 0);
+            m.tileClear.set("instanceBase", first);
+            m.tileClear.set("clearTerms", glm::vec4(terms[0], terms[1], terms[2], terms[3]));
+            glBindVertexArray(m.empty.id());
+            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
+            ++stats.drawCalls;
+        }
 
         // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
         const bool polygon = s.geometry == TileGeometry::Polygon;
@@ -760,7 +822,7 @@ glm::ivec3 EllipsoidRenderer::atlasSize() const {
 EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
     Impl& m = *impl_;
     HostStateScope scope;
-    const FramePlan plan = m.plan(settings_, scene, view);
+    const FramePlan plan = m.plan(settings_, scene, view, false);
     EllipsoidStats stats = plan.stats;
     if (plan.order.empty()) return stats;
     if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});

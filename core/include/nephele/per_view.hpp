@@ -13,14 +13,14 @@
 
 namespace nephele {
 
-template <class T>
+template <class T, class Key = glm::ivec2>
 class PerViewCache {
 public:
     explicit PerViewCache(std::size_t capacity = 8) : capacity_(capacity) {}
 
     // The resources for views of `size` (default-constructed the first time). The least
     // recently used beyond `capacity` sizes are dropped.
-    T& get(glm::ivec2 size) {
+    T& get(Key size) {
         for (auto it = entries_.begin(); it != entries_.end(); ++it)
             if (it->first == size) {
                 entries_.splice(entries_.begin(), entries_, it);  // most recent first
@@ -34,7 +34,7 @@ public:
 
 private:
     std::size_t capacity_;
-    std::list<std::pair<glm::ivec2, T>> entries_;
+    std::list<std::pair<Key, T>> entries_;
 };
 
 }  // namespace nephele

@@ -88,6 +88,24 @@ struct EllipsoidSettings {
     float weightExponent = model::kWeightExponent;  // Weighted: k of w = (tRef / tShade)^k, model::compositeWeight
     NoiseSettings noise;
     bool timings = false;  // EllipsoidStats::tilesMs and compositeMs (glFinish between the parts: slower)
+    // Tiles that last (after Harris & Lastra 2001). Off: every tile rendered every frame (the
+    // paper). On: a tile stays in the atlas across frames (tiles are kept per view size and
+    // place, so each display channel keeps its own) and is composited again, reprojected to the
+    // new view as a plane through its ellipsoid's centre facing the eye it was rendered from,
+    // until its error reaches reuseErrorPixels. The error, in pixels of the current frame: the
+    // ellipsoid's pixel radius times the angle the eye has moved around its centre (the parallax
+    // inside it), plus the change of its pixel radius, plus (with noise) how far the wind carried
+    // it through the noise; also reached when the sun's phase at the view direction has changed by
+    // more than 3%, or the tile is magnified past its size. A tile whose light changed (a new
+    // sun, a new grid) is re-rendered worst first like the others; tiles with nothing in the
+    // atlas yet (new in view, a new shape) and tiles cut by the near plane are always rendered.
+    // Re-renders of tiles that have an image are bounded to reuseBudget x the frame's pixels
+    // of tile area a frame, largest error first (the worst one always, even past the budget;
+    // 0: none, images are only replaced when they cannot serve): no frame stalls when
+    // everything changes at once.
+    bool reuse = false;
+    double reuseErrorPixels = 0.5;  // > 0
+    double reuseBudget = 1.0;       // >= 0: tile pixels a frame, in frames' pixels
 };
 
 struct EllipsoidStats {
@@ -101,6 +119,9 @@ struct EllipsoidStats {
     double utilisation = 0;     // mean over passes of tile area / atlas area
     std::int64_t tilePixels = 0;  // sum of tile areas
     std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
+    int tilesRendered = 0;          // tiles drawn in the atlas this frame (all visible without reuse)
+    std::int64_t tilePixelsRendered = 0;  // their area
+    int tilesReused = 0;            // tiles composited from an earlier frame's image (reuse)
     int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)

@@ -1,0 +1,256 @@
+#include "tile_reuse.hpp"
+
+#include "fingerprint.hpp"
+#include "nephele/gardner_model.hpp"
+#include "nephele/gl.hpp"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace nephele {
+
+namespace {
+
+// The phase's relative change towards the eye that makes a tile stale: the single scattering
+// is a share of a tile's light, so 3% of it stays below the image's 8 bits in most tiles.
+constexpr double kPhaseChange = 0.03;
+// The priority of a tile whose light changed (a new sun, a grid finished): above any geometric
+// error, so that a weather change is caught up first, largest on screen first.
+constexpr double kLightChanged = 1000;
+
+double pixelRadiusOf(const EllipsoidProjection& p) { return 0.5 * std::max(p.pixelWidth, p.pixelHeight); }
+
+double sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
+    const Vec3 d = glm::normalize(centre - view.eye);
+    return model::hgPhase(float(glm::dot(d, scene.sun.direction)), float(scene.medium.hgG));
+}
+
+}  // namespace
+
+ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
+                          const std::vector<PlacedRadiance>& light) {
+    ReusePlan out;
+    out.maxTile = s.maxTile;
+    const std::uint64_t frame = ++frame_;
+    const std::size_t n = prepared.ellipsoids.size();
+    if (!allocator_ || allocatedFor_.atlasWidth != s.atlasWidth || allocatedFor_.atlasHeight != s.atlasHeight ||
+        allocatedFor_.minTile != s.minTile || allocatedFor_.maxLayers != s.maxLayers) {
+        allocator_ = std::make_unique<TileAllocator>(s.atlasWidth, s.atlasHeight, s.minTile, s.maxLayers);
+        live_.clear();
+    }
+    allocatedFor_ = s;
+    fresh_.assign(n, nullptr);
+
+    // What a tile's image depends on besides the view.
+    std::uint64_t global = Fingerprint()
+                               .add(scene.sun.direction)
+                               .addMedium(scene.medium)
+                               .add(prepared.noisePeriod)
+                               .value();
+    const glm::dmat4 viewProj = view.projectionMatrix * glm::lookAt(Vec3(0.0), view.forward, view.up);
+
+    struct Candidate {
+        int index;
+        std::uint64_t key;
+        std::uint64_t shape, light;
+        int need;        // tile size it would be rendered at now
+        double error;    // >= 1: stale
+        bool must;       // no usable image: rendered whatever the budget
+        Live* live;
+        glm::dmat4 reproject;
+        glm::dvec4 rect;
+    };
+    std::vector<Candidate> cands(n);
+    std::unordered_map<std::uint64_t, int> ordinal;  // identical keys in one frame (a hostile scene)
+    for (std::size_t i = 0; i < n; ++i) {
+        const PreparedEllipsoid& e = prepared.ellipsoids[i];
+        const EllipsoidProjection& p = e.projection;
+        const Cloud& cloud = scene.clouds[std::size_t(e.cloud)];
+        const std::uint64_t id = Fingerprint().add(cloud.noiseId ? cloud.noiseId : std::uint64_t(e.cloud)).add(e.index).value();
+        const std::uint64_t key = Fingerprint().add(id).add(ordinal[id]++).value();
+        Candidate& c = cands[i];
+        c.index = int(i), c.key = key;
+        c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.sigma).add(e.noiseOffset).value();
+        const PlacedRadiance& pl = light[std::size_t(e.cloud)];
+        c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.lo - e.shape.center).add(pl.extent).value();
+        c.need = tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, s.maxTile);
+        c.error = 0;
+        c.must = true;
+        auto it = live_.find(key);
+        c.live = it == live_.end() ? nullptr : &it->second;
+        if (!c.live || p.crossesNear || c.live->shape != c.shape) continue;
+        Live& L = *c.live;
+        // The reprojection: tile clip (x, y) -> the ray rc + x rx + y ry from the eye it was
+        // rendered from -> its point on the plane through the centre facing that eye, moved with
+        // the ellipsoid -> the frame's clip space. Homogeneous, so one matrix.
+        const double dist = glm::length(L.eyeFromCentre);
+        const Vec3 nrm = -L.eyeFromCentre / dist;
+        const Vec3 a = L.eyeFromCentre + e.shape.center - view.eye;
+        auto column = [&](const Vec3& r) { return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r)); };
+        c.reproject = glm::dmat4(column(L.rx), column(L.ry), glm::dvec4(0.0), column(L.rc));
+        bool valid = true;
+        glm::dvec4 rect(1e300, 1e300, -1e300, -1e300);
+        for (int k = 0; k < 4; ++k) {
+            const double x = (k & 1) ? 1 : -1, y = (k & 2) ? 1 : -1;
+            const glm::dvec4 clip = c.reproject * glm::dvec4(x, y, 0, 1);
+            if (!(glm::dot(nrm, L.rc + x * L.rx + y * L.ry) > 0 && clip.w > 1e-9 * dist)) valid = false;
+            const double px = clip.x / clip.w, py = clip.y / clip.w;
+            rect = {std::min(rect.x, px), std::min(rect.y, py), std::max(rect.z, px), std::max(rect.w, py)};
+        }
+        if (!valid) continue;
+        c.rect = rect;
+        // Part of what is in view now outside the tile's quad (a tile cut by the view's edge
+        // then): a visible cut, rendered now.
+        const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
+        const double missing = std::max({(rect.x - p.rect.x0) * pxX, (p.rect.x1 - rect.z) * pxX, (rect.y - p.rect.y0) * pxY,
+                                         (p.rect.y1 - rect.w) * pxY});
+        if (missing > s.errorPixels) continue;
+        c.must = false;
+        const Vec3 now = view.eye - e.shape.center;
+        const double cosA = glm::dot(now, L.eyeFromCentre) / (glm::length(now) * dist);
+        const double angle = std::acos(std::clamp(cosA, -1.0, 1.0));
+        const double r = pixelRadiusOf(p);
+        double px = r * angle + std::abs(r - L.pixelRadius);
+        if (scene.medium.noise > 0) {  // the wind carries the ellipsoid through the (world-fixed) noise
+            const double rMax = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
+            px += glm::length(e.shape.center - L.centre) * r / rMax;
+        }
+        c.error = px / s.errorPixels;
+        const double phase = sunPhase(e.shape.center, view, scene);
+        c.error = std::max(c.error, std::abs(phase / L.phase - 1) / kPhaseChange);
+        if (c.need > L.place.size) c.error = std::max(c.error, 1.0 + std::log2(double(c.need) / L.place.size));
+        if (L.light != c.light) c.error = std::max(c.error, kLightChanged + r);
+    }
+
+    // Tiles no longer in view give their place back.
+    for (const Candidate& c : cands)
+        if (c.live) c.live->seen = frame;
+    for (auto it = live_.begin(); it != live_.end();) {
+        if (it->second.seen != frame) {
+            allocator_->free(it->second.place);
+            it = live_.erase(it);
+        } else {
+            ++it;
+        }
+    }
+
+    // The frame's re-renders: every tile without a usable image, then the stale ones worst
+    // first within the budget.
+    // The worst is taken even when it alone is over the budget (a tile larger than the budget
+    // would wait for ever); the others while the budget lasts, strictly worst first.
+    const double budget = s.budget * double(s.frameWidth) * double(s.frameHeight);
+    double spent = 0;
+    std::vector<int> render;
+    std::vector<int> stale;
+    for (const Candidate& c : cands) {
+        if (c.must) render.push_back(c.index);
+        else if (c.error >= 1) stale.push_back(c.index);
+    }
+    std::stable_sort(stale.begin(), stale.end(), [&](int a, int b) { return cands[a].error > cands[b].error; });
+    for (int i : stale) {
+        const double px = double(cands[i].need) * cands[i].need;
+        if (s.budget <= 0 || (spent > 0 && spent + px > budget)) break;
+        spent += px;
+        render.push_back(i);
+    }
+    std::vector<char> isFresh(n, 0);
+    for (int i : render) isFresh[std::size_t(i)] = 1;
+
+    // Places: a re-render of another size moves; then new places, largest first.
+    for (int i : render) {
+        Candidate& c = cands[std::size_t(i)];
+        if (c.live && c.live->place.size != c.need) {
+            allocator_->free(c.live->place);
+            c.live->place.pass = -1;
+        }
+    }
+    std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
+    bool fits = true;
+    for (int i : render) {
+        Candidate& c = cands[std::size_t(i)];
+        if (c.live && c.live->place.pass >= 0) continue;
+        const TilePlacement place = allocator_->allocate(c.need);
+        if (place.pass < 0 || place.pass >= s.budgetLayers) {
+            if (place.pass >= 0) allocator_->free(place);
+            fits = false;
+            break;
+        }
+        if (!c.live) c.live = &live_[c.key];
+        c.live->place = place;
+    }
+    if (!fits) {
+        // The atlas is too full or too fragmented: packed anew, everything rendered (as without
+        // reuse), the largest tiles halved until the memory budget holds.
+        out.reset = true;
+        live_.clear();
+        for (Candidate& c : cands) c.live = nullptr;
+        render.clear();
+        for (std::size_t i = 0; i < n; ++i) render.push_back(int(i));
+        std::fill(isFresh.begin(), isFresh.end(), 1);
+        for (int limit = s.maxTile;; limit /= 2) {
+            allocator_->clear();
+            live_.clear();
+            for (Candidate& c : cands)
+                c.need = tileSizeFor(std::max(prepared.ellipsoids[std::size_t(c.index)].projection.pixelWidth,
+                                              prepared.ellipsoids[std::size_t(c.index)].projection.pixelHeight),
+                                     s.minTile, limit);
+            std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
+            bool all = true;
+            for (int i : render) {
+                Candidate& c = cands[std::size_t(i)];
+                const TilePlacement place = allocator_->allocate(c.need);
+                if (place.pass < 0) {
+                    all = false;
+                    break;
+                }
+                c.live = &live_[c.key];
+                c.live->place = place;
+            }
+            out.maxTile = limit;
+            if (all && (allocator_->layersUsed() <= s.budgetLayers || limit <= s.minTile)) break;
+            if (limit <= s.minTile)
+                throw gl::GlError("ellipsoid atlas: " + std::to_string(n) + " visible ellipsoids do not fit " +
+                              std::to_string(s.maxLayers) + " layers of " + std::to_string(s.atlasWidth) + "x" +
+                              std::to_string(s.atlasHeight) + " even with " + std::to_string(s.minTile) +
+                              " px tiles; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
+        }
+    }
+
+    // The plan, and what each fresh tile will be rendered from.
+    for (int i : render) {
+        Candidate& c = cands[std::size_t(i)];
+        const PreparedEllipsoid& e = prepared.ellipsoids[std::size_t(i)];
+        Live& L = *c.live;
+        L.shape = c.shape, L.light = c.light;
+        L.eyeFromCentre = view.eye - e.shape.center;
+        L.centre = e.shape.center;
+        L.pixelRadius = pixelRadiusOf(e.projection);
+        L.phase = sunPhase(e.shape.center, view, scene);
+        L.seen = frame;
+        fresh_[std::size_t(i)] = &L;
+        out.fresh.push_back({i, L.place.pass, L.place.x, L.place.y, L.place.size});
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        if (isFresh[i]) continue;
+        const Candidate& c = cands[i];
+        out.reused.push_back({int(i), c.live->place.pass, c.live->place.x, c.live->place.y, c.live->place.size});
+        out.reproject.push_back(glm::mat4(c.reproject));
+        out.screenRect.push_back(glm::vec4(c.rect));
+    }
+    out.layers = allocator_->layersUsed();
+    std::int64_t used = 0;
+    for (const auto& [key, t] : live_) used += std::int64_t(t.place.size) * t.place.size;
+    out.utilisation = out.layers ? double(used) / (double(out.layers) * s.atlasWidth * s.atlasHeight) : 0;
+    return out;
+}
+
+void TileReuse::rendered(int preparedIndex, const Vec3& rc, const Vec3& rx, const Vec3& ry) {
+    Live* L = fresh_.at(std::size_t(preparedIndex));
+    if (!L) return;
+    L->rc = rc, L->rx = rx, L->ry = ry;
+}
+
+}  // namespace nephele
