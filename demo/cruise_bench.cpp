@@ -29,6 +29,9 @@ namespace {
 
 struct CruiseFrame {
     double onMs = 0, offMs = 0;
+    double repeatMs = -1;               // every 10th frame: the reuse run's same frame again (nothing stale: its floor)
+    int must = 0;                       // reuse: tiles rendered for want of a usable image
+    bool repacked = false;              // reuse: the atlas was packed anew
     int onTiles = 0, offTiles = 0, visible = 0;
     std::int64_t onPixels = 0, offPixels = 0;
     double psnr = 0;                    // dB, the reuse frame against the fresh one (8-bit sRGB, as written)
@@ -86,6 +89,8 @@ void fly(Flight& f, const CruiseBenchOptions& o) {
         c.onTiles = a.stats.tilesRendered, c.offTiles = b.stats.tilesRendered, c.visible = b.stats.visible;
         c.onPixels = a.stats.tilePixelsRendered, c.offPixels = b.stats.tilePixelsRendered;
         c.psnr = psnr8(a.color, b.color);
+        c.must = a.stats.tilesMust, c.repacked = a.stats.atlasRepacked;
+        if (k % 10 == 0) c.repeatMs = on.render(scene, t).ms;
         c.onChange = onChanges.changes().back(), c.offChange = offChanges.changes().back();
         f.frames.push_back(c);
         reportProgress("bench --cruise " + f.scene, double(k + 1) / frames);
@@ -109,12 +114,14 @@ double minOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_el
 
 std::string csvOf(const std::vector<Flight>& flights) {
     std::ostringstream csv;
-    csv << "flight,frame,on_ms,off_ms,on_tiles,off_tiles,visible,on_tile_pixels,off_tile_pixels,psnr_db,on_change,off_change\n";
+    csv << "flight,frame,on_ms,off_ms,repeat_ms,on_tiles,on_tiles_without_image,atlas_repacked,off_tiles,visible,on_tile_pixels,"
+           "off_tile_pixels,psnr_db,on_change,off_change\n";
     for (const Flight& f : flights)
         for (std::size_t i = 0; i < f.frames.size(); ++i) {
             const CruiseFrame& c = f.frames[i];
-            csv << f.scene << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << "," << c.onTiles << ","
-                << c.offTiles << "," << c.visible << "," << c.onPixels << "," << c.offPixels << "," << fmt("%.2f", c.psnr) << ","
+            csv << f.scene << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << ","
+                << (c.repeatMs < 0 ? std::string() : fmt("%.3f", c.repeatMs)) << "," << c.onTiles << "," << c.must << ","
+                << (c.repacked ? 1 : 0) << "," << c.offTiles << "," << c.visible << "," << c.onPixels << "," << c.offPixels << "," << fmt("%.2f", c.psnr) << ","
                 << fmt("%.6f", c.onChange) << "," << fmt("%.6f", c.offChange) << "\n";
         }
     return csv.str();
@@ -130,11 +137,14 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
           "left out of the figures and given apart. PSNR: each reuse frame against the same frame with every tile fresh, "
           "as 8-bit sRGB. Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "
           "flicker index against the exact model is this change minus the exact model's, which is the same for both "
-          "runs, so on − off is the difference of their indices.\n\n";
-    md << "| flight | frames | ms amortised on / off | on × faster | worst ms on (off's median) | tiles rendered a frame on / "
-          "off (visible) | tile Mpx a frame on / off | PSNR min / median dB | change on − off | worst frame change on / off "
-          "| frame 0 ms on / off |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          "runs, so on − off is the difference of their indices. Reuse floor: every 10th frame the reuse run draws the "
+          "same frame again, with nothing stale: what a frame costs with no tile rendered (the composite, the planning "
+          "and, on layer_flight, the layered sky). Tiles without an image: rendered whatever the budget (new in view, a "
+          "part come into view, cut by the near plane).\n\n";
+    md << "| flight | frames | ms amortised on / off | on × faster | reuse floor ms | worst ms on (off's median) | tiles "
+          "rendered a frame on (without an image) / off (visible) | tile Mpx a frame on / off | atlas repacks | PSNR min / "
+          "median dB | change on − off | worst frame change on / off | frame 0 ms on / off |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Flight& f : flights) {
         const auto& fr = f.frames;
         const auto onMs = column(fr, [](const CruiseFrame& c) { return c.onMs; });
@@ -142,14 +152,21 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
         const auto psnr = column(fr, [](const CruiseFrame& c) { return c.psnr; });
         const auto onCh = column(fr, [](const CruiseFrame& c) { return c.onChange; });
         const auto offCh = column(fr, [](const CruiseFrame& c) { return c.offChange; });
+        std::vector<double> repeat;
+        int repacks = 0;
+        for (const CruiseFrame& c : fr) {
+            if (c.repeatMs >= 0) repeat.push_back(c.repeatMs);
+            repacks += c.repacked ? 1 : 0;
+        }
         md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / " << fmt("%.1f", mean(offMs))
-           << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | " << fmt("%.1f", maxOf(onMs)) << " ("
-           << fmt("%.1f", median(offMs)) << ") | "
-           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " / "
+           << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat)))
+           << " | " << fmt("%.1f", maxOf(onMs)) << " (" << fmt("%.1f", median(offMs)) << ") | "
+           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
+           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.must; }))) << ") / "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.offTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.visible; }))) << ") | "
            << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.onPixels; })) / 1e6) << " / "
-           << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.offPixels; })) / 1e6) << " | "
+           << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.offPixels; })) / 1e6) << " | " << repacks << " | "
            << fmt("%.1f", minOf(psnr)) << " / " << fmt("%.1f", median(psnr)) << " | " << fmt("%+.5f", mean(onCh) - mean(offCh))
            << " | " << fmt("%.4f", maxOf(onCh)) << " / " << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs)
            << " / " << fmt("%.0f", f.firstOffMs) << " |\n";

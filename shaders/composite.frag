@@ -47,6 +47,7 @@ void main() {
 #else
     float alpha = clamp(terms.a, 0.0, 1.0);
 #endif
+    if (alpha <= 0.0) discard;  // outside the ellipsoid: neither the ray's terms nor the blend
     vec3 color = sourceFromScalars(vec3(decodeLight(terms.g), decodeLight(terms.b), 0.0), sunIrradiance,
                                    tiles[tileIndex].skyChroma.rgb, albedo);
 #if defined(FRACTION) || defined(WEIGHTED)

@@ -373,6 +373,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         out.packed.passes = rp.layers;
         out.packed.utilisation = {rp.utilisation};
         stats.maxTile = rp.maxTile;
+        stats.tilesMust = rp.reset ? int(prepared.ellipsoids.size()) : rp.must;
+        stats.atlasRepacked = rp.reset;
     }
     const PackResult& packed = out.packed;
     if (packed.passes > maxLayers)

@@ -17,6 +17,9 @@ namespace {
 // The phase's relative change towards the eye that makes a tile stale: the single scattering
 // is a share of a tile's light, so 3% of it stays below the image's 8 bits in most tiles.
 constexpr double kPhaseChange = 0.03;
+// A repack leaves this share of the memory budget's layers free, so that the frames after it
+// find room for the tiles that grow without packing again.
+constexpr double kRepackFill = 0.8;
 // The priority of a tile whose light changed (a new sun, a grid finished): above any geometric
 // error, so that a weather change is caught up first, largest on screen first.
 constexpr double kLightChanged = 1000;
@@ -33,14 +36,20 @@ double sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
 ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
                           const std::vector<PlacedRadiance>& light) {
     ReusePlan out;
-    out.maxTile = s.maxTile;
     const std::uint64_t frame = ++frame_;
     const std::size_t n = prepared.ellipsoids.size();
     if (!allocator_ || allocatedFor_.atlasWidth != s.atlasWidth || allocatedFor_.atlasHeight != s.atlasHeight ||
         allocatedFor_.minTile != s.minTile || allocatedFor_.maxLayers != s.maxLayers) {
         allocator_ = std::make_unique<TileAllocator>(s.atlasWidth, s.atlasHeight, s.minTile, s.maxLayers);
         live_.clear();
+        limit_ = s.maxTile;
     }
+    // The largest tile size: halved when a repack needs it to stay within the memory budget,
+    // and kept so (the next frames' tiles would not fit either); doubled again while the
+    // layers in use leave room for its tiles four times over.
+    limit_ = std::clamp(limit_, s.minTile, s.maxTile);
+    if (limit_ < s.maxTile && 4 * allocator_->layersUsed() <= s.budgetLayers) limit_ *= 2;
+    out.maxTile = limit_;
     allocatedFor_ = s;
     fresh_.assign(n, nullptr);
 
@@ -76,7 +85,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.sigma).add(e.noiseOffset).value();
         const PlacedRadiance& pl = light[std::size_t(e.cloud)];
         c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.lo - e.shape.center).add(pl.extent).value();
-        c.need = tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, s.maxTile);
+        c.need = tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, limit_);
         c.error = 0;
         c.must = true;
         auto it = live_.find(key);
@@ -146,7 +155,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     std::vector<int> render;
     std::vector<int> stale;
     for (const Candidate& c : cands) {
-        if (c.must) render.push_back(c.index);
+        if (c.must) render.push_back(c.index), ++out.must;
         else if (c.error >= 1) stale.push_back(c.index);
     }
     std::stable_sort(stale.begin(), stale.end(), [&](int a, int b) { return cands[a].error > cands[b].error; });
@@ -190,6 +199,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         render.clear();
         for (std::size_t i = 0; i < n; ++i) render.push_back(int(i));
         std::fill(isFresh.begin(), isFresh.end(), 1);
+        const int fill = std::max(1, int(kRepackFill * s.budgetLayers));
         for (int limit = s.maxTile;; limit /= 2) {
             allocator_->clear();
             live_.clear();
@@ -209,13 +219,13 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
                 c.live = &live_[c.key];
                 c.live->place = place;
             }
-            out.maxTile = limit;
-            if (all && (allocator_->layersUsed() <= s.budgetLayers || limit <= s.minTile)) break;
+            limit_ = out.maxTile = limit;
+            if (all && (allocator_->layersUsed() <= fill || limit <= s.minTile)) break;
             if (limit <= s.minTile)
                 throw gl::GlError("ellipsoid atlas: " + std::to_string(n) + " visible ellipsoids do not fit " +
-                              std::to_string(s.maxLayers) + " layers of " + std::to_string(s.atlasWidth) + "x" +
-                              std::to_string(s.atlasHeight) + " even with " + std::to_string(s.minTile) +
-                              " px tiles; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
+                                  std::to_string(s.maxLayers) + " layers of " + std::to_string(s.atlasWidth) + "x" +
+                                  std::to_string(s.atlasHeight) + " even with " + std::to_string(s.minTile) +
+                                  " px tiles; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
         }
     }
 

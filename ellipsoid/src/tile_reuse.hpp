@@ -41,6 +41,7 @@ struct ReusePlan {
     double utilisation = 0;              // tile area in use / the layers' area
     int maxTile = 0;                     // the largest tile size allowed this frame
     bool reset = false;                  // the atlas was packed anew (everything fresh)
+    int must = 0;                        // fresh tiles that had no usable image
 };
 
 class TileReuse {
@@ -72,6 +73,7 @@ private:
     std::unordered_map<std::uint64_t, Live> live_;
     std::vector<Live*> fresh_;       // by prepared index, the last plan's fresh tiles (else null)
     std::uint64_t frame_ = 0;
+    int limit_ = 0;                  // the largest tile size, kept from frame to frame (see plan())
 };
 
 }  // namespace nephele

@@ -122,6 +122,9 @@ struct EllipsoidStats {
     int tilesRendered = 0;          // tiles drawn in the atlas this frame (all visible without reuse)
     std::int64_t tilePixelsRendered = 0;  // their area
     int tilesReused = 0;            // tiles composited from an earlier frame's image (reuse)
+    int tilesMust = 0;              // reuse: of tilesRendered, those with no usable image (new, cut by the near
+                                    // plane, a new shape, a part come into view)
+    bool atlasRepacked = false;     // reuse: the atlas was too full or fragmented and packed anew (all fresh)
     int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)
