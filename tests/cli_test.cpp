@@ -4,6 +4,7 @@
 #include "nephele/png.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -121,6 +122,7 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
              std::string("--precision f32"), std::string("--draws some"), std::string("--flythrough sideways"),
              std::string("--colour-matrix maybe"), std::string("--composite front-to-back"),
              std::string("--exact-order random"), std::string("--density-alpha ") + path("out.png"),
+             std::string("--reuse maybe"), std::string("--reuse-error 0"), std::string("--reuse-budget -1"),
              std::string("--pfm ") + path("missing-folder/x.pfm")}) {
         const CliRun r = run("render " + scene + out + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
@@ -213,6 +215,51 @@ TEST_F(CliTest, WeatherBenchWritesCsvChartAndTable) {
     EXPECT_NE(text.str().find("| thickness 600 -> 800 m |"), std::string::npos) << text.str();
     const CliRun bad = run("bench --weather --quick --frames 5 --out-dir " + path("w2"));
     EXPECT_EQ(bad.code, 2) << bad.output;
+}
+
+// `bench --cruise` in its quick run (approach.json's first second at 160x90): the CSV per
+// frame with reuse on and off, the table, the chart.
+TEST_F(CliTest, CruiseBenchWritesCsvChartAndTable) {
+    const CliRun r = run("bench --cruise --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " + path("c"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"cruise_bench.csv", "cruise_bench.md", "cruise_bench.png"})
+        EXPECT_TRUE(fs::exists(path(std::string("c/") + f))) << f;
+    std::ifstream csv(path("c/cruise_bench.csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line.rfind("flight,frame,on_ms,off_ms,repeat_ms,on_tiles,", 0), 0u) << line;
+    int rows = 0;
+    for (; std::getline(csv, line); ++rows) EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+    EXPECT_EQ(rows, 10);  // frames 1..10 of t = 0..1 s at 10 fps (frame 0 is given apart)
+    std::ifstream md(path("c/cruise_bench.md"));
+    std::stringstream text;
+    text << md.rdbuf();
+    EXPECT_NE(text.str().find("Measured by `nephele bench --cruise` on "), std::string::npos);
+    EXPECT_NE(text.str().find("| approach.json (1 s) | 10 |"), std::string::npos) << text.str();
+}
+
+// flythrough.json records every frame's draw time and the tiles it rendered; with --reuse on a
+// still stretch of a path renders fewer tiles than are visible.
+TEST_F(CliTest, FlythroughRecordsFrameTimesAndTilesRendered) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/approach.json";  // 5 km in 50 s
+    int rendered[2] = {0, 0};
+    for (int on = 0; on < 2; ++on) {
+        const std::string reuse = on ? "on" : "off";
+        const CliRun r = run("flythrough " + scene + " --method ellipsoid --reuse " + reuse + " --out-dir " + path(reuse) +
+                             " --fps 2 --width 64");
+        ASSERT_EQ(r.code, 0) << r.output;
+        std::ifstream in(path(reuse + "/flythrough.json"));
+        const nlohmann::json j = nlohmann::json::parse(in);
+        ASSERT_EQ(j["frame_ms"].size(), 101u);
+        ASSERT_EQ(j["tiles_rendered"].size(), 101u);
+        EXPECT_EQ(j["reuse"].get<bool>(), on == 1);
+        for (std::size_t k = 0; k < 101; ++k) {
+            EXPECT_GT(j["frame_ms"][k].get<double>(), 0.0) << k;
+            rendered[on] += j["tiles_rendered"][k].get<int>();
+        }
+    }
+    EXPECT_GT(rendered[0], 100 * 20);  // every visible tile, every frame
+    EXPECT_LT(rendered[1], rendered[0] / 2) << "reuse on rendered " << rendered[1] << " tiles, off " << rendered[0];
 }
 
 TEST_F(CliTest, GenerateIsValidatedThenExpanded) {

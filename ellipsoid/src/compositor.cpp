@@ -1,16 +1,9 @@
-// The tiled GPU compositor (see nephele/ellipsoid.hpp for the pipeline).
-#include "nephele/ellipsoid.hpp"
+// The tiled GPU compositor (see nephele/ellipsoid.hpp for the pipeline): its settings, the
+// frame's plan (projection, culling, tile sizes, packing or reuse, the GPU tile data, the light),
+// and render(), which runs the tile pass (tile_pass.cpp) and the composite (composite_pass.cpp).
+#include "compositor_impl.hpp"
 
-#include "nephele/gardner_model.hpp"
-#include "prepared_clouds.hpp"
-#include "fingerprint.hpp"
-#include "nephele/frame_depth.hpp"
-#include "cloud_light_textures.hpp"
-#include "light_cache.hpp"
 #include "nephele/gl_state.hpp"
-#include "packer.hpp"
-#include "tile_reuse.hpp"
-#include "nephele/per_view.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -27,32 +20,8 @@
 namespace nephele {
 
 constexpr int kMinAtlasLayers = 8;  // an atlas is made with room for this many passes (see plan())
-using namespace gl;
 
 namespace {
-
-// Mirrors `struct Tile` of shaders/tiles.glsl (std430: vec4 and mat4 only).
-struct GpuTile {
-    float centerSigma[4];
-    float axes[3][4];
-    float unit[3][4];
-    float eyeUnitAc[4];
-    float tileViewProj[16];
-    float atlasRect[4];
-    float screenRect[4];
-    float params[4];
-    float noiseOffset[4];
-    float rayCentre[4];
-    float rayX[4];
-    float rayY[4];
-    float skyChroma[4];
-    float reproject[16];  // reused tiles (params.z = 1): tile clip (x, y, 0, 1) -> the frame's clip space
-};
-static_assert(sizeof(GpuTile) == 16 * 16 + 2 * 64);
-
-void put(float* out, const Vec3& v, double w = 0) {
-    out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
-}
 
 // A unit sphere scaled to circumscribe itself: its faces lie outside the unit sphere, so
 // its back faces cover the exact silhouette. Counter-clockwise seen from outside.
@@ -88,91 +57,6 @@ void checkPow2(const char* what, int v) {
 }
 
 }  // namespace
-
-struct FramePlan {
-    PreparedClouds prepared;
-    PackResult packed;
-    std::vector<TilePlacement> placements;  // by pass, then mesh level
-    std::vector<GpuTile> gpu;               // parallel to placements
-    std::vector<int> order;                 // GPU tile indices, back to front
-    std::vector<char> perPixelLight;        // per prepared ellipsoid: mesh tiles lit per pixel (near the sun)
-    std::vector<TilePlacement> reused;      // reuse: tiles composited from an earlier frame (after placements in gpu)
-    std::vector<glm::mat4> reproject;       // per reused tile (tile_reuse.hpp)
-    std::vector<glm::vec4> reusedRect;      // per reused tile: its quad's NDC bounds
-    bool reuse = false;                     // placements share their layers with reused tiles: clear tile by tile
-    int atlasW = 0, atlasH = 0;
-    EllipsoidStats stats;
-};
-
-struct EllipsoidRenderer::Impl {
-    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse);
-
-    Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
-    Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
-    Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
-    std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
-    VertexArray empty;
-    std::map<int, IndexedMesh> meshes;   // by slices
-    Texture falloff, noise;
-    Sampler linearClamp;
-    CloudRadianceCache lightCache;      // the clouds' radiance grids
-    CloudLightTextures lightTextures;   // ... on the GPU
-    std::vector<PlacedRadiance> light;  // updateLights(): the scene clouds' grids, one each
-    Buffer tiles, order;
-    std::size_t tilesCapacity = 0, orderCapacity = 0;
-    std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
-
-    int lightUploads = 0;    // grids uploaded since the last render (stats)
-    int lightsComputed = 0;  // grids made since the last render (stats)
-    RadianceUpdateStats lightStats;  // the last update's
-    bool lightsDriven = false;  // a host calls updateLights(): render() never waits for a grid
-    void updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye, bool background,
-                      bool takeFinished = true);
-
-    // The atlas: one layer per pass; one per atlas size (the frame's by default), kept; with
-    // reuse one per view size and place (each display channel keeps its own tiles).
-    struct Atlas {
-        Texture terms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
-        int width = 0, height = 0, layers = 0;
-        std::vector<Framebuffer> fbos;
-        TileReuse reuse;  // EllipsoidSettings::reuse: the tiles that live in it
-    };
-    PerViewCache<Atlas, glm::ivec4> atlases;
-    Atlas* atlas = nullptr;  // plan()'s
-    PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
-    // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
-    struct WeightedTarget {
-        Texture accum, reveal;
-        Framebuffer fbo;
-    };
-    PerViewCache<WeightedTarget> weightedTargets;
-
-    WeightedTarget& weightedTarget(int w, int h) {
-        WeightedTarget& t = weightedTargets.get({w, h});
-        if (t.fbo) return t;
-        // 32-bit floats: the weights span (tRef / t)^k over the whole depth range (half floats
-        // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
-        t.accum = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.accum.id(), 1, GL_RGBA32F, w, h);
-        checkAllocation("the weighted composite's RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
-        t.reveal = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.reveal.id(), 1, GL_R32F, w, h);
-        checkAllocation("the weighted composite's R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
-        t.fbo = Framebuffer::create();
-        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.accum.id(), 0);
-        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, t.reveal.id(), 0);
-        const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-        glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
-        checkFramebuffer(t.fbo.id(), "the weighted composite's target");
-        return t;
-    }
-
-    const IndexedMesh& mesh(int slices) {
-        auto it = meshes.find(slices);
-        if (it == meshes.end()) it = meshes.emplace(slices, makeSphere(slices)).first;
-        return it->second;
-    }
-};
 
 EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
     checkPow2("minTile", s.minTile);
@@ -253,27 +137,6 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
 EllipsoidRenderer::~EllipsoidRenderer() = default;
 
 namespace {
-
-
-int meshSlices(const EllipsoidSettings& s, int tileSize) {
-    if (s.tessellation > 0) return s.tessellation;
-    // Vertex work is a large share of a frame on llvmpipe (the light volume is read per vertex):
-    // 8 slices up to 64 px tiles (was 32) took 1024 ellipsoids at 1280x720 from 2.1-2.25x to
-    // 1.9-2.0x the floor, 3-4 dB further from gardner-exact (48 against 52 dB on cumulus27 at
-    // 800 px), no visible change, and no pop at the tile jumps (FailureCaseGLTest). 6 slices
-    // for small tiles was faster still but popped at the 32 -> 64 px jump.
-    return tileSize <= 64 ? 8 : tileSize <= 256 ? 16 : 32;
-}
-
-// Tiles of one pass are drawn in groups, one instanced draw each: by program (cut by the
-// near plane: + 1000; a mesh tile lit per pixel, drawn as a polygon tile: 2000) and, for
-// meshes, mesh level (slices).
-int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize, bool perPixelLight) {
-    if (e.projection.crossesNear) return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
-    if (s.geometry == TileGeometry::Polygon) return 0;
-    return perPixelLight ? 2000 : meshSlices(s, tileSize);
-}
-
 // Mesh tiles light per vertex (the paper's Gouraud light). Looking within the sun's phase
 // peak, the single scattering p(d . s) exp(-tauSun) magnifies every change of tauSun across a
 // tile (the thin, bright rim of a back-lit cloud), and the vertices miss it: there the tile is
@@ -536,282 +399,19 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
         stats.tilesMs = timer.lap();
         return stats;
     }
-    const PreparedClouds& prepared = plan.prepared;
-    const PackResult& packed = plan.packed;
-    const std::vector<TilePlacement>& placements = plan.placements;
-    const std::vector<GpuTile>& gpu = plan.gpu;
-    const std::vector<int>& order = plan.order;
-    const int atlasW = plan.atlasW, atlasH = plan.atlasH;
-    const int frameW = view.camera.width, frameH = view.camera.height;
-    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
-    glDisable(GL_DEPTH_TEST);
-    glFrontFace(GL_CCW);
-    const glm::vec2 atlasSize(atlasW, atlasH);
-
-    // ---- The tile passes.
-    for (const Program* tp : {&m.tile, &m.tileCut, &m.tileRay, &m.tileRayCut}) {
-        if (!*tp) continue;  // not used by these settings
-        tp->set("atlasSize", atlasSize);
-        tp->set("forward", glm::vec3(view.forward));
-        tp->set("nearClip", float(view.camera.nearClip));
-        tp->set("falloff", 0);
-        tp->set("noiseVolume", 1);
-        m.lightTextures.bind(*tp);
-        tp->set("hgG", float(scene.medium.hgG));
-        tp->set("eyeNoise", glm::vec3(glm::fract(view.eye / prepared.noisePeriod)));
-        tp->set("noisePeriod", float(prepared.noisePeriod));
-        tp->set("noiseAmp", float(scene.medium.noise));
-        tp->set("sunDirection", glm::vec3(scene.sun.direction));
-        tp->set("foldAtlas", s.instanced ? 1 : 0);
-    }
-    glBindTextureUnit(0, m.falloff.id());
-    glBindTextureUnit(1, m.noise.id());
-    glBindSampler(0, 0);
-    glBindSampler(1, 0);
-
-    glm::mat4 colourMatrix(0.0f);
-    colourMatrix[0][3] = 1.0f / model::kTranslucence;  // column 0 (red) -> row 3 (alpha)
-    m.colourMatrix.set("colourMatrix", colourMatrix);
-    m.colourMatrix.set("atlasTerms", 3);
-    m.colourMatrix.set("atlasSize", atlasSize);
-    m.colourMatrix.set("onScreen", 0);
-    m.colourMatrix.set("useOrder", 0);
-
-    for (int pass = 0, first = 0; pass < packed.passes; ++pass) {
-        int count = 0;
-        while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
-        if (plan.reuse && count == 0) continue;  // the layer's tiles are all reused
-        glBindFramebuffer(GL_FRAMEBUFFER, m.atlas->fbos[pass].id());
-        glViewport(0, 0, atlasW, atlasH);
-        glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-        // T2 = D in red, T1 / D = 0 in alpha; 1 in green and blue (colour, subtracted from).
-        const float terms[4] = {model::kTranslucence, 1.0f, 1.0f, 0.0f};
-        if (!plan.reuse) {
-            glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, terms);
-        } else {  // the layer keeps reused tiles: only the fresh tiles' rectangles are cleared
-            if (!m.tileClear)
-                m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
-            glDisable(GL_BLEND);
-            glUseProgram(m.tileClear.id());
-            m.tileClear.set("atlasSize", atlasSize);
-            m.tileClear.set("onScreen", 0);
-            m.tileClear.set("useOrder", 0);
-            m.tileClear.set("instanceBase", first);
-            m.tileClear.set("clearTerms", glm::vec4(terms[0], terms[1], terms[2], terms[3]));
-            glBindVertexArray(m.empty.id());
-            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
-            ++stats.drawCalls;
-        }
-
-        // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
-        const bool polygon = s.geometry == TileGeometry::Polygon;
-        if (!polygon) {
-            glEnable(GL_CULL_FACE);  // the mesh's back faces
-            glCullFace(GL_FRONT);
-        }
-        glEnable(GL_BLEND);
-        glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
-        glBlendFunc(GL_ONE, GL_ONE);
-        auto group = [&](const TilePlacement& p) {
-            return drawGroup(s, prepared.ellipsoids[p.id], p.size, plan.perPixelLight[p.id] != 0);
-        };
-        for (int k = first; k < first + count;) {
-            const int key = group(placements[k]);
-            int n = 0;
-            while (k + n < first + count && group(placements[k + n]) == key) ++n;
-            const bool cut = key >= 1000 && key < 2000;
-            const bool ray = polygon || key >= 2000;  // polygon tiles, or mesh tiles lit per pixel
-            const Program& tp = ray ? (cut ? m.tileRayCut : m.tileRay) : (cut ? m.tileCut : m.tile);
-            glUseProgram(tp.id());
-            const IndexedMesh* mesh = ray ? nullptr : &m.mesh(key % 1000);
-            glBindVertexArray(ray ? m.empty.id() : mesh->vao.id());
-            if (!polygon) ray ? glDisable(GL_CULL_FACE) : glEnable(GL_CULL_FACE);
-            // Clip distances keep the geometry in its tile (the polygon's whole-tile quad needs none).
-            const bool clip = !(ray && cut);
-            for (int c = 0; c < 4; ++c) clip ? glEnable(GL_CLIP_DISTANCE0 + c) : glDisable(GL_CLIP_DISTANCE0 + c);
-            auto draw = [&](int instances) {
-                if (ray) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
-                else glDrawElementsInstanced(GL_TRIANGLES, mesh->indexCount, GL_UNSIGNED_INT, nullptr, instances);
-                ++stats.drawCalls;
-            };
-            if (s.instanced) {
-                tp.set("instanceBase", k);
-                draw(n);
-            } else {
-                for (int i = k; i < k + n; ++i) {  // the paper: a viewport and a draw per ellipsoid
-                    glViewport(placements[i].x, placements[i].y, placements[i].size, placements[i].size);
-                    tp.set("instanceBase", i);
-                    draw(1);
-                }
-                glViewport(0, 0, atlasW, atlasH);
-            }
-            k += n;
-        }
-        for (int c = 0; c < 4; ++c) glDisable(GL_CLIP_DISTANCE0 + c);
-        glDisable(GL_CULL_FACE);
-        check("ellipsoid tile pass");
-
-        // The colour-matrix copy, all tiles of the pass in one draw (or, fused, in the composite).
-        if (!s.colourMatrixPass) {
-            first += count;
-            continue;
-        }
-        glTextureBarrier();
-        glBindTextureUnit(3, m.atlas->terms.id());
-        glBindSampler(3, 0);
-        glBlendEquation(GL_FUNC_REVERSE_SUBTRACT);
-        glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_TRUE);
-        glBindVertexArray(m.empty.id());
-        glUseProgram(m.colourMatrix.id());
-        m.colourMatrix.set("instanceBase", first);
-        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
-        ++stats.drawCalls;
-        check("colour-matrix pass");
-        first += count;
-    }
-
-    // ---- Composite over the frame: back to front, or weighted into a target of its own
-    // and resolved over the frame (the stencil fly-through is per ellipsoid: back to front).
-    const DepthSource depth = frame.hasDepth && s.flyThrough == FlyThrough::Fraction
-                                  ? m.depths.get({frameW, frameH}).source(frame, view)
-                                  : DepthSource{};
-    const bool stencil = s.flyThrough == FlyThrough::Stencil && frame.hasDepth;
-    const bool fraction = depth.texture != 0;
-    const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
+    m.drawTiles(s, plan, scene, view, stats);
     stats.tilesMs = timer.lap();
-
-    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    glEnable(GL_BLEND);
-    glBlendEquation(GL_FUNC_ADD);
-    Impl::WeightedTarget* wt = weighted ? &m.weightedTarget(frameW, frameH) : nullptr;
-    int x0w = 0, y0w = 0, x1w = 0, y1w = 0;  // the weighted target's scissor (the tiles' area)
-    if (weighted) {
-        // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
-        // the frame-sized clear and resolve were most of the weighted composite's cost.
-        float lo[2] = {1, 1}, hi[2] = {-1, -1};
-        for (const GpuTile& t : gpu)
-            for (int k = 0; k < 2; ++k) lo[k] = std::min(lo[k], t.screenRect[k]), hi[k] = std::max(hi[k], t.screenRect[k + 2]);
-        const int x0 = std::clamp(int(std::floor((lo[0] * 0.5f + 0.5f) * frameW)) - 1, 0, frameW);
-        const int y0 = std::clamp(int(std::floor((lo[1] * 0.5f + 0.5f) * frameH)) - 1, 0, frameH);
-        const int x1 = std::clamp(int(std::ceil((hi[0] * 0.5f + 0.5f) * frameW)) + 1, 0, frameW);
-        const int y1 = std::clamp(int(std::ceil((hi[1] * 0.5f + 0.5f) * frameH)) + 1, 0, frameH);
-        glEnable(GL_SCISSOR_TEST);
-        glScissor(x0, y0, std::max(x1 - x0, 0), std::max(y1 - y0, 0));
-        x0w = x0, y0w = y0, x1w = std::max(x1, x0), y1w = std::max(y1, y0);
-        glBindFramebuffer(GL_FRAMEBUFFER, wt->fbo.id());
-        glViewport(0, 0, frameW, frameH);
-        const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
-        glClearNamedFramebufferfv(wt->fbo.id(), GL_COLOR, 0, zero);
-        glClearNamedFramebufferfv(wt->fbo.id(), GL_COLOR, 1, one);
-        glBlendFunci(0, GL_ONE, GL_ONE);                  // sums
-        glBlendFunci(1, GL_ZERO, GL_ONE_MINUS_SRC_COLOR);  // product of (1 - a)
-    } else {
-        bindFrame(frame, view);
-        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    }
-    const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
-                                 : (fraction ? m.compositeFraction : m.composite);
-    cp.set("atlasTerms", 3);
-    cp.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    cp.set("albedo", float(scene.medium.albedo));
-    cp.set("sceneDepth", 5);
-    cp.set("atlasSize", atlasSize);
-    cp.set("onScreen", 1);
-    cp.set("useOrder", 1);
-    cp.set("colourMatrix", colourMatrix);
-    cp.set("forward", glm::vec3(view.forward));
-    cp.set("rayCentre", glm::vec3(view.rayCentre()));
-    cp.set("rightScaled", glm::vec3(view.rightScaled()));
-    cp.set("upScaled", glm::vec3(view.upScaled()));
-    cp.set("nearClip", float(view.camera.nearClip));
-    cp.set("weightExponent", s.weightExponent);
-    cp.set("weightReference", float(weightReferenceDepth(prepared, view)));
-    setViewFrameUniforms(cp, view, !weighted, depth);
-    glBindTextureUnit(3, m.atlas->terms.id());
-    glBindTextureUnit(5, depth.texture);
-    glBindSampler(3, m.linearClamp.id());
-    glBindSampler(5, 0);
-    glBindVertexArray(m.empty.id());
-    const int n = int(order.size());
-    if (!stencil) {
-        glUseProgram(cp.id());
-        if (s.instanced) {
-            cp.set("instanceBase", 0);
-            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, n);
-            ++stats.drawCalls;
-        } else {
-            for (int k = 0; k < n; ++k) {
-                cp.set("instanceBase", k);
-                glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
-                ++stats.drawCalls;
-            }
-        }
-    } else {
-        // Section 4.3: per ellipsoid, its front faces set the stencil where they are in front
-        // of the opaque depth; the tile is composited there, and the stencil reset.
-        const glm::mat4 viewProjection(view.projectionMatrix * viewRotation);
-        m.screenDepth.set("viewProjection", viewProjection);
-        glEnable(GL_STENCIL_TEST);
-        glStencilMask(0xFF);
-        glClearStencil(0);
-        auto clearStencil = [&] {  // the view's viewport only: other channels share the framebuffer
-            glEnable(GL_SCISSOR_TEST);
-            glScissor(view.origin.x, view.origin.y, frameW, frameH);
-            glClear(GL_STENCIL_BUFFER_BIT);
-            glDisable(GL_SCISSOR_TEST);
-        };
-        clearStencil();
-        frameDepthTest(view);
-        for (int k = 0; k < n; ++k) {
-            // A reference value of its own per ellipsoid, so that no stale stencil is reused.
-            const int ref = k % 255 + 1;
-            if (ref == 1 && k > 0) clearStencil();
-            const int t = order[k];
-            const IndexedMesh& mesh = m.mesh(meshSlices(s, int(gpu[t].atlasRect[2])));
-            glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-            glEnable(GL_DEPTH_TEST);
-            glEnable(GL_CULL_FACE);
-            glCullFace(GL_BACK);
-            glStencilFunc(GL_ALWAYS, ref, 0xFF);
-            glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
-            glUseProgram(m.screenDepth.id());
-            m.screenDepth.set("instanceBase", t);
-            glBindVertexArray(mesh.vao.id());
-            glDrawElementsInstanced(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr, 1);
-            glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-            glDisable(GL_DEPTH_TEST);
-            glDisable(GL_CULL_FACE);
-            glStencilFunc(GL_EQUAL, ref, 0xFF);
-            glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
-            glUseProgram(cp.id());
-            cp.set("instanceBase", k);
-            glBindVertexArray(m.empty.id());
-            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
-            stats.drawCalls += 2;
-        }
-    }
-    check("compositing the ellipsoid tiles");
-    if (weighted) {
-        // The resolve: colour sum(w a c) / sum(w a), opacity 1 - prod(1 - a), "over" the frame.
-        bindFrame(frame, view);  // (the scissor stays: the tiles' area, moved to the view's place)
-        glScissor(view.origin.x + x0w, view.origin.y + y0w, x1w - x0w, y1w - y0w);
-        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-        glUseProgram(m.resolve.id());
-        m.resolve.set("accumTexture", 3);
-        m.resolve.set("revealTexture", 4);
-        setViewFrameUniforms(m.resolve, view, true);
-        glBindTextureUnit(3, wt->accum.id());
-        glBindTextureUnit(4, wt->reveal.id());
-        glBindSampler(3, 0);
-        glBindSampler(4, 0);
-        glDrawArrays(GL_TRIANGLES, 0, 3);
-        ++stats.drawCalls;
-        check("resolving the weighted composite");
-    }
+    m.compositeTiles(s, plan, scene, view, frame, stats);
     stats.compositeMs = timer.lap();
     return stats;
+}
+
+const IndexedMesh& EllipsoidRenderer::Impl::mesh(int slices) {
+    auto it = meshes.find(slices);
+    if (it == meshes.end()) it = meshes.emplace(slices, makeSphere(slices)).first;
+    return it->second;
 }
 
 const std::vector<TileDebug>& EllipsoidRenderer::lastTiles() const { return impl_->lastTiles; }

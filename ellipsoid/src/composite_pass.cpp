@@ -1,0 +1,178 @@
+// The composite (section 3.6): every tile of a frame's plan from the atlas onto the frame, by
+// the settings' order: "over" back to front by centre distance (the paper), weighted and
+// order-independent (McGuire & Bavoil 2013) into a target of its own and resolved over the
+// frame, or, with the stencil fly-through, the paper's section 4.3 per ellipsoid.
+#include "compositor_impl.hpp"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace nephele {
+
+void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene,
+                                             const View& view, const HostFrame& frame, EllipsoidStats& stats) {
+    Impl& m = *this;
+    const int frameW = view.camera.width, frameH = view.camera.height;
+    const DepthSource depth = frame.hasDepth && s.flyThrough == FlyThrough::Fraction
+                                  ? m.depths.get({frameW, frameH}).source(frame, view)
+                                  : DepthSource{};
+    const bool stencil = s.flyThrough == FlyThrough::Stencil && frame.hasDepth;
+    const bool fraction = depth.texture != 0;
+    const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
+
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
+                                 : (fraction ? m.compositeFraction : m.composite);
+    cp.set("atlasTerms", 3);
+    cp.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+    cp.set("albedo", float(scene.medium.albedo));
+    cp.set("sceneDepth", 5);
+    cp.set("atlasSize", glm::vec2(plan.atlasW, plan.atlasH));
+    cp.set("onScreen", 1);
+    cp.set("useOrder", 1);
+    cp.set("colourMatrix", nephele::colourMatrix());
+    cp.set("forward", glm::vec3(view.forward));
+    cp.set("rayCentre", glm::vec3(view.rayCentre()));
+    cp.set("rightScaled", glm::vec3(view.rightScaled()));
+    cp.set("upScaled", glm::vec3(view.upScaled()));
+    cp.set("nearClip", float(view.camera.nearClip));
+    cp.set("weightExponent", s.weightExponent);
+    cp.set("weightReference", float(weightReferenceDepth(plan.prepared, view)));
+    setViewFrameUniforms(cp, view, !weighted, depth);
+    glBindTextureUnit(3, m.atlas->terms.id());
+    glBindTextureUnit(5, depth.texture);
+    glBindSampler(3, m.linearClamp.id());
+    glBindSampler(5, 0);
+    glBindVertexArray(m.empty.id());
+    if (stencil) stencilPass(s, plan, view, frame, cp, stats);
+    else if (weighted) weightedPass(s, plan, view, frame, cp, stats);
+    else overPass(s, plan, view, frame, cp, stats);
+}
+
+namespace {
+
+// The tiles in composite order: one instanced draw, or the paper's draw per ellipsoid.
+void drawInOrder(const EllipsoidSettings& s, const Program& cp, int n, EllipsoidStats& stats) {
+    glUseProgram(cp.id());
+    if (s.instanced) {
+        cp.set("instanceBase", 0);
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, n);
+        ++stats.drawCalls;
+    } else {
+        for (int k = 0; k < n; ++k) {
+            cp.set("instanceBase", k);
+            glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
+            ++stats.drawCalls;
+        }
+    }
+}
+
+}  // namespace
+
+void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
+                                            const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+    bindFrame(frame, view);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    drawInOrder(s, cp, int(plan.order.size()), stats);
+    check("compositing the ellipsoid tiles");
+}
+
+void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
+                                                const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+    const int frameW = view.camera.width, frameH = view.camera.height;
+    WeightedTarget& wt = weightedTarget(frameW, frameH);
+    // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
+    // the frame-sized clear and resolve were most of the weighted composite's cost.
+    float lo[2] = {1, 1}, hi[2] = {-1, -1};
+    for (const GpuTile& t : plan.gpu)
+        for (int k = 0; k < 2; ++k) lo[k] = std::min(lo[k], t.screenRect[k]), hi[k] = std::max(hi[k], t.screenRect[k + 2]);
+    const int x0 = std::clamp(int(std::floor((lo[0] * 0.5f + 0.5f) * frameW)) - 1, 0, frameW);
+    const int y0 = std::clamp(int(std::floor((lo[1] * 0.5f + 0.5f) * frameH)) - 1, 0, frameH);
+    const int x1 = std::max(std::clamp(int(std::ceil((hi[0] * 0.5f + 0.5f) * frameW)) + 1, 0, frameW), x0);
+    const int y1 = std::max(std::clamp(int(std::ceil((hi[1] * 0.5f + 0.5f) * frameH)) + 1, 0, frameH), y0);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(x0, y0, x1 - x0, y1 - y0);
+    glBindFramebuffer(GL_FRAMEBUFFER, wt.fbo.id());
+    glViewport(0, 0, frameW, frameH);
+    const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
+    glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 0, zero);
+    glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 1, one);
+    glBlendFunci(0, GL_ONE, GL_ONE);                  // sums
+    glBlendFunci(1, GL_ZERO, GL_ONE_MINUS_SRC_COLOR);  // product of (1 - a)
+    drawInOrder(s, cp, int(plan.order.size()), stats);
+    check("compositing the ellipsoid tiles");
+
+    // The resolve: colour sum(w a c) / sum(w a), opacity 1 - prod(1 - a), "over" the frame.
+    bindFrame(frame, view);  // (the scissor stays: the tiles' area, moved to the view's place)
+    glScissor(view.origin.x + x0, view.origin.y + y0, x1 - x0, y1 - y0);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(resolve.id());
+    resolve.set("accumTexture", 3);
+    resolve.set("revealTexture", 4);
+    setViewFrameUniforms(resolve, view, true);
+    glBindTextureUnit(3, wt.accum.id());
+    glBindTextureUnit(4, wt.reveal.id());
+    glBindSampler(3, 0);
+    glBindSampler(4, 0);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    ++stats.drawCalls;
+    check("resolving the weighted composite");
+}
+
+void EllipsoidRenderer::Impl::stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
+                                          const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+    // Section 4.3: per ellipsoid, its front faces set the stencil where they are in front
+    // of the opaque depth; the tile is composited there, and the stencil reset.
+    bindFrame(frame, view);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    const int frameW = view.camera.width, frameH = view.camera.height;
+    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
+    const glm::mat4 viewProjection(view.projectionMatrix * viewRotation);
+    screenDepth.set("viewProjection", viewProjection);
+    glEnable(GL_STENCIL_TEST);
+    glStencilMask(0xFF);
+    glClearStencil(0);
+    auto clearStencil = [&] {  // the view's viewport only: other channels share the framebuffer
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(view.origin.x, view.origin.y, frameW, frameH);
+        glClear(GL_STENCIL_BUFFER_BIT);
+        glDisable(GL_SCISSOR_TEST);
+    };
+    clearStencil();
+    frameDepthTest(view);
+    const int n = int(plan.order.size());
+    for (int k = 0; k < n; ++k) {
+        // A reference value of its own per ellipsoid, so that no stale stencil is reused.
+        const int ref = k % 255 + 1;
+        if (ref == 1 && k > 0) clearStencil();
+        const int t = plan.order[k];
+        const IndexedMesh& sphere = mesh(meshSlices(s, int(plan.gpu[t].atlasRect[2])));
+        glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+        glEnable(GL_DEPTH_TEST);
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_BACK);
+        glStencilFunc(GL_ALWAYS, ref, 0xFF);
+        glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
+        glUseProgram(screenDepth.id());
+        screenDepth.set("instanceBase", t);
+        glBindVertexArray(sphere.vao.id());
+        glDrawElementsInstanced(GL_TRIANGLES, sphere.indexCount, GL_UNSIGNED_INT, nullptr, 1);
+        glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        glDisable(GL_DEPTH_TEST);
+        glDisable(GL_CULL_FACE);
+        glStencilFunc(GL_EQUAL, ref, 0xFF);
+        glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
+        glUseProgram(cp.id());
+        cp.set("instanceBase", k);
+        glBindVertexArray(empty.id());
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
+        stats.drawCalls += 2;
+    }
+    check("compositing the ellipsoid tiles");
+}
+
+}  // namespace nephele

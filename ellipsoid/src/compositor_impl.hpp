@@ -1,0 +1,171 @@
+// The compositor's private parts, shared by its passes: the per-frame plan, the GPU tile
+// record and the renderer's state (nephele/ellipsoid.hpp is the public face). compositor.cpp
+// plans a frame; tile_pass.cpp draws the tiles into the atlas; composite_pass.cpp composites them
+// over the frame (back to front, weighted, or the paper's stencil fly-through).
+#pragma once
+
+#include "nephele/ellipsoid.hpp"
+
+#include "nephele/gardner_model.hpp"
+#include "prepared_clouds.hpp"
+#include "nephele/frame_depth.hpp"
+#include "cloud_light_textures.hpp"
+#include "light_cache.hpp"
+#include "packer.hpp"
+#include "tile_reuse.hpp"
+#include "nephele/per_view.hpp"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nephele {
+
+using namespace gl;
+
+// Mirrors `struct Tile` of shaders/tiles.glsl (std430: vec4 and mat4 only).
+struct GpuTile {
+    float centerSigma[4];
+    float axes[3][4];
+    float unit[3][4];
+    float eyeUnitAc[4];
+    float tileViewProj[16];
+    float atlasRect[4];
+    float screenRect[4];
+    float params[4];
+    float noiseOffset[4];
+    float rayCentre[4];
+    float rayX[4];
+    float rayY[4];
+    float skyChroma[4];
+    float reproject[16];  // reused tiles (params.z = 1): tile clip (x, y, 0, 1) -> the frame's clip space
+};
+static_assert(sizeof(GpuTile) == 16 * 16 + 2 * 64);
+
+inline void put(float* out, const Vec3& v, double w = 0) {
+    out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z), out[3] = float(w);
+}
+
+inline int meshSlices(const EllipsoidSettings& s, int tileSize) {
+    if (s.tessellation > 0) return s.tessellation;
+    // Vertex work is a large share of a frame on llvmpipe (the light volume is read per vertex):
+    // 8 slices up to 64 px tiles (was 32) took 1024 ellipsoids at 1280x720 from 2.1-2.25x to
+    // 1.9-2.0x the floor, 3-4 dB further from gardner-exact (48 against 52 dB on cumulus27 at
+    // 800 px), no visible change, and no pop at the tile jumps (FailureCaseGLTest). 6 slices
+    // for small tiles was faster still but popped at the 32 -> 64 px jump.
+    return tileSize <= 64 ? 8 : tileSize <= 256 ? 16 : 32;
+}
+
+// Tiles of one pass are drawn in groups, one instanced draw each: by program (cut by the
+// near plane: + 1000; a mesh tile lit per pixel, drawn as a polygon tile: 2000) and, for
+// meshes, mesh level (slices).
+inline int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize, bool perPixelLight) {
+    if (e.projection.crossesNear) return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
+    if (s.geometry == TileGeometry::Polygon) return 0;
+    return perPixelLight ? 2000 : meshSlices(s, tileSize);
+}
+
+struct FramePlan {
+    PreparedClouds prepared;
+    PackResult packed;
+    std::vector<TilePlacement> placements;  // by pass, then mesh level
+    std::vector<GpuTile> gpu;               // parallel to placements
+    std::vector<int> order;                 // GPU tile indices, back to front
+    std::vector<char> perPixelLight;        // per prepared ellipsoid: mesh tiles lit per pixel (near the sun)
+    std::vector<TilePlacement> reused;      // reuse: tiles composited from an earlier frame (after placements in gpu)
+    std::vector<glm::mat4> reproject;       // per reused tile (tile_reuse.hpp)
+    std::vector<glm::vec4> reusedRect;      // per reused tile: its quad's NDC bounds
+    bool reuse = false;                     // placements share their layers with reused tiles: clear tile by tile
+    int atlasW = 0, atlasH = 0;
+    EllipsoidStats stats;
+};
+
+struct EllipsoidRenderer::Impl {
+    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse);
+
+    Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
+    Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
+    Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
+    std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
+    VertexArray empty;
+    std::map<int, IndexedMesh> meshes;   // by slices
+    Texture falloff, noise;
+    Sampler linearClamp;
+    CloudRadianceCache lightCache;      // the clouds' radiance grids
+    CloudLightTextures lightTextures;   // ... on the GPU
+    std::vector<PlacedRadiance> light;  // updateLights(): the scene clouds' grids, one each
+    Buffer tiles, order;
+    std::size_t tilesCapacity = 0, orderCapacity = 0;
+    std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
+
+    int lightUploads = 0;    // grids uploaded since the last render (stats)
+    int lightsComputed = 0;  // grids made since the last render (stats)
+    RadianceUpdateStats lightStats;  // the last update's
+    bool lightsDriven = false;  // a host calls updateLights(): render() never waits for a grid
+    void updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye, bool background,
+                      bool takeFinished = true);
+
+    // The atlas: one layer per pass; one per atlas size (the frame's by default), kept; with
+    // reuse one per view size and place (each display channel keeps its own tiles).
+    struct Atlas {
+        Texture terms;  // rgba: T2 (1 - g), sun light, sky light (each times the noise modulation), eq. (2)
+        int width = 0, height = 0, layers = 0;
+        std::vector<Framebuffer> fbos;
+        TileReuse reuse;  // EllipsoidSettings::reuse: the tiles that live in it
+    };
+    PerViewCache<Atlas, glm::ivec4> atlases;
+    Atlas* atlas = nullptr;  // plan()'s
+    PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
+    // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
+    struct WeightedTarget {
+        Texture accum, reveal;
+        Framebuffer fbo;
+    };
+    PerViewCache<WeightedTarget> weightedTargets;
+
+    WeightedTarget& weightedTarget(int w, int h) {
+        WeightedTarget& t = weightedTargets.get({w, h});
+        if (t.fbo) return t;
+        // 32-bit floats: the weights span (tRef / t)^k over the whole depth range (half floats
+        // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
+        t.accum = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.accum.id(), 1, GL_RGBA32F, w, h);
+        checkAllocation("the weighted composite's RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
+        t.reveal = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(t.reveal.id(), 1, GL_R32F, w, h);
+        checkAllocation("the weighted composite's R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
+        t.fbo = Framebuffer::create();
+        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.accum.id(), 0);
+        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, t.reveal.id(), 0);
+        const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
+        checkFramebuffer(t.fbo.id(), "the weighted composite's target");
+        return t;
+    }
+
+    const IndexedMesh& mesh(int slices);  // the circumscribed sphere of `slices` (made once)
+
+    // The passes of a frame, after plan(): the tiles into the atlas (tile_pass.cpp), then the
+    // atlas over the frame (composite_pass.cpp). Each adds its draws to `stats`.
+    void drawTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
+                   EllipsoidStats& stats);
+    void compositeTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
+                        const HostFrame& frame, EllipsoidStats& stats);
+    // compositeTiles() by order: "over" back to front, weighted (into its target, then resolved),
+    // or the paper's stencil fly-through; `cp` is the composite program, its uniforms set.
+    void overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
+                       const Program& cp, EllipsoidStats& stats);
+    void weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
+                           const Program& cp, EllipsoidStats& stats);
+    void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame, const Program& cp,
+                          EllipsoidStats& stats);
+};
+
+// The colour matrix (section 3.5): red / D -> alpha, what the colour-matrix pass subtracts.
+inline glm::mat4 colourMatrix() {
+    glm::mat4 m(0.0f);
+    m[0][3] = 1.0f / model::kTranslucence;  // column 0 (red) -> row 3 (alpha)
+    return m;
+}
+
+}  // namespace nephele
