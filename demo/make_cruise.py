@@ -15,12 +15,13 @@ SPEED = 70.0  # m/s
 
 
 def field(rng):
-    """150 cumulus on a jittered 15 x 10 grid, 7.5 x 5 km, bases 1100-1500 m."""
+    """150 cumulus on a jittered 15 x 10 grid, 1.2 km apart (18 x 12 km): clouds about 0.8 km
+    across, a fair-weather field of about a third cover, centres at 1300-1600 m."""
     entries = []
     for j in range(10):
         for i in range(15):
-            cx = -3750 + 500 * (i + 0.5) + rng.uniform(-150, 150)
-            cy = -1000 + 500 * (j + 0.5) + rng.uniform(-150, 150)
+            cx = -9000 + 1200 * (i + 0.5) + rng.uniform(-300, 300)
+            cy = -6000 + 1200 * (j + 0.5) + rng.uniform(-300, 300)
             cz = rng.uniform(1300, 1600)
             r = rng.uniform(0.7, 1.2)
             entries.append({"type": "cumulus", "center": [round(cx, 1), round(cy, 1), round(cz, 1)],
