@@ -114,6 +114,7 @@ struct CruiseBenchOptions {
     double fps = 10;              // frames per second of scene time
     int width = 1280, height = 720;
     bool quick = false;           // approach.json's first second only (for tests)
+    std::vector<std::string> flights;  // only these scene files of the five (empty: all)
     GlBackend backend = GlBackend::Egl;
 };
 int runCruiseBench(const CruiseBenchOptions& options);

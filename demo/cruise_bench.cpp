@@ -187,6 +187,15 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         {"layer_flight.json", "layer_flight.json"},
     };
     if (o.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
+    if (!o.flights.empty()) {
+        for (const std::string& f : o.flights)
+            if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.scene == f; })) {
+                std::cerr << "nephele: bench --cruise: --flights: no flight '" << f
+                          << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json)\n";
+                return 2;
+            }
+        std::erase_if(flights, [&](const Flight& x) { return std::find(o.flights.begin(), o.flights.end(), x.scene) == o.flights.end(); });
+    }
     std::string renderer;
     try {
         ContextOptions co;

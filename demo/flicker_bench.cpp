@@ -97,6 +97,13 @@ int runFlickerBench(const FlickerOptions& o) {
     else
         add("ellipsoid", "weighted composite (as --method auto)", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::Weighted; });
+    // Tiles that last (EllipsoidSettings::reuse): the default composite, and auto's (weighted).
+    add("ellipsoid", "--reuse on", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.reuse = true; });
+    if (!o.quick)
+        add("ellipsoid", "weighted composite, --reuse on (as --method auto)", Method::Ellipsoid, [](RenderOptions& r) {
+            r.ellipsoid.order = CompositeOrder::Weighted;
+            r.ellipsoid.reuse = true;
+        });
     // The model itself, whole ellipsoids sorted by centre distance as the tiles must be: its
     // excess over the per-pixel reference is the popping of order flips alone.
     add("gardner-exact", "per-ellipsoid order", Method::GardnerExact, [](RenderOptions&) {});

@@ -51,8 +51,10 @@ void drawHud(const FlyApp::State& s) {
                 st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs);
     if (method == FlyMethod::Raymarch) ImGui::Text("    ray-marched volume %.1f", st.volumeMs);
     if (compositor)
-        ImGui::Text("ellipsoids %d: %d visible, %d culled | tiles %d rendered, 0 reused | passes %d | atlas use %.0f%%",
-                    e.ellipsoids, e.visible, e.ellipsoids - e.visible, e.visible, e.passes, 100 * e.utilisation);
+        ImGui::Text("ellipsoids %d: %d visible, %d culled | tiles %d rendered (%d without an image), %d reused%s | passes %d | "
+                    "atlas use %.0f%%",
+                    e.ellipsoids, e.visible, e.ellipsoids - e.visible, e.tilesRendered, e.tilesMust, e.tilesReused,
+                    e.atlasRepacked ? ", atlas repacked" : "", e.passes, 100 * e.utilisation);
     if (method == FlyMethod::Auto && st.layered.sceneLayers > 0)
         ImGui::Text("near LOD: %d cells, %d cumulus (%d fading), %d ellipsoids | layers: %d instances in %d draws",
                     st.nearLod.cells, st.nearLod.clouds, st.nearLod.fading, st.nearLod.ellipsoids, st.layered.instances,

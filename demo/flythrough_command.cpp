@@ -83,7 +83,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     FrameRenderer renderer(o.render);
     FrameChanges changes;
     nlohmann::json ms = nlohmann::json::array(), tiles = nlohmann::json::array(), tilePixels = nlohmann::json::array();
-    nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array();
+    nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array(), grown = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
         const Frame f = renderer.render(p.scene, t0 + k / o.fps);
         ms.push_back(std::round(f.ms * 1000) / 1000);
@@ -91,6 +91,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
         tilePixels.push_back(f.stats.tilePixelsRendered);
         must.push_back(f.stats.tilesMust);
         if (f.stats.atlasRepacked) repacked.push_back(k);
+        if (f.stats.atlasGrown) grown.push_back(k);
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04d.png", k);
         writePng((folder / name).string(), f.color, Encoding::Srgb);
@@ -104,7 +105,8 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
                               {"reuse", o.render.ellipsoid.reuse},
                               {"frame_ms", ms},               {"tiles_rendered", tiles},
                               {"tile_pixels_rendered", tilePixels},
-                              {"tiles_without_image", must},  {"atlas_repacked_frames", repacked}};
+                              {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},
+                              {"atlas_grown_frames", grown}};
     if (!p.reference.empty()) {
         summary["reference_mean_change"] = p.reference["mean_change"];
         summary["flicker_index"] = changes.mean() - p.reference["mean_change"].get<double>();

@@ -291,6 +291,7 @@ struct BenchArgs {
     ScaleBenchOptions sbo;
     AccuracyOptions ao;
     FlickerOptions flo;
+    std::vector<std::string> cruiseFlights;
     CLI::App* cmd = nullptr;
 };
 
@@ -316,6 +317,7 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_flag("--cruise", b.cruise,
                     "Instead: --reuse on against off on flights (a 4000-ellipsoid cruise, a sharp turn, approach, flythrough, "
                     "layer_flight): ms per frame, tiles rendered, PSNR against every tile fresh");
+    bench->add_option("--flights", b.cruiseFlights, "--cruise: only these flights (scene file names)");
     bench->add_flag("--scale", b.scale,
                     "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
     bench->add_option("--scale-counts", b.sbo.counts, "--scale: ellipsoid counts")
@@ -399,6 +401,7 @@ int runBenchArgs(BenchArgs& b) {
         CruiseBenchOptions cbo;
         cbo.outDir = bo.outDir, cbo.readme = bo.readme, cbo.scenesDir = bo.scenesDir, cbo.backend = bo.backend;
         cbo.quick = b.quick;
+        cbo.flights = b.cruiseFlights;
         if (b.cmd->count("--fps") > 0) cbo.fps = b.flo.fps;
         if (widthGiven) cbo.width = bo.width, cbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
         if (heightGiven) cbo.height = bo.height;

@@ -441,7 +441,10 @@ TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
     gust.horizontalWindSpeed = 25, gust.windDirection = 200;
     weather.apply(gust);
     sky.update(0.0, weather, view.eye);
-    EXPECT_EQ(draw().pixels, before.pixels);
+    // The same frame: the tiles reused from the frame before (SkyRenderer's default) are
+    // reprojected to the same view, which rounds differently from the screen rectangle by far
+    // less than a step of 8 bits.
+    EXPECT_LT(compareImages(draw(), before, 1.0).maxAbs, 1e-4);
     sky.update(10.0, weather, view.eye);  // then it moves with the new wind
     EXPECT_GT(compareImages(draw(), before, 1.0).meanAbs, 1e-3);
 }
@@ -492,6 +495,10 @@ TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
     sky.waitForBackgroundWork();
     const SkyUpdateStats later = sky.update(0.0, weather, view.eye);
     EXPECT_EQ(later.lightStandIns, 0);
+    // With tiles that last (SkyRenderer's default) the new light reaches the tiles over a few
+    // frames, within the reuse budget: draw until a frame renders no tile.
+    for (int k = 0; k < 50 && sky.draw(viewDescOf(view, target.fbo.id())).ellipsoids.tilesRendered > 0; ++k) {
+    }
     const Image after = draw();
     EXPECT_GT(compareImages(during, before, 1.0).meanAbs, 1e-4) << "the new sun's single scattering shows at once";
     EXPECT_GT(compareImages(after, during, 1.0).meanAbs, 1e-5) << "then the new grids";

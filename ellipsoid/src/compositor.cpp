@@ -103,6 +103,8 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
                                              fused + "#define FRACTION 1\n");
     }
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    if (s.reuse)  // built now: a first reuse frame that compiled it stalled
+        m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
     m.empty = VertexArray::create();
     HostStateScope scope;  // the uploads below see a tightly packed pixel store whatever the host set
 
@@ -225,7 +227,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     } else {
         ReuseSettings rs;
         rs.atlasWidth = atlasW, rs.atlasHeight = atlasH, rs.frameWidth = frameW, rs.frameHeight = frameH;
-        rs.minTile = minTile, rs.maxTile = maxTile, rs.budgetLayers = maxPasses;
+        rs.minTile = minTile, rs.maxTile = maxTile, rs.budgetLayers = maxPasses, rs.layers = atlas.layers;
         rs.maxLayers = std::max(1, std::min(int(maxLayers), std::max(4 * maxPasses, 64)));
         rs.errorPixels = s.reuseErrorPixels, rs.budget = s.reuseBudget;
         ReusePlan rp = atlas.reuse.plan(rs, scene, view, prepared, light);
@@ -331,19 +333,19 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         // A power of two of layers, 8 at least (within the memory budget): remaking it costs a
         // frame about 200 ms at 1280x720 on llvmpipe (bench --weather: 3 -> 5 -> 8 layers as
         // near clouds came into view stalled two frames), so it is made with room to grow.
-        const int layers =
-            std::max(packed.passes, std::min(maxPasses, std::max(kMinAtlasLayers, int(std::bit_ceil(unsigned(packed.passes))))));
+        // With reuse, twice that: its tiles stay within the layers it has until a repack.
+        const int room = int(std::bit_ceil(unsigned(packed.passes))) * (reuse ? 2 : 1);
+        const int layers = std::max(packed.passes, std::min(maxPasses, std::max(kMinAtlasLayers, room)));
         Texture terms = Texture::create(GL_TEXTURE_2D_ARRAY);
+        out.stats.atlasGrown = true;
         checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, layers);
         glTextureStorage3D(terms.id(), 1, termsFormat, atlasW, atlasH, layers);
         checkAllocation("the ellipsoid atlas (" + std::to_string(atlasW) + "x" + std::to_string(atlasH) + ", " +
                             std::to_string(layers) + " layers)",
                         std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(layers) *
                             (termsFormat == GL_RGBA16F ? 8 : 4));
-        // Reused tiles keep their images: the old layers are copied into the new atlas.
-        if (reuse && atlas.layers > 0 && !out.reused.empty())
-            glCopyImageSubData(atlas.terms.id(), GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, terms.id(), GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0,
-                               atlasW, atlasH, atlas.layers);
+        // (With reuse the atlas grows only when it was packed anew: no tile's image is lost.)
+        if (reuse && !out.reused.empty()) throw std::logic_error("ellipsoid atlas: grown while tiles are reused");
         atlas.terms = std::move(terms);
         atlas.layers = layers;
         atlas.fbos.clear();

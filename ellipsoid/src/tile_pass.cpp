@@ -57,8 +57,6 @@ void EllipsoidRenderer::Impl::drawTiles(const EllipsoidSettings& s, const FrameP
         if (!plan.reuse) {
             glClearNamedFramebufferfv(m.atlas->fbos[pass].id(), GL_COLOR, 0, terms);
         } else {  // the layer keeps reused tiles: only the fresh tiles' rectangles are cleared
-            if (!m.tileClear)
-                m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
             glDisable(GL_BLEND);
             glUseProgram(m.tileClear.id());
             m.tileClear.set("atlasSize", atlasSize);

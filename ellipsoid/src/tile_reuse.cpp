@@ -20,6 +20,10 @@ constexpr double kPhaseChange = 0.03;
 // A repack leaves this share of the memory budget's layers free, so that the frames after it
 // find room for the tiles that grow without packing again.
 constexpr double kRepackFill = 0.8;
+// A tile whose geometric error reaches this many times the threshold is rendered whatever the
+// budget: the budget spreads work over frames, but never lets a tile drift this far (the
+// approach into a cumulus fell to 33 dB from fresh tiles without it).
+constexpr double kMustError = 8;
 // The priority of a tile whose light changed (a new sun, a grid finished): above any geometric
 // error, so that a weather change is caught up first, largest on screen first.
 constexpr double kLightChanged = 1000;
@@ -128,9 +132,14 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
             px += glm::length(e.shape.center - L.centre) * r / rMax;
         }
         c.error = px / s.errorPixels;
-        const double phase = sunPhase(e.shape.center, view, scene);
-        c.error = std::max(c.error, std::abs(phase / L.phase - 1) / kPhaseChange);
+        // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
+        if (L.light == c.light)
+            c.error = std::max(c.error, std::abs(sunPhase(e.shape.center, view, scene) / L.phase - 1) / kPhaseChange);
+        if (c.error >= kMustError) c.must = true;  // before the light's priority: that one may wait
         if (c.need > L.place.size) c.error = std::max(c.error, 1.0 + std::log2(double(c.need) / L.place.size));
+        // Two sizes too large: sixteen times the atlas area it needs, rendered again smaller
+        // when the budget allows (its image is still right meanwhile).
+        if (4 * c.need <= L.place.size) c.error = std::max(c.error, 1.0);
         if (L.light != c.light) c.error = std::max(c.error, kLightChanged + r);
     }
 
@@ -182,7 +191,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         Candidate& c = cands[std::size_t(i)];
         if (c.live && c.live->place.pass >= 0) continue;
         const TilePlacement place = allocator_->allocate(c.need);
-        if (place.pass < 0 || place.pass >= s.budgetLayers) {
+        if (place.pass < 0 || place.pass >= std::min(s.layers, s.budgetLayers)) {
             if (place.pass >= 0) allocator_->free(place);
             fits = false;
             break;

@@ -27,6 +27,9 @@ struct ReuseSettings {
     int frameWidth = 0, frameHeight = 0;  // px
     int minTile = 8, maxTile = 512;       // px, powers of two (maxTile fits the atlas)
     int budgetLayers = 1;                 // the atlas layers the memory budget allows
+    int layers = 0;                       // the atlas texture's layers now: tiles stay within them between
+                                          // repacks (a larger texture is made only when packing anew, when
+                                          // every tile is rendered anyway, so nothing is copied)
     int maxLayers = 1;                    // the most the allocator may use (GL's limit)
     double errorPixels = 0.5;             // EllipsoidSettings::reuseErrorPixels
     double budget = 1.0;                  // EllipsoidSettings::reuseBudget

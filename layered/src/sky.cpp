@@ -19,6 +19,7 @@ LayeredSettings autoLayeredSettings(LayeredSettings base) {
 
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
     base.order = CompositeOrder::Weighted;
+    base.reuse = true;
     return base;
 }
 

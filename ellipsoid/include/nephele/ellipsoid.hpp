@@ -125,6 +125,7 @@ struct EllipsoidStats {
     int tilesMust = 0;              // reuse: of tilesRendered, those with no usable image (new, cut by the near
                                     // plane, a new shape, a part come into view)
     bool atlasRepacked = false;     // reuse: the atlas was too full or fragmented and packed anew (all fresh)
+    bool atlasGrown = false;        // the atlas texture was made anew with more layers this frame (a stall)
     int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)

@@ -29,7 +29,8 @@ LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 
 // The compositor's settings for auto: the weighted, order-independent composite, since the
 // eye flies through overlapping near cumulus, where back to front pops as the order flips
-// (see the README, "Composite order").
+// (see the README, "Composite order"); and tiles that last across frames (reuse, see
+// EllipsoidSettings::reuse and the README, "Tiles that last").
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base = {});
 
 // Near-LOD cells made per update() at most (nearest first): a change of a layer remakes its
