@@ -141,7 +141,7 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
           "same frame again, with nothing stale: what a frame costs with no tile rendered (the composite, the planning "
           "and, on layer_flight, the layered sky). Tiles without an image: rendered whatever the budget (new in view, a "
           "part come into view, cut by the near plane).\n\n";
-    md << "| flight | frames | ms amortised on / off | on × faster | reuse floor ms | worst ms on (off's median) | tiles "
+    md << "| flight | frames | ms amortised on / off | on × faster | reuse floor ms | worst ms on / off (off's median) | tiles "
           "rendered a frame on (without an image) / off (visible) | tile Mpx a frame on / off | atlas repacks | PSNR min / "
           "median dB | change on − off | worst frame change on / off | frame 0 ms on / off |\n"
           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
@@ -160,7 +160,7 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
         }
         md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / " << fmt("%.1f", mean(offMs))
            << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat)))
-           << " | " << fmt("%.1f", maxOf(onMs)) << " (" << fmt("%.1f", median(offMs)) << ") | "
+           << " | " << fmt("%.1f", maxOf(onMs)) << " / " << fmt("%.1f", maxOf(offMs)) << " (" << fmt("%.1f", median(offMs)) << ") | "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.must; }))) << ") / "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.offTiles; }))) << " ("
