@@ -17,13 +17,15 @@ namespace {
 // The phase's relative change towards the eye that makes a tile stale: the single scattering
 // is a share of a tile's light, so 3% of it stays below the image's 8 bits in most tiles.
 constexpr double kPhaseChange = 0.03;
+// The same for the extinction (a near-LOD cloud fading in or out with the eye's distance).
+constexpr double kSigmaChange = 0.03;
 // A repack leaves this share of the memory budget's layers free, so that the frames after it
 // find room for the tiles that grow without packing again.
 constexpr double kRepackFill = 0.8;
-// A tile whose geometric error reaches this many times the threshold is rendered whatever the
-// budget: the budget spreads work over frames, but never lets a tile drift this far (the
-// approach into a cumulus fell to 33 dB from fresh tiles without it).
-constexpr double kMustError = 8;
+// A tile whose error (but a change of light) reaches this many times the threshold is rendered
+// whatever the budget: the budget spreads work over frames, but never lets a tile drift this
+// far (the approach into a cumulus fell to 33 dB from fresh tiles without it, 39.3 dB at 8).
+constexpr double kMustError = 6;
 // The priority of a tile whose light changed (a new sun, a grid finished): above any geometric
 // error, so that a weather change is caught up first, largest on screen first.
 constexpr double kLightChanged = 1000;
@@ -86,7 +88,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         const std::uint64_t key = Fingerprint().add(id).add(ordinal[id]++).value();
         Candidate& c = cands[i];
         c.index = int(i), c.key = key;
-        c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.sigma).add(e.noiseOffset).value();
+        c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.noiseOffset).value();
         const PlacedRadiance& pl = light[std::size_t(e.cloud)];
         c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.lo - e.shape.center).add(pl.extent).value();
         c.need = tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, limit_);
@@ -94,12 +96,13 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         c.must = true;
         auto it = live_.find(key);
         c.live = it == live_.end() ? nullptr : &it->second;
-        if (!c.live || p.crossesNear || c.live->shape != c.shape) continue;
+        if (!c.live || p.crossesNear || !c.live->reusable || c.live->shape != c.shape) continue;
         Live& L = *c.live;
         // The reprojection: tile clip (x, y) -> the ray rc + x rx + y ry from the eye it was
         // rendered from -> its point on the plane through the centre facing that eye, moved with
         // the ellipsoid -> the frame's clip space. Homogeneous, so one matrix.
         const double dist = glm::length(L.eyeFromCentre);
+        if (!(dist > 0)) continue;
         const Vec3 nrm = -L.eyeFromCentre / dist;
         const Vec3 a = L.eyeFromCentre + e.shape.center - view.eye;
         auto column = [&](const Vec3& r) { return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r)); };
@@ -135,6 +138,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
         if (L.light == c.light)
             c.error = std::max(c.error, std::abs(sunPhase(e.shape.center, view, scene) / L.phase - 1) / kPhaseChange);
+        c.error = std::max(c.error, std::abs(e.sigma / L.sigma - 1) / kSigmaChange);
         if (c.error >= kMustError) c.must = true;  // before the light's priority: that one may wait
         if (c.need > L.place.size) c.error = std::max(c.error, 1.0 + std::log2(double(c.need) / L.place.size));
         // Two sizes too large: sixteen times the atlas area it needs, rendered again smaller
@@ -243,7 +247,8 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         Candidate& c = cands[std::size_t(i)];
         const PreparedEllipsoid& e = prepared.ellipsoids[std::size_t(i)];
         Live& L = *c.live;
-        L.shape = c.shape, L.light = c.light;
+        L.shape = c.shape, L.light = c.light, L.sigma = e.sigma;
+        L.reusable = !e.projection.crossesNear;
         L.eyeFromCentre = view.eye - e.shape.center;
         L.centre = e.shape.center;
         L.pixelRadius = pixelRadiusOf(e.projection);

@@ -62,7 +62,8 @@ public:
 private:
     struct Live {
         TilePlacement place;         // its atlas place (id unused)
-        std::uint64_t shape = 0;     // radii, axes, density, noise offset
+        std::uint64_t shape = 0;     // radii, axes, noise offset
+        double sigma = 0;            // extinction * density * the cloud's weight (1/m)
         std::uint64_t light = 0;     // the grid, its placement, the sun, the medium
         Vec3 eyeFromCentre{0.0};     // eye - centre when rendered (m)
         Vec3 centre{0.0};            // m
@@ -70,6 +71,7 @@ private:
         double phase = 0;            // the sun's phase towards the eye at its centre
         Vec3 rc{0.0}, rx{0.0}, ry{0.0};
         std::uint64_t seen = 0;      // the last frame it was visible
+        bool reusable = false;       // rendered wholly beyond the near plane (a cut tile cannot be reprojected)
     };
     std::unique_ptr<TileAllocator> allocator_;
     ReuseSettings allocatedFor_;

@@ -95,14 +95,14 @@ struct EllipsoidSettings {
     // until its error reaches reuseErrorPixels. The error, in pixels of the current frame: the
     // ellipsoid's pixel radius times the angle the eye has moved around its centre (the parallax
     // inside it), plus the change of its pixel radius, plus (with noise) how far the wind carried
-    // it through the noise; also reached when the sun's phase at the view direction has changed by
-    // more than 3%, or the tile is magnified past its size. A tile whose light changed (a new
-    // sun, a new grid) is re-rendered worst first like the others; tiles with nothing in the
-    // atlas yet (new in view, a new shape) and tiles cut by the near plane are always rendered.
-    // Re-renders of tiles that have an image are bounded to reuseBudget x the frame's pixels
-    // of tile area a frame, largest error first (the worst one always, even past the budget;
-    // 0: none, images are only replaced when they cannot serve): no frame stalls when
-    // everything changes at once.
+    // it through the noise; also reached when the sun's phase towards the eye or the extinction
+    // (a near-LOD cloud fading) has changed by more than 3%, or the tile is magnified past its
+    // size. Stale tiles are rendered again worst first within reuseBudget x the frame's pixels
+    // of tile area a frame (the worst one always; 0: none), so that no frame stalls when
+    // everything changes at once; a tile whose light changed (a new sun, a new grid) ranks above
+    // the others and waits its turn. Always rendered, whatever the budget: tiles with nothing in
+    // the atlas yet (new in view, a new shape), tiles cut by the near plane or with more of them
+    // in view than they hold, and tiles whose error reached 6 x the threshold.
     bool reuse = false;
     double reuseErrorPixels = 0.5;  // > 0
     double reuseBudget = 1.0;       // >= 0: tile pixels a frame, in frames' pixels
