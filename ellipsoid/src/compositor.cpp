@@ -238,7 +238,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         out.packed.passes = rp.layers;
         out.packed.utilisation = {rp.utilisation};
         stats.maxTile = rp.maxTile;
-        stats.tilesMust = rp.reset ? int(prepared.ellipsoids.size()) : rp.must;
+        stats.tilesMust = rp.must;
         stats.atlasRepacked = rp.reset;
     }
     const PackResult& packed = out.packed;
@@ -295,9 +295,10 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         };
         const Vec3 rc = nearPoint(0, 0);
         put(t.rayCentre, rc);
-        put(t.rayX, nearPoint(1, 0) - rc);
-        put(t.rayY, nearPoint(0, 1) - rc);
-        if (fresh && reuse) atlas.reuse.rendered(tp.id, rc, nearPoint(1, 0) - rc, nearPoint(0, 1) - rc);
+        const Vec3 rx = nearPoint(1, 0) - rc, ry = nearPoint(0, 1) - rc;
+        put(t.rayX, rx);
+        put(t.rayY, ry);
+        if (fresh && reuse) atlas.reuse.rendered(tp.id, rc, rx, ry);
         t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
         if (fresh) {
             t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);

@@ -78,6 +78,10 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         glm::dmat4 reproject;
         glm::dvec4 rect;
     };
+    auto sizeAt = [&](std::size_t i, int limit) {
+        const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
+        return tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, limit);
+    };
     std::vector<Candidate> cands(n);
     std::unordered_map<std::uint64_t, int> ordinal;  // identical keys in one frame (a hostile scene)
     for (std::size_t i = 0; i < n; ++i) {
@@ -91,7 +95,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.noiseOffset).value();
         const PlacedRadiance& pl = light[std::size_t(e.cloud)];
         c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.lo - e.shape.center).add(pl.extent).value();
-        c.need = tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, limit_);
+        c.need = sizeAt(i, limit_);
         c.error = 0;
         c.must = true;
         auto it = live_.find(key);
@@ -207,7 +211,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         // The atlas is too full or too fragmented: packed anew, everything rendered (as without
         // reuse), the largest tiles halved until the memory budget holds.
         out.reset = true;
-        live_.clear();
+        out.must = int(n);
         for (Candidate& c : cands) c.live = nullptr;
         render.clear();
         for (std::size_t i = 0; i < n; ++i) render.push_back(int(i));
@@ -216,10 +220,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         for (int limit = s.maxTile;; limit /= 2) {
             allocator_->clear();
             live_.clear();
-            for (Candidate& c : cands)
-                c.need = tileSizeFor(std::max(prepared.ellipsoids[std::size_t(c.index)].projection.pixelWidth,
-                                              prepared.ellipsoids[std::size_t(c.index)].projection.pixelHeight),
-                                     s.minTile, limit);
+            for (Candidate& c : cands) c.need = sizeAt(std::size_t(c.index), limit);
             std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
             bool all = true;
             for (int i : render) {

@@ -44,7 +44,7 @@ struct ReusePlan {
     double utilisation = 0;              // tile area in use / the layers' area
     int maxTile = 0;                     // the largest tile size allowed this frame
     bool reset = false;                  // the atlas was packed anew (everything fresh)
-    int must = 0;                        // fresh tiles that had no usable image
+    int must = 0;                        // fresh tiles that had no usable image (all of them after a reset)
 };
 
 class TileReuse {
