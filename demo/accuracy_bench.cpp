@@ -588,8 +588,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
                                                             {Kind::Raymarch, "default"},
                                                             {Kind::GardnerExact, ""},
                                                             {Kind::PathTrace, ""}};
-            for (const auto& [k, setting] : columns) {
-                const auto it = std::find_if(results.begin(), results.end(), [&](const Result& r) {
+            for (const auto& column : columns) {
+                const auto& [k, setting] = column;
+                const auto it = std::find_if(results.begin(), results.end(), [&, k = k, &setting = setting](const Result& r) {
                     return r.noise == noiseMode && r.caseName == c.name && r.kind == k && (setting.empty() || r.setting == setting);
                 });
                 md << " | " << (it == results.end() ? std::string("—") : fmt("%.1f%%", 100 * it->relRmse) + " / " + fmt("%.1f", it->ms));

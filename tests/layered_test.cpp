@@ -88,18 +88,27 @@ TEST(LayeredTest, SkyTablesConserveEnergyInAWhiteFurnace) {
     const LightingVolume v = precomputeLighting(s, p);
     const LayerLightTables& t = v.tables;
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
-    double sum = 0, worst = 0;
+    double sum = 0, worst = 0, squares = 0;
     for (std::size_t n = 0; n < nodes; ++n) {
         const glm::vec4 a = t.sky[n], b = t.sky[2 * nodes + n];
         const double phi0 = (a.x + b.x) / (4 * kPi);
         sum += phi0;
+        squares += (phi0 - 1) * (phi0 - 1);
         worst = std::max(worst, std::abs(phi0 - 1));
         EXPECT_NEAR((a.y + b.y) / (4 * kPi), 0, 0.15) << n;   // Monte Carlo noise of the nodes' few scores
         EXPECT_NEAR((a.z + b.z) / (4 * kPi), 0, 0.15) << n;
     }
-    std::printf("[ figure ] white furnace: mean fluence / 4 pi %.4f, worst node %.3f off\n", sum / nodes, worst);
+    const double rms = std::sqrt(squares / nodes);
+    std::printf("[ figure ] white furnace: mean fluence / 4 pi %.4f, rms %.3f, worst node %.3f off\n", sum / nodes, rms,
+                worst);
     EXPECT_NEAR(sum / nodes, 1.0, 0.03);
-    EXPECT_LT(worst, 0.3);
+    // The nodes' noise, as a whole and at the worst node. Both are properties of one draw of the
+    // noise, not of the tables: the photons' paths change with the last bit of a sine or a log,
+    // and another compiler's code draws another (same seeds; GCC -O2: rms 0.046, worst 0.224;
+    // Clang -O1 + ASan: 0.076, 0.448). The bounds sit 1.5x and 1.3x over the worse draw: a
+    // table gone wrong is off by far more.
+    EXPECT_LT(rms, 0.12);
+    EXPECT_LT(worst, 0.6);
 }
 
 TEST(LayeredTest, SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun) {
@@ -157,7 +166,7 @@ TEST(LayeredTest, FrameTablesFollowTheSunAndTheSky) {
     black.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
     const LayerFrameTables b = layerFrameTables(t, bright), k = layerFrameTables(t, black);
     for (std::size_t n = 0; n < nodes; n += 5) {
-        EXPECT_NEAR(b.sky[n].x, 2 * f.sky[n].x, 1e-5 * (1 + f.sky[n].x));
+        EXPECT_NEAR(b.sky[n].x, 2 * f.sky[n].x, 1e-5 * (1 + std::abs(f.sky[n].x)));  // (zenith - horizon can be < 0)
         EXPECT_NEAR(b.sun[n].w, 2 * f.sun[n].w, 1e-5 * (1 + std::abs(f.sun[n].w)));
         EXPECT_EQ(k.sky[n], glm::vec4(0.0f));
     }

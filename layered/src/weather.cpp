@@ -69,8 +69,9 @@ void Weather::validate() const {
     const double sun = glm::length(this->sun.direction);
     if (!(std::isfinite(sun) && sun > 0.5 && sun < 2))
         throw std::invalid_argument("weather: the sun direction must be a unit vector (towards the sun)");
-    for (const auto& [id, l] : layers) {
-        const Layer& y = l.layer;
+    for (const auto& entry : layers) {
+        const auto id = entry.first;  // not a structured binding: clang 14 cannot capture one
+        const Layer& y = entry.second.layer;
         auto bad = [&](const std::string& what) {
             throw std::invalid_argument("weather, layer " + std::to_string(id) + ": " + what);
         };
