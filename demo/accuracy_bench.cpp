@@ -84,6 +84,7 @@ std::vector<Config> sweep(bool quick) {
         ell("photons x 4", [](EllipsoidSettings& s) { s.light.sunPhotons *= 4, s.light.skyPhotons *= 4; });
         ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
         ell("weighted composite", [](EllipsoidSettings& s) { s.order = CompositeOrder::Weighted; });
+        ell("moment composite", [](EllipsoidSettings& s) { s.order = CompositeOrder::Moments; });
         ray("step 10 m", [](RaymarchSettings& s) { s.step = 10; });
         ray("step 50 m", [](RaymarchSettings& s) { s.step = 50; });
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
@@ -256,6 +257,7 @@ std::vector<ComponentRow> measureComponents(const Scene& scene, const View& view
     };
     add("ellipsoid", gpu(ellipsoid(CompositeOrder::PerEllipsoid)));
     add("ellipsoid, weighted (auto)", gpu(ellipsoid(CompositeOrder::Weighted)));
+    add("ellipsoid, moments", gpu(ellipsoid(CompositeOrder::Moments)));
     add("raymarch", gpu(raymarch));
     add("gardner-exact", exact);
     return rows;

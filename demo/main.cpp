@@ -89,9 +89,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
     a.compositeOpt = cmd->add_option("--composite", a.composite,
-                    "back-to-front (the paper: whole tiles by centre distance; pops when the order flips) or weighted "
-                    "(order-independent, weighted by each pixel's depth); default back-to-front, auto weighted")
-        ->check(CLI::IsMember({"back-to-front", "weighted"}));
+                    "back-to-front (the paper: whole tiles by centre distance; pops when the order flips), weighted "
+                    "(order-independent, weighted by each pixel's depth) or moments (order-independent, weighted by the "
+                    "transmittance in front, from each pixel's moments); default back-to-front, auto weighted")
+        ->check(CLI::IsMember({"back-to-front", "weighted", "moments"}));
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
         ->capture_default_str();
@@ -153,8 +154,8 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_flag("--no-cache", a.noCache, "Path tracer: do not read or write the cache");
     cmd->add_option("--exact-order", a.exactOrder,
                     "gardner-exact: ellipsoid (whole ellipsoids back to front, as the tiles), pixel (per-pixel depth "
-                    "order) or weighted (the weighted composite's exact model)")
-        ->check(CLI::IsMember({"ellipsoid", "pixel", "weighted"}))
+                    "order), weighted (the weighted composite's exact model) or moments (the moment composite's)")
+        ->check(CLI::IsMember({"ellipsoid", "pixel", "weighted", "moments"}))
         ->capture_default_str();
     cmd->add_option("--flythrough", a.flythrough, "Objects in clouds: fraction (optical depth in front) or stencil (the paper)")
         ->check(CLI::IsMember({"fraction", "stencil"}))
@@ -205,7 +206,9 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.colourMatrixPass = a.colourMatrix == "pass";
     es.geometry = a.tileGeometry == "polygon" ? TileGeometry::Polygon : TileGeometry::Mesh;
     es.flyThrough = a.flythrough == "stencil" ? FlyThrough::Stencil : FlyThrough::Fraction;
-    es.order = a.composite == "weighted" ? CompositeOrder::Weighted : CompositeOrder::PerEllipsoid;
+    es.order = a.composite == "weighted" ? CompositeOrder::Weighted
+               : a.composite == "moments"  ? CompositeOrder::Moments
+                                           : CompositeOrder::PerEllipsoid;
     // auto flies the eye through the near LOD's overlapping cumulus: no order flips there.
     if (ro.method == Method::Auto && !a.compositeOpt->count()) es.order = CompositeOrder::Weighted;
     es.reuse = a.reuse.empty() ? ro.method == Method::Auto : a.reuse == "on";
@@ -213,6 +216,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.reuseBudget = a.reuseBudget;
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted
+                    : a.exactOrder == "moments"  ? CompositeOrder::Moments
                                                  : CompositeOrder::PerEllipsoid;
     RadianceGridSettings light = a.light;
     light.skyPhotons = light.sunPhotons;

@@ -122,6 +122,79 @@ MODEL_FN float compositeWeight(float tShade, float tRef, float exponent) {
     return max(pow(tRef / max(tShade, tRef), exponent), 1e-30f);
 }
 
+// ---- The moment-based order-independent composite (after Munstermann, Krumpen, Klein & Peters
+// 2018, "Moment-based order-independent transparency"): the weighted composite with, as each
+// contribution's weight, the transmittance of the matter in front of it, reconstructed from
+// the pixel's first moments of absorbance over depth. A first pass sums, per pixel, b0 =
+// sum(A_i) and b_k = sum(A_i z_i^k), k = 1..4, with A_i = -ln(1 - a_i) and z_i the contribution's
+// depth warped to [-1, 1]; the second weighs each contribution by T(z_i) from them. Where the
+// contributions are few or far apart in depth it is the back-to-front order (a back-lit
+// cloud's bright far rims stay behind its dark front); it is continuous in every depth and
+// opacity, so nothing can flip.
+const float kMomentBias = 5e-7f;            // the paper's for four power moments in 32-bit floats
+const float kMomentOverestimation = 0.25f;  // the share of its own absorbance a contribution sees in front of it
+const float kMomentBiasEven = 0.375f;       // the bias vector (0, 0.375, 0, 0.375)
+// The depth warp: log(t / tNear) over the frame's [tNear, tFar] to [-1, 1] (a depth ratio, as the
+// weighted composite's weight: the same resolution at every distance).
+MODEL_FN float momentDepth(float t, float tNear, float tFar) {
+    float z = log(max(t, tNear) / tNear) / max(log(tFar / tNear), 1e-6f);
+    return clamp(2.0f * z - 1.0f, -1.0f, 1.0f);
+}
+// Absorbance of opacity a (opacity 1 taken as 1 - 1e-6: the sums stay finite).
+MODEL_FN float absorbanceOf(float a) { return -log(max(1.0f - a, 1e-6f)); }
+// The transmittance in front of depth z from b0 and the moments m1..m4 = b_k / b0 (the paper's
+// Hamburger reconstruction: the bounds of the canonical representation, Cholesky of the 3x3
+// Hankel matrix, the roots of a quadratic).
+MODEL_FN float momentTransmittance(float b0, float m1, float m2, float m3, float m4, float z) {
+    // Bias towards a valid moment vector: rounding can leave the sums just outside the set.
+    m1 = m1 * (1.0f - kMomentBias);
+    m2 = m2 * (1.0f - kMomentBias) + kMomentBias * kMomentBiasEven;
+    m3 = m3 * (1.0f - kMomentBias);
+    m4 = m4 * (1.0f - kMomentBias) + kMomentBias * kMomentBiasEven;
+    float l21d11 = m3 - m1 * m2;
+    float d11 = m2 - m1 * m1;
+    float invD11 = 1.0f / d11;
+    float l21 = l21d11 * invD11;
+    float d22 = (m4 - m2 * m2) - l21d11 * l21;
+    // c = B^-1 (1, z, z^2) by forward substitution, scaling and backward substitution.
+    float c0 = 1.0f, c1 = z, c2 = z * z;
+    c1 = c1 - m1;
+    c2 = c2 - (m2 + l21 * c1);
+    c1 = c1 * invD11;
+    c2 = c2 / d22;
+    c1 = c1 - l21 * c2;
+    c0 = c0 - (c1 * m1 + c2 * m2);
+    // The roots z1 <= z2 of c0 + c1 x + c2 x^2.
+    float p = c1 / c2, q = c0 / c2;
+    float r = sqrt(max(p * p * 0.25f - q, 0.0f));
+    float z1 = -p * 0.5f - r, z2 = -p * 0.5f + r;
+    // The absorbance in front of z: the weights of the roots in front (and kMomentOverestimation
+    // of z's own), as the interpolating polynomial's dot product with the moments.
+    float f0 = kMomentOverestimation, f1 = z1 < z ? 1.0f : 0.0f, f2 = z2 < z ? 1.0f : 0.0f;
+    float f01 = (f1 - f0) / (z1 - z);
+    float f12 = (f2 - f1) / (z2 - z1);
+    float f012 = (f12 - f01) / (z2 - z);
+    float q1 = f01 - f012 * z1;
+    float q2 = f012;
+    float q0 = f0 - q1 * z;
+    q1 = q1 - q2 * z;
+    float absorbance = q0 + q1 * m1 + q2 * m2;
+    // Matter at one depth leaves the Hankel matrix singular to float precision (the bias's share
+    // of it lost to rounding): there the transmittance in front is the contribution's own share.
+    float t = exp(-b0 * absorbance);
+    if (!(t >= 0.0f)) t = exp(-b0 * kMomentOverestimation);
+    // (Floored as compositeWeight: a pixel's weights never all vanish, whatever its opacity.)
+    return clamp(t, 1e-30f, 1.0f);
+}
+// A contribution's weight: the transmittance in front of it without the share of its own
+// absorbance the reconstruction counts in front of it (kMomentOverestimation of it; exact for one
+// contribution, and for contributions far apart in depth). Without this an opaque
+// contribution (absorbance up to 13.8) saw exp(-0.25 x 13.8) = 3% of itself: a bright thin veil
+// in front of a cloud's opaque body outweighed the body 30-fold.
+MODEL_FN float momentWeight(float b0, float m1, float m2, float m3, float m4, float z, float alpha) {
+    return min(momentTransmittance(b0, m1, m2, m3, m4, z) * exp(kMomentOverestimation * absorbanceOf(alpha)), 1.0f);
+}
+
 // Opacity of optical depth tau.
 MODEL_FN float opacityOf(float tau) { return 1.0f - exp(-tau); }
 

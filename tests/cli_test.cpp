@@ -315,6 +315,21 @@ TEST_F(CliTest, GardnerExactNeedsNoGl) {
     EXPECT_EQ(readPng(path("c.png")).width, 80);
 }
 
+// The moment composite on the command line: the GPU's and its exact model's, the same image
+// within what the GPU's tiles add (EllipsoidGLTest holds it tighter at fine tessellation).
+TEST_F(CliTest, MomentCompositeRendersOnTheGpuAndExactly) {
+    const std::string scene = std::string(NEPHELE_SCENES) + "/cumulus27.json";
+    CliRun r = run("render " + scene + " --method ellipsoid --composite moments --width 96 -o " + path("m.png"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = run("render " + scene + " --method gardner-exact --exact-order moments --width 96 -o " + path("x.png"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const Image gpu = readPng(path("m.png")), exact = readPng(path("x.png"));
+    ASSERT_EQ(gpu.width, exact.width);
+    double sum = 0;
+    for (std::size_t i = 0; i < gpu.pixels.size(); ++i) sum += std::abs(gpu.pixels[i] - exact.pixels[i]);
+    EXPECT_LT(sum / double(gpu.pixels.size()), 0.01);  // mean |difference| in sRGB [0, 1]
+}
+
 TEST_F(CliTest, BenchRejectsBadArguments) {
     EXPECT_EQ(run("bench --counts 0 --out-dir " + path("b")).code, 2);
     EXPECT_EQ(run("bench --frames 0 --out-dir " + path("b")).code, 2);

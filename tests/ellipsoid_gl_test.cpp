@@ -125,6 +125,37 @@ TEST_F(EllipsoidGLTest, WeightedCompositeMatchesGardnerExactWeighted) {
     }
 }
 
+// The moment composite (two passes: the moments, then the weights) against its exact model,
+// on a view from outside and one from among the flythrough's puffs.
+TEST_F(EllipsoidGLTest, MomentCompositeMatchesGardnerExactMoments) {
+    const double kMomentBound = 45.0;  // measured 59.1 (cumulus27) and 55.4 dB (flythrough), the weighted test's bound
+    std::vector<std::pair<std::string, Scene>> scenes;
+    scenes.push_back({"cumulus27.json", sharedScene("cumulus27.json")});
+    Scene inside = sharedScene("flythrough.json");
+    inside.camera = cameraAt(inside, 8.5);
+    inside.camera.width = 160;
+    inside.camera.height = 120;
+    scenes.push_back({"flythrough t=8.5", inside});
+    for (const auto& [name, scene] : scenes) {
+        EllipsoidSettings fine;  // fine meshes: as the weighted test, this one is about the weights
+        fine.order = CompositeOrder::Moments;
+        fine.tessellation = 32;
+        const Image gpu = clamped(renderGpu(scene, fine).rgba);
+        const Image exact = clamped(renderExact(scene, CompositeOrder::Moments));
+        const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
+        std::printf("[ figure ] %-18s moments GPU vs gardner-exact moments PSNR %.1f dB\n", name.c_str(), db);
+        EXPECT_GT(db, kMomentBound) << name;
+        EllipsoidSettings backToFront = fine;
+        backToFront.order = CompositeOrder::PerEllipsoid;
+        const double opacity = psnr(channels(gpu, 3, 1), channels(clamped(renderGpu(scene, backToFront).rgba), 3, 1));
+        EXPECT_GT(opacity, 50.0) << name << ": the moment composite's opacity is the back-to-front one";
+        if (db <= kMomentBound) {
+            save("moments_gpu_" + name, gpu);
+            save("moments_exact_" + name, exact);
+        }
+    }
+}
+
 // Opacity does not depend on the order ("over" of opacities commutes): the weighted
 // composite's 1 - prod(1 - a) must be the back-to-front composite's opacity, with and
 // without objects in the clouds (the fraction fly-through) and the stencil fly-through

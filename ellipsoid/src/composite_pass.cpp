@@ -20,36 +20,45 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
                                   : DepthSource{};
     const bool stencil = s.flyThrough == FlyThrough::Stencil && frame.hasDepth;
     const bool fraction = depth.texture != 0;
-    const bool weighted = s.order == CompositeOrder::Weighted && !stencil;
+    const bool moments = s.order == CompositeOrder::Moments && !stencil;
+    const bool weighted = (s.order == CompositeOrder::Weighted || moments) && !stencil;
 
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     const Program& cp = weighted ? (fraction ? m.compositeWeightedFraction : m.compositeWeighted)
                                  : (fraction ? m.compositeFraction : m.composite);
-    cp.set("atlasTerms", 3);
-    cp.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
-    cp.set("albedo", float(scene.medium.albedo));
-    cp.set("sceneDepth", 5);
-    cp.set("atlasSize", glm::vec2(plan.atlasW, plan.atlasH));
-    cp.set("onScreen", 1);
-    cp.set("useOrder", 1);
-    cp.set("colourMatrix", nephele::colourMatrix());
-    cp.set("forward", glm::vec3(view.forward));
-    cp.set("rayCentre", glm::vec3(view.rayCentre()));
-    cp.set("rightScaled", glm::vec3(view.rightScaled()));
-    cp.set("upScaled", glm::vec3(view.upScaled()));
-    cp.set("nearClip", float(view.camera.nearClip));
-    cp.set("weightExponent", s.weightExponent);
-    cp.set("weightReference", float(weightReferenceDepth(plan.prepared, view)));
-    setViewFrameUniforms(cp, view, !weighted, depth);
+    const Program* momentsPass = moments ? (fraction ? &m.compositeMomentsFraction : &m.compositeMoments) : nullptr;
+    const glm::vec2 momentRange = moments ? momentDepthRange(plan.prepared, view) : glm::vec2(0);
+    for (const Program* p : {&cp, momentsPass}) {
+        if (!p) continue;
+        p->set("atlasTerms", 3);
+        p->set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
+        p->set("albedo", float(scene.medium.albedo));
+        p->set("sceneDepth", 5);
+        p->set("atlasSize", glm::vec2(plan.atlasW, plan.atlasH));
+        p->set("onScreen", 1);
+        p->set("useOrder", 1);
+        p->set("colourMatrix", nephele::colourMatrix());
+        p->set("forward", glm::vec3(view.forward));
+        p->set("rayCentre", glm::vec3(view.rayCentre()));
+        p->set("rightScaled", glm::vec3(view.rightScaled()));
+        p->set("upScaled", glm::vec3(view.upScaled()));
+        p->set("nearClip", float(view.camera.nearClip));
+        p->set("weightExponent", s.weightExponent);
+        p->set("weightReference", float(weightReferenceDepth(plan.prepared, view)));
+        p->set("momentRange", momentRange);
+        p->set("momentSums", 6);
+        p->set("momentZero", 7);
+        setViewFrameUniforms(*p, view, !weighted, depth);
+    }
     glBindTextureUnit(3, m.atlas->terms.id());
     glBindTextureUnit(5, depth.texture);
     glBindSampler(3, m.linearClamp.id());
     glBindSampler(5, 0);
     glBindVertexArray(m.empty.id());
     if (stencil) stencilPass(s, plan, view, frame, cp, stats);
-    else if (weighted) weightedPass(s, plan, view, frame, cp, stats);
+    else if (weighted) weightedPass(s, plan, view, frame, cp, momentsPass, stats);
     else overPass(s, plan, view, frame, cp, stats);
 }
 
@@ -82,9 +91,10 @@ void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePl
 }
 
 void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
-                                                const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+                                                const HostFrame& frame, const Program& cp, const Program* momentsPass,
+                                                EllipsoidStats& stats) {
     const int frameW = view.camera.width, frameH = view.camera.height;
-    WeightedTarget& wt = weightedTarget(frameW, frameH);
+    WeightedTarget& wt = momentsPass ? momentTarget(frameW, frameH) : weightedTarget(frameW, frameH);
     // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
     // the frame-sized clear and resolve were most of the weighted composite's cost.
     float lo[2] = {1, 1}, hi[2] = {-1, -1};
@@ -96,9 +106,23 @@ void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const Fra
     const int y1 = std::max(std::clamp(int(std::ceil((hi[1] * 0.5f + 0.5f) * frameH)) + 1, 0, frameH), y0);
     glEnable(GL_SCISSOR_TEST);
     glScissor(x0, y0, x1 - x0, y1 - y0);
+    const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
+    if (momentsPass) {
+        // The moment composite's first pass: every tile's absorbance and its moments, added.
+        glBindFramebuffer(GL_FRAMEBUFFER, wt.moments.id());
+        glViewport(0, 0, frameW, frameH);
+        glClearNamedFramebufferfv(wt.moments.id(), GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(wt.moments.id(), GL_COLOR, 1, zero);
+        glBlendFunc(GL_ONE, GL_ONE);
+        drawInOrder(s, *momentsPass, int(plan.order.size()), stats);
+        check("the moment composite's first pass");
+        glBindTextureUnit(6, wt.sums.id());
+        glBindTextureUnit(7, wt.zero.id());
+        glBindSampler(6, 0);
+        glBindSampler(7, 0);
+    }
     glBindFramebuffer(GL_FRAMEBUFFER, wt.fbo.id());
     glViewport(0, 0, frameW, frameH);
-    const float zero[4] = {0, 0, 0, 0}, one[4] = {1, 1, 1, 1};
     glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 0, zero);
     glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 1, one);
     glBlendFunci(0, GL_ONE, GL_ONE);                  // sums

@@ -91,12 +91,19 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
     m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
-    if (s.order == CompositeOrder::Weighted) {
-        m.compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                             fused + "#define WEIGHTED 1\n");
+    if (s.order == CompositeOrder::Weighted || s.order == CompositeOrder::Moments) {
+        const std::string weighted = fused + "#define WEIGHTED 1\n";
+        const std::string second = weighted + (s.order == CompositeOrder::Moments ? "#define MOMENTS 1\n" : "");
+        m.compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
         m.compositeWeightedFraction = Program::build(
-            {{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-            fused + "#define WEIGHTED 1\n#define FRACTION 1\n");
+            {{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second + "#define FRACTION 1\n");
+        if (s.order == CompositeOrder::Moments) {
+            m.compositeMoments = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                                weighted + "#define MOMENTS_PASS 1\n");
+            m.compositeMomentsFraction =
+                Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                               weighted + "#define MOMENTS_PASS 1\n#define FRACTION 1\n");
+        }
         m.resolve = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
     } else {
         m.compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},

@@ -85,7 +85,8 @@ struct EllipsoidRenderer::Impl {
 
     Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
-    Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted
+    Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted and Moments
+    Program compositeMoments, compositeMomentsFraction;             // CompositeOrder::Moments: its first pass
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
@@ -120,26 +121,37 @@ struct EllipsoidRenderer::Impl {
     struct WeightedTarget {
         Texture accum, reveal;
         Framebuffer fbo;
+        Texture sums, zero;  // CompositeOrder::Moments: the first pass's A (z, z^2, z^3, z^4) and A
+        Framebuffer moments;
     };
     PerViewCache<WeightedTarget> weightedTargets;
 
+    // A frame-sized RGBA32F + R32F pair as the two colour attachments of one framebuffer.
+    static void makeFloatTargets(Texture& rgba, Texture& r, Framebuffer& fbo, int w, int h, const std::string& what) {
+        rgba = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(rgba.id(), 1, GL_RGBA32F, w, h);
+        checkAllocation(what + "'s RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
+        r = Texture::create(GL_TEXTURE_2D);
+        glTextureStorage2D(r.id(), 1, GL_R32F, w, h);
+        checkAllocation(what + "'s R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
+        fbo = Framebuffer::create();
+        glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT0, rgba.id(), 0);
+        glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT1, r.id(), 0);
+        const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+        glNamedFramebufferDrawBuffers(fbo.id(), 2, buffers);
+        checkFramebuffer(fbo.id(), what + "'s target");
+    }
     WeightedTarget& weightedTarget(int w, int h) {
         WeightedTarget& t = weightedTargets.get({w, h});
-        if (t.fbo) return t;
         // 32-bit floats: the weights span (tRef / t)^k over the whole depth range (half floats
         // would underflow beyond a few km), and the product of many (1 - a) keeps its precision.
-        t.accum = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.accum.id(), 1, GL_RGBA32F, w, h);
-        checkAllocation("the weighted composite's RGBA32F target", std::uint64_t(w) * std::uint64_t(h) * 16);
-        t.reveal = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.reveal.id(), 1, GL_R32F, w, h);
-        checkAllocation("the weighted composite's R32F target", std::uint64_t(w) * std::uint64_t(h) * 4);
-        t.fbo = Framebuffer::create();
-        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.accum.id(), 0);
-        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, t.reveal.id(), 0);
-        const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-        glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
-        checkFramebuffer(t.fbo.id(), "the weighted composite's target");
+        if (!t.fbo) makeFloatTargets(t.accum, t.reveal, t.fbo, w, h, "the weighted composite");
+        return t;
+    }
+    // The moment composite's first target (32-bit floats: the paper's bias is for them).
+    WeightedTarget& momentTarget(int w, int h) {
+        WeightedTarget& t = weightedTarget(w, h);
+        if (!t.moments) makeFloatTargets(t.sums, t.zero, t.moments, w, h, "the moment composite");
         return t;
     }
 
@@ -156,7 +168,7 @@ struct EllipsoidRenderer::Impl {
     void overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
                        const Program& cp, EllipsoidStats& stats);
     void weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
-                           const Program& cp, EllipsoidStats& stats);
+                           const Program& cp, const Program* momentsPass, EllipsoidStats& stats);
     void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame, const Program& cp,
                           EllipsoidStats& stats);
 };

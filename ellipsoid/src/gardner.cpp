@@ -88,6 +88,14 @@ double weightReferenceDepth(const PreparedClouds& prepared, const View& view) {
     return std::max({nearest, view.camera.nearClip, double(model::kWeightNearDepth)});
 }
 
+glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view) {
+    const double tNear = weightReferenceDepth(prepared, view);
+    double farthest = 0;
+    for (const PreparedEllipsoid& p : prepared.ellipsoids)
+        farthest = std::max(farthest, p.projection.distance + std::max({p.shape.radii.x, p.shape.radii.y, p.shape.radii.z}));
+    return {float(tNear), float(std::max(farthest, 2 * tNear))};
+}
+
 namespace {
 
 // The distance along a camera ray to the near plane and to the first opaque surface or the far plane.
@@ -113,6 +121,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
     std::vector<glm::vec3> chroma;  // per prepared ellipsoid
     for (const PreparedEllipsoid& p : prepared.ellipsoids) chroma.push_back(ellipsoidSkyChroma(grids[p.cloud], p.shape));
     const float weightReference = float(weightReferenceDepth(prepared, view));
+    const glm::vec2 momentRange = momentDepthRange(prepared, view);
     Image image(view.camera.width, view.camera.height, 4);
     struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
@@ -160,6 +169,11 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                     layers.push_back({tShade, alpha, c});
                     continue;
                 }
+                if (order == CompositeOrder::Moments) {  // weighed below, by the transmittance in front
+                    layers.push_back({model::momentDepth(model::matterDepth(o, du, tStart), momentRange.x, momentRange.y),
+                                      alpha, c});
+                    continue;
+                }
                 if (order == CompositeOrder::Weighted) {
                     // As the GPU's weighted composite: w alpha in float, the sums in wide floats.
                     const float wa =
@@ -171,6 +185,24 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 }
                 color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
                 alphaSum = alpha + alphaSum * (1.0 - alpha);
+            }
+            if (order == CompositeOrder::Moments && !layers.empty()) {
+                // As the GPU's two passes: the moments summed in float, then each contribution
+                // weighed by the transmittance in front of it.
+                float b[5] = {0, 0, 0, 0, 0};
+                for (const Layer& l : layers) {
+                    const float a = model::absorbanceOf(l.alpha);
+                    b[0] += a, b[1] += a * l.depth, b[2] += a * l.depth * l.depth;
+                    b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
+                }
+                for (const Layer& l : layers) {
+                    const float wa =
+                        model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha) * l.alpha;
+                    weightedColor += Vec3(l.color) * double(wa);
+                    weightSum += wa;
+                    transmittance *= 1.0 - l.alpha;
+                }
+                layers.clear();
             }
             std::sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
             for (const Layer& l : layers) {

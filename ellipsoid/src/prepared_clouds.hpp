@@ -35,6 +35,10 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
 // (tRef / max(tShade, tRef))^k are at most 1; only their ratios reach the image; tRef keeps
 // them within float range (model::compositeWeight).
 double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
+// The moment composite's depth range [tNear, tFar] (m), warped to [-1, 1] by model::momentDepth:
+// tRef as above, and the farthest visible ellipsoid's centre distance plus its largest radius.
+// Both continuous in the eye's position.
+glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view);
 // The light an ellipsoid's chord sends to the eye, per unit of the sun's irradiance and of the
 // sky's chroma (model::lightScalars averaged over model::kChordSamples points of the chord
 // beyond tStart, weighted by what the eye sees of them): x = sun, y = sky. The ray is

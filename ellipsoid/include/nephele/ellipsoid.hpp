@@ -83,6 +83,13 @@ struct EllipsoidSettings {
     //                 nothing can pop. The same opacity as back to front; the colour a weighted
     //                 mean (renderGardnerExact with CompositeOrder::Weighted is its exact model).
     //                 The stencil fly-through (the paper's per-ellipsoid stencil) stays back to front.
+    //   Moments       order-independent too, in two passes (after Munstermann et al. 2018): the
+    //                 first adds each pixel's absorbance and its moments over depth (a second
+    //                 RGBA32F + R32F target), the second the weighted composite with, as w, the
+    //                 transmittance in front of each contribution reconstructed from them
+    //                 (model::momentWeight): nearly the per-pixel order, continuous, and its
+    //                 opacity the back-to-front one (renderGardnerExact with Moments is its
+    //                 exact model). One more pass over the tiles' pixels than Weighted.
     //   PerPixel      not available on the GPU (std::invalid_argument).
     CompositeOrder order = CompositeOrder::PerEllipsoid;
     float weightExponent = model::kWeightExponent;  // Weighted: k of w = (tRef / tShade)^k, model::compositeWeight

@@ -50,8 +50,12 @@ Vec3 cloudAmbient(const Sky& sky);
 // the mean of the contributions' colours weighted by opacity times (tRef / tShade)^k,
 // opacity = 1 - prod(1 - alpha), put "over" the background once; continuous in the eye's
 // position, so it cannot pop. `weightExponent` is k (Weighted only).
+// Moments is order-independent too (after Munstermann et al. 2018): the weighted mean with,
+// as each contribution's weight, the transmittance in front of it reconstructed from the
+// pixel's moments of absorbance over depth (momentTransmittance in gardner_model.glsl):
+// nearly the per-pixel order, and continuous, so it cannot pop either.
 // Opacity is the same in every order ("over" of opacities commutes); only colour differs.
-enum class CompositeOrder { PerEllipsoid, PerPixel, Weighted };
+enum class CompositeOrder { PerEllipsoid, PerPixel, Weighted, Moments };
 // The clouds' radiance grids are computed with `light` (as the compositor's, so that the two
 // agree).
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
