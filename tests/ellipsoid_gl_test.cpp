@@ -60,6 +60,37 @@ void save(const std::string& name, const Image& rgba) {
     writePng(test::outputDir() + "/" + name + ".png", channels(rgba, 0, 3));
 }
 
+// flythrough.json's camera at `t` s (among its puffs from about 5 s on), at 160 x 120.
+Scene flythroughAt(double t) {
+    Scene s = sharedScene("flythrough.json");
+    s.camera = cameraAt(s, t);
+    s.camera.width = 160;
+    s.camera.height = 120;
+    return s;
+}
+
+// An order-independent composite (`order`, named `label`) against its exact model: the GPU's
+// colour must be above `bound` dB from gardner-exact's (both images written when not). Fine
+// meshes: this is about the weights, not the Gouraud interpolation of the light and noise
+// coordinates, which the back-to-front tests bound at the default tessellation. Returns the
+// GPU image.
+Image expectCompositeMatchesExact(const std::string& name, const Scene& scene, CompositeOrder order, const std::string& label,
+                                  double bound) {
+    EllipsoidSettings fine;
+    fine.order = order;
+    fine.tessellation = 32;
+    const Image gpu = clamped(renderGpu(scene, fine).rgba);
+    const Image exact = clamped(renderExact(scene, order));
+    const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
+    std::printf("[ figure ] %-18s %s GPU vs gardner-exact %s PSNR %.1f dB\n", name.c_str(), label.c_str(), label.c_str(), db);
+    EXPECT_GT(db, bound) << name;
+    if (db <= bound) {
+        save(label + "_gpu_" + name, gpu);
+        save(label + "_exact_" + name, exact);
+    }
+    return gpu;
+}
+
 class EllipsoidGLTest : public test::EglTest {};
 
 // The tiled GPU path against the exact CPU evaluation of the same model. What separates
@@ -101,58 +132,23 @@ TEST_F(EllipsoidGLTest, WeightedCompositeMatchesGardnerExactWeighted) {
     std::vector<std::pair<std::string, Scene>> scenes;
     for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"})
         scenes.push_back({name, sharedScene(name)});
-    for (double t : {5.0, 8.5}) {
-        Scene s = sharedScene("flythrough.json");
-        s.camera = cameraAt(s, t);
-        s.camera.width = 160;
-        s.camera.height = 120;
-        scenes.push_back({"flythrough t=" + std::to_string(t).substr(0, 3), s});
-    }
-    for (const auto& [name, scene] : scenes) {
-        // Fine meshes: this test is about the weights, not the Gouraud interpolation of the light
-        // and noise coordinates, which the back-to-front tests bound at the default tessellation.
-        EllipsoidSettings fine = weightedSettings();
-        fine.tessellation = 32;
-        const Image gpu = clamped(renderGpu(scene, fine).rgba);
-        const Image exact = clamped(renderExact(scene, CompositeOrder::Weighted));
-        const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
-        std::printf("[ figure ] %-18s weighted GPU vs gardner-exact weighted PSNR %.1f dB\n", name.c_str(), db);
-        EXPECT_GT(db, kWeightedBound) << name;
-        if (db <= kWeightedBound) {
-            save("weighted_gpu_" + name, gpu);
-            save("weighted_exact_" + name, exact);
-        }
-    }
+    for (double t : {5.0, 8.5}) scenes.push_back({"flythrough t=" + std::to_string(t).substr(0, 3), flythroughAt(t)});
+    for (const auto& [name, scene] : scenes)
+        expectCompositeMatchesExact(name, scene, CompositeOrder::Weighted, "weighted", kWeightedBound);
 }
 
 // The moment composite (two passes: the moments, then the weights) against its exact model,
 // on a view from outside and one from among the flythrough's puffs.
 TEST_F(EllipsoidGLTest, MomentCompositeMatchesGardnerExactMoments) {
     const double kMomentBound = 45.0;  // measured 59.1 (cumulus27) and 55.4 dB (flythrough), the weighted test's bound
-    std::vector<std::pair<std::string, Scene>> scenes;
-    scenes.push_back({"cumulus27.json", sharedScene("cumulus27.json")});
-    Scene inside = sharedScene("flythrough.json");
-    inside.camera = cameraAt(inside, 8.5);
-    inside.camera.width = 160;
-    inside.camera.height = 120;
-    scenes.push_back({"flythrough t=8.5", inside});
+    const std::pair<std::string, Scene> scenes[] = {{"cumulus27.json", sharedScene("cumulus27.json")},
+                                                    {"flythrough t=8.5", flythroughAt(8.5)}};
     for (const auto& [name, scene] : scenes) {
-        EllipsoidSettings fine;  // fine meshes: as the weighted test, this one is about the weights
-        fine.order = CompositeOrder::Moments;
-        fine.tessellation = 32;
-        const Image gpu = clamped(renderGpu(scene, fine).rgba);
-        const Image exact = clamped(renderExact(scene, CompositeOrder::Moments));
-        const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
-        std::printf("[ figure ] %-18s moments GPU vs gardner-exact moments PSNR %.1f dB\n", name.c_str(), db);
-        EXPECT_GT(db, kMomentBound) << name;
-        EllipsoidSettings backToFront = fine;
-        backToFront.order = CompositeOrder::PerEllipsoid;
+        const Image gpu = expectCompositeMatchesExact(name, scene, CompositeOrder::Moments, "moments", kMomentBound);
+        EllipsoidSettings backToFront;  // as the helper's, but back to front
+        backToFront.tessellation = 32;
         const double opacity = psnr(channels(gpu, 3, 1), channels(clamped(renderGpu(scene, backToFront).rgba), 3, 1));
         EXPECT_GT(opacity, 50.0) << name << ": the moment composite's opacity is the back-to-front one";
-        if (db <= kMomentBound) {
-            save("moments_gpu_" + name, gpu);
-            save("moments_exact_" + name, exact);
-        }
     }
 }
 
@@ -164,11 +160,7 @@ TEST_F(EllipsoidGLTest, WeightedCompositeKeepsTheBackToFrontOpacity) {
     std::vector<std::pair<std::string, Scene>> scenes;
     for (const char* name : {"cumulus27.json", "flythrough.json", "box_in_thin_cloud.json"})
         scenes.push_back({name, sharedScene(name)});
-    Scene inside = sharedScene("flythrough.json");
-    inside.camera = cameraAt(inside, 8.5);
-    inside.camera.width = 160;
-    inside.camera.height = 120;
-    scenes.push_back({"flythrough t=8.5", inside});
+    scenes.push_back({"flythrough t=8.5", flythroughAt(8.5)});
     for (const auto& [name, scene] : scenes)
         for (FlyThrough mode : {FlyThrough::Fraction, FlyThrough::Stencil}) {
             EllipsoidSettings weighted = weightedSettings(), backToFront;

@@ -30,6 +30,7 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
                                  : (fraction ? m.compositeFraction : m.composite);
     const Program* momentsPass = moments ? (fraction ? &m.compositeMomentsFraction : &m.compositeMoments) : nullptr;
     const glm::vec2 momentRange = moments ? momentDepthRange(plan.prepared, view) : glm::vec2(0);
+    const float weightReference = float(weightReferenceDepth(plan.prepared, view));
     for (const Program* p : {&cp, momentsPass}) {
         if (!p) continue;
         p->set("atlasTerms", 3);
@@ -46,7 +47,7 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
         p->set("upScaled", glm::vec3(view.upScaled()));
         p->set("nearClip", float(view.camera.nearClip));
         p->set("weightExponent", s.weightExponent);
-        p->set("weightReference", float(weightReferenceDepth(plan.prepared, view)));
+        p->set("weightReference", weightReference);
         p->set("momentRange", momentRange);
         p->set("momentSums", 6);
         p->set("momentZero", 7);

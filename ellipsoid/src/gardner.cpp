@@ -125,14 +125,14 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
     Image image(view.camera.width, view.camera.height, 4);
     struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
-        std::vector<Layer> layers;  // PerPixel: this pixel's contributions, sorted before compositing
+        std::vector<Layer> layers;  // PerPixel, Weighted, Moments: this pixel's contributions, composited after
         for (int x = 0; x < image.width; ++x) {
             const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
             const RayRange range = rayRange(scene, view, d);
             Vec3 color = opaqueRadiance(scene, view, d);
             double alphaSum = 0;
             layers.clear();
-            Vec3 weightedColor(0.0);  // Weighted: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
+            Vec3 weightedColor(0.0);  // Weighted, Moments: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
             double weightSum = 0, transmittance = 1;
             for (std::size_t pi = 0; pi < prepared.ellipsoids.size(); ++pi) {
                 const PreparedEllipsoid& p = prepared.ellipsoids[pi];
@@ -169,45 +169,42 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                     layers.push_back({tShade, alpha, c});
                     continue;
                 }
-                if (order == CompositeOrder::Moments) {  // weighed below, by the transmittance in front
-                    layers.push_back({model::momentDepth(model::matterDepth(o, du, tStart), momentRange.x, momentRange.y),
+                if (order == CompositeOrder::Weighted || order == CompositeOrder::Moments) {  // weighed below
+                    const float matter = model::matterDepth(o, du, tStart);
+                    layers.push_back({order == CompositeOrder::Moments ? model::momentDepth(matter, momentRange.x, momentRange.y)
+                                                                       : matter,
                                       alpha, c});
-                    continue;
-                }
-                if (order == CompositeOrder::Weighted) {
-                    // As the GPU's weighted composite: w alpha in float, the sums in wide floats.
-                    const float wa =
-                        model::compositeWeight(model::matterDepth(o, du, tStart), weightReference, weightExponent) * alpha;
-                    weightedColor += Vec3(c) * double(wa);
-                    weightSum += wa;
-                    transmittance *= 1.0 - alpha;
                     continue;
                 }
                 color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
                 alphaSum = alpha + alphaSum * (1.0 - alpha);
             }
-            if (order == CompositeOrder::Moments && !layers.empty()) {
-                // As the GPU's two passes: the moments summed in float, then each contribution
-                // weighed by the transmittance in front of it.
-                float b[5] = {0, 0, 0, 0, 0};
+            if (order == CompositeOrder::PerPixel) {
+                std::sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
                 for (const Layer& l : layers) {
-                    const float a = model::absorbanceOf(l.alpha);
-                    b[0] += a, b[1] += a * l.depth, b[2] += a * l.depth * l.depth;
-                    b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
+                    color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
+                    alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
                 }
+            } else if (!layers.empty()) {
+                // Weighted or Moments, as the GPU's composite: w alpha in float, the sums in wide
+                // floats. Moments: the moments summed in float first (the GPU's first pass), then
+                // each contribution weighed by the transmittance in front of it.
+                float b[5] = {0, 0, 0, 0, 0};
+                if (order == CompositeOrder::Moments)
+                    for (const Layer& l : layers) {
+                        const float a = model::absorbanceOf(l.alpha);
+                        b[0] += a, b[1] += a * l.depth, b[2] += a * l.depth * l.depth;
+                        b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
+                    }
                 for (const Layer& l : layers) {
-                    const float wa =
-                        model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha) * l.alpha;
+                    const float w = order == CompositeOrder::Moments
+                                        ? model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha)
+                                        : model::compositeWeight(l.depth, weightReference, weightExponent);
+                    const float wa = w * l.alpha;
                     weightedColor += Vec3(l.color) * double(wa);
                     weightSum += wa;
                     transmittance *= 1.0 - l.alpha;
                 }
-                layers.clear();
-            }
-            std::sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
-            for (const Layer& l : layers) {
-                color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
-                alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
             }
             if (weightSum > 0) {
                 const double a = 1.0 - transmittance;
