@@ -195,7 +195,7 @@ bool TileAllocator::Block::operator<(const Block& o) const {
 }
 
 TileAllocator::TileAllocator(int atlasWidth, int atlasHeight, int minSize, int layers)
-    : width_(atlasWidth), height_(atlasHeight), minLevel_(levelOf(minSize)), layers_(layers) {
+    : minLevel_(levelOf(minSize)), layers_(layers) {
     if (atlasWidth <= 0 || atlasHeight <= 0 || !isPowerOfTwo(minSize) || layers < 1)
         throw std::invalid_argument("TileAllocator: a positive atlas size and layer count, and a power-of-two minimum size");
     std::vector<Root> roots;

@@ -84,7 +84,7 @@ private:
         int layer, x, y;
         bool operator<(const Block& o) const;
     };
-    int width_, height_, minLevel_, layers_;
+    int minLevel_, layers_;
     std::vector<std::pair<int, int>> rootsXYLevel_;  // x, y of each root (its level in rootLevel_)
     std::vector<int> rootLevel_;
     std::vector<std::set<Block>> free_;             // by level
