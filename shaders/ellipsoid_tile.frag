@@ -2,9 +2,9 @@
 // attachment blended reverse-subtractively (rgb) and subtractively (alpha) into the
 // cleared (T2, 1, 1, T1 / D):
 //   red   = T2 - T2 g      (g from the projective radial falloff texture)
-//   green = 1 - (1 - m sun) = m sun     (the chord's light scalars, cloud_light.glsl, times the
-//   blue  = 1 - (1 - m sky) = m sky      noise modulation m; encodeLight'ed in an 8-bit atlas)
-//   alpha = I / D - T1 / D (I the noise-textured ellipsoid)
+//   green = 1 - (1 - sun) = sun         (the chord's light scalars, cloud_light.glsl,
+//   blue  = 1 - (1 - sky) = sky          encodeLight'ed in an 8-bit atlas)
+//   alpha = I / D - T1 / D (I the noise-textured ellipsoid: gardner_model.glsl)
 // CUT (cut by the near plane, or around the eye): the light too per pixel from the exact chord
 // beyond the near plane. Such an ellipsoid fills much of the view and its chords change fast
 // across it (a few metres ahead to hundreds): Gouraud light is visibly off there.
@@ -63,15 +63,14 @@ void main() {
 #endif
 #endif
     if (depth <= 0.0) {
-        // Outside the silhouette (the circumscribed mesh is larger): n = -1 makes eq. (2)
-        // non-positive whatever Ac is, and saves the noise lookup.
-        terms = vec4(kTranslucence * termG(ac, noiseAmp, 0.0), 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y),
-                     termIOverD(ac, noiseAmp, -1.0));
+        // Outside the silhouette (the circumscribed mesh is larger): no matter (A = 0) makes eq. (2)
+        // zero whatever Ac is, and saves the noise lookup.
+        terms = vec4(kTranslucence * termG(ac, 0.0, noiseAmp, 0.0), 1.0 - encodeLight(light.x),
+                     1.0 - encodeLight(light.y), termIOverD(ac, 0.0, noiseAmp, 0.0));
         return;
     }
     float a = opacityOf(instance.y * depth);
     float n = texture(noiseVolume, noiseCoord).r;
-    vec2 lit = light * noiseModulation(noiseAmp, n);
-    terms = vec4(kTranslucence * termG(ac, noiseAmp, a / ac), 1.0 - encodeLight(lit.x), 1.0 - encodeLight(lit.y),
-                 termIOverD(ac, noiseAmp, n));
+    terms = vec4(kTranslucence * termG(ac, a, noiseAmp, n), 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y),
+                 termIOverD(ac, a, noiseAmp, n));
 }

@@ -50,11 +50,10 @@ void main() {
     vec3 shade = tShade * d;
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
     vec2 light = chordLightAt(cloud, o, du, d, tStart, instance.y, sunDirection, hgG);
-    // Outside the silhouette: n = -1 makes eq. (2) non-positive whatever Ac is; the colour
+    // Outside the silhouette: no matter (A = 0) makes eq. (2) zero whatever Ac and n are; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.
     bool inside = depth > 0.0;
     float a = opacityOf(instance.y * depth);
-    vec2 lit = light * (inside ? noiseModulation(noiseAmp, n) : 1.0);
-    terms = vec4(kTranslucence * termG(ac, noiseAmp, inside ? a / ac : 0.0), 1.0 - encodeLight(lit.x),
-                 1.0 - encodeLight(lit.y), termIOverD(ac, noiseAmp, inside ? n : -1.0));
+    terms = vec4(kTranslucence * termG(ac, inside ? a : 0.0, noiseAmp, n), 1.0 - encodeLight(light.x),
+                 1.0 - encodeLight(light.y), termIOverD(ac, inside ? a : 0.0, noiseAmp, n));
 }

@@ -20,7 +20,7 @@ uniform int tilesX;                           // screen tiles per row (RM_TILE p
 uniform float stepBase;                       // m, RaymarchSettings::step
 uniform float invLod;                         // 1 / lodDistance (1/m), 0 = fixed step
 uniform int maxSteps;
-uniform float kappa;                          // medium.noise: the pseudo-spheroid's radius modulation
+uniform float kappa;                          // medium.noise: the density's noise amplitude
 uniform sampler3D noiseVolume;                // tileable fBm in [-1, 1], GL_REPEAT
 uniform vec3 eyeNoise;                        // fract(eye / noisePeriod): the eye in noise coordinates
 uniform float invNoisePeriod;                 // 1/m
@@ -80,7 +80,7 @@ void insertCandidate(float tIn, vec4 data) {
 }
 
 // The ellipsoids of cloud `c` that the ray meets within [tMin, tMax] and not wholly before `from`
-// (getCandidates), each against the largest pseudo-spheroid, radius 1 + kappa in unit space.
+// (getCandidates): the noise scales the density, not the shape.
 void getCandidates(RmCloud c, float tMin, float tMax, float from, float r2) {
     candCount = 0;
     candLimit = kFar;
@@ -100,24 +100,21 @@ void getCandidates(RmCloud c, float tMin, float tMax, float from, float r2) {
     }
 }
 
-// Extinction (1/m) at distance l: the candidates' (1 - q / s^2)^2 where q < s^2, s = 1 + kappa n(x).
-// No interval test is needed: outside its [in, out] a candidate has q >= (1 + kappa)^2 >= s^2.
+// Extinction (1/m) at distance l: the candidates' (1 - q)^2 where q < 1, times the noise's
+// density factor max(0, 1 + kappa n(x)), as the path tracer's field.
 float extinctionAt(float l) {
-    float invS2 = 1.0;
-    if (kappa > 0.0) {
-        float s = 1.0 + kappa * textureLod(noiseVolume, eyeNoise + dir * (l * invNoisePeriod), 0.0).r;
-        invS2 = 1.0 / max(s * s, 1e-12);
-    }
     float sigma = 0.0;
     for (int k = 0; k < candCount; ++k) {
         vec4 c = candData[k];
         float u = l - c.x;
-        float q = (c.z * u * u + c.y) * invS2;
+        float q = c.z * u * u + c.y;
         if (q < 1.0) {
             float f = 1.0 - q;
             sigma += c.w * f * f;
         }
     }
+    if (kappa > 0.0 && sigma > 0.0)
+        sigma *= max(0.0, 1.0 + kappa * textureLod(noiseVolume, eyeNoise + dir * (l * invNoisePeriod), 0.0).r);
     return sigma;
 }
 
@@ -144,7 +141,7 @@ float stepAt(float l) { return max(max(stepBase * (1.0 + l * invLod), minStep), 
 // gaps skipped). When more candidates meet the ray than the list holds, the march stops at
 // the first one left out and the list is gathered again from there.
 void marchCloud(RmCloud c, float tMin, float tMax) {
-    float r2 = (1.0 + kappa) * (1.0 + kappa);
+    float r2 = 1.0;  // the unit sphere: the noise scales the density, not the shape
     float lambda = tMin;
     minStep = (tMax - tMin) / float(maxSteps);
     for (;;) {

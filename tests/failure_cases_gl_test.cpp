@@ -238,11 +238,13 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
                 "back-to-front %.4f (step %d), moments %.4f (step %d); the exact model's own worst change %.4f\n",
                 worst[0], worstFrame[0], worst[1], worstFrame[1], worst[2], worstFrame[2], exactWorst);
     ASSERT_GT(exactWorst, 0.005) << "the camera must move for the test to mean anything";
-    // Measured on llvmpipe (96 x 72): weighted 0.0119, back to front 0.0359, both worst at the flip
-    // (8.5 s); the exact model itself changes by up to 0.05 a step there. Moments: 0.0182 (its
-    // four moments resolve two overlapping puffs' depths less finely than a pixel's order; the
-    // same run: back to front 0.0345).
-    EXPECT_LT(worst[0], 0.6 * worst[1]) << "the weighted composite pops";
-    EXPECT_LT(worst[2], 0.6 * worst[1]) << "the moment composite pops";
+    // Measured on llvmpipe (96 x 72): weighted 0.0054, back to front 0.0061 (worst at the flip,
+    // 8.5 s), moments 0.0029; the exact model itself changes by 0.036 a step there. While the
+    // compositor's noise thinned the rims (Gardner's threshold, until 2026-12-02) back to front
+    // popped by 0.035 here (weighted 0.012, moments 0.018): the flip swapped a thinned puff's
+    // colour for a whole one. A pop is now a sixth of the light's own change in a step; the bound
+    // is a quarter of it, which the old back-to-front pop exceeded.
+    for (int m = 0; m < 3; ++m)
+        EXPECT_LT(worst[m], 0.25 * exactWorst) << (m == 0 ? "weighted" : m == 1 ? "back to front" : "moments") << " pops";
     EXPECT_EQ(worstFrame[1], 4) << "back to front's worst step is no longer the flip at 8.5 s: the test lost its failure case";
 }

@@ -151,8 +151,8 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
                 const float n = noiseVolume.sample(glm::vec3(uvw));
                 const float a = model::opacityOf(float(p.sigma) * depth);
-                const float g = model::termG(float(p.ac), amp, a / float(p.ac));
-                float alpha = std::clamp(model::gardnerAlpha(model::termIOverD(float(p.ac), amp, n), g), 0.0f, 1.0f);
+                const float g = model::termG(float(p.ac), a, amp, n);
+                float alpha = std::clamp(model::gardnerAlpha(model::termIOverD(float(p.ac), a, amp, n), g), 0.0f, 1.0f);
                 // An opaque object inside the cloud: only the matter in front of it covers it.
                 if (range.tEnd < tOut) {
                     const float front = model::segmentDepth(o, du, tStart, float(range.tEnd));
@@ -163,8 +163,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const CloudRadiance& grid = grids[p.cloud];
                 const glm::vec2 light = chordLight(grid, scene, view.eye, d, o, du, tStart, float(p.sigma));
                 const glm::vec3 c = model::sourceFromScalars(glm::vec3(light, 0.0f), sunIrradiance, chroma[pi],
-                                                             float(scene.medium.albedo)) *
-                                    model::noiseModulation(amp, n);
+                                                             float(scene.medium.albedo));
                 if (order == CompositeOrder::PerPixel) {
                     layers.push_back({tShade, alpha, c});
                     continue;
