@@ -1,4 +1,4 @@
-// The ray-marcher's host side: the pseudo-spheroid density on the CPU, the no-duplicate
+// The ray-marcher's host side: its density on the CPU, the no-duplicate
 // tracing of Algorithm 2 (the tests check the GPU against them).
 #include "nephele/raymarch.hpp"
 
@@ -34,22 +34,21 @@ std::vector<UnitEllipsoid> prepare(const Cloud& cloud) {
     return out;
 }
 
-// 1 / s^2 at x, s = 1 + kappa n(x) the pseudo-spheroid's radius scale (eq. 2 as read in raymarch.hpp).
-double inverseScale2(double kappa, const Vec3& x, const NoiseVolume* noise, double period) {
+// The noise's density factor at x, max(0, 1 + kappa n(x)) (raymarch.hpp).
+double noiseFactor(double kappa, const Vec3& x, const NoiseVolume* noise, double period) {
     if (kappa <= 0 || !noise) return 1.0;
-    const double s = 1.0 + kappa * noise->sample(glm::vec3(x / period));
-    return 1.0 / std::max(s * s, 1e-12);
+    return std::max(0.0, 1.0 + kappa * noise->sample(glm::vec3(x / period)));
 }
 
-// A candidate of the march (Algorithm 1's list entry): the ray meets the ellipsoid (inflated
-// to the largest pseudo-spheroid) over [in, out]; q(l) = a (l - lc)^2 + qmin in unit space.
+// A candidate of the march (Algorithm 1's list entry): the ray meets the ellipsoid over
+// [in, out]; q(l) = a (l - lc)^2 + qmin in unit space.
 struct Candidate {
     double in, out, a, lc, qmin, density;
 };
 
 // Candidates along o + l dir, l >= 0, sorted by entry with insertion sort (Algorithm 1).
-std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3& o, const Vec3& dir) {
-    const double r2 = (1 + kappa) * (1 + kappa);
+std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, const Vec3& o, const Vec3& dir) {
+    const double r2 = 1;
     std::vector<Candidate> list;
     for (const UnitEllipsoid& e : ells) {
         const Vec3 ou = e.unit * (o - e.center), du = e.unit * dir;
@@ -68,13 +67,13 @@ std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, double
 }
 
 // Sum of the active candidates' densities at l (candidates sorted by entry).
-double densityAlong(const std::vector<Candidate>& list, double l, double invS2) {
+double densityAlong(const std::vector<Candidate>& list, double l) {
     double sum = 0;
     for (const Candidate& c : list) {
         if (c.in > l) break;
         if (l >= c.out) continue;
         const double d = l - c.lc;
-        const double q = (c.a * d * d + c.qmin) * invS2;
+        const double q = c.a * d * d + c.qmin;
         if (q < 1) sum += c.density * (1 - q) * (1 - q);
     }
     return sum;
@@ -82,7 +81,7 @@ double densityAlong(const std::vector<Candidate>& list, double l, double invS2) 
 
 double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3& o, const Vec3& dir, double step,
                 const NoiseVolume* noise, double period, double stopDepth) {
-    const std::vector<Candidate> list = candidates(ells, kappa, o, dir);
+    const std::vector<Candidate> list = candidates(ells, o, dir);
     if (list.empty()) return 0;
     // At most kMaxMarchSteps steps over the candidates' whole span, whatever the step asked for
     // and the clouds' size (a cloud of 1e9 m at 25 m took 10^7 steps a voxel).
@@ -99,7 +98,8 @@ double marchNdt(const std::vector<UnitEllipsoid>& ells, double kappa, const Vec3
             // The step always moves lambda, even where it is under the precision of the distance.
             const double end = std::max(std::min(lambda + step, c.out), std::nextafter(lambda, INFINITY));
             const double mid = 0.5 * (lambda + end);
-            depth += densityAlong(list, mid, inverseScale2(kappa, o + mid * dir, noise, period)) * (end - lambda);
+            const double density = densityAlong(list, mid);
+            if (density > 0) depth += density * noiseFactor(kappa, o + mid * dir, noise, period) * (end - lambda);
             lambda = end;
             if (depth > stopDepth) return depth;
         }
@@ -117,14 +117,13 @@ NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings) {
 
 double raymarchNoisePeriod(const Medium& medium, const NoiseSettings& noise) { return medium.noiseScale * noise.cells; }
 
-bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& hi) {
+bool raymarchCloudBox(const Cloud& cloud, const Medium& /*medium*/, Vec3& lo, Vec3& hi) {
     lo = Vec3(INFINITY);
     hi = Vec3(-INFINITY);
-    const double inflate = 1 + std::max(medium.noise, 0.0);
     for (const Ellipsoid& e : cloud.ellipsoids) {
         // Half extents of R diag(r): the lengths of its rows.
         const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half = inflate * Vec3(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
         lo = glm::min(lo, e.center - half);
         hi = glm::max(hi, e.center + half);
     }
@@ -133,14 +132,13 @@ bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& 
 
 double raymarchExtinction(const Medium& medium, const Cloud& cloud, const Vec3& x, const NoiseVolume* noise,
                           double noisePeriod) {
-    const double invS2 = inverseScale2(medium.noise, x, noise, noisePeriod);
     double sum = 0;
     for (const UnitEllipsoid& e : prepare(cloud)) {
         const Vec3 p = e.unit * (x - e.center);
-        const double q = glm::dot(p, p) * invS2;
+        const double q = glm::dot(p, p);
         if (q < 1) sum += e.density * (1 - q) * (1 - q);
     }
-    return medium.extinction * sum;
+    return sum > 0 ? medium.extinction * sum * noiseFactor(std::max(medium.noise, 0.0), x, noise, noisePeriod) : 0.0;
 }
 
 double marchDensityNdt(const Medium& medium, const Cloud& cloud, const Vec3& o, const Vec3& dir, double step,
