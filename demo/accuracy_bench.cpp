@@ -566,7 +566,8 @@ int runAccuracyBench(const AccuracyOptions& o) {
     for (const std::string& noiseMode : o.noiseModes) {
         md << (noiseMode == "0" ? "With `medium.noise: 0` (the exact analytic field):\n\n"
                                 : "With the scenes' noise (`medium.noise` 0.3; the path tracer uses the project's "
-                                  "noise field, the ray-marcher the paper's pseudo-spheroids):\n\n");
+                                  "noise field per ellipsoid, the ray-marcher one noise field over the sum, the compositor "
+                                  "one sample of that field per chord):\n\n");
         md << "| method | setting | total ms | mean error | Pareto |\n|---|---|---:|---:|:---:|\n";
         std::vector<Aggregate> rows;
         for (const Aggregate& a : agg)
