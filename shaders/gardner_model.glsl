@@ -55,7 +55,8 @@ const float kChordScale = 1.0666667f;  // 16/15
 // thin edges a path tracer shows, and against the sun the silver lining (README, "The light").
 const float kTranslucence = 0.5f;  // D
 
-// The optical depth of opacity a (capped at 13.8: float).
+// The optical depth (absorbance) of opacity a; opacity 1 taken as 1 - 1e-6 (13.8), so that
+// the moment composite's sums stay finite.
 MODEL_FN float absorbanceOf(float a) { return -log(max(1.0f - a, 1e-6f)); }
 
 MODEL_FN float noisyOpacity(float a, float noiseAmp, float n) {
@@ -156,7 +157,6 @@ MODEL_FN float momentDepth(float t, float tNear, float tFar) {
     float z = log(max(t, tNear) / tNear) / max(log(tFar / tNear), 1e-6f);
     return clamp(2.0f * z - 1.0f, -1.0f, 1.0f);
 }
-// Absorbance of opacity a (opacity 1 taken as 1 - 1e-6: the sums stay finite).
 // The transmittance in front of depth z from b0 and the moments m1..m4 = b_k / b0 (the paper's
 // Hamburger reconstruction: the bounds of the canonical representation, Cholesky of the 3x3
 // Hankel matrix, the roots of a quadratic).

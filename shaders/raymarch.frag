@@ -81,7 +81,7 @@ void insertCandidate(float tIn, vec4 data) {
 
 // The ellipsoids of cloud `c` that the ray meets within [tMin, tMax] and not wholly before `from`
 // (getCandidates): the noise scales the density, not the shape.
-void getCandidates(RmCloud c, float tMin, float tMax, float from, float r2) {
+void getCandidates(RmCloud c, float tMin, float tMax, float from) {
     candCount = 0;
     candLimit = kFar;
     for (int i = c.range.x; i < c.range.x + c.range.y; ++i) {
@@ -92,8 +92,8 @@ void getCandidates(RmCloud c, float tMin, float tMax, float from, float r2) {
         float lc = -dot(o, du) / a;  // closest approach to the centre, m along the ray
         vec3 perp = o + lc * du;
         float qmin = dot(perp, perp);
-        if (qmin >= r2) continue;
-        float h = sqrt((r2 - qmin) / a);
+        if (qmin >= 1.0) continue;
+        float h = sqrt((1.0 - qmin) / a);
         float tIn = max(lc - h, tMin), tOut = min(lc + h, tMax);
         if (tOut <= max(tIn, from)) continue;
         insertCandidate(tIn, vec4(lc, qmin, a, e.eyeUnitSigma.w));
@@ -141,18 +141,17 @@ float stepAt(float l) { return max(max(stepBase * (1.0 + l * invLod), minStep), 
 // gaps skipped). When more candidates meet the ray than the list holds, the march stops at
 // the first one left out and the list is gathered again from there.
 void marchCloud(RmCloud c, float tMin, float tMax) {
-    float r2 = 1.0;  // the unit sphere: the noise scales the density, not the shape
     float lambda = tMin;
     minStep = (tMax - tMin) / float(maxSteps);
     for (;;) {
-        getCandidates(c, tMin, tMax, lambda, r2);
+        getCandidates(c, tMin, tMax, lambda);
         if (candCount == 0) return;
         if (++steps >= maxSteps) return;  // a gather counts as a step: the cap bounds every loop
         // More than MAX_CANDIDATES active at once: take a step with those we hold.
         if (candLimit <= lambda) candLimit = lambda + stepAt(lambda);
         for (int j = 0; j < candCount; ++j) {
             vec4 cj = candData[candKey[j] & kSlotMask];
-            float h = sqrt(max(r2 - cj.y, 0.0) / cj.z);
+            float h = sqrt(max(1.0 - cj.y, 0.0) / cj.z);
             float tIn = max(cj.x - h, tMin), tOut = min(min(cj.x + h, tMax), candLimit);
             if (lambda >= tOut) continue;  // Algorithm 2: already marched
             if (lambda < tIn) lambda = tIn;  // a gap: jump to the candidate

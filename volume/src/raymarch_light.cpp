@@ -48,7 +48,6 @@ struct Candidate {
 
 // Candidates along o + l dir, l >= 0, sorted by entry with insertion sort (Algorithm 1).
 std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, const Vec3& o, const Vec3& dir) {
-    const double r2 = 1;
     std::vector<Candidate> list;
     for (const UnitEllipsoid& e : ells) {
         const Vec3 ou = e.unit * (o - e.center), du = e.unit * dir;
@@ -56,8 +55,8 @@ std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, const 
         const double lc = -glm::dot(ou, du) / a;
         const Vec3 perp = ou + lc * du;
         const double qmin = glm::dot(perp, perp);
-        if (qmin >= r2) continue;
-        const double h = std::sqrt((r2 - qmin) / a);
+        if (qmin >= 1) continue;
+        const double h = std::sqrt((1 - qmin) / a);
         const double in = std::max(lc - h, 0.0), out = lc + h;
         if (out <= in) continue;
         list.push_back({in, out, a, lc, qmin, e.density});
