@@ -171,7 +171,20 @@ TEST(NearLodTest, CloudsDriftWithTheWind) {
             EXPECT_NEAR(d.y, 200, 1e-6);
             EXPECT_EQ(d.z, 0);
         }
+        // Each is lit as a tile of the layer: its cell, moved with it.
+        ASSERT_TRUE(c0[k].tiled());
+        EXPECT_NEAR(c0[k].tileMax.x - c0[k].tileMin.x, NearLodSettings{}.cellSize, 1e-9);
+        EXPECT_NEAR(c0[k].tileMax.y - c0[k].tileMin.y, NearLodSettings{}.cellSize, 1e-9);
+        EXPECT_NEAR(c1[k].tileMin.x - c0[k].tileMin.x, 600, 1e-6);
+        EXPECT_NEAR(c1[k].tileMin.y - c0[k].tileMin.y, 200, 1e-6);
+        for (const Ellipsoid& e : c0[k].ellipsoids) {  // its columns lie in its cell
+            EXPECT_GT(e.center.x, c0[k].tileMin.x);
+            EXPECT_LT(e.center.x, c0[k].tileMax.x);
+        }
     }
+    NearLodSettings alone;
+    alone.tiledLight = false;
+    for (const Cloud& c : NearLod(alone, layeredSettings()).update(scene, Vec3(0, 0, 1000), 0)) EXPECT_FALSE(c.tiled());
 }
 
 TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {

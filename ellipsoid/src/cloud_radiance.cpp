@@ -26,17 +26,22 @@ using Rng = detail::PhotonRng;
 using detail::basis;
 using detail::sampleHg;
 
-// The voxel grid a photon walks: extinction per voxel (1/m), world box.
+// The voxel grid a photon walks: extinction per voxel (1/m), world box; periodic across (x
+// and y) for a tiled cloud (Cloud::tileMin).
 struct Grid {
     int n = 0;
     Vec3 lo{0.0}, cell{1.0};  // m
+    bool periodic = false;
     std::vector<float> sigma;
+
+    Vec3 hi() const { return lo + cell * double(n); }
 
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * n + y) * n + x; }
 };
 
 // Mean extinction over each voxel: the exact field at 2x2x2 points per voxel, each ellipsoid
-// over the voxels of its box only.
+// over the voxels of its box only; on a periodic grid what reaches past a side comes back
+// through the opposite one.
 std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& g) {
     std::vector<float> sigma(std::size_t(g.n) * g.n * g.n, 0.0f);
     struct Shape { glm::dmat3 unit; Vec3 centre; double sigma; glm::ivec3 lo, hi; };
@@ -45,8 +50,14 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
         if (!(e.density > 0)) continue;
         const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
         const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
-        const glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((e.center - half - g.lo) / g.cell)), 0, g.n - 1);
-        const glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((e.center + half - g.lo) / g.cell)), 0, g.n - 1);
+        glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((e.center - half - g.lo) / g.cell)), 0, g.n - 1);
+        glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((e.center + half - g.lo) / g.cell)), 0, g.n - 1);
+        if (g.periodic)  // unclamped across, at most two periods
+            for (int k = 0; k < 2; ++k) {
+                lo[k] = int(std::clamp(std::floor((e.center[k] - half[k] - g.lo[k]) / g.cell[k]), -double(g.n), double(g.n)));
+                hi[k] = std::min(int(std::clamp(std::floor((e.center[k] + half[k] - g.lo[k]) / g.cell[k]), -1.0, 2.0 * g.n)),
+                                 lo[k] + 2 * g.n - 1);
+            }
         shapes.push_back({ellipsoidToUnit(e), e.center, scene.medium.extinction * e.density, lo, hi});
     }
     parallelFor(g.n, [&](int z) {
@@ -61,20 +72,25 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
                         const double q = glm::dot(u, u);
                         if (q < 1) sum += (1 - q) * (1 - q);
                     }
-                    sigma[g.index(x, y, z)] += float(e.sigma * sum / 8);
+                    const int wx = ((x % g.n) + g.n) % g.n, wy = ((y % g.n) + g.n) % g.n;  // x, y on a periodic grid
+                    sigma[g.index(wx, wy, z)] += float(e.sigma * sum / 8);
                 }
         }
     });
     return sigma;
 }
 
-// Walks the photon (x, w) through the grid: free flight by exact sampling in each voxel's
-// constant extinction, scoring weight * length into the voxels crossed. Returns false when it
-// leaves the box, else moves x to the collision.
+// Voxel steps a flight takes at most on a periodic grid (a photon travelling level in a
+// clear row would never leave): past them it counts as gone.
+constexpr int kMaxPeriodicSteps = 1 << 15;
+
+// Walks the photon (x, w) through the grid until it has crossed optical depth `tau`, scoring
+// length into the voxels crossed. Returns false when it leaves the box (on a periodic grid: its
+// top or bottom), else moves x to the collision.
 template <class Score>
-bool flight(const Grid& g, Vec3& x, const Vec3& w, Rng& rng, Score&& score) {
-    double tau = -std::log(rng.uniform());
+bool flightTo(const Grid& g, Vec3& x, const Vec3& w, double tau, Score&& score) {
     Vec3 p = (x - g.lo) / g.cell;  // voxel units
+    Vec3 shift(0.0);               // m, the periods crossed on a periodic grid
     int cell[3], step[3];
     double tNext[3], tDelta[3];
     for (int k = 0; k < 3; ++k) {
@@ -93,7 +109,7 @@ bool flight(const Grid& g, Vec3& x, const Vec3& w, Rng& rng, Score&& score) {
         }
     }
     double t = 0;
-    for (;;) {
+    for (int steps = 0;; ++steps) {
         const int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
         const double length = std::max(tNext[axis] - t, 0.0);
         const std::size_t i = g.index(cell[0], cell[1], cell[2]);
@@ -101,16 +117,27 @@ bool flight(const Grid& g, Vec3& x, const Vec3& w, Rng& rng, Score&& score) {
         if (s * length >= tau) {  // collides in this voxel
             const double l = tau / s;
             score(i, l);
-            x += (t + l) * w;
+            x += (t + l) * w + shift;
             return true;
         }
         score(i, length);
         tau -= s * length;
         t = tNext[axis];
         cell[axis] += step[axis];
-        if (cell[axis] < 0 || cell[axis] >= g.n) return false;
+        if (cell[axis] < 0 || cell[axis] >= g.n) {
+            if (!g.periodic || axis == 2 || steps >= kMaxPeriodicSteps) return false;
+            const double period = g.cell[axis] * g.n;
+            cell[axis] = cell[axis] < 0 ? g.n - 1 : 0;
+            shift[axis] += cell[axis] == 0 ? -period : period;
+        }
         tNext[axis] += tDelta[axis];
     }
+}
+
+// A free flight: to an optical depth drawn from e^-tau.
+template <class Score>
+bool flight(const Grid& g, Vec3& x, const Vec3& w, Rng& rng, Score&& score) {
+    return flightTo(g, x, w, -std::log(rng.uniform()), score);
 }
 
 // Where a ray from outside enters the box [lo, hi] along w: false if it misses.
@@ -161,6 +188,27 @@ struct Beam {
     double area() const { return 4 * radius * radius; }
 };
 
+// Photons along unit `travel` into a grid: a beam over its bounding sphere, or on a periodic
+// grid the top face (travelling down) or the bottom one (up), the face's area seen along the
+// beam (nothing travels level into an endless layer).
+struct Launcher {
+    Beam beam;
+    bool face = false;
+    double areaAcross = 0;
+    Launcher(const Grid& g, const Vec3& w) : beam(g, w), face(g.periodic) {
+        const Vec3 e = g.hi() - g.lo;
+        areaAcross = face ? (std::fabs(w.z) > 1e-6 ? e.x * e.y * std::fabs(w.z) : 0.0) : beam.area();
+    }
+    bool launch(const Grid& g, double a, double b, Vec3& x) const {
+        if (!face) return beam.launch(g, a, b, x);
+        if (areaAcross <= 0) return false;
+        const Vec3 hi = g.hi();
+        x = Vec3(g.lo.x + a * (hi.x - g.lo.x), g.lo.y + b * (hi.y - g.lo.y), beam.travel.z < 0 ? hi.z : g.lo.z);
+        x.z += (beam.travel.z < 0 ? -1e-9 : 1e-9) * (hi.z - g.lo.z);
+        return true;
+    }
+};
+
 // Sun photons, stratified over the beam's square (a jittered m x m grid). The first flight ends
 // at the first scattering, which single scattering accounts for exactly; every later flight is
 // scored, fluence and net flux per unit irradiance: into `few` after 1 to kFewScatterings
@@ -170,10 +218,10 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
     few.assign(g.sigma.size(), glm::vec4(0.0f));
     many.assign(g.sigma.size(), glm::vec4(0.0f));
     if (s.sunPhotons == 0) return;
-    const Beam beam(g, -scene.sun.direction);
+    const Launcher beam(g, -scene.sun.direction);
     const int side = std::max(1, int(std::sqrt(double(s.sunPhotons))));
     const int total = side * side, perBatch = (total + kBatches - 1) / kBatches;
-    const double power = beam.area() / total;
+    const double power = beam.areaAcross / total;
     const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
     std::vector<std::vector<glm::vec4>> talliesFew(kBatches), talliesMany(kBatches);
     parallelFor(kBatches, [&](int b) {
@@ -182,7 +230,7 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
         talliesFew[b].assign(g.sigma.size(), glm::vec4(0.0f));
         talliesMany[b].assign(g.sigma.size(), glm::vec4(0.0f));
         for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
-            Vec3 x, w = beam.travel;
+            Vec3 x, w = beam.beam.travel;
             if (!beam.launch(g, (j % side + rng.uniform()) / side, (j / side + rng.uniform()) / side, x)) continue;
             if (!flight(g, x, w, rng, [](std::size_t, double) {})) continue;
             double weight = power;
@@ -229,11 +277,11 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
         for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
             const double cz = 1 - 2 * (j + 0.5) / total, phi = turn + j * 2.399963229728653, sz = std::sqrt(1 - cz * cz);
             Vec3 w(sz * std::cos(phi), sz * std::sin(phi), cz);
-            const Beam beam(g, w);
+            const Launcher beam(g, w);
             Vec3 x;
             if (!beam.launch(g, rng.uniform(), rng.uniform(), x)) continue;
             // Radiance L from a direction of solid angle 4 pi / total through the square.
-            Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * kPi * beam.area() / total);
+            Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * kPi * beam.areaAcross / total);
             for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
                 const glm::vec3 c(weight), dir(w);
                 const float lum = glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f));
@@ -256,7 +304,32 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
     sumBatches(tallyFlux, flux);
 }
 
-// The sun's optical depth at the voxel centres, closed form through every ellipsoid.
+// The optical depth along unit w from p (inside the periodic grid g) beyond where the ray first
+// leaves the box across (x or y): 0 when it leaves through the top or the bottom first.
+double beyondTile(const Grid& g, const Vec3& p, const Vec3& w) {
+    double exitAcross = INFINITY, exitZ = INFINITY;
+    const Vec3 hi = g.hi();
+    for (int k = 0; k < 3; ++k) {
+        if (w[k] == 0) continue;
+        const double t = ((w[k] > 0 ? hi[k] : g.lo[k]) - p[k]) / w[k];
+        (k == 2 ? exitZ : exitAcross) = std::min(k == 2 ? exitZ : exitAcross, t);
+    }
+    if (!(exitAcross < exitZ)) return 0;
+    Vec3 x = p + exitAcross * w;
+    for (int k = 0; k < 2; ++k) {  // through the side: in again at the opposite one
+        const double period = hi[k] - g.lo[k];
+        if (x[k] >= hi[k] - 1e-9 * period && w[k] > 0) x[k] -= period;
+        else if (x[k] <= g.lo[k] + 1e-9 * period && w[k] < 0) x[k] += period;
+        x[k] = std::clamp(x[k], g.lo[k], hi[k]);
+    }
+    double tau = 0;
+    flightTo(g, x, w, INFINITY, [&](std::size_t i, double l) { tau += g.sigma[i] * l; });
+    return tau;
+}
+
+// The sun's optical depth at the voxel centres, closed form through every ellipsoid; on a
+// periodic grid, past where the ray first leaves the box across, on through the voxelised
+// field of the tiles beyond until it leaves through the top or the bottom.
 void sunDepths(const Scene& scene, const Cloud& cloud, const Grid& g, std::vector<glm::vec4>& skyTau) {
     std::vector<glm::dmat3> units;
     for (const Ellipsoid& e : cloud.ellipsoids) units.push_back(ellipsoidToUnit(e));
@@ -271,7 +344,9 @@ void sunDepths(const Scene& scene, const Cloud& cloud, const Grid& g, std::vecto
                     tau += e.density * model::segmentDepth(glm::vec3(units[i] * (p - e.center)),
                                                            glm::vec3(units[i] * scene.sun.direction), 0.0f, 1e30f);
                 }
-                skyTau[g.index(x, y, z)].w = float(scene.medium.extinction * tau);
+                tau *= scene.medium.extinction;
+                if (g.periodic) tau += beyondTile(g, p, scene.sun.direction);
+                skyTau[g.index(x, y, z)].w = float(tau);
             }
     });
 }
@@ -303,6 +378,13 @@ void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
         hi = glm::max(hi, e.center + half);
     }
     if (cloud.ellipsoids.empty()) lo = hi = Vec3(0.0);
+}
+
+void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
+    cloudBox(cloud, lo, hi);
+    if (!cloud.tiled()) return;
+    lo = Vec3(cloud.tileMin, lo.z);
+    hi = Vec3(cloud.tileMax, hi.z);
 }
 
 void validate(const RadianceGridSettings& s) {
@@ -348,13 +430,14 @@ CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const
     CloudRadiance out;
     out.size = s.size;
     Vec3 lo, hi;
-    cloudBox(cloud, lo, hi);
+    radianceBox(cloud, lo, hi);
     out.boxMin = lo;
     out.boxExtent = glm::max(hi - lo, Vec3(1.0));
     Grid g;
     g.n = s.size;
     g.lo = out.boxMin;
     g.cell = out.boxExtent / double(s.size);
+    g.periodic = cloud.tiled();
     g.sigma = voxelise(scene, cloud, g);
     traceSun(scene, g, s, out.sunFew, out.sunMany, cancel);
     traceSky(scene, g, s, out.skyTau, out.skyFlux, cancel);

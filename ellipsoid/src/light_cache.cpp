@@ -18,7 +18,7 @@ void addLight(Fingerprint& f, const Scene& scene) {
     f.addMedium(scene.medium);
 }
 
-// The cloud's shape relative to its first ellipsoid, and the grid's settings.
+// The cloud's shape (and tile) relative to its first ellipsoid, and the grid's settings.
 std::uint64_t shapeKey(const Cloud& cloud, const RadianceGridSettings& s) {
     Fingerprint f;
     f.add(s.size).add(s.fitToCloud).add(s.sunPhotons).add(s.skyPhotons).add(s.smoothing).add(s.seed);
@@ -29,6 +29,9 @@ std::uint64_t shapeKey(const Cloud& cloud, const RadianceGridSettings& s) {
         const glm::i64vec3 offset(glm::round((e.center - anchor) * 1000.0));
         f.add(offset).add(e.radii).add(e.rotationDeg).add(e.density);
     }
+    if (cloud.tiled())
+        f.add(glm::i64vec2(glm::round((cloud.tileMin - Vec2(anchor)) * 1000.0)))
+            .add(glm::i64vec2(glm::round((cloud.tileMax - Vec2(anchor)) * 1000.0)));
     return f.value();
 }
 
@@ -110,7 +113,7 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
         w.shape = shapeKey(scene.clouds[i], s);
         w.key = lightKey(scene, w.shape);
         Vec3 hi;
-        cloudBox(scene.clouds[i], w.lo, hi);
+        radianceBox(scene.clouds[i], w.lo, hi);
         w.extent = glm::max(hi - w.lo, Vec3(1.0));
         if (eye) {  // its size on screen: 1 inside, falling as 1 / distance outside
             const double r = 0.5 * glm::length(w.extent);

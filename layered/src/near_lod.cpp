@@ -72,6 +72,10 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     cell.spawn = spawnPoint(layer.seed, i, j, s);
     cell.cloud.name = "near" + std::to_string(li) + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
     cell.cloud.noiseId = cellHash(layer.seed, i, j, 3) | 1;  // never 0 ("the cloud's index")
+    if (s.tiledLight) {
+        cell.cloud.tileMin = Vec2(double(i), double(j)) * s.cellSize;
+        cell.cloud.tileMax = cell.cloud.tileMin + s.cellSize;
+    }
     // The layer's matter over the cell, column by column (pattern coordinates are the world at
     // t = 0): columns x columns columns of side w, each sampled at samples x samples points
     // and `levels` heights: its mean density (eq. 16) and its optical depth.
@@ -234,6 +238,7 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
             Cloud cloud = cell.cloud;
             cloud.weight = 1 - nearFade(layered_, glm::length(cell.spawn - e));
             for (Ellipsoid& el : cloud.ellipsoids) el.center += Vec3(drift, 0.0);
+            if (cloud.tiled()) cloud.tileMin += drift, cloud.tileMax += drift;
             ++st.clouds;
             st.ellipsoids += int(cloud.ellipsoids.size());
             st.fading += cloud.weight > 0 && cloud.weight < 1;

@@ -84,6 +84,13 @@ struct Cloud {
     std::uint64_t noiseId = 0;  // 0: the noise offsets of its ellipsoids come from the cloud's index in
                                 // scene.clouds; else from this id, so that the cloud keeps its detail
                                 // when clouds before it come and go
+    // The horizontal rectangle (m, world) of a layer that the cloud is one piece of (none unless
+    // tileMax > tileMin on both axes). Its radiance grid then spans the rectangle across (and the
+    // cloud's height) and its light is traced with the rectangle's opposite sides joined, as one
+    // tile of an endless layer of its kind: its neighbours shadow it and send it light as the
+    // layer's own would (nephele/cloud_radiance.hpp). Its ellipsoids may reach past it.
+    Vec2 tileMin{0.0}, tileMax{0.0};
+    bool tiled() const { return tileMax.x > tileMin.x && tileMax.y > tileMin.y; }
 };
 
 // A procedural cloud, validated on load; expanded into a Cloud by later stages.

@@ -20,7 +20,11 @@
 // The diffuse light is found by tracing photons from the sun and from the sky and the ground
 // through the cloud's extinction (voxelised), with the path tracer's physics (the same
 // extinction, albedo and Henyey-Greenstein phase), scored by track length, then lightly
-// smoothed. Only the cloud's own matter counts: other clouds neither shadow nor light it.
+// smoothed. Only the cloud's own matter counts: other clouds neither shadow nor light it. A
+// tiled cloud (a piece of a layer, Cloud::tileMin) is traced as one tile of an endless layer
+// of copies of itself: the grid spans the tile across, photons enter through its top and
+// bottom only and leave through one side to come back through the opposite one, and the sun's
+// optical depth goes on through the tiles beyond.
 //
 // The grid depends on the cloud's ellipsoids relative to each other, the sun's direction, the
 // sky, the medium and the settings only: a cloud that moves keeps it (see light_cache.hpp).
@@ -96,6 +100,10 @@ void validate(const RadianceGridSettings& settings);
 
 // The axis-aligned box of the cloud's ellipsoids (m, world); the point 0 for an empty cloud.
 void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
+
+// The box the cloud's radiance grid covers (m, world): cloudBox(), for a tiled cloud
+// (Cloud::tiled) its tile across.
+void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 
 // The grid of `cloud` for the scene's sun, sky and medium, radianceGridSize() voxels per side
 // with the photons scaled to its cross-section. Deterministic for a seed, whatever

@@ -76,6 +76,9 @@ struct NearLodSettings {
     // 2026-12-02, when the compositor's noise stopped thinning the rims, which had hidden it).
     double minColumnDepth = 0.3;
     double overlap = 0.75;      // horizontal radius of a column's ellipsoid, in columns, [0.5, 2]
+    // Light each cell's cloud as one tile of an endless layer of copies of itself (Cloud::tileMin:
+    // the neighbours' shadow and the light they send back), not as a cloud alone in clear air.
+    bool tiledLight = true;
     int maxCellsPerAxis = 256;  // bound on 2 (nearRadius + blendBand) / cellSize (a setting error beyond)
 };
 // Throws std::invalid_argument naming the setting (NearLodSettings and the reach of `layered`).
