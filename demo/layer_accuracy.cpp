@@ -26,16 +26,20 @@ struct LayerView {
     std::string name;
     Vec3 eye;
     double elevationDeg;  // of the view direction (looking along +y)
+    double coverage = -1; // the layer's, if >= 0
 };
 
-// Below the base looking up, grazing just under the base, inside the layer, above looking down.
+// Below the base looking up, grazing just under the base, inside the layer, above looking down;
+// and just under a deck (coverage 0.9) looking up, where a near cumulus lit as a cloud alone is
+// far brighter than the layer.
 std::vector<LayerView> layerViews(const Scene& scene, bool quick) {
     const Layer& l = scene.layers.front();
     const double mid = l.base + 0.5 * l.thickness;
     std::vector<LayerView> v = {{"below, looking up 20°", scene.camera.position, 20},
                                 {"grazing, 100 m under the base", Vec3(0, 0, l.base - 100), 1.1},
                                 {"inside the layer, level", Vec3(0, 0, mid), 0},
-                                {"above, looking 10° down", Vec3(0, 0, mid + 2000), -10}};
+                                {"above, looking 10° down", Vec3(0, 0, mid + 2000), -10},
+                                {"100 m under a deck (coverage 0.9), looking up 20°", Vec3(0, 0, l.base - 100), 20, 0.9}};
     if (quick) v.resize(1);
     return v;
 }
@@ -50,6 +54,7 @@ Scene viewScene(const Scene& base, const LayerView& v, int width) {
     s.camera.width = width;
     s.camera.height = std::max(1, width * 9 / 16);
     s.path.clear();
+    if (v.coverage >= 0) s.layers.front().coverage = v.coverage;
     return s;
 }
 
@@ -76,6 +81,7 @@ struct Renderers {
     std::unique_ptr<LayeredRenderer> sky;  // --method layered
     std::unique_ptr<LayeredRenderer> single;  // --method layered lit by single scattering alone (no photons)
     std::unique_ptr<SkyRenderer> autoSky;  // --method auto
+    std::unique_ptr<SkyRenderer> autoAlone;  // --method auto, each near cumulus lit as a cloud alone
     OpaquePass opaque;
 };
 
@@ -140,6 +146,34 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
     a.layeredError = relativeRmse(layeredBlocks, ref.total), a.layeredRatio = meanRatio(layeredBlocks, ref.total);
     a.autoError = relativeRmse(autoBlocks, ref.total), a.autoRatio = meanRatio(autoBlocks, ref.total);
     a.layeredOpacity = meanAlpha(layeredBlocks);
+    {  // within auto's reach
+        const Image aloneBlocks = blockMean(drawOver(scene, view, r.opaque, [&](GLuint fb) { r.autoAlone->render(scene, view, fb, 0, false); }),
+                                            o.block);
+        const Layer& l = scene.layers.front();
+        std::vector<char> inReach(std::size_t(layeredBlocks.width) * layeredBlocks.height), inBand = inReach;
+        for (int y = 0; y < layeredBlocks.height; ++y)
+            for (int x = 0; x < layeredBlocks.width; ++x) {
+                const Vec3 d = view.rayDirection((x + 0.5) * o.block, (y + 0.5) * o.block);
+                const std::size_t p = std::size_t(y) * layeredBlocks.width + x;
+                const double top = l.base + l.thickness, reach = kAutoNearRadius + kAutoBlendBand;
+                inReach[p] = meetsSlab(view.eye, d, l.base, top, 0, reach);
+                inBand[p] = meetsSlab(view.eye, d, l.base, top, kAutoNearRadius, reach);
+                a.nearBlocks += inReach[p];
+            }
+        auto masked = [&](const Image& blocks, const std::vector<char>& mask) {  // alpha 0 outside: relativeRmse() and meanRatio() skip it
+            Image out = blocks;
+            for (std::size_t p = 0; p < mask.size(); ++p)
+                if (!mask[p]) out.pixels[4 * p + 3] = 0;
+            return out;
+        };
+        auto near = [&](const Image& blocks) { return masked(blocks, inReach); };
+        auto bandRatio = [&](const Image& blocks) { return meanRatio(masked(blocks, inBand), masked(ref.total, inBand)); };
+        a.layeredBandRatio = bandRatio(layeredBlocks), a.autoBandRatio = bandRatio(autoBlocks), a.aloneBandRatio = bandRatio(aloneBlocks);
+        const Image refNear = near(ref.total);
+        a.layeredNearError = relativeRmse(near(layeredBlocks), refNear), a.layeredNearRatio = meanRatio(near(layeredBlocks), refNear);
+        a.autoNearError = relativeRmse(near(autoBlocks), refNear), a.autoNearRatio = meanRatio(near(autoBlocks), refNear);
+        a.aloneNearError = relativeRmse(near(aloneBlocks), refNear), a.aloneNearRatio = meanRatio(near(aloneBlocks), refNear);
+    }
     a.layeredParts = componentErrors(scene, view, ref, o.block, [&](const Scene& sc, bool single) {
         return drawOver(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });
     });
@@ -176,6 +210,9 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     single.lighting.photons = 0;  // no diffuse light
     r.single = std::make_unique<LayeredRenderer>(single);
     r.autoSky = std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), {}, autoEllipsoidSettings()});
+    NearLodSettings alone;
+    alone.tiledLight = false;
+    r.autoAlone = std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), alone, autoEllipsoidSettings()});
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
     std::vector<LayerViewAccuracy> out;
@@ -218,6 +255,19 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
            << fmt("%.2f", a.shares.single) << " / " << fmt("%.2f", a.shares.multiple) << " / " << fmt("%.2f", a.shares.sky)
            << " |\n";
     }
+    md << "\nWithin auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
+       << " m), where auto draws the near LOD: the blocks whose centre's ray meets the layer there, error / mean "
+          "radiance over the reference's, of the layered sky, of auto, and of auto with each near cumulus lit as a cloud "
+          "alone in clear air (`NearLodSettings::tiledLight` off; on, each is lit as one tile of an endless layer of "
+          "copies of itself):\n\n";
+    md << "| view | blocks | layered | auto | auto, near clouds lit alone | blend band only: mean of layered / auto / lit "
+          "alone |\n|---|---:|---:|---:|---:|---:|\n";
+    for (const LayerViewAccuracy& a : results)
+        md << "| " << a.view << " | " << a.nearBlocks << " | " << fmt("%.1f%%", 100 * a.layeredNearError) << " / "
+           << fmt("%.2f", a.layeredNearRatio) << " | " << fmt("%.1f%%", 100 * a.autoNearError) << " / "
+           << fmt("%.2f", a.autoNearRatio) << " | " << fmt("%.1f%%", 100 * a.aloneNearError) << " / "
+           << fmt("%.2f", a.aloneNearRatio) << " | " << fmt("%.2f", a.layeredBandRatio) << " / "
+           << fmt("%.2f", a.autoBandRatio) << " / " << fmt("%.2f", a.aloneBandRatio) << " |\n";
     md << "\nThe near LOD against the layer within auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
        << " m): the near cumulus alone (every cell at weight 1) and the layered sky cut at the reach, over the pixels "
           "whose ray meets the layer within the reach (opacity; the volume's is the CPU integral of its density) and "
@@ -233,17 +283,26 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
 }
 
 int runLayerAccuracyBench(const LayerAccuracyOptions& o, GlBackend backend) {
+    const char* tag = "layer accuracy bench";
+    if (!o.readme.empty() && !prepareBenchOutputs(o.imageDir.empty() ? "." : o.imageDir, o.readme, tag)) return 2;
     std::vector<LayerViewAccuracy> results;
+    std::string renderer;
     try {
         ContextOptions co;
         co.backend = backend;
         auto context = Context::create(co);
+        renderer = context->description();
         gl::setChecks(true);
         results = measureLayerAccuracy(o);
+        const std::string md = layerAccuracyMarkdown(results, o);
+        std::cout << md;
+        if (!o.readme.empty())
+            replaceGeneratedSection(o.readme, tag,
+                                    "Measured by `nephele bench --layer-accuracy` on " + utcNow() + ", " + machineLine(renderer) +
+                                        ". " + md);
     } catch (const std::exception& e) {
         return reportError(e, "bench --layer-accuracy");
     }
-    std::cout << layerAccuracyMarkdown(results, o);
     return 0;
 }
 

@@ -30,6 +30,7 @@ struct LayerAccuracyOptions {
     int block = 4;            // errors on block x block pixel means
     int frames = 3;           // timed frames per GPU method (median)
     bool quick = false;       // one view at 64 px, 4 spp, one frame (for tests)
+    std::string readme;       // when set, its "layer accuracy bench" section is replaced
 };
 
 struct LayerViewAccuracy {
@@ -42,6 +43,14 @@ struct LayerViewAccuracy {
     ComponentErrors layeredParts;  // the layered sky's error split by light (accuracy_reference.hpp)
     ReferenceShares shares;        // the reference's radiance split by light
     double layeredMs = 0, autoMs = 0;        // median ms per frame
+    // Over the blocks whose centre's ray meets the layer within auto's reach (where auto draws
+    // the near LOD): error and mean ratio against the reference of the layered sky, of auto, and
+    // of auto with the near cumulus lit each as a cloud alone (NearLodSettings::tiledLight off).
+    int nearBlocks = 0;
+    double layeredNearError = 0, layeredNearRatio = 0, autoNearError = 0, autoNearRatio = 0;
+    double aloneNearError = 0, aloneNearRatio = 0;
+    // The same mean ratios over the blocks that meet the layer across the blend band only.
+    double layeredBandRatio = 0, autoBandRatio = 0, aloneBandRatio = 0;
     // The near LOD against the layer within auto's reach.
     int reachPixels = 0, bandPixels = 0;
     double nearOpacity = 0, layerOpacity = 0, volumeOpacity = 0;  // mean over the reach pixels

@@ -354,6 +354,7 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
     if (b.cmd->count("--spp") > 0) lao.referenceSpp = b.ao.referenceSpp;
     lao.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
     if (b.cmd->count("--out-dir") > 0) lao.imageDir = b.bo.outDir;  // the views' images
+    lao.readme = b.bo.readme;
     return runLayerAccuracyBench(lao, b.bo.backend);
 }
 
