@@ -217,7 +217,7 @@ struct ComponentRow {
     ComponentErrors errors;
 };
 
-// The defaults of the compositor (back to front, and weighted as --method auto composites),
+// The defaults of the compositor (back to front, as --method auto composites; and weighted),
 // the ray-marcher and gardner-exact, each split by light against the reference.
 std::vector<ComponentRow> measureComponents(const Scene& scene, const View& view, const Reference& ref,
                                             const NoiseVolume& noise, const NoiseSettings& ns, const OpaquePass& opaque,
@@ -255,8 +255,8 @@ std::vector<ComponentRow> measureComponents(const Scene& scene, const View& view
     auto add = [&](const char* name, const std::function<Image(const Scene&, bool)>& render) {
         rows.push_back({"", name, {}, componentErrors(scene, view, ref, block, render)});
     };
-    add("ellipsoid", gpu(ellipsoid(CompositeOrder::PerEllipsoid)));
-    add("ellipsoid, weighted (auto)", gpu(ellipsoid(CompositeOrder::Weighted)));
+    add("ellipsoid (auto)", gpu(ellipsoid(CompositeOrder::PerEllipsoid)));
+    add("ellipsoid, weighted", gpu(ellipsoid(CompositeOrder::Weighted)));
     add("ellipsoid, moments", gpu(ellipsoid(CompositeOrder::Moments)));
     add("raymarch", gpu(raymarch));
     add("gardner-exact", exact);
@@ -578,11 +578,11 @@ int runAccuracyBench(const AccuracyOptions& o) {
                << fmt("%.1f%%", 100 * a.meanRelRmse) << " | " << (a.pareto ? "✓" : "") << " |\n";
         md << "\n";
     }
-    // Per case, the defaults of each method (the weighted composite is what --method auto draws).
+    // Per case, the defaults of each method (the compositor's default is what --method auto draws).
     for (const std::string& noiseMode : o.noiseModes) {
         md << "Per case, " << (noiseMode == "0" ? "with `medium.noise: 0`" : "with the scenes' noise")
            << " (error / ms per frame; the reference's own noise last):\n\n"
-              "| case | ellipsoid | weighted composite (auto) | raymarch | gardner-exact | pathtrace 16 spp | reference noise |\n"
+              "| case | ellipsoid (auto) | weighted composite | raymarch | gardner-exact | pathtrace 16 spp | reference noise |\n"
               "|---|---:|---:|---:|---:|---:|---:|\n";
         for (const Case& c : all) {
             md << "| " << c.name;

@@ -131,7 +131,7 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
                        const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --cruise` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", `--method auto` (the compositor's defaults under auto: the weighted composite) with `--reuse on` and with "
+       << ", `--method auto` (the compositor's defaults under auto: back to front) with `--reuse on` and with "
           "`--reuse off` (every tile rendered every frame), frame by frame in turn. A frame's ms is the draw's wall time to "
           "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in both) is "
           "left out of the figures and given apart. PSNR: each reuse frame against the same frame with every tile fresh, "

@@ -95,12 +95,12 @@ int runFlickerBench(const FlickerOptions& o) {
         add("ellipsoid", "back-to-front composite", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::PerEllipsoid; });
     else
-        add("ellipsoid", "weighted composite (as --method auto)", Method::Ellipsoid,
+        add("ellipsoid", "weighted composite", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::Weighted; });
-    // Tiles that last (EllipsoidSettings::reuse): the default composite, and auto's (weighted).
-    add("ellipsoid", "--reuse on", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.reuse = true; });
+    // Tiles that last (EllipsoidSettings::reuse): the default composite (as auto draws it), and the weighted one.
+    add("ellipsoid", "--reuse on (as --method auto)", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.reuse = true; });
     if (!o.quick)
-        add("ellipsoid", "weighted composite, --reuse on (as --method auto)", Method::Ellipsoid, [](RenderOptions& r) {
+        add("ellipsoid", "weighted composite, --reuse on", Method::Ellipsoid, [](RenderOptions& r) {
             r.ellipsoid.order = CompositeOrder::Weighted;
             r.ellipsoid.reuse = true;
         });

@@ -25,7 +25,7 @@ enum class FlyMethod { Auto, Ellipsoid, Raymarch, Layered };
 inline constexpr FlyMethod kFlyMethods[] = {FlyMethod::Auto, FlyMethod::Ellipsoid, FlyMethod::Raymarch, FlyMethod::Layered};
 const char* flyMethodName(FlyMethod method);
 std::optional<FlyMethod> parseFlyMethod(const std::string& name);
-// The composite order a method starts with, as `nephele render` has it (auto: weighted).
+// The composite order a method starts with, as `nephele render` has it.
 CompositeOrder defaultOrder(FlyMethod method);
 
 struct FlyHostSettings {

@@ -68,7 +68,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
     scene.camera.width = o.width, scene.camera.height = o.height;
     const View view = makeView(scene.camera);
     // auto's settings (nephele/sky.hpp): the hand-off radii, the billboard disc beyond the
-    // band, the weighted composite.
+    // band, tiles that last.
     LayeredSettings ls = autoLayeredSettings();
     ls.cacheDir = o.cacheDir;
     LayeredRenderer far(ls);

@@ -47,7 +47,7 @@ struct SceneArgs {
     std::string tileGeometry = "mesh", exactOrder = "ellipsoid";
     std::string composite = EllipsoidSettings().order == CompositeOrder::Weighted ? "weighted" : "back-to-front";
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
-    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr, *compositeOpt = nullptr;
+    CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr;
     RaymarchSettings raymarch;
     RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
     std::string lightGridFit = "on";  // --light-grid-fit
@@ -88,10 +88,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
     cmd->add_option("--colour-matrix", a.colourMatrix, "pass (the paper's copy through the matrix) or fused (in the composite)")
         ->check(CLI::IsMember({"pass", "fused"}))
         ->capture_default_str();
-    a.compositeOpt = cmd->add_option("--composite", a.composite,
-                    "back-to-front (the paper: whole tiles by centre distance; pops when the order flips), weighted "
+    cmd->add_option("--composite", a.composite,
+                    "back-to-front (the paper: whole tiles by centre distance, whose order flips as the eye passes between "
+                    "overlapping ellipsoids), weighted "
                     "(order-independent, weighted by each pixel's depth) or moments (order-independent, weighted by the "
-                    "transmittance in front, from each pixel's moments); default back-to-front, auto weighted")
+                    "transmittance in front, from each pixel's moments); default back-to-front")
         ->check(CLI::IsMember({"back-to-front", "weighted", "moments"}));
     cmd->add_option("--tile-geometry", a.tileGeometry, "mesh (the paper's Gouraud-lit ellipsoid meshes) or polygon (the model per pixel)")
         ->check(CLI::IsMember({"mesh", "polygon"}))
@@ -209,8 +210,6 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     es.order = a.composite == "weighted" ? CompositeOrder::Weighted
                : a.composite == "moments"  ? CompositeOrder::Moments
                                            : CompositeOrder::PerEllipsoid;
-    // auto flies the eye through the near LOD's overlapping cumulus: no order flips there.
-    if (ro.method == Method::Auto && !a.compositeOpt->count()) es.order = CompositeOrder::Weighted;
     es.reuse = a.reuse.empty() ? ro.method == Method::Auto : a.reuse == "on";
     es.reuseErrorPixels = a.reuseError;
     es.reuseBudget = a.reuseBudget;

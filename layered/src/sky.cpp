@@ -18,7 +18,6 @@ LayeredSettings autoLayeredSettings(LayeredSettings base) {
 }
 
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
-    base.order = CompositeOrder::Weighted;
     base.reuse = true;
     return base;
 }
