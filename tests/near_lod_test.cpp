@@ -292,6 +292,8 @@ TEST(NearLodTest, BadSettingsNameTheSetting) {
     EXPECT_NE(message(ns, layeredSettings()).find("columns"), std::string::npos);
     ns = {}, ns.overlap = 3;
     EXPECT_NE(message(ns, layeredSettings()).find("overlap"), std::string::npos);
+    ns = {}, ns.columnJitter = 0.6;
+    EXPECT_NE(message(ns, layeredSettings()).find("columnJitter"), std::string::npos);
     ns = {}, ns.stack = 3;  // 8 levels
     EXPECT_NE(message(ns, layeredSettings()).find("levels"), std::string::npos);
     ns = {}, ns.minColumnDepth = -1;
@@ -370,4 +372,31 @@ TEST(NearLodTest, NearCloudsCarryTheLayersOpticalDepth) {
             }
         }
     }
+}
+
+// The columns' ellipsoids are shaken off their grid (no straight lanes between rows that the
+// eye would see converge), by at most columnJitter columns, the same for the same cell.
+TEST(NearLodTest, ColumnsAreShakenOffTheirGrid) {
+    const Scene scene = layerScene();
+    auto offsets = [&](double jitter) {
+        NearLodSettings ns;
+        ns.columnJitter = jitter;
+        std::vector<double> out;
+        const double w = ns.cellSize / ns.columns;
+        for (const Cloud& c : NearLod(ns, layeredSettings()).update(scene, Vec3(0, 0, 1000), 0))
+            for (const Ellipsoid& e : c.ellipsoids)
+                for (int k = 0; k < 2; ++k) {
+                    const double f = e.center[k] / w - 0.5;  // column centres at (m + 0.5) w
+                    out.push_back(f - std::round(f));
+                }
+        return out;
+    };
+    const std::vector<double> still = offsets(0), shaken = offsets(NearLodSettings{}.columnJitter);
+    ASSERT_GT(shaken.size(), 20u);
+    double largest = 0, mean = 0;
+    for (double d : still) EXPECT_NEAR(d, 0.0, 1e-9);
+    for (double d : shaken) largest = std::max(largest, std::fabs(d)), mean += std::fabs(d) / double(shaken.size());
+    EXPECT_LE(largest, NearLodSettings{}.columnJitter + 1e-9);
+    EXPECT_GT(mean, 0.25 * NearLodSettings{}.columnJitter);  // uniform in [-j, j]: mean |d| = j / 2
+    EXPECT_EQ(offsets(NearLodSettings{}.columnJitter), shaken);
 }

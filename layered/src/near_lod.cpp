@@ -50,6 +50,7 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     if (!(s.columnDepth > 0) || !std::isfinite(s.columnDepth)) bad("columnDepth must be > 0");
     if (!(s.minColumnDepth >= 0) || !std::isfinite(s.minColumnDepth)) bad("minColumnDepth must be >= 0");
     if (!(s.overlap >= 0.5 && s.overlap <= 2)) bad("overlap must be in [0.5, 2] columns");
+    if (!(s.columnJitter >= 0 && s.columnJitter <= 0.5)) bad("columnJitter must be in [0, 0.5] columns");
     if (s.maxCellsPerAxis < 1 || s.maxCellsPerAxis > 4096) bad("maxCellsPerAxis must be 1..4096");
     validate(l);
     if (!std::isfinite(reach(l))) bad("nearRadius + blendBand must be finite");
@@ -108,7 +109,12 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
             for (int k = 0; k < stack; ++k) {
                 if (!(mean[std::size_t(k)] > 0)) continue;
                 Ellipsoid e;
-                e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w, double(j) * s.cellSize + (b + 0.5) * w,
+                // Each column's centre moved at random by up to `columnJitter` w per axis: rows of
+                // ellipsoids in line leave straight lanes of thinner matter between them, which show
+                // as lines converging on the vanishing point when the eye looks along them.
+                const std::uint64_t h = cellHash(layer.seed, i, j, 16 + std::uint64_t(b * n + a));
+                const Vec2 shake = s.columnJitter * w * (2.0 * Vec2(unit(h), unit(mix(h))) - 1.0);
+                e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w + shake.x, double(j) * s.cellSize + (b + 0.5) * w + shake.y,
                                 layer.base + (k + 0.5) / stack * layer.thickness);
                 e.radii = Vec3(radius, radius, 0.5 * layer.thickness);
                 e.density = mean[std::size_t(k)] * 2 * w * w / (stack * kKernelVolume * radius * radius);

@@ -76,6 +76,7 @@ struct NearLodSettings {
     // 2026-12-02, when the compositor's noise stopped thinning the rims, which had hidden it).
     double minColumnDepth = 0.3;
     double overlap = 0.75;      // horizontal radius of a column's ellipsoid, in columns, [0.5, 2]
+    double columnJitter = 0.15; // largest random offset of a column's ellipsoid per axis, in columns, [0, 0.5]
     // Light each cell's cloud as one tile of an endless layer of copies of itself (Cloud::tileMin:
     // the neighbours' shadow and the light they send back), not as a cloud alone in clear air.
     bool tiledLight = true;
