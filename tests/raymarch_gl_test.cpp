@@ -188,7 +188,7 @@ TEST_F(RaymarchGLTest, RadianceMatchesTheLightModelIntegratedOnTheCpu) {
     std::vector<glm::dmat3> units;
     for (const Ellipsoid& e : cloud.ellipsoids) units.push_back(ellipsoidToUnit(e));
     Vec3 lo, hi;
-    raymarchCloudBox(cloud, scene.medium, lo, hi);
+    raymarchCloudBox(cloud, lo, hi);
     const Medium& m = scene.medium;
     const glm::vec3 sun(scene.sun.color * scene.sun.intensity);
     // The same grid the renderer computes (deterministic for the same inputs and settings).

@@ -26,6 +26,12 @@ using Rng = detail::PhotonRng;
 using detail::basis;
 using detail::sampleHg;
 
+// The half extents of the ellipsoid's axis-aligned box: the lengths of the rows of R diag(r).
+Vec3 halfExtents(const Ellipsoid& e) {
+    const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+    return Vec3(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+}
+
 // The voxel grid a photon walks: extinction per voxel (1/m), world box; periodic across (x
 // and y) for a tiled cloud (Cloud::tileMin).
 struct Grid {
@@ -48,8 +54,7 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
     std::vector<Shape> shapes;
     for (const Ellipsoid& e : cloud.ellipsoids) {
         if (!(e.density > 0)) continue;
-        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        const Vec3 half = halfExtents(e);
         glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((e.center - half - g.lo) / g.cell)), 0, g.n - 1);
         glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((e.center + half - g.lo) / g.cell)), 0, g.n - 1);
         if (g.periodic)  // unclamped across, at most two periods
@@ -372,8 +377,7 @@ void smooth(std::vector<glm::vec4>& f, int n) {
 void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
     lo = Vec3(INFINITY), hi = Vec3(-INFINITY);
     for (const Ellipsoid& e : cloud.ellipsoids) {
-        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
+        const Vec3 half = halfExtents(e);
         lo = glm::min(lo, e.center - half);
         hi = glm::max(hi, e.center + half);
     }

@@ -195,7 +195,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     for (int c = 0; c < int(scene.clouds.size()); ++c) {
         const Cloud& cloud = scene.clouds[c];
         Vec3 lo, hi;
-        if (!raymarchCloudBox(cloud, medium, lo, hi)) continue;
+        if (!raymarchCloudBox(cloud, lo, hi)) continue;
         GpuCloud g{};
         put(g.boxMin, lo - view.eye);
         put(g.boxMax, hi - view.eye);

@@ -2,11 +2,10 @@
 // tracing of Algorithm 2 (the tests check the GPU against them).
 #include "nephele/raymarch.hpp"
 
+#include "nephele/cloud_radiance.hpp"
 #include "nephele/gardner_model.hpp"
 #include "parallel.hpp"
 #include "nephele/projection.hpp"
-
-#include <glm/gtc/matrix_access.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -116,16 +115,8 @@ NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings) {
 
 double raymarchNoisePeriod(const Medium& medium, const NoiseSettings& noise) { return medium.noiseScale * noise.cells; }
 
-bool raymarchCloudBox(const Cloud& cloud, const Medium& /*medium*/, Vec3& lo, Vec3& hi) {
-    lo = Vec3(INFINITY);
-    hi = Vec3(-INFINITY);
-    for (const Ellipsoid& e : cloud.ellipsoids) {
-        // Half extents of R diag(r): the lengths of its rows.
-        const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-        const Vec3 half(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
-        lo = glm::min(lo, e.center - half);
-        hi = glm::max(hi, e.center + half);
-    }
+bool raymarchCloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
+    cloudBox(cloud, lo, hi);
     return !cloud.ellipsoids.empty();
 }
 

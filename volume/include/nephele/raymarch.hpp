@@ -75,10 +75,10 @@ NoiseSettings raymarchNoiseSettings(const RaymarchSettings& settings);
 // The noise period in metres: medium.noise_scale * cells; n(x) = noise.sample(x / period).
 double raymarchNoisePeriod(const Medium& medium, const NoiseSettings& noise);
 
-// The box that holds every point of `cloud` the marcher can see: the ellipsoids' exact
-// axis-aligned boxes (the noise does not change the shape; `medium` is unused). False for a
-// cloud without ellipsoids.
-bool raymarchCloudBox(const Cloud& cloud, const Medium& medium, Vec3& lo, Vec3& hi);
+// The box that holds every point of `cloud` the marcher can see: cloudBox(), the ellipsoids'
+// exact axis-aligned boxes (the noise scales the density, not the shape). False for a cloud
+// without ellipsoids.
+bool raymarchCloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 
 // The extinction the marcher integrates at world point x, 1/m: medium.extinction times the
 // sum over the cloud's ellipsoids of density_i (1 - q_i)^2 where q_i < 1, times
