@@ -65,12 +65,12 @@ void main() {
     if (depth <= 0.0) {
         // Outside the silhouette (the circumscribed mesh is larger): no matter (A = 0) makes eq. (2)
         // zero whatever Ac is, and saves the noise lookup.
-        terms = vec4(kTranslucence * termG(ac, 0.0, noiseAmp, 0.0), 1.0 - encodeLight(light.x),
-                     1.0 - encodeLight(light.y), termIOverD(ac, 0.0, noiseAmp, 0.0));
+        vec2 eq2 = gardnerTerms(ac, 0.0, noiseAmp, 0.0);
+        terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);
         return;
     }
     float a = opacityOf(instance.y * depth);
     float n = texture(noiseVolume, noiseCoord).r;
-    terms = vec4(kTranslucence * termG(ac, a, noiseAmp, n), 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y),
-                 termIOverD(ac, a, noiseAmp, n));
+    vec2 eq2 = gardnerTerms(ac, a, noiseAmp, n);
+    terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);
 }

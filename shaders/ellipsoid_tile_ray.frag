@@ -54,6 +54,6 @@ void main() {
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.
     bool inside = depth > 0.0;
     float a = opacityOf(instance.y * depth);
-    terms = vec4(kTranslucence * termG(ac, inside ? a : 0.0, noiseAmp, n), 1.0 - encodeLight(light.x),
-                 1.0 - encodeLight(light.y), termIOverD(ac, inside ? a : 0.0, noiseAmp, n));
+    vec2 eq2 = gardnerTerms(ac, inside ? a : 0.0, noiseAmp, n);
+    terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);
 }

@@ -62,13 +62,11 @@ MODEL_FN float absorbanceOf(float a) { return -log(max(1.0f - a, 1e-6f)); }
 MODEL_FN float noisyOpacity(float a, float noiseAmp, float n) {
     return 1.0f - exp(-absorbanceOf(a) * max(1.0f + noiseAmp * n, 0.0f));
 }
-MODEL_FN float falloffTerm(float ac, float a, float alpha) { return min(max(ac - a, 0.0f), 1.0f - alpha); }  // 1 - g
-MODEL_FN float termIOverD(float ac, float a, float noiseAmp, float n) {
+// Eq. (2)'s two terms (I / D, g) of a chord of smooth opacity a, from one noisy opacity.
+MODEL_FN vec2 gardnerTerms(float ac, float a, float noiseAmp, float n) {
     float alpha = noisyOpacity(a, noiseAmp, n);
-    return alpha + falloffTerm(ac, a, alpha);
-}
-MODEL_FN float termG(float ac, float a, float noiseAmp, float n) {
-    return 1.0f - falloffTerm(ac, a, noisyOpacity(a, noiseAmp, n));
+    float falloff = min(max(ac - a, 0.0f), 1.0f - alpha);  // 1 - g
+    return vec2(alpha + falloff, 1.0f - falloff);
 }
 // What the blending and the colour-matrix pass compute from the two terms (before clamping).
 MODEL_FN float gardnerAlpha(float iOverD, float g) { return iOverD - kTranslucence * (1.0f - g) / kTranslucence; }

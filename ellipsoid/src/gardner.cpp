@@ -151,8 +151,8 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
                 const float n = noiseVolume.sample(glm::vec3(uvw));
                 const float a = model::opacityOf(float(p.sigma) * depth);
-                const float g = model::termG(float(p.ac), a, amp, n);
-                float alpha = std::clamp(model::gardnerAlpha(model::termIOverD(float(p.ac), a, amp, n), g), 0.0f, 1.0f);
+                const glm::vec2 terms = model::gardnerTerms(float(p.ac), a, amp, n);
+                float alpha = std::clamp(model::gardnerAlpha(terms.x, terms.y), 0.0f, 1.0f);
                 // An opaque object inside the cloud: only the matter in front of it covers it.
                 if (range.tEnd < tOut) {
                     const float front = model::segmentDepth(o, du, tStart, float(range.tEnd));

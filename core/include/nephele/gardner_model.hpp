@@ -14,6 +14,7 @@ using glm::max;
 using glm::min;
 using glm::pow;
 using glm::sqrt;
+using glm::vec2;
 using glm::vec3;
 using glm::vec4;
 #define MODEL_FN inline
