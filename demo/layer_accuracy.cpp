@@ -150,12 +150,12 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
         const Image aloneBlocks = blockMean(drawOver(scene, view, r.opaque, [&](GLuint fb) { r.autoAlone->render(scene, view, fb, 0, false); }),
                                             o.block);
         const Layer& l = scene.layers.front();
+        const double top = l.base + l.thickness, reach = kAutoNearRadius + kAutoBlendBand;
         std::vector<char> inReach(std::size_t(layeredBlocks.width) * layeredBlocks.height), inBand = inReach;
         for (int y = 0; y < layeredBlocks.height; ++y)
             for (int x = 0; x < layeredBlocks.width; ++x) {
                 const Vec3 d = view.rayDirection((x + 0.5) * o.block, (y + 0.5) * o.block);
                 const std::size_t p = std::size_t(y) * layeredBlocks.width + x;
-                const double top = l.base + l.thickness, reach = kAutoNearRadius + kAutoBlendBand;
                 inReach[p] = meetsSlab(view.eye, d, l.base, top, 0, reach);
                 inBand[p] = meetsSlab(view.eye, d, l.base, top, kAutoNearRadius, reach);
                 a.nearBlocks += inReach[p];
@@ -166,13 +166,16 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
                 if (!mask[p]) out.pixels[4 * p + 3] = 0;
             return out;
         };
-        auto near = [&](const Image& blocks) { return masked(blocks, inReach); };
-        auto bandRatio = [&](const Image& blocks) { return meanRatio(masked(blocks, inBand), masked(ref.total, inBand)); };
-        a.layeredBandRatio = bandRatio(layeredBlocks), a.autoBandRatio = bandRatio(autoBlocks), a.aloneBandRatio = bandRatio(aloneBlocks);
-        const Image refNear = near(ref.total);
-        a.layeredNearError = relativeRmse(near(layeredBlocks), refNear), a.layeredNearRatio = meanRatio(near(layeredBlocks), refNear);
-        a.autoNearError = relativeRmse(near(autoBlocks), refNear), a.autoNearRatio = meanRatio(near(autoBlocks), refNear);
-        a.aloneNearError = relativeRmse(near(aloneBlocks), refNear), a.aloneNearRatio = meanRatio(near(aloneBlocks), refNear);
+        const Image refNear = masked(ref.total, inReach), refBand = masked(ref.total, inBand);
+        // Error and mean ratio within the reach, and the mean ratio across the band alone.
+        auto measure = [&](const Image& blocks, double& nearError, double& nearRatio, double& bandRatio) {
+            const Image near = masked(blocks, inReach);
+            nearError = relativeRmse(near, refNear), nearRatio = meanRatio(near, refNear);
+            bandRatio = meanRatio(masked(blocks, inBand), refBand);
+        };
+        measure(layeredBlocks, a.layeredNearError, a.layeredNearRatio, a.layeredBandRatio);
+        measure(autoBlocks, a.autoNearError, a.autoNearRatio, a.autoBandRatio);
+        measure(aloneBlocks, a.aloneNearError, a.aloneNearRatio, a.aloneBandRatio);
     }
     a.layeredParts = componentErrors(scene, view, ref, o.block, [&](const Scene& sc, bool single) {
         return drawOver(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });

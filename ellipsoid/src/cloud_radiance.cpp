@@ -55,13 +55,12 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
     for (const Ellipsoid& e : cloud.ellipsoids) {
         if (!(e.density > 0)) continue;
         const Vec3 half = halfExtents(e);
-        glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((e.center - half - g.lo) / g.cell)), 0, g.n - 1);
-        glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((e.center + half - g.lo) / g.cell)), 0, g.n - 1);
+        const Vec3 from = glm::floor((e.center - half - g.lo) / g.cell), to = glm::floor((e.center + half - g.lo) / g.cell);
+        glm::ivec3 lo = glm::clamp(glm::ivec3(from), 0, g.n - 1), hi = glm::clamp(glm::ivec3(to), 0, g.n - 1);
         if (g.periodic)  // unclamped across, at most two periods
             for (int k = 0; k < 2; ++k) {
-                lo[k] = int(std::clamp(std::floor((e.center[k] - half[k] - g.lo[k]) / g.cell[k]), -double(g.n), double(g.n)));
-                hi[k] = std::min(int(std::clamp(std::floor((e.center[k] + half[k] - g.lo[k]) / g.cell[k]), -1.0, 2.0 * g.n)),
-                                 lo[k] + 2 * g.n - 1);
+                lo[k] = int(std::clamp(from[k], -double(g.n), double(g.n)));
+                hi[k] = std::min(int(std::clamp(to[k], -1.0, 2.0 * g.n)), lo[k] + 2 * g.n - 1);
             }
         shapes.push_back({ellipsoidToUnit(e), e.center, scene.medium.extinction * e.density, lo, hi});
     }
