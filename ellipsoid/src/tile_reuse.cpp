@@ -14,21 +14,11 @@ namespace nephele {
 
 namespace {
 
-// The phase's relative change towards the eye that makes a tile stale: the single scattering
-// is a share of a tile's light, so 3% of it stays below the image's 8 bits in most tiles.
-constexpr double kPhaseChange = 0.03;
-// The same for the extinction (a near-LOD cloud fading in or out with the eye's distance).
-constexpr double kSigmaChange = 0.03;
+using namespace reuse;
+
 // A repack leaves this share of the memory budget's layers free, so that the frames after it
 // find room for the tiles that grow without packing again.
 constexpr double kRepackFill = 0.8;
-// A tile whose error (but a change of light) reaches this many times the threshold is rendered
-// whatever the budget: the budget spreads work over frames, but never lets a tile drift this
-// far (the approach into a cumulus fell to 33 dB from fresh tiles without it, 39.3 dB at 8).
-constexpr double kMustError = 6;
-// The priority of a tile whose light changed (a new sun, a grid finished): above any geometric
-// error, so that a weather change is caught up first, largest on screen first.
-constexpr double kLightChanged = 1000;
 
 double pixelRadiusOf(const EllipsoidProjection& p) { return 0.5 * std::max(p.pixelWidth, p.pixelHeight); }
 
@@ -39,8 +29,30 @@ double sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
 
 }  // namespace
 
+bool reprojectImage(const Vec3& eyeFromCentre, const Vec3& centre, const Vec3& rc, const Vec3& rx, const Vec3& ry,
+                    const glm::dmat4& viewProj, const Vec3& eye, glm::dmat4& reproject, glm::dvec4& rect) {
+    // Tile clip (x, y) -> the ray rc + x rx + y ry from the eye it was rendered from -> its
+    // point on the plane through the centre facing that eye, moved with the centre (wind) ->
+    // the frame's clip space. Homogeneous, so one matrix.
+    const double dist = glm::length(eyeFromCentre);
+    if (!(dist > 0)) return false;
+    const Vec3 nrm = -eyeFromCentre / dist;
+    const Vec3 a = eyeFromCentre + centre - eye;
+    auto column = [&](const Vec3& r) { return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r)); };
+    reproject = glm::dmat4(column(rx), column(ry), glm::dvec4(0.0), column(rc));
+    rect = glm::dvec4(1e300, 1e300, -1e300, -1e300);
+    for (int k = 0; k < 4; ++k) {
+        const double x = (k & 1) ? 1 : -1, y = (k & 2) ? 1 : -1;
+        const glm::dvec4 clip = reproject * glm::dvec4(x, y, 0, 1);
+        if (!(glm::dot(nrm, rc + x * rx + y * ry) > 0 && clip.w > 1e-9 * dist)) return false;
+        const double px = clip.x / clip.w, py = clip.y / clip.w;
+        rect = {std::min(rect.x, px), std::min(rect.y, py), std::max(rect.z, px), std::max(rect.w, py)};
+    }
+    return true;
+}
+
 ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
-                          const std::vector<PlacedRadiance>& light) {
+                          const std::vector<PlacedRadiance>& light, const std::vector<char>& keep) {
     ReusePlan out;
     const std::uint64_t frame = ++frame_;
     const std::size_t n = prepared.ellipsoids.size();
@@ -102,26 +114,10 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         c.live = it == live_.end() ? nullptr : &it->second;
         if (!c.live || p.crossesNear || !c.live->reusable || c.live->shape != c.shape) continue;
         Live& L = *c.live;
-        // The reprojection: tile clip (x, y) -> the ray rc + x rx + y ry from the eye it was
-        // rendered from -> its point on the plane through the centre facing that eye, moved with
-        // the ellipsoid -> the frame's clip space. Homogeneous, so one matrix.
+        if (!reprojectImage(L.eyeFromCentre, e.shape.center, L.rc, L.rx, L.ry, viewProj, view.eye, c.reproject, c.rect))
+            continue;
+        const glm::dvec4& rect = c.rect;
         const double dist = glm::length(L.eyeFromCentre);
-        if (!(dist > 0)) continue;
-        const Vec3 nrm = -L.eyeFromCentre / dist;
-        const Vec3 a = L.eyeFromCentre + e.shape.center - view.eye;
-        auto column = [&](const Vec3& r) { return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r)); };
-        c.reproject = glm::dmat4(column(L.rx), column(L.ry), glm::dvec4(0.0), column(L.rc));
-        bool valid = true;
-        glm::dvec4 rect(1e300, 1e300, -1e300, -1e300);
-        for (int k = 0; k < 4; ++k) {
-            const double x = (k & 1) ? 1 : -1, y = (k & 2) ? 1 : -1;
-            const glm::dvec4 clip = c.reproject * glm::dvec4(x, y, 0, 1);
-            if (!(glm::dot(nrm, L.rc + x * L.rx + y * L.ry) > 0 && clip.w > 1e-9 * dist)) valid = false;
-            const double px = clip.x / clip.w, py = clip.y / clip.w;
-            rect = {std::min(rect.x, px), std::min(rect.y, py), std::max(rect.z, px), std::max(rect.w, py)};
-        }
-        if (!valid) continue;
-        c.rect = rect;
         // Part of what is in view now outside the tile's quad (a tile cut by the view's edge
         // then): a visible cut, rendered now.
         const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
@@ -133,9 +129,15 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         const double cosA = glm::dot(now, L.eyeFromCentre) / (glm::length(now) * dist);
         const double angle = std::acos(std::clamp(cosA, -1.0, 1.0));
         const double r = pixelRadiusOf(p);
-        double px = r * angle + std::abs(r - L.pixelRadius);
+        // The parallax within the ellipsoid's depth that the plane cannot show: the angle the eye
+        // moved around its centre, and the change of distance (a point rMax in front of the
+        // plane grows by rMax / distance more than the plane). A turn of the view alone costs
+        // nothing: the reprojection is exact for it (the change of the tile's pixel radius,
+        // the measure until 2026-12-02, counted a turn's perspective as error).
+        const double rMax = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
+        const double distance = glm::length(now);
+        double px = r * angle + r * std::abs(dist / distance - 1) * std::min(1.0, rMax / distance);
         if (scene.medium.noise > 0) {  // the wind carries the ellipsoid through the (world-fixed) noise
-            const double rMax = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
             px += glm::length(e.shape.center - L.centre) * r / rMax;
         }
         c.error = px / s.errorPixels;
@@ -155,7 +157,9 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     for (const Candidate& c : cands)
         if (c.live) c.live->seen = frame;
     for (auto it = live_.begin(); it != live_.end();) {
-        if (it->second.seen != frame) {
+        const int cloud = it->second.cloud;
+        const bool kept = cloud >= 0 && std::size_t(cloud) < keep.size() && keep[std::size_t(cloud)];
+        if (it->second.seen != frame && !kept) {
             allocator_->free(it->second.place);
             it = live_.erase(it);
         } else {
@@ -249,10 +253,10 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         const PreparedEllipsoid& e = prepared.ellipsoids[std::size_t(i)];
         Live& L = *c.live;
         L.shape = c.shape, L.light = c.light, L.sigma = e.sigma;
+        L.cloud = e.cloud;
         L.reusable = !e.projection.crossesNear;
         L.eyeFromCentre = view.eye - e.shape.center;
         L.centre = e.shape.center;
-        L.pixelRadius = pixelRadiusOf(e.projection);
         L.phase = sunPhase(e.shape.center, view, scene);
         L.seen = frame;
         fresh_[std::size_t(i)] = &L;

@@ -22,6 +22,22 @@
 
 namespace nephele {
 
+// What makes a kept image (a tile, a cloud's impostor) stale, besides its error in pixels.
+namespace reuse {
+// The phase's relative change towards the eye: the single scattering is a share of a tile's
+// light, so 3% of it stays below the image's 8 bits in most tiles.
+constexpr double kPhaseChange = 0.03;
+// The same for the extinction or a cloud's weight (a near-LOD cloud fading in or out).
+constexpr double kSigmaChange = 0.03;
+// An error (but a change of light) of this many times the threshold is made again whatever the
+// budget: the budget spreads work over frames, but never lets an image drift this far (the
+// approach into a cumulus fell to 33 dB from fresh tiles without it, 39.3 dB at 8).
+constexpr double kMustError = 6;
+// The priority of an image whose light changed (a new sun, a grid finished): above any
+// geometric error, so that a weather change is caught up first, largest on screen first.
+constexpr double kLightChanged = 1000;
+}  // namespace reuse
+
 struct ReuseSettings {
     int atlasWidth = 0, atlasHeight = 0;  // px
     int frameWidth = 0, frameHeight = 0;  // px
@@ -47,13 +63,24 @@ struct ReusePlan {
     int must = 0;                        // fresh tiles that had no usable image (all of them after a reset)
 };
 
+// The reprojection of an image rendered from the eye at centre + eyeFromCentre, image clip
+// (x, y) seen along the ray rc + x rx + y ry (camera-relative then), drawn as the plane through
+// `centre` (where it is now) facing that eye: `reproject` takes image clip (x, y, 0, 1) to the
+// frame's clip space (viewProj: the frame's camera-relative view-projection, eye at `eye`),
+// `rect` is its quad's NDC bounds. false: the plane is edge-on or behind the eye.
+bool reprojectImage(const Vec3& eyeFromCentre, const Vec3& centre, const Vec3& rc, const Vec3& rx, const Vec3& ry,
+                    const glm::dmat4& viewProj, const Vec3& eye, glm::dmat4& reproject, glm::dvec4& rect);
+
 class TileReuse {
 public:
     // Decides the frame's tiles for `prepared` (the frame's visible ellipsoids) lit by `light`
     // (one grid per scene cloud). Frees the tiles of ellipsoids no longer visible. Throws
     // GlError when the visible tiles do not fit even at minTile in maxLayers layers.
+    // Tiles of clouds flagged in `keep` (per scene cloud; cloud impostors kept from an earlier
+    // frame) stay in the atlas although not in `prepared`: a cloud's impostor is made again
+    // from them, rendering only those that are stale.
     ReusePlan plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
-                   const std::vector<PlacedRadiance>& light);
+                   const std::vector<PlacedRadiance>& light, const std::vector<char>& keep = {});
     // A fresh tile of the last plan() was rendered through tile clip (x, y) -> camera-relative
     // ray rc + x rx + y ry: what its reprojection needs.
     void rendered(int preparedIndex, const Vec3& rc, const Vec3& rx, const Vec3& ry);
@@ -62,12 +89,12 @@ public:
 private:
     struct Live {
         TilePlacement place;         // its atlas place (id unused)
+        int cloud = -1;              // scene.clouds index
         std::uint64_t shape = 0;     // radii, axes, noise offset
         double sigma = 0;            // extinction * density * the cloud's weight (1/m)
         std::uint64_t light = 0;     // the grid, its placement, the sun, the medium
         Vec3 eyeFromCentre{0.0};     // eye - centre when rendered (m)
         Vec3 centre{0.0};            // m
-        double pixelRadius = 0;      // half the larger side of its screen rectangle (px)
         double phase = 0;            // the sun's phase towards the eye at its centre
         Vec3 rc{0.0}, rx{0.0}, ry{0.0};
         std::uint64_t seen = 0;      // the last frame it was visible
