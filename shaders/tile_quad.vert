@@ -9,6 +9,12 @@ flat out int tileIndex;
 out vec2 atlasCoord;               // px in the atlas
 noperspective out vec2 ndc;        // screen NDC (onScreen)
 flat out vec4 atlasRect;           // the tile's x, y, size (px) and layer
+// onScreen: the frame's NDC rectangle the viewport holds (a cloud impostor's pixels while it is
+// made, EllipsoidSettings::cloudLod); the whole view by default.
+uniform vec4 targetRect = vec4(-1.0, -1.0, 1.0, 1.0);
+vec2 toTarget(vec2 xy, float w) {
+    return (xy - 0.5 * (targetRect.xy + targetRect.zw) * w) / (0.5 * (targetRect.zw - targetRect.xy));
+}
 void main() {
     int k = instanceBase + gl_InstanceID;
     tileIndex = useOrder == 1 ? order[k] : k;
@@ -21,9 +27,9 @@ void main() {
         // perspective-correct across it; depth 0 keeps it from the near and far planes.
         vec4 clip = t.reproject * vec4(corner * 2.0 - 1.0, 0.0, 1.0);
         ndc = clip.xy / clip.w;
-        gl_Position = vec4(clip.xy, 0.0, clip.w);
+        gl_Position = vec4(toTarget(clip.xy, clip.w), 0.0, clip.w);
         return;
     }
     ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);
-    gl_Position = vec4(onScreen == 1 ? ndc : atlasCoord / atlasSize * 2.0 - 1.0, 0.0, 1.0);
+    gl_Position = vec4(onScreen == 1 ? toTarget(ndc, 1.0) : atlasCoord / atlasSize * 2.0 - 1.0, 0.0, 1.0);
 }

@@ -31,7 +31,10 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
     const Program* momentsPass = moments ? (fraction ? &m.compositeMomentsFraction : &m.compositeMoments) : nullptr;
     const glm::vec2 momentRange = moments ? momentDepthRange(plan.prepared, view) : glm::vec2(0);
     const float weightReference = float(weightReferenceDepth(plan.prepared, view));
-    for (const Program* p : {&cp, momentsPass}) {
+    // (the impostors are made with the composite without fraction: the frame's depth is the
+    // impostor's to test, drawImpostor)
+    const Program* maker = plan.impostors.empty() || &cp == &m.composite ? nullptr : &m.composite;
+    for (const Program* p : {&cp, momentsPass, maker}) {
         if (!p) continue;
         p->set("atlasTerms", 3);
         p->set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
@@ -53,6 +56,7 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
         p->set("momentZero", 7);
         setViewFrameUniforms(*p, view, !weighted, depth);
     }
+    if (m.impostorFraction) setViewFrameUniforms(m.impostorFraction, view, true, depth);
     glBindTextureUnit(3, m.atlas->terms.id());
     glBindTextureUnit(5, depth.texture);
     glBindSampler(3, m.linearClamp.id());
@@ -65,15 +69,16 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
 
 namespace {
 
-// The tiles in composite order: one instanced draw, or the paper's draw per ellipsoid.
-void drawInOrder(const EllipsoidSettings& s, const Program& cp, int n, EllipsoidStats& stats) {
+// The tiles order[first, first + n) in composite order: one instanced draw, or the paper's
+// draw per ellipsoid.
+void drawInOrder(const EllipsoidSettings& s, const Program& cp, int n, EllipsoidStats& stats, int first = 0) {
     glUseProgram(cp.id());
     if (s.instanced) {
-        cp.set("instanceBase", 0);
+        cp.set("instanceBase", first);
         glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, n);
         ++stats.drawCalls;
     } else {
-        for (int k = 0; k < n; ++k) {
+        for (int k = first; k < first + n; ++k) {
             cp.set("instanceBase", k);
             glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, 1);
             ++stats.drawCalls;
@@ -85,10 +90,73 @@ void drawInOrder(const EllipsoidSettings& s, const Program& cp, int n, Ellipsoid
 
 void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
                                             const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+    if (!plan.impostors.empty()) makeImpostors(s, plan, view, composite, stats);
     bindFrame(frame, view);
-    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    drawInOrder(s, cp, int(plan.order.size()), stats);
+    const bool fraction = &cp == &compositeFraction;
+    for (const FramePlan::Run& run : plan.runs) {
+        if (run.impostor >= 0) {
+            drawImpostor(plan, view, plan.impostors[std::size_t(run.impostor)], fraction, stats);
+            continue;
+        }
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        drawInOrder(s, cp, run.count, stats, run.first);
+    }
     check("compositing the ellipsoid tiles");
+}
+
+void EllipsoidRenderer::Impl::makeImpostors(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
+                                            const Program& cp, EllipsoidStats& stats) {
+    // Each fresh impostor: its place cleared, then its tiles "over" it back to front (the
+    // blend the frame's composite uses, from 0: premultiplied colour, and opacity), its pixels
+    // of the view mapped texel for texel onto its image (tile_quad.vert's targetRect).
+    const CloudImpostors& atlas = *plan.impostorAtlas;
+    const int W = view.camera.width, H = view.camera.height;
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glEnable(GL_SCISSOR_TEST);
+    const float zero[4] = {0, 0, 0, 0};
+    for (std::size_t k = 0; k < plan.impostors.size(); ++k) {
+        const ImpostorDraw& d = plan.impostors[k];
+        if (!d.fresh) continue;
+        glBindFramebuffer(GL_FRAMEBUFFER, atlas.framebuffer(d.place.pass));
+        glViewport(d.place.x, d.place.y, d.w, d.h);
+        glScissor(d.place.x, d.place.y, d.place.size, d.place.size);
+        glClearBufferfv(GL_COLOR, 0, zero);
+        glScissor(d.place.x, d.place.y, d.w, d.h);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        cp.set("targetRect", glm::vec4(2.0f * d.px / W - 1, 2.0f * d.py / H - 1, 2.0f * (d.px + d.w) / W - 1,
+                                       2.0f * (d.py + d.h) / H - 1));
+        drawInOrder(s, cp, plan.impostorCount[k], stats, plan.impostorFirst[k]);
+    }
+    cp.set("targetRect", glm::vec4(-1, -1, 1, 1));
+    glDisable(GL_SCISSOR_TEST);
+    check("making the cloud impostors");
+}
+
+void EllipsoidRenderer::Impl::drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d, bool fraction,
+                                           EllipsoidStats& stats) {
+    const Program& p = fraction ? impostorFraction : impostor;
+    glUseProgram(p.id());
+    // Premultiplied: its colour as it is, the frame behind times 1 - its opacity.
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    p.set("reproject", d.reproject);
+    p.set("imageRect", glm::vec4(d.place.x, d.place.y, d.w, d.h));
+    p.set("layer", float(d.place.pass));
+    p.set("atlasSize", float(plan.impostorAtlas->atlasSize()));
+    p.set("impostors", 4);
+    if (fraction) {
+        p.set("sceneDepth", 5);
+        p.set("forward", glm::vec3(view.forward));
+        p.set("rayCentre", glm::vec3(view.rayCentre()));
+        p.set("rightScaled", glm::vec3(view.rightScaled()));
+        p.set("upScaled", glm::vec3(view.upScaled()));
+        p.set("cloudCentre", glm::vec3(d.centre - view.eye));
+        p.set("cloudRadius", float(d.radius));
+    }
+    glBindTextureUnit(4, plan.impostorAtlas->texture());
+    glBindSampler(4, linearClamp.id());
+    glBindVertexArray(empty.id());
+    glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+    ++stats.drawCalls;
 }
 
 void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,

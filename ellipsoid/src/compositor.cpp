@@ -71,6 +71,11 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
     if (!(s.reuseErrorPixels > 0 && s.reuseErrorPixels <= 1e6)) throw std::invalid_argument("reuseErrorPixels must be in (0, 1e6]");
     if (!(s.reuseBudget >= 0 && s.reuseBudget <= 1e6)) throw std::invalid_argument("reuseBudget must be in [0, 1e6]");
+    if (!(s.cloudLodErrorPixels > 0 && s.cloudLodErrorPixels <= 1e6))
+        throw std::invalid_argument("cloudLodErrorPixels must be in (0, 1e6]");
+    if (!(s.cloudLodDistance >= 1 && s.cloudLodDistance <= 1e6)) throw std::invalid_argument("cloudLodDistance must be in [1, 1e6]");
+    if (s.cloudLodMaxPixels < 8 || s.cloudLodMaxPixels > 4096) throw std::invalid_argument("cloudLodMaxPixels must be in 8..4096");
+    if (s.impostorMegabytes < 1) throw std::invalid_argument("impostorMegabytes must be at least 1");
     Impl& m = *impl_;
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
@@ -110,6 +115,11 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
                                              fused + "#define FRACTION 1\n");
     }
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    if (s.cloudLod) {
+        m.impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
+        m.impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
+                                            "#define FRACTION 1\n");
+    }
     if (s.reuse)  // built now: a first reuse frame that compiled it stalled
         m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
     m.empty = VertexArray::create();
@@ -185,7 +195,8 @@ void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Sce
 
 // Everything before the first draw: projection, culling, tile sizes, packing, the GPU
 // tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
-FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse) {
+FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse,
+                                        bool lod) {
     Impl& m = *this;
     FramePlan out;
     out.reuse = reuse;
@@ -210,6 +221,54 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     // draws with the same ones.
     m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
     const std::vector<PlacedRadiance>& light = m.light;
+
+    // ---- The cloud LOD: far clouds as impostors; only the tiles of those made this frame and
+    // of the clouds drawn as tiles go on.
+    std::vector<int> impostorOf;  // per scene cloud: its index in out.impostors, else -1
+    std::vector<char> keepTiles;  // per scene cloud: an impostor kept from before (its tiles stay in the atlas)
+    if (lod && s.cloudLod && s.order == CompositeOrder::PerEllipsoid && s.flyThrough == FlyThrough::Fraction) {
+        ImpostorSettings is;
+        is.distance = s.cloudLodDistance, is.maxPixels = s.cloudLodMaxPixels;
+        is.atlasSize = std::max(256, int(std::bit_ceil(unsigned(s.cloudLodMaxPixels + 2))));
+        is.layers = std::max(1, int(s.impostorMegabytes * 1048576.0 / (double(is.atlasSize) * is.atlasSize * 8)));
+        is.errorPixels = s.cloudLodErrorPixels, is.budget = s.reuseBudget;
+        CloudImpostors& ci = m.impostors.get({frameW, frameH, view.origin.x, view.origin.y});
+        ImpostorPlan ip = ci.plan(is, scene, view, out.prepared, light);
+        out.impostorAtlas = &ci;
+        out.impostors = std::move(ip.draws);
+        impostorOf.assign(scene.clouds.size(), -1);
+        keepTiles.assign(scene.clouds.size(), 0);
+        for (int k = 0; k < int(out.impostors.size()); ++k) {
+            impostorOf[std::size_t(out.impostors[k].cloud)] = k;
+            keepTiles[std::size_t(out.impostors[k].cloud)] = !out.impostors[k].fresh;
+        }
+        std::erase_if(out.prepared.ellipsoids, [&](const PreparedEllipsoid& e) {
+            const int k = impostorOf[std::size_t(e.cloud)];
+            return k >= 0 && !out.impostors[std::size_t(k)].fresh;
+        });
+        stats.impostors = int(out.impostors.size());
+        stats.impostorsRendered = ip.rendered;
+    }
+    // The composite's runs: tiles of the clouds drawn as tiles (order[0, frameTiles), back to
+    // front) and impostors, merged back to front.
+    auto makeRuns = [&](int frameTiles) {
+        std::size_t next = 0;
+        int k = 0;
+        for (const PreparedEllipsoid& e : out.prepared.ellipsoids) {
+            if (!impostorOf.empty() && impostorOf[std::size_t(e.cloud)] >= 0) continue;
+            for (; next < out.impostors.size() && out.impostors[next].distance > e.projection.distance; ++next)
+                out.runs.push_back({0, 0, int(next)});
+            if (out.runs.empty() || out.runs.back().impostor >= 0) out.runs.push_back({k, 0, -1});
+            ++out.runs.back().count, ++k;
+        }
+        for (; next < out.impostors.size(); ++next) out.runs.push_back({0, 0, int(next)});
+        if (k != frameTiles) throw std::logic_error("ellipsoid compositor: the composite's runs miss tiles");
+    };
+    if (out.prepared.ellipsoids.empty()) {  // every visible cloud an impostor kept from before
+        m.lastTiles.clear();
+        makeRuns(0);
+        return out;
+    }
 
     // ---- Tiles: sizes, packing, per-pass order.
     // Each pass keeps an atlas layer until the composite: past the memory budget, the
@@ -237,7 +296,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         rs.minTile = minTile, rs.maxTile = maxTile, rs.budgetLayers = maxPasses, rs.layers = atlas.layers;
         rs.maxLayers = std::max(1, std::min(int(maxLayers), std::max(4 * maxPasses, 64)));
         rs.errorPixels = s.reuseErrorPixels, rs.budget = s.reuseBudget;
-        ReusePlan rp = atlas.reuse.plan(rs, scene, view, prepared, light);
+        ReusePlan rp = atlas.reuse.plan(rs, scene, view, prepared, light, keepTiles);
         placements = std::move(rp.fresh);
         out.reused = std::move(rp.reused);
         out.reproject = std::move(rp.reproject);
@@ -325,9 +384,27 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         if (fresh) ++stats.tilesRendered, stats.tilePixelsRendered += std::int64_t(tp.size) * tp.size;
         else ++stats.tilesReused;
     }
-    // prepared.ellipsoids is back to front: that is the composite order.
-    out.order = slot;
-    const std::vector<int>& order = out.order;
+    // prepared.ellipsoids is back to front: that is the composite order. With impostors, the
+    // tiles composited over the frame first, then each fresh impostor's.
+    std::vector<int>& order = out.order;
+    if (impostorOf.empty()) {
+        order = slot;
+        makeRuns(int(order.size()));
+    } else {
+        for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
+            if (impostorOf[std::size_t(prepared.ellipsoids[i].cloud)] < 0) order.push_back(slot[i]);
+        const int frameTiles = int(order.size());
+        out.impostorFirst.assign(out.impostors.size(), 0);
+        out.impostorCount.assign(out.impostors.size(), 0);
+        for (std::size_t k = 0; k < out.impostors.size(); ++k) {
+            if (!out.impostors[k].fresh) continue;
+            out.impostorFirst[k] = int(order.size());
+            for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
+                if (prepared.ellipsoids[i].cloud == out.impostors[k].cloud) order.push_back(slot[i]);
+            out.impostorCount[k] = int(order.size()) - out.impostorFirst[k];
+        }
+        makeRuns(frameTiles);
+    }
 
     // ---- Resources.
     uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
@@ -404,7 +481,7 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     stats.lightUploads = std::exchange(m.lightUploads, 0);
     stats.lightPending = m.lightStats.pending;
     stats.lightStandIns = m.lightStats.standIns;
-    if (plan.order.empty()) {
+    if (plan.order.empty() && plan.impostors.empty()) {
         m.lastTiles.clear();
         stats.tilesMs = timer.lap();
         return stats;
@@ -434,7 +511,7 @@ glm::ivec3 EllipsoidRenderer::atlasSize() const {
 EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
     Impl& m = *impl_;
     HostStateScope scope;
-    const FramePlan plan = m.plan(settings_, scene, view, false);
+    const FramePlan plan = m.plan(settings_, scene, view, false, false);
     EllipsoidStats stats = plan.stats;
     if (plan.order.empty()) return stats;
     if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});

@@ -9,6 +9,7 @@
 #include "nephele/gardner_model.hpp"
 #include "prepared_clouds.hpp"
 #include "nephele/frame_depth.hpp"
+#include "cloud_impostors.hpp"
 #include "cloud_light_textures.hpp"
 #include "light_cache.hpp"
 #include "packer.hpp"
@@ -76,17 +77,27 @@ struct FramePlan {
     std::vector<glm::mat4> reproject;       // per reused tile (tile_reuse.hpp)
     std::vector<glm::vec4> reusedRect;      // per reused tile: its quad's NDC bounds
     bool reuse = false;                     // placements share their layers with reused tiles: clear tile by tile
+    // The cloud LOD (EllipsoidSettings::cloudLod): the frame's impostors, back to front; the
+    // fresh ones' tiles are order[impostorFirst[k], + impostorCount[k]) (after the frame's own).
+    std::vector<ImpostorDraw> impostors;
+    std::vector<int> impostorFirst, impostorCount;  // per impostor (fresh ones only: count > 0)
+    CloudImpostors* impostorAtlas = nullptr;
+    // The composite over the frame, back to front: runs of tiles in `order` and impostors.
+    struct Run { int first = 0, count = 0, impostor = -1; };
+    std::vector<Run> runs;
     int atlasW = 0, atlasH = 0;
     EllipsoidStats stats;
 };
 
 struct EllipsoidRenderer::Impl {
-    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse);
+    FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse, bool lod = true);
 
     Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted and Moments
     Program compositeMoments, compositeMomentsFraction;             // CompositeOrder::Moments: its first pass
+    Program impostor, impostorFraction;  // cloudLod: an impostor over the frame
+    PerViewCache<CloudImpostors, glm::ivec4> impostors;  // cloudLod: per view size and place
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;   // by slices
@@ -169,6 +180,10 @@ struct EllipsoidRenderer::Impl {
                        const Program& cp, EllipsoidStats& stats);
     void weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
                            const Program& cp, const Program* momentsPass, EllipsoidStats& stats);
+    // cloudLod: the fresh impostors made from their tiles (cp: the composite without fraction).
+    void makeImpostors(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const Program& cp,
+                       EllipsoidStats& stats);
+    void drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d, bool fraction, EllipsoidStats& stats);
     void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame, const Program& cp,
                           EllipsoidStats& stats);
 };

@@ -19,6 +19,7 @@ LayeredSettings autoLayeredSettings(LayeredSettings base) {
 
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
     base.reuse = true;
+    base.cloudLod = base.order == CompositeOrder::PerEllipsoid && base.flyThrough == FlyThrough::Fraction;
     return base;
 }
 

@@ -113,6 +113,29 @@ struct EllipsoidSettings {
     bool reuse = false;
     double reuseErrorPixels = 0.5;  // > 0
     double reuseBudget = 1.0;       // >= 0: tile pixels a frame, in frames' pixels
+    // A level of detail per cloud (after Harris & Lastra 2001; Elinas & Stuerzlinger close their
+    // paper wanting impostors for far clouds). On: a cloud farther than cloudLodDistance of its
+    // bounding radii, beyond the near plane and at most cloudLodMaxPixels on screen is drawn as
+    // one impostor (of what is in view of it: one cut by the view's edge is made again when more
+    // of it comes into view): its tiles composited back to front into an RGBA16F image
+    // of its own (premultiplied), that image composited over the frame in the back-to-front
+    // order by the cloud's centre, and kept across frames, reprojected as a plane through the
+    // cloud's centre facing the eye it was made from, until its error reaches
+    // cloudLodErrorPixels (measured as a tile's, over the whole cloud: its parallax is the
+    // whole cloud's; within reuseBudget x the frame's pixels of impostor area a frame). Its
+    // tiles stay in the atlas meanwhile (with reuse), so that making it again renders only
+    // those that are stale. A fresh impostor is its
+    // tiles' image ("over" is associative; texel for pixel), so the switch does not pop.
+    // Objects in a far cloud: the share of its bounding sphere in front of the opaque depth
+    // (not the tiles' per-ellipsoid fraction). Only with the back-to-front composite and the
+    // fraction fly-through (PerEllipsoid, FlyThrough::Fraction); other settings draw tiles.
+    bool cloudLod = false;
+    double cloudLodErrorPixels = 1.5;  // > 0
+    double cloudLodDistance = 4;   // >= 1, in the cloud's bounding radii (kept down to 0.9 x this)
+    int cloudLodMaxPixels = 512;   // 8..4096: a cloud larger on screen is drawn as tiles
+    int impostorMegabytes = 32;    // >= 1: the impostor atlas (RGBA16F layers of the next power of two
+                                   // above cloudLodMaxPixels; at least one); a cloud that finds no room
+                                   // is drawn as tiles
 };
 
 struct EllipsoidStats {
@@ -133,6 +156,8 @@ struct EllipsoidStats {
                                     // plane, a new shape, a part come into view)
     bool atlasRepacked = false;     // reuse: the atlas was too full or fragmented and packed anew (all fresh)
     bool atlasGrown = false;        // the atlas texture was made anew with more layers this frame (a stall)
+    int impostors = 0;              // cloudLod: clouds drawn as one impostor this frame
+    int impostorsRendered = 0;      // ... of those, made (again) from their tiles this frame
     int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)

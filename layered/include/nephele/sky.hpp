@@ -28,7 +28,8 @@ namespace nephele {
 LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 
 // The compositor's settings for auto: `base` with tiles that last across frames (reuse, see
-// EllipsoidSettings::reuse and the README, "Tiles that last"). Its composite is base's order,
+// EllipsoidSettings::reuse and the README, "Tiles that last") and far clouds as impostors
+// (EllipsoidSettings::cloudLod, where base's composite allows them). Its composite is base's order,
 // by default back to front: since the compositor's noise is the path tracer's density noise
 // (2026-12-02) an order flip no longer pops (the flicker bench: worst frame +0.009 over the
 // exact per-pixel order, as the exact model's own per-ellipsoid order; the weighted composite
