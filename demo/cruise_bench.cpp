@@ -19,6 +19,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -30,6 +31,8 @@ namespace {
 struct CruiseFrame {
     double onMs = 0, offMs = 0;
     double repeatMs = -1;               // every 10th frame: the reuse run's same frame again (nothing stale: its floor)
+    double aloneMs = -1;                // Flight::reuseAlone: the same frame with --reuse on --cloud-lod off
+    int impostors = 0, impostorsMade = 0;  // the on run's clouds drawn as impostors, and of those made this frame
     int must = 0;                       // reuse: tiles rendered for want of a usable image
     bool repacked = false;              // reuse: the atlas was packed anew
     int onTiles = 0, offTiles = 0, visible = 0;
@@ -43,6 +46,7 @@ struct Flight {
     double fps = 10;
     std::vector<CruiseFrame> frames;
     double firstOnMs = 0, firstOffMs = 0;  // frame 0: the grids made and every tile rendered (both)
+    bool reuseAlone = false;               // also run --reuse on --cloud-lod off (what each part gives)
 };
 
 // PSNR of two linear RGB images as 8-bit sRGB (peak 255): what a display shows.
@@ -56,13 +60,14 @@ double psnr8(const Image& a, const Image& b) {
     return mse <= 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 / mse);
 }
 
-RenderOptions optionsFor(bool reuse, GlBackend backend) {
+RenderOptions optionsFor(bool reuse, bool lod, GlBackend backend) {
     RenderOptions o;
     o.method = Method::Auto;
     o.backend = backend;
     o.layered = autoLayeredSettings();
     o.ellipsoid = autoEllipsoidSettings();
     o.ellipsoid.reuse = reuse;
+    o.ellipsoid.cloudLod = lod;
     return o;
 }
 
@@ -71,13 +76,16 @@ void fly(Flight& f, const CruiseBenchOptions& o) {
     scene.camera.width = o.width, scene.camera.height = o.height;
     const double t0 = scene.path.front().t, t1 = o.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
     const int frames = frameCount(t0, t1, f.fps);
-    FrameRenderer on(optionsFor(true, o.backend)), off(optionsFor(false, o.backend));
+    FrameRenderer on(optionsFor(true, true, o.backend)), off(optionsFor(false, false, o.backend));
+    std::unique_ptr<FrameRenderer> alone;
+    if (f.reuseAlone) alone = std::make_unique<FrameRenderer>(optionsFor(true, false, o.backend));
     gl::setChecks(false);  // timing: no glGetError round trips
     FrameChanges onChanges, offChanges;
     for (int k = 0; k < frames; ++k) {
         const double t = t0 + k / f.fps;
         const Frame a = on.render(scene, t);
         const Frame b = off.render(scene, t);
+        const double aloneMs = alone ? alone->render(scene, t).ms : -1;
         onChanges.add(a.color);
         offChanges.add(b.color);
         if (k == 0) {
@@ -85,7 +93,8 @@ void fly(Flight& f, const CruiseBenchOptions& o) {
             continue;
         }
         CruiseFrame c;
-        c.onMs = a.ms, c.offMs = b.ms;
+        c.onMs = a.ms, c.offMs = b.ms, c.aloneMs = aloneMs;
+        c.impostors = a.stats.impostors, c.impostorsMade = a.stats.impostorsRendered;
         c.onTiles = a.stats.tilesRendered, c.offTiles = b.stats.tilesRendered, c.visible = b.stats.visible;
         c.onPixels = a.stats.tilePixelsRendered, c.offPixels = b.stats.tilePixelsRendered;
         c.psnr = psnr8(a.color, b.color);
@@ -115,14 +124,15 @@ double minOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_el
 std::string csvOf(const std::vector<Flight>& flights) {
     std::ostringstream csv;
     csv << "flight,frame,on_ms,off_ms,repeat_ms,on_tiles,on_tiles_without_image,atlas_repacked,off_tiles,visible,on_tile_pixels,"
-           "off_tile_pixels,psnr_db,on_change,off_change\n";
+           "off_tile_pixels,psnr_db,on_change,off_change,reuse_alone_ms,impostors,impostors_made\n";
     for (const Flight& f : flights)
         for (std::size_t i = 0; i < f.frames.size(); ++i) {
             const CruiseFrame& c = f.frames[i];
             csv << f.scene << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << ","
                 << (c.repeatMs < 0 ? std::string() : fmt("%.3f", c.repeatMs)) << "," << c.onTiles << "," << c.must << ","
                 << (c.repacked ? 1 : 0) << "," << c.offTiles << "," << c.visible << "," << c.onPixels << "," << c.offPixels << "," << fmt("%.2f", c.psnr) << ","
-                << fmt("%.6f", c.onChange) << "," << fmt("%.6f", c.offChange) << "\n";
+                << fmt("%.6f", c.onChange) << "," << fmt("%.6f", c.offChange) << ","
+                << (c.aloneMs < 0 ? std::string() : fmt("%.3f", c.aloneMs)) << "," << c.impostors << "," << c.impostorsMade << "\n";
         }
     return csv.str();
 }
@@ -131,8 +141,9 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
                        const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --cruise` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", `--method auto` (the compositor's defaults under auto: back to front) with `--reuse on` and with "
-          "`--reuse off` (every tile rendered every frame), frame by frame in turn. A frame's ms is the draw's wall time to "
+       << ", `--method auto` with its defaults (\"on\": back to front, `--reuse on`, `--cloud-lod on`) and with "
+          "`--reuse off --cloud-lod off` (\"off\": every tile rendered every frame), frame by frame in turn; on the cruise "
+          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without impostors). A frame's ms is the draw's wall time to "
           "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in both) is "
           "left out of the figures and given apart. PSNR: each reuse frame against the same frame with every tile fresh, "
           "as 8-bit sRGB. Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "
@@ -141,10 +152,11 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
           "same frame again, with nothing stale: what a frame costs with no tile rendered (the composite, the planning "
           "and, on layer_flight, the layered sky). Tiles without an image: rendered whatever the budget (new in view, a "
           "part come into view, cut by the near plane).\n\n";
-    md << "| flight | frames | ms amortised on / off | on × faster | reuse floor ms | worst ms on / off (off's median) | tiles "
-          "rendered a frame on (without an image) / off (visible) | tile Mpx a frame on / off | atlas repacks | PSNR min / "
-          "median dB | change on − off | worst frame change on / off | frame 0 ms on / off |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    md << "| flight | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse floor ms | worst ms on / off "
+          "(off's median) | tiles rendered a frame on (without an image) / off (visible) | impostors a frame (made) | tile Mpx "
+          "a frame on / off | atlas repacks | PSNR min / median dB | change on − off | worst frame change on / off | frame 0 "
+          "ms on / off |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Flight& f : flights) {
         const auto& fr = f.frames;
         const auto onMs = column(fr, [](const CruiseFrame& c) { return c.onMs; });
@@ -152,26 +164,32 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
         const auto psnr = column(fr, [](const CruiseFrame& c) { return c.psnr; });
         const auto onCh = column(fr, [](const CruiseFrame& c) { return c.onChange; });
         const auto offCh = column(fr, [](const CruiseFrame& c) { return c.offChange; });
-        std::vector<double> repeat;
+        std::vector<double> repeat, alone;
         int repacks = 0;
         for (const CruiseFrame& c : fr) {
             if (c.repeatMs >= 0) repeat.push_back(c.repeatMs);
+            if (c.aloneMs >= 0) alone.push_back(c.aloneMs);
             repacks += c.repacked ? 1 : 0;
         }
         md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / " << fmt("%.1f", mean(offMs))
-           << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat)))
+           << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | "
+           << (alone.empty() ? std::string("–")
+                             : fmt("%.1f", mean(alone)) + " (" + fmt("%.2f", mean(offMs) / std::max(mean(alone), 1e-9)) + ")")
+           << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat)))
            << " | " << fmt("%.1f", maxOf(onMs)) << " / " << fmt("%.1f", maxOf(offMs)) << " (" << fmt("%.1f", median(offMs)) << ") | "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.must; }))) << ") / "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.offTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.visible; }))) << ") | "
+           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.impostors; }))) << " ("
+           << fmt("%.1f", mean(column(fr, [](const CruiseFrame& c) { return c.impostorsMade; }))) << ") | "
            << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.onPixels; })) / 1e6) << " / "
            << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.offPixels; })) / 1e6) << " | " << repacks << " | "
            << fmt("%.1f", minOf(psnr)) << " / " << fmt("%.1f", median(psnr)) << " | " << fmt("%+.5f", mean(onCh) - mean(offCh))
            << " | " << fmt("%.4f", maxOf(onCh)) << " / " << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs)
            << " / " << fmt("%.0f", f.firstOffMs) << " |\n";
     }
-    md << "\n![ms per frame, reuse on and off](docs/cruise_bench.png)\n";
+    md << "\n![ms per frame: auto (reuse and cloud LOD on), reuse alone, both off](docs/cruise_bench.png)\n";
     return md.str();
 }
 
@@ -180,8 +198,8 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
 int runCruiseBench(const CruiseBenchOptions& o) {
     if (!prepareBenchOutputs(o.outDir, o.readme, "cruise bench")) return 2;
     std::vector<Flight> flights = {
-        {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus"},
-        {"cruise_turn.json", "sharp turn: 180° in 3 s in that field"},
+        {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus", 10, {}, 0, 0, true},
+        {"cruise_turn.json", "sharp turn: 180° in 3 s in that field", 10, {}, 0, 0, true},
         {"approach.json", "approach.json"},
         {"flythrough.json", "flythrough.json"},
         {"layer_flight.json", "layer_flight.json"},

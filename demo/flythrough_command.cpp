@@ -83,6 +83,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     FrameRenderer renderer(o.render);
     FrameChanges changes;
     nlohmann::json ms = nlohmann::json::array(), tiles = nlohmann::json::array(), tilePixels = nlohmann::json::array();
+    nlohmann::json impostors = nlohmann::json::array(), impostorsMade = nlohmann::json::array();
     nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array(), grown = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
         const Frame f = renderer.render(p.scene, t0 + k / o.fps);
@@ -90,6 +91,8 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
         tiles.push_back(f.stats.tilesRendered);
         tilePixels.push_back(f.stats.tilePixelsRendered);
         must.push_back(f.stats.tilesMust);
+        impostors.push_back(f.stats.impostors);
+        impostorsMade.push_back(f.stats.impostorsRendered);
         if (f.stats.atlasRepacked) repacked.push_back(k);
         if (f.stats.atlasGrown) grown.push_back(k);
         char name[32];
@@ -103,6 +106,8 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
                               {"width", p.scene.camera.width}, {"height", p.scene.camera.height},
                               {"mean_change", changes.mean()},
                               {"reuse", o.render.ellipsoid.reuse},
+                              {"cloud_lod", o.render.ellipsoid.cloudLod},
+                              {"impostors", impostors},       {"impostors_made", impostorsMade},
                               {"frame_ms", ms},               {"tiles_rendered", tiles},
                               {"tile_pixels_rendered", tilePixels},
                               {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},

@@ -52,7 +52,9 @@ struct SceneArgs {
     RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
     std::string lightGridFit = "on";  // --light-grid-fit
     std::string reuse;                // --reuse: on | off; empty: on under auto, off otherwise
+    std::string cloudLod;             // --cloud-lod: on | off; empty: on under auto, off otherwise
     double reuseError = EllipsoidSettings().reuseErrorPixels, reuseBudget = EllipsoidSettings().reuseBudget;
+    double cloudLodError = EllipsoidSettings().cloudLodErrorPixels;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
@@ -165,6 +167,15 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
                     "Compositor: on keeps tiles across frames (reprojected until their error passes --reuse-error), off "
                     "renders every tile every frame (default: on under auto, else off)")
         ->check(CLI::IsMember({"on", "off"}));
+    cmd->add_option("--cloud-lod", a.cloudLod,
+                    "Compositor: on draws each far cloud (beyond 4 of its radii and the near plane, at most 512 px) as one "
+                    "impostor of its tiles, kept across frames like a tile; off draws every cloud as tiles (default: on "
+                    "under auto, else off; only with the back-to-front composite and --flythrough fraction)")
+        ->check(CLI::IsMember({"on", "off"}));
+    cmd->add_option("--cloud-lod-error", a.cloudLodError,
+                    "Compositor with --cloud-lod on: an impostor's error in pixels that makes it again")
+        ->check(within(0.01, 1000))
+        ->capture_default_str();
     cmd->add_option("--reuse-error", a.reuseError, "Compositor with --reuse on: a tile's error in pixels that renders it again")
         ->check(within(0.01, 1000))
         ->capture_default_str();
@@ -211,7 +222,12 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
                : a.composite == "moments"  ? CompositeOrder::Moments
                                            : CompositeOrder::PerEllipsoid;
     es.reuse = a.reuse.empty() ? ro.method == Method::Auto : a.reuse == "on";
+    es.cloudLod = a.cloudLod.empty() ? ro.method == Method::Auto : a.cloudLod == "on";
+    if (a.cloudLod == "on" && (es.order != CompositeOrder::PerEllipsoid || es.flyThrough != FlyThrough::Fraction))
+        throw UsageError("--cloud-lod on needs the back-to-front composite (--composite back-to-front) and --flythrough fraction");
+    if (es.order != CompositeOrder::PerEllipsoid || es.flyThrough != FlyThrough::Fraction) es.cloudLod = false;
     es.reuseErrorPixels = a.reuseError;
+    es.cloudLodErrorPixels = a.cloudLodError;
     es.reuseBudget = a.reuseBudget;
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted

@@ -25,8 +25,13 @@ def main():
         fr = [r for r in rows if r["flight"] == name]
         x = [int(r["frame"]) for r in fr]
         ax = axes[0][k]
-        ax.plot(x, [float(r["off_ms"]) for r in fr], "-", color="tab:red", alpha=0.7, lw=0.8, label="reuse off")
-        ax.plot(x, [float(r["on_ms"]) for r in fr], "-", color="tab:blue", lw=0.8, label="reuse on")
+        ax.plot(x, [float(r["off_ms"]) for r in fr], "-", color="tab:red", alpha=0.7, lw=0.8,
+                label="reuse off, cloud LOD off")
+        alone = [(int(r["frame"]), float(r["reuse_alone_ms"])) for r in fr if r.get("reuse_alone_ms")]
+        if alone:
+            ax.plot([a for a, _ in alone], [b for _, b in alone], "-", color="tab:orange", alpha=0.7, lw=0.8,
+                    label="reuse on, cloud LOD off")
+        ax.plot(x, [float(r["on_ms"]) for r in fr], "-", color="tab:blue", lw=0.8, label="auto: reuse on, cloud LOD on")
         ax.axhline(100, color="grey", ls=":", lw=0.8, label="100 ms (10 fps)")
         ax.set_yscale("log")
         ax.set_title(name, fontsize=9)
@@ -41,7 +46,7 @@ def main():
         ax.grid(True, alpha=0.3)
         if k == 0:
             ax.set_ylabel("PSNR vs fresh (dB)")
-    fig.suptitle("Nephele tiles that last, %s — %s" % (sys.argv[4], sys.argv[3]), fontsize=10)
+    fig.suptitle("Nephele tiles that last and cloud impostors, %s — %s" % (sys.argv[4], sys.argv[3]), fontsize=10)
     fig.tight_layout()
     fig.savefig(sys.argv[2])
 

@@ -244,7 +244,8 @@ int runRender(const RenderOptions& o) {
     if (st.ellipsoids > 0)
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
                   << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
-                  << " draw calls\n";
+                  << " draw calls" << (st.impostors > 0 ? ", " + std::to_string(st.impostors) + " far cloud(s) as impostors" : "")
+                  << "\n";
     if (o.method == Method::Auto && frame.layered.sceneLayers > 0) {
         const NearLodStats& n = frame.nearLod;
         std::cerr << "nephele: near LOD: " << n.cells << " cell(s) within " << o.layered.nearRadius + o.layered.blendBand
