@@ -78,13 +78,15 @@ void expectRecordingMatchesRender(const std::string& name, const std::string& ex
         char frame[32];
         std::snprintf(frame, sizeof frame, "frame_%04d.png", k);
         // The recording draws with the renderers and settings of `render`, into the same float
-        // frame, encoded the same way: measured identical (0 difference) on llvmpipe. One 8-bit
-        // step per pixel and 0.1 step on average allow the compositor's light cache, which keeps
-        // the light volumes of clouds that only drifted with the wind over a flight but
-        // recomputes them in a fresh `render`, to round differently; a wrong camera, time or
-        // method changes hundreds of pixels by tens of steps.
+        // frame, encoded the same way, but as a flight: auto keeps tiles and far clouds'
+        // impostors across frames (reuse, cloud LOD) until their error reaches 0.5 and 1.5 px,
+        // where `render` draws them fresh. At a soft cloud edge that is a few 8-bit steps in a
+        // few pixels (measured 7 steps at most, the mean within 0.1 step; identical before the
+        // cloud LOD). Ten steps per pixel and 0.1 step on average allow that and the light
+        // cache's rounding; a wrong camera, time or method changes hundreds of pixels by tens
+        // of steps.
         const ImageDifference d = compareImages(readPng((dir / frame).string()), readPng(ref), 1.5 / 255);
-        EXPECT_LE(d.maxAbs, 1.0 / 255 + 1e-6) << frame;
+        EXPECT_LE(d.maxAbs, 10.0 / 255 + 1e-6) << frame;
         EXPECT_LE(d.meanAbs, 0.1 / 255) << frame;
     }
 }

@@ -1,43 +1,17 @@
 // Tiles that last (EllipsoidSettings::reuse): a still camera renders nothing again, a moving
 // one stays close to every tile fresh, a new sun is caught up within the budget, the wind
 // carries reused tiles with their clouds.
-#include "gl_test_util.hpp"
-
-#include "nephele/camera.hpp"
-#include "nephele/ellipsoid.hpp"
-#include "nephele/metrics.hpp"
-#include "nephele/opaque.hpp"
+#include "flight_test_util.hpp"
 
 #include <cmath>
 
 using namespace nephele;
 using nephele::test::sharedScene;
+using nephele::test::Flight;
+using nephele::test::db;
+using nephele::test::save;
 
 namespace {
-
-// One renderer kept across frames, drawing into its own target.
-struct Flight {
-    explicit Flight(const EllipsoidSettings& s, const Scene& scene)
-        : clouds(s), target(scene.camera.width, scene.camera.height) {}
-    Image frame(const Scene& scene, const Camera& camera) {
-        const View view = makeView(camera);
-        OpaquePass().draw(scene, view, target.framebuffer());
-        last = clouds.render(scene, view, target.framebuffer(), false);
-        return channels(target.readColor(), 0, 3);
-    }
-    EllipsoidRenderer clouds;
-    FrameTarget target;
-    EllipsoidStats last;
-};
-
-Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
-double db(const Image& a, const Image& b) { return psnr(clamped(a), clamped(b)); }
-
-void save(const std::string& name, const Image& rgb) { writePng(test::outputDir() + "/" + name + ".png", rgb); }
 
 EllipsoidSettings reuseOn(CompositeOrder order = CompositeOrder::PerEllipsoid) {
     EllipsoidSettings s;
