@@ -223,9 +223,11 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
                                            : CompositeOrder::PerEllipsoid;
     es.reuse = a.reuse.empty() ? ro.method == Method::Auto : a.reuse == "on";
     es.cloudLod = a.cloudLod.empty() ? ro.method == Method::Auto : a.cloudLod == "on";
-    if (a.cloudLod == "on" && (es.order != CompositeOrder::PerEllipsoid || es.flyThrough != FlyThrough::Fraction))
-        throw UsageError("--cloud-lod on needs the back-to-front composite (--composite back-to-front) and --flythrough fraction");
-    if (es.order != CompositeOrder::PerEllipsoid || es.flyThrough != FlyThrough::Fraction) es.cloudLod = false;
+    if (es.cloudLod && !cloudLodApplies(es)) {
+        if (a.cloudLod == "on")
+            throw UsageError("--cloud-lod on needs the back-to-front composite (--composite back-to-front) and --flythrough fraction");
+        es.cloudLod = false;
+    }
     es.reuseErrorPixels = a.reuseError;
     es.cloudLodErrorPixels = a.cloudLodError;
     es.reuseBudget = a.reuseBudget;

@@ -92,7 +92,7 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
     }
     for (Group& g : groups) std::sort(g.shapes.begin(), g.shapes.end());
 
-    const std::uint64_t global = Fingerprint().add(scene.sun.direction).addMedium(scene.medium).add(prepared.noisePeriod).value();
+    const std::uint64_t global = imageInputs(scene, prepared.noisePeriod);
     const glm::dmat4 viewProj = view.projectionMatrix * glm::lookAt(Vec3(0.0), view.forward, view.up);
     const int W = view.camera.width, H = view.camera.height;
     const double pxX = 0.5 * W, pxY = 0.5 * H;
@@ -130,7 +130,7 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         const PlacedRadiance& pl = light[std::size_t(c)];
         const std::uint64_t lightKey =
             Fingerprint().add(global).add(pl.grid.get()).add(quantised(pl.lo - centres[std::size_t(c)])).add(pl.extent).value();
-        const double phase = model::hgPhase(float(glm::dot(-toEye / distance, scene.sun.direction)), float(scene.medium.hgG));
+        const double phase = sunPhase(centres[std::size_t(c)], view, scene);
         const double r = 0.5 * std::max(k.w, k.h);
         glm::dvec4 rect;
         // Usable: every ellipsoid in view now is in the image, unchanged (those gone out of view
@@ -141,17 +141,11 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
                           std::includes(L->shapes.begin(), L->shapes.end(), g.shapes.begin(), g.shapes.end());
         if (same && reprojectImage(L->eyeFromCentre, centres[std::size_t(c)], L->rc, L->rx, L->ry, viewProj, view.eye,
                                    k.reproject, rect) &&
-            std::max({(rect.x - g.rect.x0) * pxX, (g.rect.x1 - rect.z) * pxX, (rect.y - g.rect.y0) * pxY,
-                      (g.rect.y1 - rect.w) * pxY}) <= s.errorPixels) {
+            outsidePixels(rect, g.rect, view) <= s.errorPixels) {
             k.must = false;
-            const double cosA = glm::dot(toEye, L->eyeFromCentre) / (distance * glm::length(L->eyeFromCentre));
-            // The parallax within the cloud's depth that the plane cannot show: the angle the eye
-            // moved around its centre, and the change of distance (a point R in front of the
-            // plane grows by R / D more than the plane). A turn of the view alone costs nothing:
-            // the reprojection is exact for it.
-            const double d0 = glm::length(L->eyeFromCentre), depth = radii[std::size_t(c)] / distance;
-            double px = r * std::acos(std::clamp(cosA, -1.0, 1.0)) + r * std::abs(d0 / distance - 1) * depth;
-            if (scene.medium.noise > 0) px += glm::length(centres[std::size_t(c)] - L->centre) * r / radii[std::size_t(c)];
+            // The whole cloud's parallax: its depth is its bounding radius.
+            const double drift = scene.medium.noise > 0 ? glm::length(centres[std::size_t(c)] - L->centre) : 0.0;
+            const double px = parallaxPixels(r, L->eyeFromCentre, toEye, radii[std::size_t(c)], drift);
             k.error = px / s.errorPixels;
             if (L->light == lightKey) k.error = std::max(k.error, std::abs(phase / L->phase - 1) / kPhaseChange);
             k.error = std::max(k.error, std::abs(weight / std::max(L->weight, 1e-9) - 1) / kSigmaChange);

@@ -115,7 +115,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
                                              fused + "#define FRACTION 1\n");
     }
     m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
-    if (s.cloudLod) {
+    if (cloudLodApplies(s)) {  // only then are impostors drawn
         m.impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
         m.impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
                                             "#define FRACTION 1\n");
@@ -226,7 +226,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     // of the clouds drawn as tiles go on.
     std::vector<int> impostorOf;  // per scene cloud: its index in out.impostors, else -1
     std::vector<char> keepTiles;  // per scene cloud: an impostor kept from before (its tiles stay in the atlas)
-    if (lod && s.cloudLod && s.order == CompositeOrder::PerEllipsoid && s.flyThrough == FlyThrough::Fraction) {
+    if (lod && cloudLodApplies(s)) {
         ImpostorSettings is;
         is.distance = s.cloudLodDistance, is.maxPixels = s.cloudLodMaxPixels;
         is.atlasSize = std::max(256, int(std::bit_ceil(unsigned(s.cloudLodMaxPixels + 2))));

@@ -22,12 +22,29 @@ constexpr double kRepackFill = 0.8;
 
 double pixelRadiusOf(const EllipsoidProjection& p) { return 0.5 * std::max(p.pixelWidth, p.pixelHeight); }
 
-double sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
+}  // namespace
+
+std::uint64_t reuse::imageInputs(const Scene& scene, double noisePeriod) {
+    return Fingerprint().add(scene.sun.direction).addMedium(scene.medium).add(noisePeriod).value();
+}
+
+double reuse::sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
     const Vec3 d = glm::normalize(centre - view.eye);
     return model::hgPhase(float(glm::dot(d, scene.sun.direction)), float(scene.medium.hgG));
 }
 
-}  // namespace
+double reuse::parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius,
+                             double drift) {
+    const double then = glm::length(eyeFromCentreThen), now = glm::length(eyeFromCentreNow);
+    const double angle = std::acos(std::clamp(glm::dot(eyeFromCentreNow, eyeFromCentreThen) / (now * then), -1.0, 1.0));
+    return r * angle + r * std::abs(then / now - 1) * std::min(1.0, radius / now) + drift * r / radius;
+}
+
+double reuse::outsidePixels(const glm::dvec4& quad, const ScreenRect& inView, const View& view) {
+    const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
+    return std::max({(quad.x - inView.x0) * pxX, (inView.x1 - quad.z) * pxX, (quad.y - inView.y0) * pxY,
+                     (inView.y1 - quad.w) * pxY});
+}
 
 bool reprojectImage(const Vec3& eyeFromCentre, const Vec3& centre, const Vec3& rc, const Vec3& rx, const Vec3& ry,
                     const glm::dmat4& viewProj, const Vec3& eye, glm::dmat4& reproject, glm::dvec4& rect) {
@@ -72,11 +89,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     fresh_.assign(n, nullptr);
 
     // What a tile's image depends on besides the view.
-    std::uint64_t global = Fingerprint()
-                               .add(scene.sun.direction)
-                               .addMedium(scene.medium)
-                               .add(prepared.noisePeriod)
-                               .value();
+    const std::uint64_t global = imageInputs(scene, prepared.noisePeriod);
     const glm::dmat4 viewProj = view.projectionMatrix * glm::lookAt(Vec3(0.0), view.forward, view.up);
 
     struct Candidate {
@@ -116,30 +129,14 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         Live& L = *c.live;
         if (!reprojectImage(L.eyeFromCentre, e.shape.center, L.rc, L.rx, L.ry, viewProj, view.eye, c.reproject, c.rect))
             continue;
-        const glm::dvec4& rect = c.rect;
-        const double dist = glm::length(L.eyeFromCentre);
         // Part of what is in view now outside the tile's quad (a tile cut by the view's edge
         // then): a visible cut, rendered now.
-        const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
-        const double missing = std::max({(rect.x - p.rect.x0) * pxX, (p.rect.x1 - rect.z) * pxX, (rect.y - p.rect.y0) * pxY,
-                                         (p.rect.y1 - rect.w) * pxY});
-        if (missing > s.errorPixels) continue;
+        if (outsidePixels(c.rect, p.rect, view) > s.errorPixels) continue;
         c.must = false;
-        const Vec3 now = view.eye - e.shape.center;
-        const double cosA = glm::dot(now, L.eyeFromCentre) / (glm::length(now) * dist);
-        const double angle = std::acos(std::clamp(cosA, -1.0, 1.0));
         const double r = pixelRadiusOf(p);
-        // The parallax within the ellipsoid's depth that the plane cannot show: the angle the eye
-        // moved around its centre, and the change of distance (a point rMax in front of the
-        // plane grows by rMax / distance more than the plane). A turn of the view alone costs
-        // nothing: the reprojection is exact for it (the change of the tile's pixel radius,
-        // the measure until 2026-12-02, counted a turn's perspective as error).
         const double rMax = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
-        const double distance = glm::length(now);
-        double px = r * angle + r * std::abs(dist / distance - 1) * std::min(1.0, rMax / distance);
-        if (scene.medium.noise > 0) {  // the wind carries the ellipsoid through the (world-fixed) noise
-            px += glm::length(e.shape.center - L.centre) * r / rMax;
-        }
+        const double drift = scene.medium.noise > 0 ? glm::length(e.shape.center - L.centre) : 0.0;
+        const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
         c.error = px / s.errorPixels;
         // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
         if (L.light == c.light)

@@ -36,6 +36,22 @@ constexpr double kMustError = 6;
 // The priority of an image whose light changed (a new sun, a grid finished): above any
 // geometric error, so that a weather change is caught up first, largest on screen first.
 constexpr double kLightChanged = 1000;
+
+// What every kept image depends on besides the view and its own light grid: the sun's
+// direction, the medium and the noise's period.
+std::uint64_t imageInputs(const Scene& scene, double noisePeriod);
+// The sun's phase towards the eye at `centre`.
+double sunPhase(const Vec3& centre, const View& view, const Scene& scene);
+// The parallax an image of something of `radius` (m) and `r` pixels shows wrongly when
+// reprojected as the plane through its centre: the angle the eye moved around the centre
+// (eye - centre then, and now), and the change of distance (a point `radius` in front of the
+// plane grows by radius / distance more than the plane). A turn of the view alone costs
+// nothing: the reprojection is exact for it. Plus `drift` (m) carried through the world-fixed
+// noise (0 without noise). Pixels.
+double parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius, double drift);
+// How far (pixels) what is in view now, `inView`, reaches beyond a kept image's reprojected
+// quad (NDC bounds, reprojectImage): more than a threshold is a part come into view.
+double outsidePixels(const glm::dvec4& quad, const ScreenRect& inView, const View& view);
 }  // namespace reuse
 
 struct ReuseSettings {

@@ -19,7 +19,8 @@ LayeredSettings autoLayeredSettings(LayeredSettings base) {
 
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base) {
     base.reuse = true;
-    base.cloudLod = base.order == CompositeOrder::PerEllipsoid && base.flyThrough == FlyThrough::Fraction;
+    base.cloudLod = true;
+    base.cloudLod = cloudLodApplies(base);
     return base;
 }
 

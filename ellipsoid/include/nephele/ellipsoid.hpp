@@ -138,6 +138,12 @@ struct EllipsoidSettings {
                                    // is drawn as tiles
 };
 
+// Whether `s` draws far clouds as impostors: cloudLod, with the composite and fly-through it
+// works with (back to front, the fraction fly-through).
+inline bool cloudLodApplies(const EllipsoidSettings& s) {
+    return s.cloudLod && s.order == CompositeOrder::PerEllipsoid && s.flyThrough == FlyThrough::Fraction;
+}
+
 struct EllipsoidStats {
     int ellipsoids = 0;         // in the scene
     int visible = 0;            // after culling
