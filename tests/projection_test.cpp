@@ -189,7 +189,7 @@ TEST(ProjectionTest, NdcFormulaMatchesProjectionMatrixAndPixelConvention) {
 TEST(ProjectionTest, RectContainsSilhouetteOfRandomEllipsoids) {
     Rng rng(2);
     constexpr int kCases = 2000, kSamples = 2000;  // per case: kSamples on the surface + kSamples inside
-    int visibleCases[5] = {}, casesWithSamples[5] = {}, crossingWithSamples = 0;
+    int visibleCases[5] = {}, casesWithSamples[5] = {}, crossingWithSamples = 0, besideWithSamples = 0;
     long samplesChecked = 0;
     for (int k = 0; k < kCases; ++k) {
         const View v = randomView(rng);
@@ -225,14 +225,19 @@ TEST(ProjectionTest, RectContainsSilhouetteOfRandomEllipsoids) {
         }
         samplesChecked += inside;
         casesWithSamples[mode] += inside > 0;
+        // Across the near plane with the eye outside: cut where the view sees (rays start inside
+        // it) or beside the eye, its cut outside the view (the exact bounds of the part beyond).
+        const bool straddles = p.boxMin.z <= -v.camera.nearClip && p.boxMax.z >= -v.camera.nearClip;
         crossingWithSamples += inside > 0 && p.crossesNear && !p.eyeInside;
+        besideWithSamples += inside > 0 && straddles && !p.crossesNear;
     }
     // The suite is not vacuous: every kind of case happened, with samples in the view.
     for (int m = 0; m < 5; ++m) {
         EXPECT_GT(visibleCases[m], 50) << "mode " << m;
         EXPECT_GT(casesWithSamples[m], 50) << "mode " << m;
     }
-    EXPECT_GT(crossingWithSamples, 100);
+    EXPECT_GT(crossingWithSamples, 50);
+    EXPECT_GT(besideWithSamples, 50);
     EXPECT_GT(samplesChecked, 100000);
     EXPECT_LT(visibleCases[3], kCases / 5);  // random placements are often culled
 }
@@ -425,6 +430,32 @@ TEST(ProjectionTest, CrossingTheNearPlaneWithTheEyeOutside) {
     // Clipped at the near plane, the box's cross-section there is 10 m wide at 1 m: covers the whole view.
     EXPECT_EQ(p.rect.x0, -1);
     EXPECT_EQ(p.rect.x1, 1);
+
+    // Beside the eye, reaching from behind it to in front: the near plane cuts it 20 m to the
+    // right, outside the view (0.77 m half-width at 1 m). Not cut where the view sees, and its
+    // rectangle is the view's right part from its nearest tangent plane through the eye, not
+    // the whole view (the box's corners at the near plane gave that before 2026-12-03).
+    Camera cam;  // looking along +y: x right, z up
+    cam.position = Vec3(0, 0, 300);
+    cam.direction = Vec3(0, 1, 0);
+    cam.fovYDeg = 60, cam.width = 640, cam.height = 480, cam.nearClip = 1.0, cam.farClip = 10000;
+    const View w = makeView(cam);
+    Ellipsoid side;
+    side.radii = Vec3(15.0, 80.0, 15.0);  // long along the view
+    side.rotationDeg = Vec3(0.0);
+    side.center = cam.position + Vec3(35, 0, 0);  // 20..50 m to the right, 80 m ahead and behind
+    const EllipsoidProjection q = projectEllipsoid(side, w);
+    ASSERT_TRUE(q.visible && !q.eyeInside);
+    EXPECT_LE(q.boxMin.z, -1.0);
+    EXPECT_GE(q.boxMax.z, -1.0);
+    EXPECT_FALSE(q.crossesNear);
+    // Its nearest tangent plane through the eye, x = t y: 35^2 = 15^2 + 80^2 t^2, t = 0.395;
+    // the view's tan(half x fov) is 0.770 (60 degrees vertical at 4:3): NDC 0.513.
+    EXPECT_NEAR(q.rect.x0, std::sqrt(1000.0 / 6400) / (std::tan(glm::radians(30.0)) * 4 / 3), 1e-6);
+    EXPECT_EQ(q.rect.x1, 1);
+    // Moved in until its cut by the near plane reaches the view (x from 0.3 m at y = 1): cut.
+    side.center = cam.position + Vec3(15.3, 0, 0);
+    EXPECT_TRUE(projectEllipsoid(side, w).crossesNear);
 }
 
 TEST(ProjectionTest, PixelSizeAndScreenOrientation) {

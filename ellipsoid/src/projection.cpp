@@ -28,7 +28,36 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     const Vec3 h(std::sqrt(s[0][0]), std::sqrt(s[1][1]), std::sqrt(s[2][2]));
     p.boxMin = c - h;
     p.boxMax = c + h;
-    p.crossesNear = p.eyeInside || (p.boxMin.z <= -n && p.boxMax.z >= -n);
+    // The box's z-range is the ellipsoid's own (h.z is its exact support), so the plane z = -n
+    // cuts the ellipsoid iff the box straddles it. The cut matters only where a view ray starts
+    // inside the ellipsoid: where its section by the near plane meets the view's near rectangle,
+    // or (conservatively) when it comes within the near rectangle's corner distance of the eye,
+    // where it could poke into the frustum between the eye and the near plane. An ellipsoid beside
+    // the eye whose cut lies outside the view is a tile like any other (before 2026-12-03 every
+    // box across the near plane was: lit per pixel, never reused, its rectangle the box's).
+    const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
+    const bool straddles = p.boxMin.z <= -n && p.boxMax.z >= -n;
+    const double szz = s[2][2], dz = -n - c.z;  // the section z = -n, dz from the centre
+    if (p.eyeInside) {
+        p.crossesNear = true;
+    } else if (straddles) {
+        // The section is the ellipse of points with z = -n: centre m, half-extents e per axis
+        // (the ellipsoid's x, y conditioned on z, as for a Gaussian of covariance S).
+        const double shrink = std::max(0.0, 1.0 - dz * dz / szz);
+        bool meets = true;
+        for (int i = 0; i < 2; ++i) {
+            const double m = c[i] + s[2][i] / szz * dz;
+            const double half = std::sqrt(std::max(0.0, (s[i][i] - s[2][i] * s[2][i] / szz) * shrink));
+            const double centre = i ? cy : cx, tanHalf = i ? view.tanHalfY : view.tanHalfX;
+            const double lo = n * (centre - tanHalf), hi = n * (centre + tanHalf);  // the near rectangle, m
+            const double slack = 1e-9 * (std::abs(m) + half + n);
+            meets = meets && m - half <= hi + slack && m + half >= lo - slack;
+        }
+        const double reach = n * std::sqrt(1 + std::pow(std::abs(cx) + view.tanHalfX, 2) + std::pow(std::abs(cy) + view.tanHalfY, 2));
+        const double rMin = std::min({e.radii.x, e.radii.y, e.radii.z});
+        const bool close = (std::sqrt(glm::dot(u, u)) - 1.0) * rMin <= 1.01 * reach;  // a lower bound of its distance
+        p.crossesNear = meets || close;
+    }
 
     // Cull on depth: the box lies entirely in front of the near plane (towards/behind the eye)
     // or entirely beyond the far plane. This holds even if the eye is inside: an ellipsoid that
@@ -36,8 +65,7 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     if (p.boxMin.z > -n || p.boxMax.z < -f) return p;
 
     // NDC of an eye-space tangent x / -z: (tangent - c) / tanHalf per axis, c the frustum's centre
-    // (0 for a symmetric frustum: an off-axis channel of a wider view has its own).
-    const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
+    // (cx, cy above; 0 for a symmetric frustum: an off-axis channel of a wider view has its own).
     ScreenRect r{-1, -1, 1, 1};
     if (!p.eyeInside) {
         // Clip the box to the depths -f <= z <= -n. On that slab depth d = -z > 0, so x / d is
@@ -54,7 +82,50 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
                 r.y1 = std::max(r.y1, (y - cy * d) / (d * view.tanHalfY));
             }
         }
-        if (!p.crossesNear) {
+        if (straddles) {
+            // Across the near plane, the eye outside: the bounds of x_i / -z over the part beyond
+            // it, a convex body on which x_i / -z is linear-fractional, so each bound is where a
+            // plane through the eye, x_i = t (-z), supports it: either tangent to the ellipsoid at
+            // a point beyond the near plane, or at the section z = -n (its x_i range there / n).
+            // Exact where the box's corners at the near plane reached far outside the view.
+            double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+            auto take = [&](int i, double t) {
+                lo[i] = std::min(lo[i], t);
+                hi[i] = std::max(hi[i], t);
+            };
+            const double shrink = std::max(0.0, 1.0 - dz * dz / szz);
+            for (int i = 0; i < 2; ++i) {
+                const double m = c[i] + s[2][i] / szz * dz;
+                const double half = std::sqrt(std::max(0.0, (s[i][i] - s[2][i] * s[2][i] / szz) * shrink));
+                take(i, (m - half) / n);
+                take(i, (m + half) / n);
+                // Tangent planes through the eye with normal nrm = e_i + t e_z: (nrm.c)^2 = nrm^T S nrm.
+                const double qa = c.z * c.z - szz, qb = c[i] * c.z - s[2][i], qc = c[i] * c[i] - s[i][i];
+                const double disc = qb * qb - qa * qc;
+                if (disc < 0) continue;
+                const double root = std::sqrt(disc);
+                // qa = 0: the ellipsoid touches the eye's plane z = 0, one root is at infinity.
+                const bool linear = std::abs(qa) <= 1e-12 * (c.z * c.z + szz);
+                const double t0 = linear ? -qc / (2 * qb) : (-qb - root) / qa, t1 = linear ? t0 : (-qb + root) / qa;
+                for (const double t : {t0, t1}) {
+                    if (!std::isfinite(t)) continue;
+                    Vec3 nrm(0.0);
+                    nrm[i] = 1, nrm.z = t;
+                    const Vec3 sn = s * nrm;
+                    const double q = glm::dot(nrm, sn);
+                    if (!(q > 0)) continue;
+                    const Vec3 touch = c - (glm::dot(nrm, c) > 0 ? 1.0 : -1.0) * sn / std::sqrt(q);
+                    if (touch.z <= -n) take(i, t);
+                }
+            }
+            for (int i = 0; i < 2; ++i) {
+                const double centre = i ? cy : cx, tanHalf = i ? view.tanHalfY : view.tanHalfX;
+                const double a = (lo[i] - centre) / tanHalf, b = (hi[i] - centre) / tanHalf;
+                const double margin = 1e-9 * (1 + std::max(std::abs(a), std::abs(b)));
+                if (i == 0) r.x0 = std::max(r.x0, a - margin), r.x1 = std::min(r.x1, b + margin);
+                else r.y0 = std::max(r.y0, a - margin), r.y1 = std::min(r.y1, b + margin);
+            }
+        } else {
             // Wholly in front of the near plane (so at z < 0): the exact silhouette bounds are cheap
             // and can be much tighter than the box's (flat or needle-like ellipsoids seen edge-on).
             // The planes through the eye x_i = t (-z), normal n = e_i + t e_z, touch the ellipsoid

@@ -22,7 +22,8 @@ struct ScreenRect { double x0 = 0, y0 = 0, x1 = 0, y1 = 0; };  // NDC, x0 < x1, 
 struct EllipsoidProjection {
     bool visible = false;      // false: culled (entirely behind the near plane, beyond the far plane, or outside the view)
     bool eyeInside = false;    // the eye is inside the ellipsoid (q(eye) < 1)
-    bool crossesNear = false;  // the ellipsoid's eye-space box straddles the near plane z = -near (or eyeInside)
+    bool crossesNear = false;  // the near plane z = -near cuts it where the view sees (a view ray starts inside it;
+                               // eyeInside, or conservatively when it comes within reach of the near rectangle)
     ScreenRect rect;           // its rectangle on the near plane, in NDC, clipped to the view; [-1,1]^2 if eyeInside
     double pixelWidth = 0, pixelHeight = 0;  // rect size in pixels of the camera image (fractional)
     glm::dmat4 projection{1.0};  // off-axis perspective (glm::frustum) whose frustum is exactly `rect` with the
