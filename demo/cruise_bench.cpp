@@ -30,7 +30,7 @@ namespace {
 
 struct CruiseFrame {
     double onMs = 0, offMs = 0;
-    double repeatMs = -1;               // every 10th frame: the reuse run's same frame again (nothing stale: its floor)
+    double repeatMs = -1;               // every 10th frame: the reuse run's same frame again (nothing newly stale: its floor)
     double aloneMs = -1;                // Flight::reuseAlone: the same frame with --reuse on --cloud-lod off
     int impostors = 0, impostorsMade = 0;  // the on run's clouds drawn as impostors, and of those made this frame
     int must = 0;                       // reuse: tiles rendered for want of a usable image
@@ -149,8 +149,9 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
           "as 8-bit sRGB. Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "
           "flicker index against the exact model is this change minus the exact model's, which is the same for both "
           "runs, so on − off is the difference of their indices. Reuse floor: every 10th frame the reuse run draws the "
-          "same frame again, with nothing stale: what a frame costs with no tile rendered (the composite, the planning "
-          "and, on layer_flight, the layered sky). Tiles without an image: rendered whatever the budget (new in view, a "
+          "same frame again, with nothing newly stale: what a frame costs when it renders only the tiles no reuse can "
+          "keep (the eye inside, cut by the near plane, past 6× the error) and the budget's backlog, besides the "
+          "composite, the planning and, on layer_flight, the layered sky. Tiles without an image: rendered whatever the budget (new in view, a "
           "part come into view, cut by the near plane).\n\n";
     md << "| flight | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse floor ms | worst ms on / off "
           "(off's median) | tiles rendered a frame on (without an image) / off (visible) | impostors a frame (made) | tile Mpx "
