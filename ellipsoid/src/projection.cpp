@@ -37,17 +37,24 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     // box across the near plane was: lit per pixel, never reused, its rectangle the box's).
     const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
     const bool straddles = p.boxMin.z <= -n && p.boxMax.z >= -n;
-    const double szz = s[2][2], dz = -n - c.z;  // the section z = -n, dz from the centre
+    // The section by the near plane, the ellipse of points with z = -n (when it straddles): its
+    // centre and half-extent per axis x, y (the ellipsoid's x, y conditioned on z, as for a
+    // Gaussian of covariance S).
+    const double szz = s[2][2], dz = -n - c.z;
+    double sectionMid[2] = {0, 0}, sectionHalf[2] = {0, 0};
+    if (straddles) {
+        const double shrink = std::max(0.0, 1.0 - dz * dz / szz);
+        for (int i = 0; i < 2; ++i) {
+            sectionMid[i] = c[i] + s[2][i] / szz * dz;
+            sectionHalf[i] = std::sqrt(std::max(0.0, (s[i][i] - s[2][i] * s[2][i] / szz) * shrink));
+        }
+    }
     if (p.eyeInside) {
         p.crossesNear = true;
     } else if (straddles) {
-        // The section is the ellipse of points with z = -n: centre m, half-extents e per axis
-        // (the ellipsoid's x, y conditioned on z, as for a Gaussian of covariance S).
-        const double shrink = std::max(0.0, 1.0 - dz * dz / szz);
         bool meets = true;
         for (int i = 0; i < 2; ++i) {
-            const double m = c[i] + s[2][i] / szz * dz;
-            const double half = std::sqrt(std::max(0.0, (s[i][i] - s[2][i] * s[2][i] / szz) * shrink));
+            const double m = sectionMid[i], half = sectionHalf[i];
             const double centre = i ? cy : cx, tanHalf = i ? view.tanHalfY : view.tanHalfX;
             const double lo = n * (centre - tanHalf), hi = n * (centre + tanHalf);  // the near rectangle, m
             const double slack = 1e-9 * (std::abs(m) + half + n);
@@ -93,12 +100,9 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
                 lo[i] = std::min(lo[i], t);
                 hi[i] = std::max(hi[i], t);
             };
-            const double shrink = std::max(0.0, 1.0 - dz * dz / szz);
             for (int i = 0; i < 2; ++i) {
-                const double m = c[i] + s[2][i] / szz * dz;
-                const double half = std::sqrt(std::max(0.0, (s[i][i] - s[2][i] * s[2][i] / szz) * shrink));
-                take(i, (m - half) / n);
-                take(i, (m + half) / n);
+                take(i, (sectionMid[i] - sectionHalf[i]) / n);
+                take(i, (sectionMid[i] + sectionHalf[i]) / n);
                 // Tangent planes through the eye with normal nrm = e_i + t e_z: (nrm.c)^2 = nrm^T S nrm.
                 const double qa = c.z * c.z - szz, qb = c[i] * c.z - s[2][i], qc = c[i] * c[i] - s[i][i];
                 const double disc = qb * qb - qa * qc;
