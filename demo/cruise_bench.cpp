@@ -143,7 +143,7 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
     md << "Measured by `nephele bench --cruise` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
        << ", `--method auto` with its defaults (\"on\": back to front, `--reuse on`, `--cloud-lod on`) and with "
           "`--reuse off --cloud-lod off` (\"off\": every tile rendered every frame), frame by frame in turn; on the cruise "
-          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without impostors). A frame's ms is the draw's wall time to "
+          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without the cloud LOD: neither far impostors nor close tiles at what their image holds). A frame's ms is the draw's wall time to "
           "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in both) is "
           "left out of the figures and given apart. PSNR: each reuse frame against the same frame with every tile fresh, "
           "as 8-bit sRGB. Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "

@@ -169,7 +169,8 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--cloud-lod", a.cloudLod,
                     "Compositor: on draws each far cloud (beyond 4 of its radii and the near plane, at most 512 px) as one "
-                    "impostor of its tiles, kept across frames like a tile; off draws every cloud as tiles (default: on "
+                    "impostor of its tiles, kept across frames like a tile, and renders no close tile finer than its "
+                    "ellipsoid's image holds; off draws every cloud as tiles at their size on screen (default: on "
                     "under auto, else off; only with the back-to-front composite and --flythrough fraction)")
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--cloud-lod-error", a.cloudLodError,

@@ -204,6 +204,15 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     out.prepared = prepareClouds(scene, view, s.noise);
     const PreparedClouds& prepared = out.prepared;
+    // The close LOD: no tile finer than its ellipsoid's image (closeTileTexels).
+    if (lod && cloudLodApplies(s)) {
+        const double noiseTexel = scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size
+                                                         : std::numeric_limits<double>::infinity();
+        for (PreparedEllipsoid& e : out.prepared.ellipsoids) {
+            const Vec3& r = e.shape.radii;
+            e.contentTexels = closeTileTexels(std::max({r.x, r.y, r.z}), noiseTexel);
+        }
+    }
     stats.visible = int(prepared.ellipsoids.size());
     if (prepared.ellipsoids.empty()) return out;
 
@@ -282,8 +291,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         for (int limit = maxTile;; limit /= 2) {
             std::vector<TileRequest> requests;
             for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
-                const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
-                requests.push_back({i, tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), minTile, limit)});
+                requests.push_back({i, tileSizeFor(tileExtent(prepared.ellipsoids[i]), minTile, limit)});
             }
             out.packed = packTiles(requests, atlasW, atlasH);
             stats.maxTile = limit;

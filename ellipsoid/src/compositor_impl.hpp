@@ -61,6 +61,10 @@ inline int meshSlices(const EllipsoidSettings& s, int tileSize) {
 // near plane: + 1000; a mesh tile lit per pixel, drawn as a polygon tile: 2000) and, for
 // meshes, mesh level (slices).
 inline int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int tileSize, bool perPixelLight) {
+    // A tile of the close LOD, smaller than its ellipsoid on screen, keeps the mesh of its size
+    // on screen: the vertices its light needs there.
+    const double screen = std::max(e.projection.pixelWidth, e.projection.pixelHeight);
+    if (e.contentTexels < screen) tileSize = std::max(tileSize, int(std::min(screen, 4096.0)));
     if (e.projection.crossesNear) return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize) : 0);
     if (s.geometry == TileGeometry::Polygon) return 0;
     return perPixelLight ? 2000 : meshSlices(s, tileSize);

@@ -6,6 +6,8 @@
 #include "nephele/gardner.hpp"
 #include "nephele/projection.hpp"
 
+#include <algorithm>
+#include <limits>
 #include <vector>
 
 namespace nephele {
@@ -19,13 +21,33 @@ struct PreparedEllipsoid {
     double ac = 0;                     // largest opacity (centre ray, or a bound when cut by the near plane)
     Vec3 noiseOffset{0.0};             // in noise-volume texture coordinates, deterministic per ellipsoid
     EllipsoidProjection projection;
+    // The close LOD (EllipsoidSettings::cloudLod, closeTileTexels): the texels across its tile
+    // that the ellipsoid's image holds; infinity: as many as it covers on screen (the paper).
+    double contentTexels = std::numeric_limits<double>::infinity();
 };
+
+// The extent a tile is sized by (tileSizeFor): the ellipsoid's on screen, px, at most what its
+// image holds (contentTexels).
+inline double tileExtent(const PreparedEllipsoid& e) {
+    return std::min(std::max(e.projection.pixelWidth, e.projection.pixelHeight), e.contentTexels);
+}
 
 struct PreparedClouds {
     std::vector<PreparedEllipsoid> ellipsoids;  // visible ones, back to front
     int culled = 0;                             // ellipsoids culled by the projection
     double noisePeriod = 1;                     // m: medium.noise_scale * cells
 };
+
+// The close LOD: the texels across the tile of an ellipsoid whose largest radius is `rMax` (m)
+// that hold its whole image: kSmoothTileTexels for its smooth part (the falloff, its light from
+// the cloud's radiance grid, a few voxels across an ellipsoid), or two tile texels per texel of
+// the noise volume (`noiseTexel` m, medium.noise_scale * cells / size; infinity without noise)
+// across its diameter, whichever is more. A tile larger than that is magnified on screen with
+// nothing lost: a close ellipsoid, or one with the eye inside, seen across the whole view.
+constexpr double kSmoothTileTexels = 128;
+inline double closeTileTexels(double rMax, double noiseTexel) {
+    return std::max(kSmoothTileTexels, 2.0 * (2.0 * rMax) / noiseTexel);
+}
 
 // Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);

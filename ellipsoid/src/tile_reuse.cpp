@@ -104,8 +104,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         glm::dvec4 rect;
     };
     auto sizeAt = [&](std::size_t i, int limit) {
-        const EllipsoidProjection& p = prepared.ellipsoids[i].projection;
-        return tileSizeFor(std::max(p.pixelWidth, p.pixelHeight), s.minTile, limit);
+        return tileSizeFor(tileExtent(prepared.ellipsoids[i]), s.minTile, limit);
     };
     std::vector<Candidate> cands(n);
     std::unordered_map<std::uint64_t, int> ordinal;  // identical keys in one frame (a hostile scene)

@@ -127,8 +127,12 @@ struct EllipsoidSettings {
     // those that are stale. A fresh impostor is its
     // tiles' image ("over" is associative; texel for pixel), so the switch does not pop.
     // Objects in a far cloud: the share of its bounding sphere in front of the opaque depth
-    // (not the tiles' per-ellipsoid fraction). Only with the back-to-front composite and the
-    // fraction fly-through (PerEllipsoid, FlyThrough::Fraction); other settings draw tiles.
+    // (not the tiles' per-ellipsoid fraction). Close clouds and the eye inside one: no tile is
+    // rendered finer than its ellipsoid's image holds (128 texels across for its smooth part,
+    // or two per texel of the noise volume across its diameter, whichever is more), however
+    // large it is on screen; it is magnified onto the view as any tile. Only with the
+    // back-to-front composite and the fraction fly-through (PerEllipsoid, FlyThrough::Fraction);
+    // other settings draw every tile at its size on screen.
     bool cloudLod = false;
     double cloudLodErrorPixels = 1.5;  // > 0
     double cloudLodDistance = 4;   // >= 1, in the cloud's bounding radii (kept down to 0.9 x this)
