@@ -97,8 +97,13 @@ int runFlickerBench(const FlickerOptions& o) {
     else
         add("ellipsoid", "weighted composite", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.order = CompositeOrder::Weighted; });
-    // Tiles that last (EllipsoidSettings::reuse): the default composite (as auto draws it), and the weighted one.
-    add("ellipsoid", "--reuse on (as --method auto)", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.reuse = true; });
+    // Tiles that last (EllipsoidSettings::reuse): the default composite, with the cloud LOD too
+    // (as auto draws it: far impostors, close tiles at what their image holds), and the weighted one.
+    add("ellipsoid", "--reuse on", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.reuse = true; });
+    add("ellipsoid", "--reuse on --cloud-lod on (as --method auto)", Method::Ellipsoid, [](RenderOptions& r) {
+        r.ellipsoid.reuse = true;
+        r.ellipsoid.cloudLod = true;
+    });
     if (!o.quick)
         add("ellipsoid", "weighted composite, --reuse on", Method::Ellipsoid, [](RenderOptions& r) {
             r.ellipsoid.order = CompositeOrder::Weighted;
