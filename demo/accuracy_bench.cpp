@@ -656,7 +656,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
         runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str());
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str(),
+                                   {csvPath, mdPath, layeredPath, (fs::path(o.outDir) / "accuracy_chart.png").string(),
+                                    (fs::path(o.outDir) / "accuracy_distance.png").string()});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;

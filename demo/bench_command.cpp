@@ -248,7 +248,7 @@ int runBench(const BenchOptions& o) {
     try {
         runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.outDir,
                 {"ellipsoid_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "ellipsoid bench", md.str());
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "ellipsoid bench", md.str(), {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

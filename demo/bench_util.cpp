@@ -133,16 +133,27 @@ bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, c
     return true;
 }
 
-void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown) {
+void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown,
+                             const std::vector<std::string>& files) {
     std::string s = readText(readme);
     const std::string begin = beginMarker(tag), end = endMarker(tag);
     const auto b = s.find(begin), e = s.find(end);
     if (b == std::string::npos || e == std::string::npos || e < b)
         throw std::runtime_error(readme + " has no '" + begin + "' ... '" + end + "' section");
     s = s.substr(0, b + begin.size()) + "\n" + markdown + s.substr(e);
-    OutputFiles files;
-    files.add(readme, textWriter(s), "--readme");
-    files.commit();
+    OutputFiles out;
+    out.add(readme, textWriter(s), "--readme");
+    if (!files.empty()) {
+        const fs::path docs = fs::path(readme).parent_path() / "docs";
+        std::error_code ec;
+        fs::create_directories(docs, ec);
+        if (ec) throw std::runtime_error("cannot make " + docs.string() + " beside --readme: " + ec.message());
+        for (const std::string& f : files)
+            out.add((docs / fs::path(f).filename()).string(),
+                    [from = fs::path(f)](const std::string& p) { fs::copy_file(from, p, fs::copy_options::overwrite_existing); },
+                    "--readme");
+    }
+    out.commit();
 }
 
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts) {

@@ -28,7 +28,11 @@ std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass
 // Replaces the text between "<!-- BEGIN GENERATED: TAG -->" and "<!-- END GENERATED: TAG -->"
 // in `readme` (a file) with `markdown`, atomically. Throws std::runtime_error naming what is
 // missing when the markers are not there.
-void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown);
+// `files` (the bench's outputs in its --out-dir that the section shows or links: charts, CSVs,
+// its markdown) are copied into the docs/ folder beside `readme` (made if missing), all or
+// nothing with the README, so that the charts a README shows are the run's that wrote it.
+void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown,
+                             const std::vector<std::string>& files = {});
 
 // Before a bench runs: creates `outDir` and checks that `readme`, when given, is a file and,
 // when `tag` is given too, that it holds the "<!-- BEGIN/END GENERATED: TAG -->" lines, so

@@ -234,7 +234,8 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         runPlot("plot_cruise.py", {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
                                    std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"cruise_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "cruise bench", md);
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "cruise bench", md,
+                                   {csvPath, mdPath, (fs::path(o.outDir) / "cruise_bench.png").string()});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

@@ -198,7 +198,7 @@ int runFlickerBench(const FlickerOptions& o) {
     try {
         writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, md.str()}});
         runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.outDir, {"flicker.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str());
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str(), {csvPath, seriesPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
         return 1;

@@ -227,7 +227,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         runPlot("plot_layered.py",
                 {csvPath, std::string(kChartsFolder) + "/layered_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"layered_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "layered bench", md.str());
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "layered bench", md.str(), {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

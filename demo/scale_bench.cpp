@@ -262,7 +262,7 @@ int runScaleBench(const ScaleBenchOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "scale_bench.md").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, md}});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "scale bench", md);
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "scale bench", md, {csvPath, mdPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --scale: " << e.what() << "\n";
         return 1;

@@ -260,7 +260,8 @@ int runWeatherBench(const WeatherBenchOptions& o) {
         runPlot("plot_weather.py",
                 {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"weather_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "weather bench", md);
+        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "weather bench", md,
+                                   {csvPath, mdPath, (fs::path(o.outDir) / "weather_bench.png").string()});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

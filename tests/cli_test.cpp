@@ -441,6 +441,13 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     EXPECT_NE(text.find("Measured by `nephele bench --accuracy`"), std::string::npos);
     EXPECT_EQ(text.find("old\n"), std::string::npos);
     EXPECT_NE(text.find("<!-- END GENERATED: accuracy bench -->\nafter\n"), std::string::npos);
+    // --readme copies what the section shows into docs/ beside it: the run's own files.
+    const fs::path docs = fs::path(readme).parent_path() / "docs";
+    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png"}) {
+        const fs::path copy = docs / f, made = path(std::string("acc/") + f);
+        ASSERT_TRUE(fs::exists(copy)) << copy;
+        EXPECT_EQ(fs::file_size(copy), fs::file_size(made)) << f;
+    }
     // The layered sky against its own converged limit: more layers, less error, in every view.
     std::ifstream lay(path("acc/accuracy_layered.csv"));
     std::getline(lay, line);
