@@ -85,9 +85,15 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     nlohmann::json ms = nlohmann::json::array(), tiles = nlohmann::json::array(), tilePixels = nlohmann::json::array();
     nlohmann::json impostors = nlohmann::json::array(), impostorsMade = nlohmann::json::array();
     nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array(), grown = nlohmann::json::array();
+    nlohmann::json planMs = nlohmann::json::array(), tilesMs = nlohmann::json::array(), compositeMs = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
         const Frame f = renderer.render(p.scene, t0 + k / o.fps);
         ms.push_back(std::round(f.ms * 1000) / 1000);
+        if (o.timings) {
+            planMs.push_back(std::round(f.stats.planMs * 1000) / 1000);
+            tilesMs.push_back(std::round(f.stats.tilesMs * 1000) / 1000);
+            compositeMs.push_back(std::round(f.stats.compositeMs * 1000) / 1000);
+        }
         tiles.push_back(f.stats.tilesRendered);
         tilePixels.push_back(f.stats.tilePixelsRendered);
         must.push_back(f.stats.tilesMust);
@@ -112,6 +118,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
                               {"tile_pixels_rendered", tilePixels},
                               {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},
                               {"atlas_grown_frames", grown}};
+    if (o.timings) summary["plan_ms"] = planMs, summary["tiles_ms"] = tilesMs, summary["composite_ms"] = compositeMs;
     if (!p.reference.empty()) {
         summary["reference_mean_change"] = p.reference["mean_change"];
         summary["flicker_index"] = changes.mean() - p.reference["mean_change"].get<double>();

@@ -530,6 +530,9 @@ int run(int argc, char** argv) {
         ->check(within(0.001, 1000))
         ->capture_default_str();
     fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index")->check(kPath);
+    fly->add_flag("--timings", fo.timings,
+                  "Also record the compositor's plan, tile-pass and composite ms of every frame in flythrough.json "
+                  "(a glFinish between the parts: the frames get a little slower)");
 
     fly::FlyOptions flyo;
     CLI::App* flyCmd = fly::addFlyCommand(app, flyo);
@@ -557,8 +560,12 @@ int run(int argc, char** argv) {
     if (*compare) return runCompare(co);
     if (*benchArgs.cmd) return runBenchArgs(benchArgs);
     try {
-        if (*fly) applySceneArgs(flyArgs, fo.render);
-        else applySceneArgs(renderArgs, ro);
+        if (*fly) {
+            applySceneArgs(flyArgs, fo.render);
+            fo.render.ellipsoid.timings = fo.timings;
+        } else {
+            applySceneArgs(renderArgs, ro);
+        }
     } catch (const std::exception& e) {
         return reportError(e, "checking the settings");
     }

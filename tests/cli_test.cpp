@@ -239,20 +239,27 @@ TEST_F(CliTest, CruiseBenchWritesCsvChartAndTable) {
 }
 
 // flythrough.json records every frame's draw time and the tiles it rendered; with --reuse on a
-// still stretch of a path renders fewer tiles than are visible.
+// still stretch of a path renders fewer tiles than are visible. With --timings (the reuse run
+// here) it also records the compositor's parts per frame.
 TEST_F(CliTest, FlythroughRecordsFrameTimesAndTilesRendered) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/approach.json";  // 5 km in 50 s
     int rendered[2] = {0, 0};
     for (int on = 0; on < 2; ++on) {
         const std::string reuse = on ? "on" : "off";
         const CliRun r = run("flythrough " + scene + " --method ellipsoid --reuse " + reuse + " --out-dir " + path(reuse) +
-                             " --fps 2 --width 64");
+                             " --fps 2 --width 64" + (on ? " --timings" : ""));
         ASSERT_EQ(r.code, 0) << r.output;
         std::ifstream in(path(reuse + "/flythrough.json"));
         const nlohmann::json j = nlohmann::json::parse(in);
         ASSERT_EQ(j["frame_ms"].size(), 101u);
         ASSERT_EQ(j["tiles_rendered"].size(), 101u);
         EXPECT_EQ(j["reuse"].get<bool>(), on == 1);
+        EXPECT_EQ(j.contains("tiles_ms"), on == 1);
+        if (on) {
+            for (const char* part : {"plan_ms", "tiles_ms", "composite_ms"}) ASSERT_EQ(j[part].size(), 101u) << part;
+            EXPECT_GT(j["tiles_ms"][0].get<double>(), 0.0);      // the first frame renders every tile
+            EXPECT_GT(j["composite_ms"][0].get<double>(), 0.0);
+        }
         for (std::size_t k = 0; k < 101; ++k) {
             EXPECT_GT(j["frame_ms"][k].get<double>(), 0.0) << k;
             rendered[on] += j["tiles_rendered"][k].get<int>();
