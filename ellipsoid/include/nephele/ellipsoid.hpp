@@ -101,7 +101,9 @@ struct EllipsoidSettings {
     // new view as a plane through its ellipsoid's centre facing the eye it was rendered from,
     // until its error reaches reuseErrorPixels. The error, in pixels of the current frame: the
     // ellipsoid's pixel radius times the angle the eye has moved around its centre (the parallax
-    // inside it), plus the change of its pixel radius, plus (with noise) how far the wind carried
+    // inside it), plus its pixel radius times the relative change of its distance times its
+    // largest radius over its distance (a point that far in front of the plane grows that much
+    // faster; a turn of the view alone costs nothing), plus (with noise) how far the wind carried
     // it through the noise; also reached when the sun's phase towards the eye or the extinction
     // (a near-LOD cloud fading) has changed by more than 3%, or the tile is magnified past its
     // size. Stale tiles are rendered again worst first within reuseBudget x the frame's pixels
