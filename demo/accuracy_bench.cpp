@@ -653,20 +653,20 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::string csvPath = (fs::path(o.outDir) / "accuracy.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "accuracy.md").string();
     const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
+    const std::string chartPath = (fs::path(o.outDir) / "accuracy_chart.png").string();
+    const std::string distancePath = (fs::path(o.outDir) / "accuracy_distance.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
         runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str(),
-                                   {csvPath, mdPath, layeredPath, (fs::path(o.outDir) / "accuracy_chart.png").string(),
-                                    (fs::path(o.outDir) / "accuracy_distance.png").string()});
+                                   {csvPath, mdPath, layeredPath, chartPath, distancePath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
     std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", "
-              << (fs::path(o.outDir) / "accuracy_chart.png").string() << ", "
-              << (fs::path(o.outDir) / "accuracy_distance.png").string() << (o.readme.empty() ? "" : ", " + o.readme)
+              << chartPath << ", " << distancePath << (o.readme.empty() ? "" : ", " + o.readme)
               << "\n";
     return 0;
 }

@@ -229,19 +229,20 @@ int runCruiseBench(const CruiseBenchOptions& o) {
     const std::string md = markdownOf(o, flights, when, machineLine(renderer));
     const std::string csvPath = (fs::path(o.outDir) / "cruise_bench.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "cruise_bench.md").string();
+    const std::string pngPath = (fs::path(o.outDir) / "cruise_bench.png").string();
     try {
         writeTextFiles({{csvPath, csvOf(flights)}, {mdPath, md}});
         runPlot("plot_cruise.py", {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
                                    std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"cruise_bench.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "cruise bench", md,
-                                   {csvPath, mdPath, (fs::path(o.outDir) / "cruise_bench.png").string()});
+                                   {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md;
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << (fs::path(o.outDir) / "cruise_bench.png").string()
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
               << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
     return 0;
 }

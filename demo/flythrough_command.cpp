@@ -118,7 +118,11 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
                               {"tile_pixels_rendered", tilePixels},
                               {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},
                               {"atlas_grown_frames", grown}};
-    if (o.timings) summary["plan_ms"] = planMs, summary["tiles_ms"] = tilesMs, summary["composite_ms"] = compositeMs;
+    if (o.timings) {
+        summary["plan_ms"] = planMs;
+        summary["tiles_ms"] = tilesMs;
+        summary["composite_ms"] = compositeMs;
+    }
     if (!p.reference.empty()) {
         summary["reference_mean_change"] = p.reference["mean_change"];
         summary["flicker_index"] = changes.mean() - p.reference["mean_change"].get<double>();

@@ -255,19 +255,20 @@ int runWeatherBench(const WeatherBenchOptions& o) {
     const std::string md = markdownOf(o, frames, when, machineLine(renderer));
     const std::string csvPath = (fs::path(o.outDir) / "weather_bench.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "weather_bench.md").string();
+    const std::string pngPath = (fs::path(o.outDir) / "weather_bench.png").string();
     try {
         writeTextFiles({{csvPath, csvOf(frames)}, {mdPath, md}});
         runPlot("plot_weather.py",
                 {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"weather_bench.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "weather bench", md,
-                                   {csvPath, mdPath, (fs::path(o.outDir) / "weather_bench.png").string()});
+                                   {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md;
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << (fs::path(o.outDir) / "weather_bench.png").string()
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
               << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
     return 0;
 }
