@@ -10,7 +10,7 @@
 // whole colour is multiplied); a pixel at depth 1 whose ray goes down is the format's ground,
 // taken to be the plane z = groundHeight, of which only the sun's share is shadowed.
 // Where a pixel spans more than a texel of the threshold texture, its mipmaps filter it.
-// Used by layered_shadow.frag (its own pass) and layered_upsample.frag (fused into the
+// Used by layered_shadow.frag (its own pass) and reduced_upsample.frag (fused into the
 // upsampling of the reduced-resolution layers, compiled per layer count with SHADOW_LAYERS
 // defined: llvmpipe runs every instruction of a shader, so a dynamically indexed sampler
 // array and a loop sized by a uniform cost more than the unrolled count).

@@ -9,7 +9,7 @@
 #include "nephele/shader.hpp"
 #include "layer_assets.hpp"
 #include "layer_light.hpp"
-#include "reduced_target.hpp"
+#include "nephele/reduced_target.hpp"
 #include "shadow_pass.hpp"
 
 #include <algorithm>
@@ -454,7 +454,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     drawLayers(p, m.layers, m.annulus, m.quad, scene, view, s, t, stats);
     if (s.downsample > 1) {
         const int fused = fuseShadows ? int(shadowing.size()) : 0;
-        ShadowPass::setUniforms(m.reduced.program(fused), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
+        ShadowPass::setUniforms(m.reduced.program(fused, frameDepth.texture != 0), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
                                 modulationTextures, s.modulation, s.groundHeight);
         m.reduced.composite(frame, frameDepth, view, fused);
         ++stats.upsampleDrawCalls;

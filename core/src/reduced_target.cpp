@@ -1,5 +1,6 @@
-#include "reduced_target.hpp"
+#include "nephele/reduced_target.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -7,21 +8,22 @@ namespace nephele {
 using namespace gl;
 
 ReducedTarget::ReducedTarget() {
-    reduce_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_depth_reduce.frag"}});
+    reduce_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "reduced_depth.frag"}});
     empty_ = VertexArray::create();
 }
 
-const Program& ReducedTarget::program(int shadowLayers) {
+const Program& ReducedTarget::program(int shadowLayers, bool depth) {
     if (shadowLayers < 0 || shadowLayers > 4) throw std::invalid_argument("ReducedTarget: shadowLayers must be 0..4");
-    Program& p = upsample_[shadowLayers];
+    Program& p = upsample_[shadowLayers][depth ? 1 : 0];
     if (p.id() == 0)
-        p = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_upsample.frag"}},
-                           "#define SHADOW_LAYERS " + std::to_string(shadowLayers) + "\n");
+        p = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "reduced_upsample.frag"}},
+                           "#define SHADOW_LAYERS " + std::to_string(shadowLayers) + "\n" +
+                               (depth ? "" : "#define NO_DEPTH 1\n"));
     return p;
 }
 
 void ReducedTarget::prepare() {
-    for (int layers = 0; layers <= 4; ++layers) program(layers);
+    for (int layers = 0; layers <= 4; ++layers) program(layers, true), program(layers, false);
 }
 
 glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view, int divisor) {
@@ -31,14 +33,14 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
     if (!t.fbo) {
         t.color = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.color.id(), 1, GL_RGBA16F, size.x, size.y);
-        checkAllocation("the layered sky's reduced RGBA16F target", std::uint64_t(size.x) * std::uint64_t(size.y) * 8);
+        checkAllocation("the reduced-resolution RGBA16F target", std::uint64_t(size.x) * std::uint64_t(size.y) * 8);
         glTextureParameteri(t.color.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTextureParameteri(t.color.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
         glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         t.depth = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(t.depth.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
-        checkAllocation("the layered sky's reduced depth", std::uint64_t(size.x) * std::uint64_t(size.y) * 4);
+        checkAllocation("the reduced-resolution depth", std::uint64_t(size.x) * std::uint64_t(size.y) * 4);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -46,7 +48,7 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
         t.fbo = Framebuffer::create();
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
         glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);
-        checkFramebuffer(t.fbo.id(), "the layered sky's reduced target");
+        checkFramebuffer(t.fbo.id(), "the reduced-resolution target");
     }
     current_ = &t;
     size_ = size;
@@ -78,23 +80,45 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
     glBindVertexArray(empty_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    check("reducing the frame's depth for the layered sky");
+    check("reducing the frame's depth");
     return size;
 }
 
-void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers) {
+void ReducedTarget::resume(const glm::ivec4& rect) {
+    if (!current_) throw std::logic_error("ReducedTarget::resume before begin");
+    glBindFramebuffer(GL_FRAMEBUFFER, current_->fbo.id());
+    glViewport(0, 0, size_.x, size_.y);
+    glDisable(GL_BLEND);
+    glDisable(GL_DEPTH_TEST);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(rect.x, rect.y, std::max(rect.z - rect.x, 0), std::max(rect.w - rect.y, 0));
+    const float zero[4] = {0, 0, 0, 0};
+    glClearNamedFramebufferfv(current_->fbo.id(), GL_COLOR, 0, zero);
+}
+
+DepthSource ReducedTarget::depth() const { return current_ ? DepthSource{current_->depth.id(), {0, 0}} : DepthSource{}; }
+
+void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers,
+                              const glm::ivec4* rect) {
     bindFrame(frame, view);
+    if (rect) {
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(view.origin.x + rect->x, view.origin.y + rect->y, std::max(rect->z - rect->x, 0),
+                  std::max(rect->w - rect->y, 0));
+    } else {
+        glDisable(GL_SCISSOR_TEST);
+    }
     glDisable(GL_DEPTH_TEST);
     glDepthMask(GL_FALSE);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ONE, GL_SRC1_ALPHA);  // cloud + frame * keep
-    const Program& p = program(shadowLayers);
+    const Program& p = program(shadowLayers, frameDepth.texture != 0);
     p.set("cloud", 0);
     p.set("cloudDepth", 1);
     p.set("frameDepth", 2);
-    p.set("hasDepth", frameDepth.texture != 0 ? 1 : 0);
     p.set("scale", glm::vec2(size_) / glm::vec2(full_));
     setViewFrameUniforms(p, view, true, frameDepth);
     glBindTextureUnit(0, current_->color.id());
@@ -104,7 +128,8 @@ void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDe
     glUseProgram(p.id());
     glBindVertexArray(empty_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    check("upsampling the layered sky");
+    glDisable(GL_SCISSOR_TEST);
+    check("upsampling the reduced-resolution target");
 }
 
 }  // namespace nephele

@@ -1,5 +1,6 @@
-// The layered sky drawn at a reduced resolution and upsampled with the frame's depth:
-// internal to layered/ (LayeredSettings::downsample).
+// Drawing at a reduced resolution, upsampled over the frame with the frame's depth: the layered
+// sky's layers (LayeredSettings::downsample) and the compositor's close tiles magnified on
+// screen (EllipsoidSettings::closeDownsample). For the libraries' use, not a host's.
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -21,16 +22,26 @@ public:
     // Binds a (width/d) x (height/d) target for the view's viewport (premultiplied RGBA16F
     // cleared to 0, depth = the frame's depth reduced per block, in the view's convention; the
     // far plane without depth) as the draw framebuffer and sets the viewport to it. Changes
-    // depth, blend, colour mask, program, vertex array, texture unit 0. Returns its size.
+    // depth, blend, colour mask, scissor, program, vertex array, texture unit 0. Returns its size.
     glm::ivec2 begin(const DepthSource& frameDepth, const View& view, int divisor);
+    // After begin() (and composite()): binds the target again with its depth as it is and its
+    // colour cleared to 0 within `rect` (reduced px: x0, y0, x1, y1), the scissor left on that
+    // rectangle. Changes the same state as begin().
+    void resume(const glm::ivec4& rect);
+    // The reduced depth (the target's, at its own origin): what a pass drawing into the target
+    // reads as the frame's depth (setViewFrameUniforms with a viewport at 0).
+    DepthSource depth() const;
     // Composites the target "over" the frame's viewport (premultiplied) at full resolution, the
-    // frame multiplied by the cloud shadows set in program() (ShadowPass::setUniforms; none when
-    // shadowLayerCount is 0) before. Changes the same state as begin() and texture units 0..2.
+    // frame multiplied by the cloud shadows set in program(shadowLayers, frameDepth.texture != 0)
+    // (the layered sky's ShadowPass::
+    // setUniforms; none when shadowLayers is 0) before; within `rect` (px of the view: x0, y0,
+    // x1, y1) when given. Changes the same state as begin() and texture units 0..2.
     // shadowLayers: how many layers program(shadowLayers) was given (0..4).
-    void composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers);
-    // The upsampling program compiled for `shadowLayers` shadowing layers (0..4; built on first
-    // use, or by prepare()).
-    const Program& program(int shadowLayers);
+    void composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers,
+                   const glm::ivec4* rect = nullptr);
+    // The upsampling program compiled for `shadowLayers` shadowing layers (0..4) and a frame with
+    // depth or without (built on first use, or by prepare()).
+    const Program& program(int shadowLayers, bool depth);
     void prepare();  // builds every upsampling program now
 
 private:
@@ -38,7 +49,7 @@ private:
         gl::Texture color, depth;
         gl::Framebuffer fbo;
     };
-    Program reduce_, upsample_[5];
+    Program reduce_, upsample_[5][2];
     gl::VertexArray empty_;
     PerViewCache<Target> targets_;
     Target* current_ = nullptr;  // begin()'s

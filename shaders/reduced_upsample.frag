@@ -1,5 +1,6 @@
-// The layered sky's reduced-resolution image composited over the full-resolution frame, with
-// the layers' cloud shadows fused in (dual-source blending: dst = cloud + dst * keep, keep.rgb =
+// A reduced-resolution image (nephele/reduced_target.hpp: the layered sky's layers, the
+// compositor's magnified close tiles) composited over the full-resolution frame, with the
+// layers' cloud shadows fused in (dual-source blending: dst = cloud + dst * keep, keep.rgb =
 // S (1 - alpha), keep.a = 1 - alpha; S = 1 when shadowLayerCount is 0). Nearest-depth
 // upsampling: of the four bilinear neighbours, those whose reduced depth (the farthest of
 // their block) matches this pixel's depth keep their bilinear weights; if none does, the
@@ -10,10 +11,18 @@ in vec2 ndc;
 layout(location = 0, index = 0) out vec4 color;  // premultiplied cloud
 layout(location = 0, index = 1) out vec4 keep;   // what is kept of the frame
 uniform sampler2D cloud;       // reduced, premultiplied (linear filtering)
+uniform vec2 scale;            // reduced size / full size
+#ifdef NO_DEPTH
+// A frame without depth: bilinear (what the weights below come to when every neighbour matches).
+void main() {
+    vec2 frag = gl_FragCoord.xy - viewportOrigin;  // in the view
+    color = texture(cloud, frag * scale / vec2(textureSize(cloud, 0)));
+    float shadow = cloudShadow(ndc, noSurfaceDepth());
+    keep = vec4(vec3(shadow * (1.0 - color.a)), 1.0 - color.a);
+}
+#else
 uniform sampler2D cloudDepth;  // reduced depth
 uniform sampler2D frameDepth;  // the frame's depth (a copy)
-uniform bool hasDepth;
-uniform vec2 scale;            // reduced size / full size
 
 float linearDepth(float d) { return eyeDepthOf(d); }
 
@@ -21,7 +30,7 @@ void main() {
     vec2 size = vec2(textureSize(cloud, 0));
     vec2 frag = gl_FragCoord.xy - viewportOrigin;  // in the view
     vec2 uv = frag * scale / size;
-    float raw = hasDepth ? frameDepthAt(frameDepth, viewPixel()) : noSurfaceDepth();
+    float raw = frameDepthAt(frameDepth, viewPixel());
     // (llvmpipe runs every branch of a shader, so one path for all pixels: a gather of the four
     // neighbours' depths, four fetches, weights.)
     float d = linearDepth(raw);
@@ -45,3 +54,4 @@ void main() {
     float shadow = cloudShadow(ndc, raw);
     keep = vec4(vec3(shadow * (1.0 - color.a)), 1.0 - color.a);
 }
+#endif
