@@ -84,6 +84,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     FrameChanges changes;
     nlohmann::json ms = nlohmann::json::array(), tiles = nlohmann::json::array(), tilePixels = nlohmann::json::array();
     nlohmann::json impostors = nlohmann::json::array(), impostorsMade = nlohmann::json::array();
+    nlohmann::json downsampled = nlohmann::json::array();
     nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array(), grown = nlohmann::json::array();
     nlohmann::json planMs = nlohmann::json::array(), tilesMs = nlohmann::json::array(), compositeMs = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
@@ -99,6 +100,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
         must.push_back(f.stats.tilesMust);
         impostors.push_back(f.stats.impostors);
         impostorsMade.push_back(f.stats.impostorsRendered);
+        downsampled.push_back(f.stats.tilesDownsampled);
         if (f.stats.atlasRepacked) repacked.push_back(k);
         if (f.stats.atlasGrown) grown.push_back(k);
         char name[32];
@@ -114,6 +116,7 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
                               {"reuse", o.render.ellipsoid.reuse},
                               {"cloud_lod", o.render.ellipsoid.cloudLod},
                               {"impostors", impostors},       {"impostors_made", impostorsMade},
+                              {"tiles_downsampled", downsampled},
                               {"frame_ms", ms},               {"tiles_rendered", tiles},
                               {"tile_pixels_rendered", tilePixels},
                               {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},

@@ -55,6 +55,7 @@ struct SceneArgs {
     std::string cloudLod;             // --cloud-lod: on | off; empty: on under auto, off otherwise
     double reuseError = EllipsoidSettings().reuseErrorPixels, reuseBudget = EllipsoidSettings().reuseBudget;
     double cloudLodError = EllipsoidSettings().cloudLodErrorPixels;
+    int closeDownsample = EllipsoidSettings().closeDownsample;
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
@@ -177,6 +178,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
                     "Compositor with --cloud-lod on: an impostor's error in pixels that makes it again")
         ->check(within(0.01, 1000))
         ->capture_default_str();
+    cmd->add_option("--close-downsample", a.closeDownsample,
+                    "Compositor with --cloud-lod on: two or more consecutive close tiles each magnified this many times "
+                    "on screen are composited at 1/this of the resolution and upsampled with the depth (1 = full)")
+        ->check(CLI::Range(1, 4))
+        ->capture_default_str();
     cmd->add_option("--reuse-error", a.reuseError, "Compositor with --reuse on: a tile's error in pixels that renders it again")
         ->check(within(0.01, 1000))
         ->capture_default_str();
@@ -231,6 +237,7 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
     }
     es.reuseErrorPixels = a.reuseError;
     es.cloudLodErrorPixels = a.cloudLodError;
+    es.closeDownsample = a.closeDownsample;
     es.reuseBudget = a.reuseBudget;
     ro.exactOrder = a.exactOrder == "pixel"      ? CompositeOrder::PerPixel
                     : a.exactOrder == "weighted" ? CompositeOrder::Weighted

@@ -49,6 +49,9 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
         glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);
         checkFramebuffer(t.fbo.id(), "the reduced-resolution target");
+        t.colorOnly = Framebuffer::create();
+        glNamedFramebufferTexture(t.colorOnly.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
+        checkFramebuffer(t.colorOnly.id(), "the reduced-resolution target");
     }
     current_ = &t;
     size_ = size;
@@ -86,7 +89,7 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
 
 void ReducedTarget::resume(const glm::ivec4& rect) {
     if (!current_) throw std::logic_error("ReducedTarget::resume before begin");
-    glBindFramebuffer(GL_FRAMEBUFFER, current_->fbo.id());
+    glBindFramebuffer(GL_FRAMEBUFFER, current_->colorOnly.id());
     glViewport(0, 0, size_.x, size_.y);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
@@ -94,7 +97,7 @@ void ReducedTarget::resume(const glm::ivec4& rect) {
     glEnable(GL_SCISSOR_TEST);
     glScissor(rect.x, rect.y, std::max(rect.z - rect.x, 0), std::max(rect.w - rect.y, 0));
     const float zero[4] = {0, 0, 0, 0};
-    glClearNamedFramebufferfv(current_->fbo.id(), GL_COLOR, 0, zero);
+    glClearNamedFramebufferfv(current_->colorOnly.id(), GL_COLOR, 0, zero);
 }
 
 DepthSource ReducedTarget::depth() const { return current_ ? DepthSource{current_->depth.id(), {0, 0}} : DepthSource{}; }

@@ -64,7 +64,7 @@ void EllipsoidRenderer::Impl::compositeTiles(const EllipsoidSettings& s, const F
     glBindVertexArray(m.empty.id());
     if (stencil) stencilPass(s, plan, view, frame, cp, stats);
     else if (weighted) weightedPass(s, plan, view, frame, cp, momentsPass, stats);
-    else overPass(s, plan, view, frame, cp, stats);
+    else overPass(s, plan, view, frame, cp, depth, stats);
 }
 
 namespace {
@@ -88,18 +88,84 @@ void drawInOrder(const EllipsoidSettings& s, const Program& cp, int n, Ellipsoid
 
 }  // namespace
 
+std::vector<CloseRun> closeRuns(const FramePlan& plan, int first, int count, int width, int height, int divisor) {
+    std::vector<CloseRun> out;
+    if (divisor <= 1) return out;
+    auto pixels = [&](int k) {  // the tile's screen rectangle in the view (px), and whether it is magnified enough
+        const GpuTile& g = plan.gpu[std::size_t(plan.order[std::size_t(k)])];
+        const double x0 = (g.screenRect[0] * 0.5 + 0.5) * width, x1 = (g.screenRect[2] * 0.5 + 0.5) * width;
+        const double y0 = (g.screenRect[1] * 0.5 + 0.5) * height, y1 = (g.screenRect[3] * 0.5 + 0.5) * height;
+        const bool magnified = std::max(x1 - x0, y1 - y0) >= double(divisor) * g.atlasRect[2];
+        const glm::ivec4 r(std::clamp(int(std::floor(x0)), 0, width), std::clamp(int(std::floor(y0)), 0, height),
+                           std::clamp(int(std::ceil(x1)), 0, width), std::clamp(int(std::ceil(y1)), 0, height));
+        return std::pair(r, magnified);
+    };
+    for (int k = first; k < first + count;) {
+        int n = 0;
+        glm::ivec4 u(width, height, 0, 0);
+        for (; k + n < first + count; ++n) {
+            const auto [r, magnified] = pixels(k + n);
+            if (!magnified) break;
+            u = glm::ivec4(std::min(u.x, r.x), std::min(u.y, r.y), std::max(u.z, r.z), std::max(u.w, r.w));
+        }
+        if (n >= 2 && u.z > u.x && u.w > u.y) out.push_back({k, n, u});
+        k += std::max(n, 1);
+    }
+    return out;
+}
+
 void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
-                                            const HostFrame& frame, const Program& cp, EllipsoidStats& stats) {
+                                       const HostFrame& frame, const Program& cp, const DepthSource& depth,
+                                       EllipsoidStats& stats) {
     if (!plan.impostors.empty()) makeImpostors(s, plan, view, composite, stats);
     bindFrame(frame, view);
     const bool fraction = &cp == &compositeFraction;
+    const int W = view.camera.width, H = view.camera.height, d = s.closeDownsample;
+    bool reducedBegun = false;
+    // Tiles order[k, end) "over" the frame, each at its size on screen.
+    auto overFrame = [&](int k, int end) {
+        if (end <= k) return;
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        drawInOrder(s, cp, end - k, stats, k);
+    };
     for (const FramePlan::Run& run : plan.runs) {
         if (run.impostor >= 0) {
             drawImpostor(plan, view, plan.impostors[std::size_t(run.impostor)], fraction, stats);
             continue;
         }
-        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-        drawInOrder(s, cp, run.count, stats, run.first);
+        const std::vector<CloseRun> close =
+            cloudLodApplies(s) ? closeRuns(plan, run.first, run.count, W, H, d) : std::vector<CloseRun>{};
+        int next = run.first;
+        for (const CloseRun& c : close) {
+            overFrame(next, c.first);
+            // The run into the reduced target ("over" from 0: premultiplied), its depth the
+            // frame's reduced; then upsampled over the frame within the run's rectangle.
+            if (!reduced) reduced = std::make_unique<ReducedTarget>();
+            const glm::ivec4 rr(std::max(c.rect.x / d - 1, 0), std::max(c.rect.y / d - 1, 0), (c.rect.z + d - 1) / d + 1,
+                                (c.rect.w + d - 1) / d + 1);
+            if (!reducedBegun) reduced->begin(depth, view, d), reducedBegun = true;  // (the depth reduced once)
+            reduced->resume(rr);  // (the colour alone: the tiles' fraction reads the reduced depth)
+            glDisable(GL_SCISSOR_TEST);
+            glEnable(GL_BLEND);
+            glBlendEquation(GL_FUNC_ADD);
+            glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+            glBindVertexArray(empty.id());
+            if (fraction) {
+                setViewFrameUniforms(cp, view, false, reduced->depth());
+                glBindTextureUnit(5, reduced->depth().texture);
+            }
+            drawInOrder(s, cp, c.count, stats, c.first);
+            if (fraction) {
+                setViewFrameUniforms(cp, view, true, depth);
+                glBindTextureUnit(5, depth.texture);
+            }
+            reduced->composite(frame, depth, view, 0, &c.rect);
+            ++stats.drawCalls;
+            stats.tilesDownsampled += c.count;
+            glBindVertexArray(empty.id());
+            next = c.first + c.count;
+        }
+        overFrame(next, run.first + run.count);
     }
     check("compositing the ellipsoid tiles");
 }

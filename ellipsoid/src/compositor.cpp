@@ -76,6 +76,7 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (!(s.cloudLodDistance >= 1 && s.cloudLodDistance <= 1e6)) throw std::invalid_argument("cloudLodDistance must be in [1, 1e6]");
     if (s.cloudLodMaxPixels < 8 || s.cloudLodMaxPixels > 4096) throw std::invalid_argument("cloudLodMaxPixels must be in 8..4096");
     if (s.impostorMegabytes < 1) throw std::invalid_argument("impostorMegabytes must be at least 1");
+    if (s.closeDownsample < 1 || s.closeDownsample > 4) throw std::invalid_argument("closeDownsample must be in 1..4");
     Impl& m = *impl_;
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
@@ -119,6 +120,10 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
         m.impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
         m.impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
                                             "#define FRACTION 1\n");
+    }
+    if (cloudLodApplies(s) && s.closeDownsample > 1) {  // built now, as tileClear below
+        m.reduced = std::make_unique<ReducedTarget>();
+        m.reduced->program(0, true), m.reduced->program(0, false);
     }
     if (s.reuse)  // built now: a first reuse frame that compiled it stalled
         m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});

@@ -15,8 +15,10 @@
 #include "packer.hpp"
 #include "tile_reuse.hpp"
 #include "nephele/per_view.hpp"
+#include "nephele/reduced_target.hpp"
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -101,6 +103,7 @@ struct EllipsoidRenderer::Impl {
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted and Moments
     Program compositeMoments, compositeMomentsFraction;             // CompositeOrder::Moments: its first pass
     Program impostor, impostorFraction;  // cloudLod: an impostor over the frame
+    std::unique_ptr<ReducedTarget> reduced;  // cloudLod: close tiles at 1 / closeDownsample (made on first use)
     PerViewCache<CloudImpostors, glm::ivec4> impostors;  // cloudLod: per view size and place
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
@@ -181,7 +184,7 @@ struct EllipsoidRenderer::Impl {
     // compositeTiles() by order: "over" back to front, weighted (into its target, then resolved),
     // or the paper's stencil fly-through; `cp` is the composite program, its uniforms set.
     void overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
-                       const Program& cp, EllipsoidStats& stats);
+                  const Program& cp, const DepthSource& depth, EllipsoidStats& stats);
     void weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
                            const Program& cp, const Program* momentsPass, EllipsoidStats& stats);
     // cloudLod: the fresh impostors made from their tiles (cp: the composite without fraction).
@@ -191,6 +194,16 @@ struct EllipsoidRenderer::Impl {
     void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame, const Program& cp,
                           EllipsoidStats& stats);
 };
+
+// The cloud LOD's close tiles composited at a reduced resolution (EllipsoidSettings::
+// closeDownsample): order[first, + count), consecutive tiles each magnified at least `divisor`
+// times on screen, and the rectangle of the view they cover (px: x0, y0, x1, y1).
+struct CloseRun {
+    int first = 0, count = 0;
+    glm::ivec4 rect{0};
+};
+// Such runs (two tiles or more) among the tiles order[first, + count) of a view of width x height.
+std::vector<CloseRun> closeRuns(const FramePlan& plan, int first, int count, int width, int height, int divisor);
 
 // The colour matrix (section 3.5): red / D -> alpha, what the colour-matrix pass subtracts.
 inline glm::mat4 colourMatrix() {

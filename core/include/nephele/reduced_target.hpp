@@ -24,9 +24,9 @@ public:
     // far plane without depth) as the draw framebuffer and sets the viewport to it. Changes
     // depth, blend, colour mask, scissor, program, vertex array, texture unit 0. Returns its size.
     glm::ivec2 begin(const DepthSource& frameDepth, const View& view, int divisor);
-    // After begin() (and composite()): binds the target again with its depth as it is and its
-    // colour cleared to 0 within `rect` (reduced px: x0, y0, x1, y1), the scissor left on that
-    // rectangle. Changes the same state as begin().
+    // After begin() (and composite()): binds the target's colour again (without its depth, which
+    // a pass may then read through depth()) cleared to 0 within `rect` (reduced px: x0, y0, x1,
+    // y1), the scissor left on that rectangle, depth test off. Changes the same state as begin().
     void resume(const glm::ivec4& rect);
     // The reduced depth (the target's, at its own origin): what a pass drawing into the target
     // reads as the frame's depth (setViewFrameUniforms with a viewport at 0).
@@ -48,6 +48,7 @@ private:
     struct Target {  // at one reduced size (views of several sizes each keep theirs)
         gl::Texture color, depth;
         gl::Framebuffer fbo;
+        gl::Framebuffer colorOnly;  // resume()'s: the colour alone
     };
     Program reduce_, upsample_[5][2];
     gl::VertexArray empty_;

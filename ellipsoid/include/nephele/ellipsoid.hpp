@@ -132,10 +132,15 @@ struct EllipsoidSettings {
     // (not the tiles' per-ellipsoid fraction). Close clouds and the eye inside one: no tile is
     // rendered finer than its ellipsoid's image holds (128 texels across for its smooth part,
     // or two per texel of the noise volume across its diameter, whichever is more), however
-    // large it is on screen; it is magnified onto the view as any tile. Only with the
+    // large it is on screen; it is magnified onto the view as any tile. Consecutive tiles (two
+    // or more, in the composite's order) each magnified at least closeDownsample times are
+    // composited at 1 / closeDownsample of the view's resolution and upsampled over the frame
+    // with its depth (as the layered sky's layers: nephele/reduced_target.hpp): their image
+    // holds nothing finer, and round the eye they overlap across the whole view. Only with the
     // back-to-front composite and the fraction fly-through (PerEllipsoid, FlyThrough::Fraction);
     // other settings draw every tile at its size on screen.
     bool cloudLod = false;
+    int closeDownsample = 2;           // 1..4; 1: every tile composited at the view's resolution
     double cloudLodErrorPixels = 1.5;  // > 0
     double cloudLodDistance = 4;   // >= 1, in the cloud's bounding radii (kept down to 0.9 x this)
     int cloudLodMaxPixels = 512;   // 8..4096: a cloud larger on screen is drawn as tiles
@@ -170,6 +175,7 @@ struct EllipsoidStats {
     bool atlasGrown = false;        // the atlas texture was made anew with more layers this frame (a stall)
     int impostors = 0;              // cloudLod: clouds drawn as one impostor this frame
     int impostorsRendered = 0;      // ... of those, made (again) from their tiles this frame
+    int tilesDownsampled = 0;       // cloudLod: tiles composited at 1 / closeDownsample of the resolution
     int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
     int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
     int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)
