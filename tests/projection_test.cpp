@@ -4,12 +4,14 @@
 #include "nephele/projection.hpp"
 
 #include "nephele/camera.hpp"
+#include "prepared_clouds.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 
 using namespace nephele;
 
@@ -383,6 +385,62 @@ TEST(ProjectionTest, CullsWhatCannotBeSeen) {
     EXPECT_FALSE(p.visible);
     EXPECT_FALSE(p.eyeInside);
     EXPECT_FALSE(p.crossesNear);
+}
+
+// prepareClouds culls a cloud wholly outside the view as a whole (its bounding sphere): it must
+// keep exactly the ellipsoids that projectEllipsoid keeps, one by one. Clouds of 1-40 random
+// ellipsoids round random eyes (some inside a cloud, some clouds across the near or far plane or
+// a side of the view, off-axis channel frusta): the same ellipsoids, the same culled count. The
+// sphere test with the left plane's sign flipped, or the near plane's test, fails here.
+TEST(ProjectionTest, CloudsCulledWholeKeepWhatEllipsoidsKeep) {
+    Rng rng(7);
+    int culledWhole = 0, kept = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        View v = randomView(rng);
+        if (trial % 3 == 0) {
+            const double l = rng.uni(-1.5, 0.5), b = rng.uni(-1.2, 0.4);
+            v = makeView(v.camera, Frustum{l, l + rng.uni(0.2, 1.5), b, b + rng.uni(0.2, 1.2)}, rng.uni(-60, 60), rng.uni(-20, 20));
+        }
+        Scene scene;
+        scene.medium.extinction = 0.05;
+        const int clouds = 1 + trial % 6;
+        for (int c = 0; c < clouds; ++c) {
+            Cloud cloud;
+            const double spread = rng.logUni(5, 800);
+            // Round the eye, at up to a few kilometres, or (a third of the clouds) about it.
+            const Vec3 centre = c % 3 == 0 ? v.eye + rng.unit() * rng.uni(0, spread)
+                                           : v.eye + rng.unit() * rng.logUni(10, v.camera.farClip * 1.5);
+            const int n = 1 + int(rng.uni(0, 40));
+            for (int k = 0; k < n; ++k) {
+                Ellipsoid e = randomEllipsoid(rng);
+                e.radii *= spread / 500;
+                e.center = centre + rng.unit() * rng.uni(0, spread);
+                cloud.ellipsoids.push_back(e);
+            }
+            scene.clouds.push_back(cloud);
+        }
+        std::set<std::pair<int, int>> expected;
+        int expectedCulled = 0;
+        for (int c = 0; c < int(scene.clouds.size()); ++c)
+            for (int i = 0; i < int(scene.clouds[c].ellipsoids.size()); ++i) {
+                if (projectEllipsoid(scene.clouds[c].ellipsoids[i], v).visible) expected.insert({c, i});
+                else ++expectedCulled;
+            }
+        const PreparedClouds prepared = prepareClouds(scene, v, NoiseSettings{});
+        std::set<std::pair<int, int>> got;
+        for (const PreparedEllipsoid& p : prepared.ellipsoids) got.insert({p.cloud, p.index});
+        ASSERT_EQ(got, expected) << "trial " << trial;
+        EXPECT_EQ(prepared.culled, expectedCulled) << "trial " << trial;
+        kept += int(expected.size());
+        for (int c = 0; c < int(scene.clouds.size()); ++c) {
+            bool any = false;
+            for (const auto& [cc, i] : expected) any |= cc == c;
+            culledWhole += any ? 0 : 1;
+        }
+    }
+    // Both kinds occur: clouds wholly out of view, and ellipsoids kept.
+    EXPECT_GT(culledWhole, 100);
+    EXPECT_GT(kept, 1000);
 }
 
 TEST(ProjectionTest, EyeInsideGivesFullView) {
