@@ -56,7 +56,8 @@ void drawHud(const FlyApp::State& s) {
                     e.ellipsoids, e.visible, e.ellipsoids - e.visible, e.tilesRendered, e.tilesMust, e.tilesReused,
                     e.atlasRepacked ? ", atlas repacked" : "", e.passes, 100 * e.utilisation);
     if (method == FlyMethod::Auto && s.host->order() == CompositeOrder::PerEllipsoid)
-        ImGui::Text("cloud LOD: %d clouds as impostors, %d made this frame", e.impostors, e.impostorsRendered);
+        ImGui::Text("cloud LOD: %d clouds as impostors, %d made this frame; %d close tiles at reduced resolution",
+                    e.impostors, e.impostorsRendered, e.tilesDownsampled);
     if (method == FlyMethod::Auto && st.layered.sceneLayers > 0)
         ImGui::Text("near LOD: %d cells, %d cumulus (%d fading), %d ellipsoids | layers: %d instances in %d draws",
                     st.nearLod.cells, st.nearLod.clouds, st.nearLod.fading, st.nearLod.ellipsoids, st.layered.instances,
