@@ -31,20 +31,19 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
     const glm::ivec2 size((width + divisor - 1) / divisor, (height + divisor - 1) / divisor);
     Target& t = targets_.get(size);
     if (!t.fbo) {
-        t.color = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.color.id(), 1, GL_RGBA16F, size.x, size.y);
-        checkAllocation("the reduced-resolution RGBA16F target", std::uint64_t(size.x) * std::uint64_t(size.y) * 8);
-        glTextureParameteri(t.color.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(t.color.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(t.color.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        t.depth = Texture::create(GL_TEXTURE_2D);
-        glTextureStorage2D(t.depth.id(), 1, GL_DEPTH_COMPONENT32F, size.x, size.y);
-        checkAllocation("the reduced-resolution depth", std::uint64_t(size.x) * std::uint64_t(size.y) * 4);
-        glTextureParameteri(t.depth.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTextureParameteri(t.depth.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(t.depth.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        // A texture of the reduced size, edge-clamped, filtered by `filter`.
+        auto image = [&](GLenum format, int bytesPerTexel, GLint filter, const std::string& what) {
+            Texture tex = Texture::create(GL_TEXTURE_2D);
+            glTextureStorage2D(tex.id(), 1, format, size.x, size.y);
+            checkAllocation(what, std::uint64_t(size.x) * std::uint64_t(size.y) * std::uint64_t(bytesPerTexel));
+            glTextureParameteri(tex.id(), GL_TEXTURE_MIN_FILTER, filter);
+            glTextureParameteri(tex.id(), GL_TEXTURE_MAG_FILTER, filter);
+            glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+            glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+            return tex;
+        };
+        t.color = image(GL_RGBA16F, 8, GL_LINEAR, "the reduced-resolution RGBA16F target");
+        t.depth = image(GL_DEPTH_COMPONENT32F, 4, GL_NEAREST, "the reduced-resolution depth");
         t.fbo = Framebuffer::create();
         glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
         glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);

@@ -140,7 +140,6 @@ void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePl
             overFrame(next, c.first);
             // The run into the reduced target ("over" from 0: premultiplied), its depth the
             // frame's reduced; then upsampled over the frame within the run's rectangle.
-            if (!reduced) reduced = std::make_unique<ReducedTarget>();
             const glm::ivec4 rr(std::max(c.rect.x / d - 1, 0), std::max(c.rect.y / d - 1, 0), (c.rect.z + d - 1) / d + 1,
                                 (c.rect.w + d - 1) / d + 1);
             if (!reducedBegun) reduced->begin(depth, view, d), reducedBegun = true;  // (the depth reduced once)

@@ -103,7 +103,7 @@ struct EllipsoidRenderer::Impl {
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted and Moments
     Program compositeMoments, compositeMomentsFraction;             // CompositeOrder::Moments: its first pass
     Program impostor, impostorFraction;  // cloudLod: an impostor over the frame
-    std::unique_ptr<ReducedTarget> reduced;  // cloudLod: close tiles at 1 / closeDownsample (made on first use)
+    std::unique_ptr<ReducedTarget> reduced;  // cloudLod: close tiles at 1 / closeDownsample (made with the renderer)
     PerViewCache<CloudImpostors, glm::ivec4> impostors;  // cloudLod: per view size and place
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
