@@ -34,7 +34,7 @@ struct ImpostorSettings {
     int maxPixels = 512;        // EllipsoidSettings::cloudLodMaxPixels: larger on screen: tiles
     int atlasSize = 1024;       // px, the impostor atlas's layers (square)
     int layers = 4;             // the layers the memory budget allows
-    double errorPixels = 0.5;   // EllipsoidSettings::reuseErrorPixels
+    double errorPixels = 1.5;   // EllipsoidSettings::cloudLodErrorPixels
     double budget = 1.0;        // EllipsoidSettings::reuseBudget: impostor pixels made a frame, in frames' pixels
 };
 

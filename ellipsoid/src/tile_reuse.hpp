@@ -63,7 +63,7 @@ struct ReuseSettings {
                                           // repacks (a larger texture is made only when packing anew, when
                                           // every tile is rendered anyway, so nothing is copied)
     int maxLayers = 1;                    // the most the allocator may use (GL's limit)
-    double errorPixels = 0.5;             // EllipsoidSettings::reuseErrorPixels
+    double errorPixels = 1.0;             // EllipsoidSettings::reuseErrorPixels
     double budget = 1.0;                  // EllipsoidSettings::reuseBudget
 };
 
