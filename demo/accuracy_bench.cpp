@@ -89,6 +89,7 @@ std::vector<Config> sweep(bool quick) {
         ray("step 50 m", [](RaymarchSettings& s) { s.step = 50; });
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
         ray("fixed step", [](RaymarchSettings& s) { s.lodDistance = 0; });
+        ray("a ray per pixel", [](RaymarchSettings& s) { s.downsample = 1; });
         ray("light grid 16", [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
         ray("octaves 2", [](RaymarchSettings& s) { s.octaves = 2; }, true);
     }

@@ -126,6 +126,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
         ->check(within(0, 1 << 24))
         ->capture_default_str();
     cmd->add_option("--octaves", a.raymarch.octaves, "Ray-marcher: fBm octaves (with medium.noise > 0)")->check(within(1, 8))->capture_default_str();
+    cmd->add_option("--march-downsample", a.raymarch.downsample,
+                    "Ray-marcher: one ray per DxD pixels, upsampled with the depth (1 = a ray per pixel)")
+        ->check(within(1, 4))->capture_default_str();
     cmd->add_option("--layers", a.layered.layers, "Layered sky: annuli per scene layer (N)")->check(within(2, 1024))->capture_default_str();
     a.lod0RadiusOpt = cmd->add_option("--lod0-radius", a.layered.lod0Radius,
                                       "Layered sky: radius of the billboard disc (m; 0 = none; default 1500, auto "

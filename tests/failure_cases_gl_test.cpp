@@ -152,6 +152,7 @@ TEST_F(FailureCaseGLTest, RaymarchGrowingStepOnApproachDoesNotPop) {
     RaymarchSettings fine;
     fine.step = 2;
     fine.lodDistance = 0;
+    fine.downsample = 1;
     RaymarchRenderer marcher, reference(fine);
     FrameTarget target(s.camera.width, s.camera.height);
     OpaquePass opaque;

@@ -162,15 +162,10 @@ EllipsoidRenderer::~EllipsoidRenderer() = default;
 
 namespace {
 // Mesh tiles light per vertex (the paper's Gouraud light). Looking within the sun's phase
-// peak, the single scattering p(d . s) exp(-tauSun) magnifies every change of tauSun across a
-// tile (the thin, bright rim of a back-lit cloud), and the vertices miss it: there the tile is
-// drawn as a polygon tile, the model per pixel. Back-lit cumulus27, the sun's light alone:
-// 25% off per vertex, 10% per pixel, as the ray-marcher. The phase there is at least
-// kPerPixelPhase times the isotropic one (g = 0.85: within about 24 degrees of the sun). At 2
-// (30 degrees) the back-lit error was the same, but the weather bench's tiles took 2-3x as
-// long while the flight looked within 30 degrees of the sun (37 -> 77-107 ms; at 4: 48-63 ms).
-constexpr double kPerPixelPhase = 4;
-
+// peak (model::withinSunPeak), the vertices miss the thin bright rim of a back-lit cloud: there
+// the tile is drawn as a polygon tile, the model per pixel. Back-lit cumulus27, the sun's light
+// alone: 25% off per vertex, 10% per pixel, as the ray-marcher. (At twice the peak's angle the
+// weather bench's tiles took 2-3x as long, 37 -> 77-107 ms; at the peak: 48-63 ms.)
 bool nearTheSun(const PreparedEllipsoid& e, const View& view, const Scene& scene) {
     const Vec3 toCentre = e.shape.center - view.eye;
     const double distance = glm::length(toCentre);
@@ -178,8 +173,7 @@ bool nearTheSun(const PreparedEllipsoid& e, const View& view, const Scene& scene
     if (distance <= radius) return true;  // around the eye: some of it is near the sun
     const double angle = std::acos(std::clamp(glm::dot(toCentre / distance, scene.sun.direction), -1.0, 1.0));
     const double nearest = std::max(0.0, angle - std::asin(radius / distance));
-    const double g = scene.medium.hgG;
-    return model::hgPhase(float(std::cos(nearest)), float(g)) >= kPerPixelPhase / (4 * std::numbers::pi);
+    return model::withinSunPeak(std::cos(nearest), scene.medium.hgG);
 }
 
 }  // namespace

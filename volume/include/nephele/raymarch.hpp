@@ -38,6 +38,7 @@
 // noise the grid is that of the smooth field.
 // Opaque objects: with opaqueDepth the march ends at the opaque surface (a copy of the
 // frame's depth), so an object inside a cloud is covered only by the matter in front of it.
+// Resolution: RaymarchSettings::downsample (2: one ray per 2x2 pixels, upsampled with the depth).
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -58,6 +59,15 @@ struct RaymarchSettings {
     RadianceGridSettings light;  // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
     int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
     int maxSteps = 2048;       // per pixel, a safety cap, 1..65536: a march that reaches it stops there
+    // 1..4: march one ray per downsample x downsample pixels, into a target of 1/downsample of the
+    // frame's size per side, upsampled over the frame with its depth (core's ReducedTarget, as the
+    // layered sky's layers and the compositor's close tiles: the frame's depth reduced per block to
+    // its farthest, the rays ended there, nearest-depth upsampling, so an object's silhouette stays
+    // sharp); 1 = a ray per pixel. A cloud's light changes slowly across the screen, and the march
+    // costs its pixels: 2 takes about a third of the time (README, "Speed against accuracy"). A
+    // frame whose view comes within the sun's phase peak (model::withinSunPeak) is marched a ray
+    // per pixel whatever this is: a back-lit cloud's bright rim is thinner than a block.
+    int downsample = 2;
 };
 
 struct RaymarchStats {
@@ -65,6 +75,7 @@ struct RaymarchStats {
     int lightGridsComputed = 0;      // radiance grids computed in this call (0 when all were kept)
     int lightStandIns = 0;           // clouds lit by a stand-in (light_cache.hpp): grids pending or past the budget
     double planMs = 0;               // wall ms of this call before its draw (light grids included)
+    int downsample = 1;              // the frame's: RaymarchSettings::downsample, or 1 looking within the sun's phase peak
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
