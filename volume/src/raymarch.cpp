@@ -12,10 +12,10 @@
 #include <glm/gtc/matrix_access.hpp>
 
 #include <algorithm>
-#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -267,7 +267,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     DepthSource marchDepth = depth;
     if (d > 1) {
         m.reduced->begin(depth, view, d);
-        marchDepth = m.reduced->depth();
+        if (depth.texture != 0) marchDepth = m.reduced->depth();
     }
 
     const Program& p = m.march;
