@@ -286,6 +286,40 @@ TEST_F(RaymarchGLTest, ARayPerPixelWithinTheSunsPhasePeak) {
     }
 }
 
+// A display channel placed anywhere in the host's frame (View::origin): a ray per 2x2 pixels
+// draws there, with the frame's depth of that place, the image it draws alone, and nothing
+// outside the channel's viewport.
+TEST_F(RaymarchGLTest, ARayPerBlockDrawsIntoAChannelsViewport) {
+    Scene scene = sharedScene("box_in_thin_cloud.json");
+    scene.camera.width = 96, scene.camera.height = 64;
+    RaymarchRenderer clouds;
+    const Frame alone = render(clouds, scene);
+    ASSERT_EQ(alone.stats.downsample, 2);
+    View placed = makeView(scene.camera);
+    placed.origin = glm::ivec2(40, 30);  // from the lower left: rows 18..81, columns 40..135 from the top left
+    FrameTarget big(160, 112);
+    const float marker[4] = {0.25f, 0.5f, 0.75f, 1.0f};
+    glClearNamedFramebufferfv(big.framebuffer(), GL_COLOR, 0, marker);
+    OpaquePass().draw(scene, placed, big.framebuffer());
+    clouds.render(scene, placed, big.framebuffer(), true);
+    const Image image = big.readColor();
+    double worst = 0;
+    int outside = 0;
+    for (int y = 0; y < 112; ++y)
+        for (int x = 0; x < 160; ++x)
+            for (int k = 0; k < 4; ++k) {
+                if (x >= 40 && x < 136 && y >= 18 && y < 82)
+                    worst = std::max(worst, double(std::fabs(image.at(x, y, k) - alone.rgba.at(x - 40, y - 18, k))));
+                else
+                    outside += image.at(x, y, k) != marker[k];
+            }
+    // Rasterised at other window positions, interpolants round in the last bits of a float; a
+    // depth or ray read at the wrong place moves the box's silhouette by pixels (differences of
+    // 0.1 and more).
+    EXPECT_LT(worst, 1e-4);
+    EXPECT_EQ(outside, 0);
+}
+
 TEST_F(RaymarchGLTest, CameraInsideACloudSeesFog) {
     Scene s = sharedScene("flythrough.json");  // with the scene's own noise
     s.camera = cameraAt(s, 5.0);               // the path passes through the cloud
