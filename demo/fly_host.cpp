@@ -100,7 +100,7 @@ FlyFrameStats FlyHost::draw(const Scene& scene, const Camera& camera, double t) 
     st.opaqueMs = part.lap();
     if (settings_.method == FlyMethod::Raymarch) {
         if (!r.raymarch) r.raymarch = std::make_unique<RaymarchRenderer>(RaymarchSettings{});
-        r.raymarch->render(scene, view, fbo, objects);
+        st.marchDownsample = r.raymarch->render(scene, view, fbo, objects).downsample;
         st.volumeMs = part.lap();
     } else {
         drawSky(scene, view, t, st);

@@ -45,6 +45,7 @@ struct FlyHostSettings {
 // One frame, as the HUD shows it. Parts in ms (0 where the method has no such part).
 struct FlyFrameStats {
     double totalMs = 0, opaqueMs = 0, farFieldMs = 0, nearLodMs = 0, tilesMs = 0, compositeMs = 0, volumeMs = 0;
+    int marchDownsample = 0;  // raymarch: a ray per this x this pixels (1 looking within the sun's phase peak)
     EllipsoidStats ellipsoids;
     LayeredStats layered;
     NearLodStats nearLod;

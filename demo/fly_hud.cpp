@@ -49,7 +49,8 @@ void drawHud(const FlyApp::State& s) {
                 !compositor ? "" : s.host->order() == CompositeOrder::Weighted ? ", weighted composite" : ", back-to-front composite");
     ImGui::Text("ms: opaque %.1f | far field %.1f | near-LOD update %.1f | tiles %.1f | composite %.1f", st.opaqueMs,
                 st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs);
-    if (method == FlyMethod::Raymarch) ImGui::Text("    ray-marched volume %.1f", st.volumeMs);
+    if (method == FlyMethod::Raymarch)
+        ImGui::Text("    ray-marched volume %.1f (a ray per %dx%d px)", st.volumeMs, st.marchDownsample, st.marchDownsample);
     if (compositor)
         ImGui::Text("ellipsoids %d: %d visible, %d culled | tiles %d rendered (%d without an image), %d reused%s | passes %d | "
                     "atlas use %.0f%%",
