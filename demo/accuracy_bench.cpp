@@ -183,7 +183,7 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     const Vec3 denseCentre = centroid(dense.clouds[0]);
     double reach = 0;  // the cloud's horizontal half-size along the view
     for (const Ellipsoid& e : dense.clouds[0].ellipsoids)
-        reach = std::max(reach, glm::dot(e.center - denseCentre, -forward) + std::max({e.radii.x, e.radii.y, e.radii.z}));
+        reach = std::max(reach, glm::dot(e.center - denseCentre, -forward) + e.maxRadius());
     dense.camera.position = denseCentre - (reach + 300.0) * forward;
     scaleTo(dense, o.width);
     out.push_back({"dense cumulus (" + std::to_string(dense.clouds[0].ellipsoids.size()) + " ellipsoids) from 300 m", -1, dense});

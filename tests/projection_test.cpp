@@ -68,7 +68,7 @@ Vec3 ellipsoidPoint(const Ellipsoid& e, const Vec3& u) { return Body(e).at(u); }
 
 // Places e's centre relative to the view; `mode` picks the kind of case.
 void placeEllipsoid(Ellipsoid& e, const View& v, Rng& rng, int mode) {
-    const double rMax = std::max({e.radii.x, e.radii.y, e.radii.z});
+    const double rMax = e.maxRadius();
     const double rMin = std::min({e.radii.x, e.radii.y, e.radii.z});
     const double n = v.camera.nearClip;
     switch (mode) {
@@ -289,7 +289,7 @@ TEST(ProjectionTest, RectIsTightForEllipsoidsWellInFront) {
     for (int k = 0; k < 2000; ++k) {
         const View v = randomView(rng);
         Ellipsoid e = randomEllipsoid(rng);
-        const double rMax = std::max({e.radii.x, e.radii.y, e.radii.z});
+        const double rMax = e.maxRadius();
         // At least 5 bounding radii away, centre in the middle half of the view, within near/far.
         const double d = rng.uni(5, 20) * rMax + v.camera.nearClip;
         e.center = v.eye + d * v.forward + rng.uni(-0.5, 0.5) * d * v.tanHalfX * v.right +

@@ -487,7 +487,7 @@ void checkGenerated(const Cloud& cloud, const Medium& medium, const std::string&
             if (!withinLimit(e.radii[a], kEllipsoidRadius)) fail("with a radius over the limit " + limitText(kEllipsoidRadius));
             if (!withinLimit(e.radii[a], kSmallestRadius)) fail("with a radius under the limit " + limitText(kSmallestRadius));
         }
-        const double tau = medium.extinction * e.density * (16.0 / 15.0) * std::max({e.radii.x, e.radii.y, e.radii.z});
+        const double tau = medium.extinction * e.density * (16.0 / 15.0) * e.maxRadius();
         if (!withinLimit(tau, kOpticalDepth))
             fail("with an optical depth of " + numberText(tau) + ", over the limit " + limitText(kOpticalDepth));
     }

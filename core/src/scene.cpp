@@ -537,7 +537,7 @@ Medium readMedium(const json& j, const Path& p) {
 
 // The optical depth through the ellipsoid's centre along its longest axis (the largest it has).
 double largestOpticalDepth(const Ellipsoid& e, const Medium& m) {
-    return m.extinction * e.density * (16.0 / 15.0) * std::max({e.radii.x, e.radii.y, e.radii.z});
+    return m.extinction * e.density * (16.0 / 15.0) * e.maxRadius();
 }
 
 Ellipsoid readEllipsoid(const json& j, const Path& p, const Medium& medium) {

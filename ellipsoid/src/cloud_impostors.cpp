@@ -63,17 +63,8 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
     auto bound = [&](int c) {  // the cloud's bounding sphere (centre of its box)
         if (bounded[c]) return;
         bounded[c] = 1;
-        const Cloud& cloud = scene.clouds[std::size_t(c)];
-        Vec3 lo(1e300), hi(-1e300);
-        for (const Ellipsoid& e : cloud.ellipsoids) {
-            const double r = std::max({e.radii.x, e.radii.y, e.radii.z});
-            lo = glm::min(lo, e.center - r), hi = glm::max(hi, e.center + r);
-        }
-        centres[c] = 0.5 * (lo + hi);
-        double radius = 0;
-        for (const Ellipsoid& e : cloud.ellipsoids)
-            radius = std::max(radius, glm::length(e.center - centres[c]) + std::max({e.radii.x, e.radii.y, e.radii.z}));
-        radii[c] = radius;
+        const CloudSphere sphere = cloudBoundingSphere(scene.clouds[std::size_t(c)]);
+        centres[c] = sphere.centre, radii[c] = sphere.radius;
     };
     for (const PreparedEllipsoid& e : prepared.ellipsoids) {
         Group& g = groups[std::size_t(e.cloud)];

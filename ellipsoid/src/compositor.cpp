@@ -169,7 +169,7 @@ namespace {
 bool nearTheSun(const PreparedEllipsoid& e, const View& view, const Scene& scene) {
     const Vec3 toCentre = e.shape.center - view.eye;
     const double distance = glm::length(toCentre);
-    const double radius = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
+    const double radius = e.shape.maxRadius();
     if (distance <= radius) return true;  // around the eye: some of it is near the sun
     const double angle = std::acos(std::clamp(glm::dot(toCentre / distance, scene.sun.direction), -1.0, 1.0));
     const double nearest = std::max(0.0, angle - std::asin(radius / distance));

@@ -59,6 +59,16 @@ bool sphereOutside(const View& view, const Vec3& centre, double r) {
 
 }  // namespace
 
+CloudSphere cloudBoundingSphere(const Cloud& cloud) {
+    CloudSphere out;
+    if (cloud.ellipsoids.empty()) return out;
+    Vec3 lo(1e300), hi(-1e300);
+    for (const Ellipsoid& e : cloud.ellipsoids) lo = glm::min(lo, e.center - e.maxRadius()), hi = glm::max(hi, e.center + e.maxRadius());
+    out.centre = 0.5 * (lo + hi);
+    for (const Ellipsoid& e : cloud.ellipsoids) out.radius = std::max(out.radius, glm::length(e.center - out.centre) + e.maxRadius());
+    return out;
+}
+
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise) {
     PreparedClouds out;
     out.noisePeriod = scene.medium.noiseScale * noise.cells;
@@ -68,16 +78,8 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
         // field of clouds, most of them behind or beside the eye, was most of a frame's planning
         // (1.1 ms a frame for the cruise's 4017 ellipsoids).
         if (!cloud.ellipsoids.empty()) {
-            Vec3 lo(1e300), hi(-1e300);
-            for (const Ellipsoid& e : cloud.ellipsoids) {
-                const double r = std::max({e.radii.x, e.radii.y, e.radii.z});
-                lo = glm::min(lo, e.center - r), hi = glm::max(hi, e.center + r);
-            }
-            const Vec3 mid = 0.5 * (lo + hi);
-            double radius = 0;
-            for (const Ellipsoid& e : cloud.ellipsoids)
-                radius = std::max(radius, glm::length(e.center - mid) + std::max({e.radii.x, e.radii.y, e.radii.z}));
-            if (sphereOutside(view, mid, radius)) {
+            const CloudSphere sphere = cloudBoundingSphere(cloud);
+            if (sphereOutside(view, sphere.centre, sphere.radius)) {
                 out.culled += int(cloud.ellipsoids.size());
                 continue;
             }
@@ -99,7 +101,7 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
             if (!(p.sigma > 0)) continue;  // no matter the eye can see (Ac would be 0)
             if (p.projection.crossesNear) {
                 // Any ray's chord is at most the longest diameter: 16/15 * r_max bounds its depth.
-                const double rMax = std::max({e.radii.x, e.radii.y, e.radii.z});
+                const double rMax = e.maxRadius();
                 p.ac = model::opacityOf(float(p.sigma * model::kChordScale * rMax));
             } else {
                 const Vec3 dc = glm::normalize(e.center - view.eye);
@@ -120,7 +122,7 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
 double weightReferenceDepth(const PreparedClouds& prepared, const View& view) {
     double nearest = INFINITY;
     for (const PreparedEllipsoid& p : prepared.ellipsoids) {
-        const double rMax = std::max({p.shape.radii.x, p.shape.radii.y, p.shape.radii.z});
+        const double rMax = p.shape.maxRadius();
         nearest = std::min(nearest, p.projection.distance - rMax);
     }
     return std::max({nearest, view.camera.nearClip, double(model::kWeightNearDepth)});
@@ -130,7 +132,7 @@ glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view) {
     const double tNear = weightReferenceDepth(prepared, view);
     double farthest = 0;
     for (const PreparedEllipsoid& p : prepared.ellipsoids)
-        farthest = std::max(farthest, p.projection.distance + std::max({p.shape.radii.x, p.shape.radii.y, p.shape.radii.z}));
+        farthest = std::max(farthest, p.projection.distance + p.shape.maxRadius());
     return {float(tNear), float(std::max(farthest, 2 * tNear))};
 }
 

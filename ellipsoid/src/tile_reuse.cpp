@@ -133,7 +133,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         if (outsidePixels(c.rect, p.rect, view) > s.errorPixels) continue;
         c.must = false;
         const double r = pixelRadiusOf(p);
-        const double rMax = std::max({e.shape.radii.x, e.shape.radii.y, e.shape.radii.z});
+        const double rMax = e.shape.maxRadius();
         const double drift = scene.medium.noise > 0 ? glm::length(e.shape.center - L.centre) : 0.0;
         const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
         c.error = px / s.errorPixels;

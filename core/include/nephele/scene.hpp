@@ -9,6 +9,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -69,6 +70,7 @@ struct Ellipsoid {
     Vec3 radii{1.0};           // semi-axes along local x, y, z, each > 0
     Vec3 rotationDeg{0.0};     // R = Rz(rz) * Ry(ry) * Rx(rx)
     double density = 1.0;      // >= 0
+    double maxRadius() const { return std::max({radii.x, radii.y, radii.z}); }  // its bounding sphere's
 };
 
 struct Cloud {
