@@ -57,25 +57,16 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         std::vector<std::uint64_t> shapes;  // per visible ellipsoid: index, shape, place in the cloud
     };
     std::vector<Group> groups(nClouds);
-    std::vector<Vec3> centres(nClouds, Vec3(0.0));
-    std::vector<double> radii(nClouds, 0.0);
-    std::vector<char> bounded(nClouds, 0);
-    auto bound = [&](int c) {  // the cloud's bounding sphere (centre of its box)
-        if (bounded[c]) return;
-        bounded[c] = 1;
-        const CloudSphere sphere = cloudBoundingSphere(scene.clouds[std::size_t(c)]);
-        centres[c] = sphere.centre, radii[c] = sphere.radius;
-    };
+    const std::vector<CloudSphere>& spheres = prepared.spheres;  // the clouds' bounding spheres
     for (const PreparedEllipsoid& e : prepared.ellipsoids) {
         Group& g = groups[std::size_t(e.cloud)];
-        bound(e.cloud);
         ++g.visible;
         g.cut = g.cut || e.projection.crossesNear;
         g.rect = {std::min(g.rect.x0, e.projection.rect.x0), std::min(g.rect.y0, e.projection.rect.y0),
                   std::max(g.rect.x1, e.projection.rect.x1), std::max(g.rect.y1, e.projection.rect.y1)};
         g.shapes.push_back(Fingerprint()
                        .add(e.index)
-                       .add(quantised(e.shape.center - centres[std::size_t(e.cloud)]))
+                       .add(quantised(e.shape.center - spheres[std::size_t(e.cloud)].centre))
                        .add(e.shape.radii)
                        .add(e.unit)
                        .add(e.noiseOffset)
@@ -107,10 +98,10 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         const std::uint64_t key = Fingerprint().add(cloud.noiseId ? cloud.noiseId : std::uint64_t(c)).add(c).value();
         auto it = live_.find(key);
         Live* L = it == live_.end() ? nullptr : &it->second;
-        const Vec3 toEye = view.eye - centres[std::size_t(c)];
+        const Vec3 toEye = view.eye - spheres[std::size_t(c)].centre;
         const double distance = glm::length(toEye);
         const double keep = L && L->seen + 1 == frame ? kKeepDistance : 1.0;
-        if (!(distance > keep * s.distance * radii[std::size_t(c)])) continue;
+        if (!(distance > keep * s.distance * spheres[std::size_t(c)].radius)) continue;
         Candidate k;
         k.cloud = c, k.key = key, k.live = L, k.must = true, k.error = 0;
         k.px = int(std::floor((g.rect.x0 + 1) * pxX)), k.py = int(std::floor((g.rect.y0 + 1) * pxY));
@@ -120,8 +111,8 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         if (k.need > s.atlasSize) continue;
         const PlacedRadiance& pl = light[std::size_t(c)];
         const std::uint64_t lightKey =
-            Fingerprint().add(global).add(pl.grid.get()).add(quantised(pl.lo - centres[std::size_t(c)])).add(pl.extent).value();
-        const double phase = sunPhase(centres[std::size_t(c)], view, scene);
+            Fingerprint().add(global).add(pl.grid.get()).add(quantised(pl.lo - spheres[std::size_t(c)].centre)).add(pl.extent).value();
+        const double phase = sunPhase(spheres[std::size_t(c)].centre, view, scene);
         const double r = 0.5 * std::max(k.w, k.h);
         glm::dvec4 rect;
         // Usable: every ellipsoid in view now is in the image, unchanged (those gone out of view
@@ -130,13 +121,13 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         // made shows only what was in view then).
         const bool same = L && L->made &&
                           std::includes(L->shapes.begin(), L->shapes.end(), g.shapes.begin(), g.shapes.end());
-        if (same && reprojectImage(L->eyeFromCentre, centres[std::size_t(c)], L->rc, L->rx, L->ry, viewProj, view.eye,
+        if (same && reprojectImage(L->eyeFromCentre, spheres[std::size_t(c)].centre, L->rc, L->rx, L->ry, viewProj, view.eye,
                                    k.reproject, rect) &&
             outsidePixels(rect, g.rect, view) <= s.errorPixels) {
             k.must = false;
             // The whole cloud's parallax: its depth is its bounding radius.
-            const double drift = scene.medium.noise > 0 ? glm::length(centres[std::size_t(c)] - L->centre) : 0.0;
-            const double px = parallaxPixels(r, L->eyeFromCentre, toEye, radii[std::size_t(c)], drift);
+            const double drift = scene.medium.noise > 0 ? glm::length(spheres[std::size_t(c)].centre - L->centre) : 0.0;
+            const double px = parallaxPixels(r, L->eyeFromCentre, toEye, spheres[std::size_t(c)].radius, drift);
             k.error = px / s.errorPixels;
             if (L->light == lightKey) k.error = std::max(k.error, std::abs(phase / L->phase - 1) / kPhaseChange);
             k.error = std::max(k.error, std::abs(weight / std::max(L->weight, 1e-9) - 1) / kSigmaChange);
@@ -196,7 +187,7 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
             L.place = place;
         }
         fresh[i] = 1;
-        const Vec3 centre = centres[std::size_t(k.cloud)];
+        const Vec3 centre = spheres[std::size_t(k.cloud)].centre;
         L.made = true;
         L.shapes = groups[std::size_t(k.cloud)].shapes;
         L.light = k.light, L.phase = k.phase, L.weight = k.weight;
@@ -220,8 +211,8 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         d.place = k.live->place;
         d.px = k.px, d.py = k.py, d.w = k.live->w, d.h = k.live->h;
         d.reproject = glm::mat4(k.reproject);
-        d.centre = centres[std::size_t(k.cloud)];
-        d.radius = radii[std::size_t(k.cloud)];
+        d.centre = spheres[std::size_t(k.cloud)].centre;
+        d.radius = spheres[std::size_t(k.cloud)].radius;
         d.distance = glm::length(view.eye - d.centre);
         out.draws.push_back(d);
     }

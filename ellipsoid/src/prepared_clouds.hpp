@@ -32,8 +32,18 @@ inline double tileExtent(const PreparedEllipsoid& e) {
     return std::min(std::max(e.projection.pixelWidth, e.projection.pixelHeight), e.contentTexels);
 }
 
+// A sphere holding every ellipsoid of a cloud: centred on their axis-aligned bounding box (each
+// ellipsoid's bounding sphere's), its radius the farthest of those spheres from there. A cloud
+// without ellipsoids: centre 0, radius 0.
+struct CloudSphere {
+    Vec3 centre{0.0};
+    double radius = 0;
+};
+CloudSphere cloudBoundingSphere(const Cloud& cloud);
+
 struct PreparedClouds {
     std::vector<PreparedEllipsoid> ellipsoids;  // visible ones, back to front
+    std::vector<CloudSphere> spheres;           // per scene cloud: cloudBoundingSphere
     int culled = 0;                             // ellipsoids culled by the projection
     double noisePeriod = 1;                     // m: medium.noise_scale * cells
 };
@@ -52,14 +62,6 @@ inline double closeTileTexels(double rMax, double noiseTexel) {
 // Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.
 PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSettings& noise);
 
-// A sphere holding every ellipsoid of a cloud: centred on their axis-aligned bounding box (each
-// ellipsoid's bounding sphere's), its radius the farthest of those spheres from there. A cloud
-// without ellipsoids: centre 0, radius 0.
-struct CloudSphere {
-    Vec3 centre{0.0};
-    double radius = 0;
-};
-CloudSphere cloudBoundingSphere(const Cloud& cloud);
 // The weighted composite's reference depth tRef (m), one for the whole frame: the nearest
 // visible ellipsoid's centre distance minus its largest radius, at least the near plane and
 // model::kWeightNearDepth (matter nearer than that weighs alike). The weights

@@ -4,6 +4,8 @@
 
 #include <glm/glm.hpp>
 
+#include <numbers>
+
 namespace nephele::model {
 using glm::clamp;
 using glm::dot;
@@ -29,6 +31,6 @@ using glm::vec4;
 // bench's tiles took 2-3x as long while the flight looked within 30 degrees of the sun.
 constexpr float kSunPeakPhase = 4;
 inline bool withinSunPeak(double cosAngle, double g) {
-    return hgPhase(float(cosAngle), float(g)) >= kSunPeakPhase / (4 * 3.14159265f);
+    return hgPhase(float(cosAngle), float(g)) >= kSunPeakPhase / (4 * std::numbers::pi_v<float>);
 }
 }  // namespace nephele::model
