@@ -122,7 +122,8 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
              std::string("--precision f32"), std::string("--draws some"), std::string("--flythrough sideways"),
              std::string("--colour-matrix maybe"), std::string("--composite front-to-back"),
              std::string("--exact-order random"), std::string("--density-alpha ") + path("out.png"),
-             std::string("--reuse maybe"), std::string("--reuse-error 0"), std::string("--reuse-budget -1"),
+             std::string("--reuse maybe"), std::string("--reuse-error 0"), std::string("--reuse-budget -1"), std::string("--march-downsample 0"),
+             std::string("--march-downsample 5"),
              std::string("--pfm ") + path("missing-folder/x.pfm")}) {
         const CliRun r = run("render " + scene + out + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;

@@ -582,7 +582,8 @@ TEST_F(RaymarchGLTest, RejectsBadSettings) {
     for (auto change : {+[](RaymarchSettings& s) { s.step = 0; }, +[](RaymarchSettings& s) { s.lodDistance = -1; },
                         +[](RaymarchSettings& s) { s.light.size = 1; }, +[](RaymarchSettings& s) { s.octaves = 0; },
                         +[](RaymarchSettings& s) { s.maxSteps = 0; }, +[](RaymarchSettings& s) { s.maxSteps = 1 << 20; },
-                        +[](RaymarchSettings& s) { s.step = NAN; }}) {
+                        +[](RaymarchSettings& s) { s.step = NAN; }, +[](RaymarchSettings& s) { s.downsample = 0; },
+                        +[](RaymarchSettings& s) { s.downsample = 5; }}) {
         RaymarchSettings s;
         change(s);
         EXPECT_THROW(RaymarchRenderer{s}, std::invalid_argument);
