@@ -176,6 +176,17 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
         measure(layeredBlocks, a.layeredNearError, a.layeredNearRatio, a.layeredBandRatio);
         measure(autoBlocks, a.autoNearError, a.autoNearRatio, a.autoBandRatio);
         measure(aloneBlocks, a.aloneNearError, a.aloneNearRatio, a.aloneBandRatio);
+        // The band by light: which light the two disagree in.
+        for (int light = 0; light < 2; ++light) {
+            const Scene lit = light == 0 ? sunOnly(scene) : skyOnly(scene);
+            Image part = light == 0 ? ref.sun : ref.sky;  // over the total's cloud blocks in the band
+            for (std::size_t p = 0; p < inBand.size(); ++p) part.pixels[4 * p + 3] = inBand[p] ? ref.total.pixels[4 * p + 3] : 0;
+            const Image l = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.sky->render(lit, view, fb, 0); }), o.block);
+            const Image au = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.autoSky->render(lit, view, fb, 0, false); }),
+                                       o.block);
+            double* ratios = light == 0 ? a.bandSunRatio : a.bandSkyRatio;
+            ratios[0] = meanRatio(masked(l, inBand), part), ratios[1] = meanRatio(masked(au, inBand), part);
+        }
     }
     a.layeredParts = componentErrors(scene, view, ref, o.block, [&](const Scene& sc, bool single) {
         return drawOver(sc, view, r.opaque, [&](GLuint fb) { (single ? r.single : r.sky)->render(sc, view, fb, 0); });
@@ -264,13 +275,15 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
           "alone in clear air (`NearLodSettings::tiledLight` off; on, each is lit as one tile of an endless layer of "
           "copies of itself):\n\n";
     md << "| view | blocks | layered | auto | auto, near clouds lit alone | blend band only: mean of layered / auto / lit "
-          "alone |\n|---|---:|---:|---:|---:|---:|\n";
+          "alone | band, the sun's light: layered / auto | band, the sky's: layered / auto |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const LayerViewAccuracy& a : results)
         md << "| " << a.view << " | " << a.nearBlocks << " | " << fmt("%.1f%%", 100 * a.layeredNearError) << " / "
            << fmt("%.2f", a.layeredNearRatio) << " | " << fmt("%.1f%%", 100 * a.autoNearError) << " / "
            << fmt("%.2f", a.autoNearRatio) << " | " << fmt("%.1f%%", 100 * a.aloneNearError) << " / "
            << fmt("%.2f", a.aloneNearRatio) << " | " << fmt("%.2f", a.layeredBandRatio) << " / "
-           << fmt("%.2f", a.autoBandRatio) << " / " << fmt("%.2f", a.aloneBandRatio) << " |\n";
+           << fmt("%.2f", a.autoBandRatio) << " / " << fmt("%.2f", a.aloneBandRatio) << " | " << fmt("%.2f", a.bandSunRatio[0])
+           << " / " << fmt("%.2f", a.bandSunRatio[1]) << " | " << fmt("%.2f", a.bandSkyRatio[0]) << " / "
+           << fmt("%.2f", a.bandSkyRatio[1]) << " |\n";
     md << "\nThe near LOD against the layer within auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
        << " m): the near cumulus alone (every cell at weight 1) and the layered sky cut at the reach, over the pixels "
           "whose ray meets the layer within the reach (opacity; the volume's is the CPU integral of its density) and "

@@ -51,6 +51,9 @@ struct LayerViewAccuracy {
     double aloneNearError = 0, aloneNearRatio = 0;
     // The same mean ratios over the blocks that meet the layer across the blend band only.
     double layeredBandRatio = 0, autoBandRatio = 0, aloneBandRatio = 0;
+    // The band's mean ratios by light: each method lit by the sun alone against the reference's
+    // sun part, by the sky and the ground alone against its sky part ([0] layered, [1] auto).
+    double bandSunRatio[2] = {0, 0}, bandSkyRatio[2] = {0, 0};
     // The near LOD against the layer within auto's reach.
     int reachPixels = 0, bandPixels = 0;
     double nearOpacity = 0, layerOpacity = 0, volumeOpacity = 0;  // mean over the reach pixels
