@@ -12,7 +12,7 @@ uniform int mode;                  // 0 = annuli, 1 = billboards
 uniform sampler3D lightVolume;     // rgb = encoded knots of the optical depth above, a = density A
 uniform sampler2D columns;         // rgb = encoded knots of the whole column's optical depth
 uniform sampler2D sunTable, skyTable;  // the frame's light tables (layerSource())
-uniform sampler2D modulation;      // r = threshold, g = city map
+uniform sampler2D modulation;      // r = threshold, g = city map, b = threshold^2 (its mean over a mip texel)
 uniform vec2 uvLightEye;           // fract((eye.xy - t wind) / tilePeriod)
 uniform vec2 uvModEye;             // fract((eye.xy - t wind) / modulationPeriod)
 uniform float gradScale;           // 1 / LayeredSettings::downsample: the textures' detail of a full-resolution pixel
@@ -39,6 +39,14 @@ uniform float glowHeightCoeff;     // f_c of eq. (20)
 uniform int flashCount;
 uniform vec4 flashes[8];           // xyz relative to the eye (m), w = intensity
 const float PI = 3.14159265358979;
+
+// E[max(X, 0)] for X normal with mean mu and deviation s: mu Phi(mu / s) + s phi(mu / s), Phi by
+// the logistic 1 / (1 + exp(-1.702 x)) (within 0.01).
+float expectedPositivePart(float mu, float s) {
+    if (s < 1e-4) return max(mu, 0.0);
+    float x = mu / s;
+    return mu / (1.0 + exp(-1.702 * x)) + s * 0.3989423 * exp(-0.5 * x * x);
+}
 
 void main() {
     // Texture coordinates and their derivatives before any discard (implicit derivatives in
@@ -71,12 +79,22 @@ void main() {
     // Cheap tests first (llvmpipe pays per texture fetch): no share, or a threshold that no
     // A <= 1 can pass (eq. 16 is 0 where r >= C), means no matter here.
     if (share < 1e-4) discard;
-    float r = textureGrad(modulation, uvMod, uvMdx, uvMdy).r;
-    if (r >= coverage) discard;
+    // Far away a fetch returns the mean of the threshold r over the pixel's footprint, and eq.
+    // (16)'s max() of the mean loses the thin peaks that the mean of the max() keeps (a distant
+    // layer was 0.29 opaque where the path tracer's volume is 0.40): the mean of the max() over
+    // a normal spread of r with its variance over the footprint (its mipmaps' mean of r^2). A's
+    // own spread is left out: counted as well (per mip level), it overshot the volume's opacity.
+    vec3 mod3 = textureGrad(modulation, uvMod, uvMdx, uvMdy).rgb;
+    float r = mod3.r, spread = sqrt(max(mod3.b - r * r, 0.0));
+    // No A <= 1 passes the threshold anywhere here (with coverage 0 nowhere: r >= 0).
+    if (coverage <= 0.0 || r - 3.0 * spread >= coverage) discard;
     vec4 t3 = textureGrad(lightVolume, vec3(uvw.xy, clamp(zf, 0.0, 1.0)), uvwdx, uvwdy);
-    float theta = r + 1.0 - coverage;
-    float rho = density * max(t3.a - theta, 0.0);  // eq. (16)
-    float alpha = 1.0 - exp(-extinction * rho * path * share);
+    float theta = r + 1.0 - coverage, mu = t3.a - theta;
+    // The footprint is cloudy over Phi(mu / spread) of it; the slab's opacity is that share of
+    // an opaque part, not the mean density spread over the whole pixel.
+    float cloudy = spread < 1e-4 ? 1.0 : 1.0 / (1.0 + exp(-1.702 * mu / spread));
+    float rho = density * expectedPositivePart(mu, spread);  // eq. (16), the footprint's mean
+    float alpha = cloudy * (1.0 - exp(-extinction * rho / max(cloudy, 1e-4) * path * share));
     if (alpha <= 0.0) discard;
     // The column's optical depths above and below, the light tables there, the source function.
     vec3 depths = layerColumnDepths(t3.rgb, textureGrad(columns, uvw.xy, uvwdx.xy, uvwdy.xy).rgb, theta, density);

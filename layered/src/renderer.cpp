@@ -272,7 +272,7 @@ void LayeredRenderer::prepare() {
     impl_->reduced.prepare();
     // llvmpipe builds its mipmap generation per texture kind at the first use: 150 ms for the
     // lighting volume's (measured), then 6 ms per refill. Build both kinds now.
-    for (const auto& [target, format] : {std::pair{GL_TEXTURE_3D, GL_RGBA8}, std::pair{GL_TEXTURE_2D, GL_RG32F}}) {
+    for (const auto& [target, format] : {std::pair{GL_TEXTURE_3D, GL_RGBA8}, std::pair{GL_TEXTURE_2D, GL_RGBA32F}}) {
         Texture t = Texture::create(target);
         if (target == GL_TEXTURE_3D) glTextureStorage3D(t.id(), 2, format, 2, 2, 2);
         else glTextureStorage2D(t.id(), 2, format, 2, 2);
@@ -324,9 +324,18 @@ SharedTexture<ModulationTexture> uploadModulation(const ModulationTexture& m) {
     SharedTexture<ModulationTexture> shared;
     Texture& t = shared.texture;
     t = Texture::create(GL_TEXTURE_2D);
-    glTextureStorage2D(t.id(), mipLevels(n), GL_RG32F, n, n);
-    checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 8 * 4 / 3);
-    glTextureSubImage2D(t.id(), 0, 0, 0, n, n, GL_RG, GL_FLOAT, m.texels.data());
+    // r, the city map, r^2: a mip level's texel holds the mean of r^2 over its footprint, so the
+    // shader knows the spread of the thresholds that a far fetch averages.
+    glTextureStorage2D(t.id(), mipLevels(n), GL_RGBA32F, n, n);
+    checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 16 * 7 / 3);  // the copy uploaded, the texture with mipmaps
+    {
+        std::vector<float> rgba(std::size_t(n) * n * 4, 0.0f);
+        for (std::size_t i = 0; i < std::size_t(n) * n; ++i) {
+            const float r = m.texels[2 * i];
+            rgba[4 * i] = r, rgba[4 * i + 1] = m.texels[2 * i + 1], rgba[4 * i + 2] = r * r;
+        }
+        glTextureSubImage2D(t.id(), 0, 0, 0, n, n, GL_RGBA, GL_FLOAT, rgba.data());
+    }
     glGenerateTextureMipmap(t.id());
     glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
     glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -366,7 +375,7 @@ void checkLayerBudget(const Scene& scene, const LayeredSettings& s) {
     const std::uint64_t columns = std::uint64_t(ls.width) * std::uint64_t(ls.height);
     const std::uint64_t volumeBytes = columns * std::uint64_t(ls.depth) * 4 * 15 / 7 + columns * 4 * 7 / 3;
     const std::uint64_t texels = std::uint64_t(s.modulation.size) * std::uint64_t(s.modulation.size);
-    const std::uint64_t modulationBytes = texels * 8 + texels * 8 * 4 / 3;
+    const std::uint64_t modulationBytes = texels * 8 + texels * 16 * 4 / 3;
     const std::uint64_t need = keys.size() * volumeBytes + seeds.size() * modulationBytes;
     if (need > (std::uint64_t(s.resourceMegabytes) << 20))
         throw ResourceError("layered sky: the scene's " + std::to_string(scene.layers.size()) + " layers need " +
