@@ -176,13 +176,16 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
         measure(layeredBlocks, a.layeredNearError, a.layeredNearRatio, a.layeredBandRatio);
         measure(autoBlocks, a.autoNearError, a.autoNearRatio, a.autoBandRatio);
         measure(aloneBlocks, a.aloneNearError, a.aloneNearRatio, a.aloneBandRatio);
-        // The band by light: which light the two disagree in.
+        // The band by light: which light the two disagree in. Auto from a renderer of its own per
+        // light: the shared one keeps its tiles across frames, and a light's change renders them
+        // again only within its budget.
         for (int light = 0; light < 2; ++light) {
             const Scene lit = light == 0 ? sunOnly(scene) : skyOnly(scene);
             Image part = light == 0 ? ref.sun : ref.sky;  // over the total's cloud blocks in the band
             for (std::size_t p = 0; p < inBand.size(); ++p) part.pixels[4 * p + 3] = inBand[p] ? ref.total.pixels[4 * p + 3] : 0;
             const Image l = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.sky->render(lit, view, fb, 0); }), o.block);
-            const Image au = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.autoSky->render(lit, view, fb, 0, false); }),
+            SkyRenderer fresh(SkySettings{autoLayeredSettings(r.layered), {}, autoEllipsoidSettings()});
+            const Image au = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { fresh.render(lit, view, fb, 0, false); }),
                                        o.block);
             double* ratios = light == 0 ? a.bandSunRatio : a.bandSkyRatio;
             ratios[0] = meanRatio(masked(l, inBand), part), ratios[1] = meanRatio(masked(au, inBand), part);
