@@ -14,6 +14,7 @@
 #include "nephele/layered.hpp"
 #include "nephele/metrics.hpp"
 #include "nephele/pathtrace.hpp"
+#include "nephele/png.hpp"
 #include "nephele/raymarch.hpp"
 
 #include <algorithm>
@@ -285,9 +286,9 @@ void markPareto(std::vector<Aggregate>& a) {
     }
 }
 
-// The layered sky has no path-traced reference: the format's density field (what the path
-// tracer renders) has no layers. Its layer count N is charted against its own converged
-// limit instead: the same frame with kLayeredReferenceN layers, on the layer of
+// The layered sky's layer count N against its own converged limit (its error against the
+// path tracer, which renders a layer as a volume, is `bench --layer-accuracy`'s): the same
+// frame with kLayeredReferenceN layers, on the layer of
 // near_and_far.json seen from below (the scene's camera), grazing (just under the base,
 // looking at the horizon) and from above.
 constexpr int kLayeredReferenceN = 128;
@@ -371,6 +372,33 @@ std::string sppRange(const std::vector<ReferenceInfo>& info) {
     return lo == hi ? std::to_string(hi) : std::to_string(lo) + "–" + std::to_string(hi);
 }
 
+// The cases side by side with `medium.noise` 0, one row per case: the reference, the
+// compositor (auto's defaults), the ray-marcher, each magnified by a whole factor into a cell
+// of the largest case's size, on black.
+struct ViewRow {
+    Image reference, compositor, marcher;
+};
+Image viewsMontage(const std::vector<ViewRow>& rows) {
+    int cellW = 1, cellH = 1;
+    for (const ViewRow& r : rows) cellW = std::max(cellW, r.reference.width), cellH = std::max(cellH, r.reference.height);
+    const int gap = 4;
+    Image out(3 * cellW + 2 * gap, int(rows.size()) * (cellH + gap) - gap, 4);
+    for (std::size_t p = 0; p < std::size_t(out.width) * out.height; ++p) out.pixels[4 * p + 3] = 1;
+    for (std::size_t row = 0; row < rows.size(); ++row) {
+        const Image* cells[3] = {&rows[row].reference, &rows[row].compositor, &rows[row].marcher};
+        for (int c = 0; c < 3; ++c) {
+            const Image& im = *cells[c];
+            if (im.width == 0 || im.height == 0) continue;
+            const int k = std::max(1, std::min(cellW / im.width, cellH / im.height));
+            const int x0 = c * (cellW + gap) + (cellW - k * im.width) / 2, y0 = int(row) * (cellH + gap) + (cellH - k * im.height) / 2;
+            for (int y = 0; y < k * im.height; ++y)
+                for (int x = 0; x < k * im.width; ++x)
+                    for (int ch = 0; ch < 3; ++ch) out.at(x0 + x, y0 + y, ch) = im.at(x / k, y / k, ch);
+        }
+    }
+    return out;
+}
+
 }  // namespace
 
 int runAccuracyBench(const AccuracyOptions& o) {
@@ -394,6 +422,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     std::vector<ComponentRow> components;
     std::vector<Result> results;
     std::vector<LayeredPoint> layered;
+    std::vector<ViewRow> views;  // noise 0, for docs/accuracy_views.png
     std::string renderer;
     using Clock = std::chrono::steady_clock;
     try {
@@ -422,6 +451,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
                           << " spp, cached)...\n";
                 const Reference reference = makeReference(scene, view, noise, refSettings);
                 const Image& referenceBlocks = reference.total;
+                if (noiseMode == "0") views.push_back({reference.full, {}, {}});
                 refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced, reference.spp});
                 if (noiseMode == "0")
                     for (ComponentRow& row : measureComponents(scene, view, reference, noise, ns, opaque, o.block)) {
@@ -447,6 +477,10 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 const std::vector<double> ms = timeFrames(o.frames, target, opaque, scene, view, draws);
                 gl::setChecks(true);
                 auto record = [&](std::size_t i, double t, const Image& img) {
+                    if (noiseMode == "0" && configs[i].setting == "default") {
+                        if (configs[i].kind == Kind::Ellipsoid) views.back().compositor = img;
+                        if (configs[i].kind == Kind::Raymarch) views.back().marcher = img;
+                    }
                     Result r;
                     r.noise = noiseMode;
                     r.caseName = c0.name;
@@ -624,9 +658,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
            << fmt("%.1f%%", 100 * r.errors.single) << " | " << fmt("%.1f%%", 100 * r.errors.multiple) << " | "
            << fmt("%.1f%%", 100 * r.errors.sky) << " | " << fmt("%.1f%%", 100 * r.errors.opacity) << " |\n";
     }
-    md << "\nThe layered sky has no path-traced reference (the format's density field, which the path tracer "
-          "renders, has no layers), so its layer count N is measured against its own converged limit, N = "
-       << kLayeredReferenceN << ", on the layer of `near_and_far.json` (error as above; ms per frame):\n\n"
+    md << "\nThe layered sky's layer count N, measured against its own converged limit, N = " << kLayeredReferenceN
+       << ", on the layer of `near_and_far.json` (error as above; ms per frame; its error against the path tracer, "
+          "which renders the layer as a volume, is `nephele bench --layer-accuracy`'s, under \"The layered sky\"):\n\n"
           "| view |";
     std::vector<int> layerCounts;
     for (const LayeredPoint& p : layered)
@@ -656,18 +690,20 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
     const std::string chartPath = (fs::path(o.outDir) / "accuracy_chart.png").string();
     const std::string distancePath = (fs::path(o.outDir) / "accuracy_distance.png").string();
+    const std::string viewsPath = (fs::path(o.outDir) / "accuracy_views.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
+        writePng(viewsPath, viewsMontage(views));
         runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
         if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str(),
-                                   {csvPath, mdPath, layeredPath, chartPath, distancePath});
+                                   {csvPath, mdPath, layeredPath, chartPath, distancePath, viewsPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
     std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", "
-              << chartPath << ", " << distancePath << (o.readme.empty() ? "" : ", " + o.readme)
+              << chartPath << ", " << distancePath << ", " << viewsPath << (o.readme.empty() ? "" : ", " + o.readme)
               << "\n";
     return 0;
 }

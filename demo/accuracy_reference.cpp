@@ -97,9 +97,7 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
         p.spp = std::max(1, spp);
         p.maxBounces = bounces;
         p.seed = seed;
-        const Image image = s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise)
-                                               : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
-        return blockMean(image, s.block);
+        return s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise) : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
     };
     const Scene sun = sunOnly(scene), sky = skyOnly(scene);
     const int bounces = PathTraceSettings{}.maxBounces;
@@ -112,14 +110,16 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
     Reference r;
     auto addPiece = [&] {
         const unsigned seed = unsigned(pieces.size()) + 1;
-        const Image a = trace(sun, piece, bounces, seed), b = trace(sky, skyPiece, bounces, seed);
+        const Image fullA = trace(sun, piece, bounces, seed), fullB = trace(sky, skyPiece, bounces, seed);
+        const Image a = blockMean(fullA, s.block), b = blockMean(fullB, s.block), both = add(fullA, fullB);
         pieces.push_back(add(a, b));
         const float w = 1.0f / float(pieces.size());  // running means
-        if (pieces.size() == 1) r.sun = a, r.sky = b;
+        if (pieces.size() == 1) r.sun = a, r.sky = b, r.full = both;
         for (std::size_t i = 0; i < r.sun.pixels.size(); ++i) {
             r.sun.pixels[i] += w * (a.pixels[i] - r.sun.pixels[i]);
             r.sky.pixels[i] += w * (b.pixels[i] - r.sky.pixels[i]);
         }
+        for (std::size_t i = 0; i < r.full.pixels.size(); ++i) r.full.pixels[i] += w * (both.pixels[i] - r.full.pixels[i]);
     };
     for (;;) {
         while (pieces.size() < 2) addPiece();
@@ -134,7 +134,7 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
         while (int(pieces.size()) < std::clamp(want, int(m) + 1, maxPieces)) addPiece();
     }
     r.spp = piece * int(pieces.size());
-    r.single = trace(sun, s.singleSpp, 0, 1000);
+    r.single = blockMean(trace(sun, s.singleSpp, 0, 1000), s.block);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.traced = int(detail::pathTracedImagesComputed() - before);
     return r;

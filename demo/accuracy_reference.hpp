@@ -28,6 +28,7 @@ double relativeRmse(const Image& a, const Image& b);
 // The path-traced reference of one case, at block means. total = sun + sky.
 struct Reference {
     Image total, sun, sky, single;  // RGBA block means; a = cloud opacity (the sun part's)
+    Image full;                     // RGBA at the frame's resolution: sun + sky, for looking at
     double noise = 0;               // relative RMSE of `total` from its own Monte Carlo noise
     int spp = 0;                    // samples per pixel of the sun part it took
     double seconds = 0;             // wall time of the path traces (near 0 when all were cached)

@@ -426,8 +426,18 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     const CliRun r = run("bench --accuracy --quick --width 64 --spp 4 --frames 1 --no-cache --scenes " +
                          std::string(NEPHELE_SCENES) + " --out-dir " + path("acc") + " --readme " + readme);
     ASSERT_EQ(r.code, 0) << r.output;
-    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_chart.png", "accuracy_distance.png"})
+    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_chart.png", "accuracy_distance.png", "accuracy_views.png"})
         EXPECT_TRUE(fs::exists(path(std::string("acc/") + f))) << f;
+    {  // The cases side by side: reference, compositor, ray-marcher, each column drawn (not the black fill).
+        const Image views = readPng(path("acc/accuracy_views.png"));
+        ASSERT_EQ(views.width, 3 * 64 + 2 * 4);
+        for (int c = 0; c < 3; ++c) {
+            double sum = 0;
+            for (int y = 0; y < views.height; ++y)
+                for (int x = c * 68; x < c * 68 + 64; ++x) sum += views.at(x, y, 2);
+            EXPECT_GT(sum / (64.0 * views.height), 0.1) << "column " << c;
+        }
+    }
     std::ifstream csv(path("acc/accuracy.csv"));
     std::string line, text;
     std::getline(csv, line);
@@ -451,7 +461,8 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     EXPECT_NE(text.find("<!-- END GENERATED: accuracy bench -->\nafter\n"), std::string::npos);
     // --readme copies what the section shows into docs/ beside it: the run's own files.
     const fs::path docs = fs::path(readme).parent_path() / "docs";
-    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png"}) {
+    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png",
+                          "accuracy_views.png"}) {
         const fs::path copy = docs / f, made = path(std::string("acc/") + f);
         ASSERT_TRUE(fs::exists(copy)) << copy;
         EXPECT_EQ(fs::file_size(copy), fs::file_size(made)) << f;
