@@ -40,12 +40,14 @@ uniform int flashCount;
 uniform vec4 flashes[8];           // xyz relative to the eye (m), w = intensity
 const float PI = 3.14159265358979;
 
-// E[max(X, 0)] for X normal with mean mu and deviation s: mu Phi(mu / s) + s phi(mu / s), Phi by
-// the logistic 1 / (1 + exp(-1.702 x)) (within 0.01).
+// Phi(x), the standard normal distribution, by the logistic 1 / (1 + exp(-1.702 x)) (within 0.01).
+float normalCdf(float x) { return 1.0 / (1.0 + exp(-1.702 * x)); }
+
+// E[max(X, 0)] for X normal with mean mu and deviation s: mu Phi(mu / s) + s phi(mu / s).
 float expectedPositivePart(float mu, float s) {
     if (s < 1e-4) return max(mu, 0.0);
     float x = mu / s;
-    return mu / (1.0 + exp(-1.702 * x)) + s * 0.3989423 * exp(-0.5 * x * x);
+    return mu * normalCdf(x) + s * 0.3989423 * exp(-0.5 * x * x);
 }
 
 void main() {
@@ -92,7 +94,7 @@ void main() {
     float theta = r + 1.0 - coverage, mu = t3.a - theta;
     // The footprint is cloudy over Phi(mu / spread) of it; the slab's opacity is that share of
     // an opaque part, not the mean density spread over the whole pixel.
-    float cloudy = spread < 1e-4 ? 1.0 : 1.0 / (1.0 + exp(-1.702 * mu / spread));
+    float cloudy = spread < 1e-4 ? 1.0 : normalCdf(mu / spread);
     float rho = density * expectedPositivePart(mu, spread);  // eq. (16), the footprint's mean
     float alpha = cloudy * (1.0 - exp(-extinction * rho / max(cloudy, 1e-4) * path * share));
     if (alpha <= 0.0) discard;
