@@ -207,10 +207,7 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     if (lod && cloudLodApplies(s)) {
         const double noiseTexel = scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size
                                                          : std::numeric_limits<double>::infinity();
-        for (PreparedEllipsoid& e : out.prepared.ellipsoids) {
-            const Vec3& r = e.shape.radii;
-            e.contentTexels = closeTileTexels(std::max({r.x, r.y, r.z}), noiseTexel);
-        }
+        for (PreparedEllipsoid& e : out.prepared.ellipsoids) e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);
     }
     stats.visible = int(prepared.ellipsoids.size());
     if (prepared.ellipsoids.empty()) return out;
