@@ -66,9 +66,17 @@ void main() {
     // billboards for grazing ones; a fragment's optical depth takes its share.
     float tanElev = abs(d.z) / max(length(d.xy), 1e-6);
     float annulusShare = smoothstep(0.5 * steepTan, 2.0 * steepTan, tanElev);
+    // At the billboard disc's rim: an annulus stands for the ray's path across one slab, a run of
+    // layerSlab / tan(e) horizontally around the fragment; within the disc the billboards stand
+    // for the grazing rays' share of it, so an annulus keeps that share only of the part of its
+    // run outside the disc. (With the rim as a hard switch, a ray that climbed into a slab inside
+    // the disc and left the disc before the next annulus met no matter in between and saw that
+    // annulus, deeper in the layer: a bright line at the rim looking along a deck's base.)
+    float run = layerSlab / max(tanElev, 1e-4);
+    float outside = lod0Radius > 0.0 ? clamp((horizontal + 0.5 * run - lod0Radius) / run, 0.0, 1.0) : 1.0;
     float share, path;
     if (mode == 0) {
-        share = (lod0Radius > 0.0 && horizontal < lod0Radius) ? annulusShare : 1.0;
+        share = mix(annulusShare, 1.0, outside);
         path = layerSlab / max(abs(d.z), 1e-4);
     } else {
         if (horizontal > lod0Radius) discard;

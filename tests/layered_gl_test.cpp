@@ -410,3 +410,43 @@ TEST_F(LayeredGLTest, GrazingViewsHaveFewGapsAtTheDefaultLayerCount) {
     // The bound: 2% of the band's pixels (the rest are covered at least half).
     EXPECT_LT(worstDefault, 0.02) << "N = " << defaultN;
 }
+
+// The billboard disc's rim (LOD0 to LOD1): looking along a deck's base from just under it, a
+// ray that climbed into the bottom slab inside the disc and left the disc before the next
+// annulus once met no matter in between and saw that annulus, deeper and brighter in the
+// layer: a bright line across the view at the rim (auto's disc reaches 4.5 km; seen
+// 2026-12-03). Here the rays that reach the base from 0.85 to 1.3 disc radii away must look
+// the same whether the disc ends among them or far short of them (annuli alone).
+TEST_F(LayeredGLTest, TheBillboardDiscsRimLeavesNoLine) {
+    Scene scene = layerScene(kBase - 100, 0, 0.9, 0.8);
+    scene.camera.fovYDeg = 30;
+    scene.camera.width = 480, scene.camera.height = 270;  // the line is a row or two high: at 240 px it blurs away
+    scene.layers[0].extent = 40000;
+    const double rim = 4500;
+    auto rowLuminance = [&](double lod0Radius) {
+        LayeredSettings s;  // the default textures (with the tests' small ones the line measured 1.04, not 1.18)
+        s.lod0Radius = lod0Radius;
+        const Result r = render(scene, s);
+        const View view = makeView(scene.camera);
+        double sum = 0;
+        int n = 0;
+        for (int y = 0; y < r.rgba.height; ++y)
+            for (int x = 0; x < r.rgba.width; ++x) {
+                const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+                if (d.z <= 0) continue;
+                const double reach = 100 / d.z * std::hypot(d.x, d.y);  // where the ray meets the base
+                if (reach < 0.85 * rim || reach > 1.3 * rim) continue;
+                sum += 0.2126 * r.rgba.at(x, y, 0) + 0.7152 * r.rgba.at(x, y, 1) + 0.0722 * r.rgba.at(x, y, 2), ++n;
+            }
+        EXPECT_GT(n, 500);
+        return n ? sum / n : 0.0;
+    };
+    const double disc = rowLuminance(rim), annuli = rowLuminance(1000);
+    std::printf("[ figure ] rays reaching the base 0.85-1.3 disc radii away: luminance %.4f with the disc's rim among them, "
+                "%.4f with annuli alone (ratio %.3f)\n",
+                disc, annuli, disc / annuli);
+    ASSERT_GT(annuli, 0.0);
+    // 5%: measured 1.011 (the disc's billboards stand for the rays' first stretch in the slab,
+    // the annuli's fetches for the rest); with the rim as a hard switch 1.179.
+    EXPECT_NEAR(disc / annuli, 1.0, 0.05);
+}
