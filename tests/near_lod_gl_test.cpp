@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <numeric>
 
 using namespace nephele;
@@ -281,7 +282,8 @@ TEST_F(NearLodGLTest, SkyRendererWithoutLayersIsTheCompositor) {
 namespace {
 // The hand-off (hand_off.hpp: the numbers `nephele bench --layer-accuracy` reports) with the
 // eye inside a layer and just under it, at coverages 0.3-0.9.
-void forEachHandOff(const std::function<void(const char*, double, const HandOff&)>& check) {
+void forEachHandOff(const std::function<void(const char*, double, const HandOff&)>& check,
+                    std::initializer_list<double> coverages = {0.3, 0.6, 0.9}) {
     const double nearRadius = 2000, band = 1500;
     const LayeredSettings ls = testLayered();
     struct Case {
@@ -291,7 +293,7 @@ void forEachHandOff(const std::function<void(const char*, double, const HandOff&
     };
     for (const Case& c : {Case{"inside, level", Vec3(0, 0, kBase + 0.5 * kThickness), 0.0},
                           Case{"100 m under the base, looking up 20 degrees", Vec3(0, 0, kBase - 100), 20.0}})
-        for (double coverage : {0.3, 0.6, 0.9}) {
+        for (double coverage : coverages) {
             Scene scene = layerScene(c.eye, c.pitch, 96, 54);
             scene.layers[0].coverage = coverage;
             const HandOff h = measureHandOff(scene, makeView(scene.camera), ls, nearRadius, nearRadius + band, testEllipsoid());
@@ -311,6 +313,21 @@ TEST_F(NearLodGLTest, NearCloudsCoverTheSkyAsTheLayerDoes) {
     forEachHandOff([](const char* name, double coverage, const HandOff& h) {
         EXPECT_NEAR(h.nearOpacity, h.volumeOpacity, 0.05) << name << ", coverage " << coverage;
     });
+}
+
+// The same between those coverages: NOT MET (disabled so that the suite stays green; run it
+// with --gtest_also_run_disabled_tests). Measured 2026-12-03: inside a layer of coverage 0.4 the
+// near clouds are 0.718 opaque against the volume's 0.664 (0.5: 0.952 against 0.935), while
+// inside near_and_far.json's layer they are too clear (`bench --layer-accuracy`: 0.805 against
+// 0.869). One ellipsoid per column spreads a patchy column's matter over the whole column and
+// heaps it at the column's centre: which wins depends on the layer, so no one setting of
+// `overlap` or `minColumnDepth` passes both (README, "The near LOD").
+TEST_F(NearLodGLTest, DISABLED_NearCloudsCoverTheSkyAsTheLayerDoesAtEveryCoverage) {
+    forEachHandOff(
+        [](const char* name, double coverage, const HandOff& h) {
+            EXPECT_NEAR(h.nearOpacity, h.volumeOpacity, 0.05) << name << ", coverage " << coverage;
+        },
+        {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9});
 }
 
 // Issue #10's other target, NOT MET yet (disabled so that the suite stays green; run it with
