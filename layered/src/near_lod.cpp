@@ -50,6 +50,7 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     if (!(s.columnDepth > 0) || !std::isfinite(s.columnDepth)) bad("columnDepth must be > 0");
     if (!(s.minColumnDepth >= 0) || !std::isfinite(s.minColumnDepth)) bad("minColumnDepth must be >= 0");
     if (!(s.overlap >= 0.5 && s.overlap <= 2)) bad("overlap must be in [0.5, 2] columns");
+    if (!(s.verticalSpread >= 1 && s.verticalSpread <= 8)) bad("verticalSpread must be in [1, 8] standard deviations");
     if (!(s.columnJitter >= 0 && s.columnJitter <= 0.5)) bad("columnJitter must be in [0, 0.5] columns");
     if (s.maxCellsPerAxis < 1 || s.maxCellsPerAxis > 4096) bad("maxCellsPerAxis must be 1..4096");
     validate(l);
@@ -87,6 +88,7 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     for (int b = 0; b < n; ++b)
         for (int a = 0; a < n; ++a) {
             std::fill(mean.begin(), mean.end(), 0.0);
+            double m0 = 0, m1 = 0, m2 = 0;  // the column's matter over height above the base: its moments
             for (int y = 0; y < m; ++y)
                 for (int x = 0; x < m; ++x) {
                     const Vec2 xy(double(i) * s.cellSize + (a + (x + 0.5) / m) * w, double(j) * s.cellSize + (b + (y + 0.5) / m) * w);
@@ -94,6 +96,8 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
                     for (int k = 0; k < s.levels; ++k) {
                         const double rho = layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
                         tau += rho;
+                        const double z = (k + 0.5) * dz;
+                        m0 += rho, m1 += rho * z, m2 += rho * z * z;
                         mean[std::size_t(k * stack / s.levels)] += rho * stack / (double(s.levels) * m * m);
                     }
                     if (scene.medium.extinction * tau * dz >= s.columnDepth) cloudy.push_back(xy);
@@ -101,11 +105,19 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
             double columnMean = 0;
             for (double v : mean) columnMean += v / stack;
             if (!(scene.medium.extinction * columnMean * layer.thickness >= s.minColumnDepth)) continue;
-            // Per level of the stack an ellipsoid centred in its band of the layer, vertical radius
-            // half the thickness (neighbours in the stack overlap as in the row), horizontal radius
-            // `overlap` w, carrying the band's matter: d kKernelVolume R^2 (thickness / 2) =
-            // mean w^2 thickness / stack.
+            // Per level of the stack an ellipsoid of horizontal radius `overlap` w carrying the band's
+            // matter: d kKernelVolume R^2 Rz = mean w^2 thickness / stack. With stack 1 it takes
+            // the height of the column's matter (the kernel's matter over height, (1 - z^2)^3, has
+            // a deviation of Rz / 3): centred on its mean, Rz = verticalSpread deviations, kept
+            // inside the layer; with more, centred in its band, Rz half the thickness (neighbours
+            // in the stack overlap as in the row).
             const double radius = s.overlap * w;
+            double rz = 0.5 * layer.thickness, cz = 0;
+            if (stack == 1 && m0 > 0) {
+                const double mu = m1 / m0, deviation = std::sqrt(std::max(m2 / m0 - mu * mu, 0.0));
+                rz = std::clamp(s.verticalSpread * deviation, 0.5 * dz, 0.5 * layer.thickness);
+                cz = std::clamp(mu, rz, layer.thickness - rz);
+            }
             for (int k = 0; k < stack; ++k) {
                 if (!(mean[std::size_t(k)] > 0)) continue;
                 Ellipsoid e;
@@ -115,9 +127,9 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
                 const std::uint64_t h = cellHash(layer.seed, i, j, 16 + std::uint64_t(b * n + a));
                 const Vec2 shake = s.columnJitter * w * (2.0 * Vec2(unit(h), unit(mix(h))) - 1.0);
                 e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w + shake.x, double(j) * s.cellSize + (b + 0.5) * w + shake.y,
-                                layer.base + (k + 0.5) / stack * layer.thickness);
-                e.radii = Vec3(radius, radius, 0.5 * layer.thickness);
-                e.density = mean[std::size_t(k)] * 2 * w * w / (stack * kKernelVolume * radius * radius);
+                                layer.base + (stack == 1 && m0 > 0 ? cz : (k + 0.5) / stack * layer.thickness));
+                e.radii = Vec3(radius, radius, rz);
+                e.density = mean[std::size_t(k)] * w * w * layer.thickness / (stack * kKernelVolume * radius * radius * rz);
                 cell.cloud.ellipsoids.push_back(e);
             }
         }

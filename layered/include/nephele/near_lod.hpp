@@ -12,12 +12,13 @@
 //   clouds must cover the sky as the layer does): the cell is cut into columns x columns
 //   columns, each integrated through the layer's density as the shader has it (layerDensity():
 //   eq. 16 with the lighting volume's A, at samples x samples points and `levels` heights); a
-//   column whose mean optical depth reaches minColumnDepth becomes `stack` ellipsoids, one
-//   centred in each band of the layer's height (vertical radius thickness / 2, so that with
-//   stack > 1 they reach a quarter of the thickness beyond the slab; horizontal radius overlap x
-//   the column's side, so that neighbours merge), each carrying its band's matter (the integral
-//   of its extinction). (One ellipsoid per column concentrates the matter at mid-height, its
-//   kernel's (1 - z^2)^3 profile: rays that climb or descend through the layer saw too little.) The layer's optical depth along any ray is thus
+//   column whose mean optical depth reaches minColumnDepth becomes `stack` ellipsoids, each
+//   carrying its band of the layer's height's matter (the integral of its extinction), of
+//   horizontal radius overlap x the column's side, so that neighbours merge. With stack 1 the
+//   ellipsoid takes the height of the column's matter: centred on its mean height, vertical
+//   radius verticalSpread x its standard deviation (at most half the thickness, and kept inside
+//   the layer). With stack > 1 one is centred in each band, vertical radius thickness / 2 (they
+//   reach a quarter of the thickness beyond the slab). The layer's optical depth along any ray is thus
 //   carried at the columns' resolution. cover = the fraction of the sample points whose column
 //   has optical depth >= columnDepth (0: no cloud); `center` is the cloudy point nearest to
 //   their centroid (there layerModulation() > 0). The cloud depends on the layer and (i, j)
@@ -75,7 +76,16 @@ struct NearLodSettings {
     // the layer's own, 0.411 against 0.284 at 0.02, 0.344 at 0.2, 0.300 at 0.3 (NearLodGLTest;
     // 2026-12-02, when the compositor's noise stopped thinning the rims, which had hidden it).
     double minColumnDepth = 0.3;
-    double overlap = 0.75;      // horizontal radius of a column's ellipsoid, in columns, [0.5, 2]
+    // Horizontal radius of a column's ellipsoid, in columns, [0.5, 2], and (stack 1) its vertical
+    // radius in standard deviations of the height of the column's matter, [1, 8] (the kernel's
+    // matter has 1/3 of its radius: 3 matches that, 3.5 leaves it a little flatter). At 0.75
+    // and half the thickness the near clouds' opacity missed the layer's both ways: inside
+    // near_and_far.json's layer 0.805 against the volume's 0.869 (gaps between the columns, the
+    // matter heaped at mid-height), inside a layer of coverage 0.4 0.718 against 0.664 (a
+    // column's matter spread over the whole thickness); with these, 0.853 and 0.704 (NearLodGLTest,
+    // `bench --layer-accuracy`; 2026-12-03).
+    double overlap = 1.25;
+    double verticalSpread = 3.5;
     double columnJitter = 0.15; // largest random offset of a column's ellipsoid per axis, in columns, [0, 0.5]
     // Light each cell's cloud as one tile of an endless layer of copies of itself (Cloud::tileMin:
     // the neighbours' shadow and the light they send back), not as a cloud alone in clear air.
