@@ -113,13 +113,12 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
         const Image fullA = trace(sun, piece, bounces, seed), fullB = trace(sky, skyPiece, bounces, seed);
         const Image a = blockMean(fullA, s.block), b = blockMean(fullB, s.block), both = add(fullA, fullB);
         pieces.push_back(add(a, b));
-        const float w = 1.0f / float(pieces.size());  // running means
+        const float w = 1.0f / float(pieces.size());
+        auto runningMean = [w](Image& mean, const Image& x) {
+            for (std::size_t i = 0; i < mean.pixels.size(); ++i) mean.pixels[i] += w * (x.pixels[i] - mean.pixels[i]);
+        };
         if (pieces.size() == 1) r.sun = a, r.sky = b, r.full = both;
-        for (std::size_t i = 0; i < r.sun.pixels.size(); ++i) {
-            r.sun.pixels[i] += w * (a.pixels[i] - r.sun.pixels[i]);
-            r.sky.pixels[i] += w * (b.pixels[i] - r.sky.pixels[i]);
-        }
-        for (std::size_t i = 0; i < r.full.pixels.size(); ++i) r.full.pixels[i] += w * (both.pixels[i] - r.full.pixels[i]);
+        runningMean(r.sun, a), runningMean(r.sky, b), runningMean(r.full, both);
     };
     for (;;) {
         while (pieces.size() < 2) addPiece();

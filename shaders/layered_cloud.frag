@@ -72,10 +72,10 @@ void main() {
     // run outside the disc. (With the rim as a hard switch, a ray that climbed into a slab inside
     // the disc and left the disc before the next annulus met no matter in between and saw that
     // annulus, deeper in the layer: a bright line at the rim looking along a deck's base.)
-    float run = layerSlab / max(tanElev, 1e-4);
-    float outside = lod0Radius > 0.0 ? clamp((horizontal + 0.5 * run - lod0Radius) / run, 0.0, 1.0) : 1.0;
     float share, path;
     if (mode == 0) {
+        float run = layerSlab / max(tanElev, 1e-4);
+        float outside = lod0Radius > 0.0 ? clamp((horizontal + 0.5 * run - lod0Radius) / run, 0.0, 1.0) : 1.0;
         share = mix(annulusShare, 1.0, outside);
         path = layerSlab / max(abs(d.z), 1e-4);
     } else {

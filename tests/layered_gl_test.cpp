@@ -418,7 +418,8 @@ TEST_F(LayeredGLTest, GrazingViewsHaveFewGapsAtTheDefaultLayerCount) {
 // 2026-12-03). Here the rays that reach the base from 0.85 to 1.3 disc radii away must look
 // the same whether the disc ends among them or far short of them (annuli alone).
 TEST_F(LayeredGLTest, TheBillboardDiscsRimLeavesNoLine) {
-    Scene scene = layerScene(kBase - 100, 0, 0.9, 0.8);
+    const double below = 100;  // m, the eye under the base
+    Scene scene = layerScene(kBase - below, 0, 0.9, 0.8);
     scene.camera.fovYDeg = 30;
     scene.camera.width = 480, scene.camera.height = 270;  // the line is a row or two high: at 240 px it blurs away
     scene.layers[0].extent = 40000;
@@ -434,7 +435,7 @@ TEST_F(LayeredGLTest, TheBillboardDiscsRimLeavesNoLine) {
             for (int x = 0; x < r.rgba.width; ++x) {
                 const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
                 if (d.z <= 0) continue;
-                const double reach = 100 / d.z * std::hypot(d.x, d.y);  // where the ray meets the base
+                const double reach = below / d.z * std::hypot(d.x, d.y);  // where the ray meets the base
                 if (reach < 0.85 * rim || reach > 1.3 * rim) continue;
                 sum += 0.2126 * r.rgba.at(x, y, 0) + 0.7152 * r.rgba.at(x, y, 1) + 0.0722 * r.rgba.at(x, y, 2), ++n;
             }

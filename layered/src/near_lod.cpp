@@ -112,8 +112,9 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
             // inside the layer; with more, centred in its band, Rz half the thickness (neighbours
             // in the stack overlap as in the row).
             const double radius = s.overlap * w;
+            const bool fitted = stack == 1 && m0 > 0;
             double rz = 0.5 * layer.thickness, cz = 0;
-            if (stack == 1 && m0 > 0) {
+            if (fitted) {
                 const double mu = m1 / m0, deviation = std::sqrt(std::max(m2 / m0 - mu * mu, 0.0));
                 rz = std::clamp(s.verticalSpread * deviation, 0.5 * dz, 0.5 * layer.thickness);
                 cz = std::clamp(mu, rz, layer.thickness - rz);
@@ -127,7 +128,7 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
                 const std::uint64_t h = cellHash(layer.seed, i, j, 16 + std::uint64_t(b * n + a));
                 const Vec2 shake = s.columnJitter * w * (2.0 * Vec2(unit(h), unit(mix(h))) - 1.0);
                 e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w + shake.x, double(j) * s.cellSize + (b + 0.5) * w + shake.y,
-                                layer.base + (stack == 1 && m0 > 0 ? cz : (k + 0.5) / stack * layer.thickness));
+                                layer.base + (fitted ? cz : (k + 0.5) / stack * layer.thickness));
                 e.radii = Vec3(radius, radius, rz);
                 e.density = mean[std::size_t(k)] * w * w * layer.thickness / (stack * kKernelVolume * radius * radius * rz);
                 cell.cloud.ellipsoids.push_back(e);
