@@ -210,6 +210,9 @@ struct ReferenceInfo {
     double relNoise = 0, seconds = 0;
     int traced = 0;  // path traces computed in this run (0: all from the cache)
     int spp = 0;     // the sun part's samples per pixel it took
+    int highSpp = 0;           // of the scattering orders past kReferenceBounces
+    double highShare = 0;      // their share of the light
+    double scratchSeconds = 0, highScratchSeconds = 0;  // made afresh here, estimated (Reference)
 };
 
 // One method's error on one case split by light (noise 0).
@@ -366,9 +369,9 @@ std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const Opa
 }
 
 // "64–1024": the range of the references' samples per pixel.
-std::string sppRange(const std::vector<ReferenceInfo>& info) {
+std::string sppRange(const std::vector<ReferenceInfo>& info, int ReferenceInfo::*spp = &ReferenceInfo::spp) {
     int lo = 0, hi = 0;
-    for (const ReferenceInfo& i : info) lo = lo ? std::min(lo, i.spp) : i.spp, hi = std::max(hi, i.spp);
+    for (const ReferenceInfo& i : info) lo = lo ? std::min(lo, i.*spp) : i.*spp, hi = std::max(hi, i.*spp);
     return lo == hi ? std::to_string(hi) : std::to_string(lo) + "–" + std::to_string(hi);
 }
 
@@ -452,7 +455,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 const Reference reference = makeReference(scene, view, noise, refSettings);
                 const Image& referenceBlocks = reference.total;
                 if (noiseMode == "0") views.push_back({reference.full, {}, {}});
-                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced, reference.spp});
+                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced, reference.spp,
+                                   reference.highSpp, reference.highShare, reference.scratchSeconds,
+                                   reference.highScratchSeconds});
                 if (noiseMode == "0")
                     for (ComponentRow& row : measureComponents(scene, view, reference, noise, ns, opaque, o.block)) {
                         row.caseName = c0.name;
@@ -561,6 +566,12 @@ int runAccuracyBench(const AccuracyOptions& o) {
             << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", referenceNoiseOf(r)) << "," << (r.pareto ? 1 : 0) << "\n";
 
     double refNoise[2] = {0, 0}, refWorst[2] = {0, 0}, refSeconds = 0;
+    std::pair<double, double> highShareRange{1, 0};
+    double scratch = 0, highScratch = 0;
+    for (const ReferenceInfo& r : refInfo) {
+        highShareRange = {std::min(highShareRange.first, r.highShare), std::max(highShareRange.second, r.highShare)};
+        scratch += r.scratchSeconds, highScratch += r.highScratchSeconds;
+    }
     int refCount[2] = {0, 0}, traced = 0;
     for (const ReferenceInfo& r : refInfo) {
         const int k = r.noise == "0" ? 0 : 1;
@@ -579,7 +590,11 @@ int runAccuracyBench(const AccuracyOptions& o) {
           "traced apart and summed (the sky with a quarter of the sun's samples), in pieces of "
        << refSettings.pieceSpp << " spp of independent seeds added until the noise of their mean, measured by their "
           "spread, is at most " << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has "
-       << refSettings.spp << " spp (" << sppRange(refInfo) << " spp per case here): its own noise is "
+       << refSettings.spp << " spp (" << sppRange(refInfo) << " spp per case here); the scattering orders past "
+       << kReferenceBounces << " (up to " << PathTraceSettings{}.maxBounces << ") traced apart in pieces of their own, "
+       << "to a quarter of that noise or a quarter of the samples (" << sppRange(refInfo, &ReferenceInfo::highSpp)
+       << " spp here; they carry " << fmt("%.1f%%", 100 * highShareRange.first) << "–" << fmt("%.1f%%", 100 * highShareRange.second)
+       << " of the light): its own noise is "
        << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
        << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0"
        << (refCount[1] ? " and " + fmt("%.1f%%", 100 * refNoise[1] / refCount[1]) + " (at most " +
@@ -588,6 +603,10 @@ int runAccuracyBench(const AccuracyOptions& o) {
        << (traced > 0 ? "Making the references took " + fmt("%.0f", refSeconds / 60) + " min in this run (" +
                             std::to_string(traced) + " path traces; they are cached for later runs). "
                       : std::string("The references came from the cache. "))
+       << "Made from scratch on this machine, all " << refInfo.size() << " would take about "
+       << fmt("%.1f", scratch / 3600) << " h (" << fmt("%.0f", highScratch / 60)
+       << " min of it the orders past " << kReferenceBounces
+       << "; estimated per kind of trace by a pilot of 1/64 of its pixels, times its pieces). "
        << "Time = median ms per frame over " << o.frames
        << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the "
        << casesPerNoise["0"] << " cases (";

@@ -30,10 +30,19 @@ struct Reference {
     Image total, sun, sky, single;  // RGBA block means; a = cloud opacity (the sun part's)
     Image full;                     // RGBA at the frame's resolution: sun + sky, for looking at
     double noise = 0;               // relative RMSE of `total` from its own Monte Carlo noise
-    int spp = 0;                    // samples per pixel of the sun part it took
+    int spp = 0;                    // samples per pixel of the sun part it took (orders 0..kReferenceBounces)
+    int highSpp = 0;                // of the orders past kReferenceBounces
+    double highShare = 0;           // their share of the mean radiance over the cloud
     double seconds = 0;             // wall time of the path traces (near 0 when all were cached)
+    double scratchSeconds = 0;      // estimated wall time of all its traces made afresh here (pilots)
+    double highScratchSeconds = 0;  // of them, the orders past kReferenceBounces
     int traced = 0;                 // path-traced images computed (not from the cache)
 };
+// The scattering orders the reference's main pieces hold; the orders past it, up to
+// PathTraceSettings' maxBounces, are traced apart (makeReference). 32 was the path tracer's
+// whole default until 2026-12-03, so the pieces cached before are the main pieces now.
+inline constexpr int kReferenceBounces = 32;
+
 struct ReferenceSettings {
     // The sun part in pieces of `pieceSpp` samples per pixel of independent seeds, added until
     // the noise of their mean (measured by their spread) is at most `targetNoise`, or `spp`.

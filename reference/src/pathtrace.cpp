@@ -305,8 +305,11 @@ public:
     }
 
     // One path's radiance estimate for the camera ray (eye, d) already prepared in ws.primary.
-    Vec3 trace(const Vec3& eye, const Vec3& d0, const std::optional<SurfaceHit>& primaryHit, int maxBounces,
-               Pcg32& rng, Workspace& ws) const {
+    // The contributions of the scattering orders firstBounce..maxBounces (a contribution's order:
+    // the new directions its path took before it, the sun's next-event estimate at vertex v and
+    // the sky or a surface reached after v of them both count as order v).
+    Vec3 trace(const Vec3& eye, const Vec3& d0, const std::optional<SurfaceHit>& primaryHit, int firstBounce,
+               int maxBounces, Pcg32& rng, Workspace& ws) const {
         const Medium& m = scene_.medium;
         Vec3 radiance(0.0), beta(1.0), o = eye, d = d0;
         const RayData* ray = &ws.primary;
@@ -314,13 +317,14 @@ public:
         for (int vertex = 0;; ++vertex) {
             const double t = deltaTrack(o, d, *ray, rng);
             if (t == detail::kNoCollision) {  // the path leaves the medium: an object, or the sky
+                if (vertex < firstBounce) return radiance;
                 radiance += beta * (hit ? surfaceRadiance(o + hit->distance * d, *hit, ws.shadow, rng)
                                         : skyRadiance(scene_.sky, d));
                 return radiance;
             }
             const Vec3 x = o + t * d;
             beta *= m.albedo;  // sigma_s / sigma_t
-            if (sunE_ != Vec3(0.0))  // next-event estimation: sun irradiance * phase * transmittance
+            if (sunE_ != Vec3(0.0) && vertex >= firstBounce)  // next-event estimation: sun irradiance * phase * transmittance
                 radiance += beta * sunE_ * (hgPhase(glm::dot(d, scene_.sun.direction), m.hgG) *
                                             sunTransmittance(x, 0, ws.shadow, rng));
             if (vertex >= maxBounces || beta == Vec3(0.0)) return radiance;
@@ -418,11 +422,13 @@ namespace {
 void checkSettings(const PathTraceSettings& s) {
     if (s.spp < 1) throw std::invalid_argument("renderPathTraced: spp must be >= 1");
     if (s.maxBounces < 0) throw std::invalid_argument("renderPathTraced: maxBounces must be >= 0");
+    if (s.firstBounce < 0 || s.firstBounce > s.maxBounces)
+        throw std::invalid_argument("renderPathTraced: firstBounce must be in 0..maxBounces");
 }
 
 // The pixels of rows [y0, y1) step `stride` (and columns step `stride`) at `spp` samples into
 // `image` (RGBA); the same estimate per pixel as the full render.
-void tracePixels(const World& world, const View& view, int spp, int maxBounces, unsigned seed, int y, int stride,
+void tracePixels(const World& world, const View& view, int spp, int firstBounce, int maxBounces, unsigned seed, int y, int stride,
                  Image& image, Workspace& ws) {
     const Scene& scene = world.scene();
     const int width = view.camera.width;
@@ -439,7 +445,7 @@ void tracePixels(const World& world, const View& view, int spp, int maxBounces, 
         double transmittance = 0;
         for (int k = 0; k < spp; ++k) {
             Pcg32 rng = detail::sampleRng(seed, pixel, std::uint64_t(k));
-            sum += world.trace(view.eye, d, hit, maxBounces, rng, ws);
+            sum += world.trace(view.eye, d, hit, firstBounce, maxBounces, rng, ws);
             if (world.estimatesTransmittance()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
         }
         transmittance = world.estimatesTransmittance() ? transmittance / spp : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
@@ -477,14 +483,14 @@ double pilotSeconds(const World& world, const View& view, const PathTraceSetting
     Image scratch(width, height, 4);
     {
         Workspace ws;  // warm-up, untimed
-        tracePixels(world, view, spp, s.maxBounces, s.seed, height / 2, stride, scratch, ws);
+        tracePixels(world, view, spp, s.firstBounce, s.maxBounces, s.seed, height / 2, stride, scratch, ws);
     }
     const int rows = (height + stride - 1) / stride;
     std::vector<double> rowSeconds(std::size_t(rows), 0.0);
     parallelFor(rows, [&](int r) {
         const double start = threadCpuSeconds();
         Workspace ws;
-        tracePixels(world, view, spp, s.maxBounces, s.seed, r * stride, stride, scratch, ws);
+        tracePixels(world, view, spp, s.firstBounce, s.maxBounces, s.seed, r * stride, stride, scratch, ws);
         rowSeconds[std::size_t(r)] = threadCpuSeconds() - start;
     });
     double seconds = 0;
@@ -529,7 +535,7 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
     Progress progress(s.progress, height);
     parallelFor(height, [&](int y) {
         Workspace ws;
-        tracePixels(world, view, s.spp, s.maxBounces, s.seed, y, 1, image, ws);
+        tracePixels(world, view, s.spp, s.firstBounce, s.maxBounces, s.seed, y, 1, image, ws);
         progress.rowDone();
     });
     ++detail::imagesComputed;
@@ -595,6 +601,7 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     }
     k.tag("settings");
     k.num(std::int64_t(s.spp)), k.num(std::int64_t(s.maxBounces)), k.num(std::int64_t(s.seed));
+    if (s.firstBounce > 0) k.num(std::int64_t(s.firstBounce));  // (absent when 0: the keys of before stay valid)
     return k.bytes();
 }
 
