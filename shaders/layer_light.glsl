@@ -45,16 +45,21 @@ MODEL_FN float layerTableCoord(float tau) { return tau / (tau + kLayerTableTau);
 
 // S(x, d) of the layer from the light tables read at (layerTableCoord(above),
 // layerTableCoord(below)): sunTable = (phi0, phi1 along the sun's horizontal direction, phi1 z
-// of the sun's diffuse light per unit irradiance; c20 of the sky's luminance), skyTable = (the
+// of the sun's light scattered 1 to kFewScatterings times, per unit irradiance; c20 of the
+// sky's luminance), sunManyTable = the same (phi0, phi1 x, phi1 z, 0) of the rest, skyTable = (the
 // sky's and the ground's fluence rgb, phi1 z of its luminance); sunHorizontal = the sun's
 // horizontal unit direction; tauSun = the column's depth on the sun's side over |s_z|.
-MODEL_FN vec3 layerSource(vec4 sunTable, vec4 skyTable, float tauSun, vec3 d, vec3 sunDirection, vec3 sunHorizontal,
+MODEL_FN vec3 layerSource(vec4 sunTable, vec4 sunManyTable, vec4 skyTable, float tauSun, vec3 d, vec3 sunDirection, vec3 sunHorizontal,
                           float g, vec3 sunIrradiance, float albedo) {
-    vec4 sunDiffuse = vec4(sunHorizontal.x * sunTable.y, sunHorizontal.y * sunTable.y, sunTable.z, sunTable.x);
+    vec4 sunFew = vec4(sunHorizontal.x * sunTable.y, sunHorizontal.y * sunTable.y, sunTable.z, sunTable.x);
+    vec4 sunMany = vec4(sunHorizontal.x * sunManyTable.y, sunHorizontal.y * sunManyTable.y, sunManyTable.z, sunManyTable.x);
     vec4 skyTau = vec4(skyTable.x, skyTable.y, skyTable.z, tauSun);
     vec4 skyFlux = vec4(0.0f, 0.0f, skyTable.w, sunTable.w);
-    // The tables hold one Henyey-Greenstein lobe of all the sun's diffuse light, read as J_few;
-    // J_many is empty (the layer's light as before the clouds' light was split in two).
-    vec3 scalars = lightScalars(sunDiffuse, vec4(0.0f), skyTau, skyFlux, d, sunDirection, g);
+    // The sun's diffuse light in the two parts of the clouds' (cloud_light.glsl): a forward lobe
+    // of the few-times scattered, the diffusion regime's l <= 1 harmonics of the rest. (Until
+    // 2026-12-03 one lobe held it all: 100 m under a deck, looking up 20 degrees, 0.71 of the
+    // path tracer's sun light, 0.60 at 7 degrees up; all of it as harmonics, 1.04 there but
+    // 1.12-1.26 in the other views.)
+    vec3 scalars = lightScalars(sunFew, sunMany, skyTau, skyFlux, d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(vec3(skyTable.x, skyTable.y, skyTable.z)), albedo);
 }

@@ -11,7 +11,7 @@ out vec4 color;
 uniform int mode;                  // 0 = annuli, 1 = billboards
 uniform sampler3D lightVolume;     // rgb = encoded knots of the optical depth above, a = density A
 uniform sampler2D columns;         // rgb = encoded knots of the whole column's optical depth
-uniform sampler2D sunTable, skyTable;  // the frame's light tables (layerSource())
+uniform sampler2D sunTable, sunManyTable, skyTable;  // the frame's light tables (layerSource())
 uniform sampler2D modulation;      // r = threshold, g = city map, b = threshold^2 (its mean over a mip texel)
 uniform vec2 uvLightEye;           // fract((eye.xy - t wind) / tilePeriod)
 uniform vec2 uvModEye;             // fract((eye.xy - t wind) / modulationPeriod)
@@ -110,7 +110,8 @@ void main() {
     vec3 depths = layerColumnDepths(t3.rgb, textureGrad(columns, uvw.xy, uvwdx.xy, uvwdy.xy).rgb, theta, density);
     vec2 uvTable = vec2(layerTableCoord(depths.x), layerTableCoord(depths.y));
     float tauSun = mix(depths.y, depths.x, sunFromAbove) / sunMu;
-    vec3 radiance = layerSource(textureLod(sunTable, uvTable, 0.0), textureLod(skyTable, uvTable, 0.0), tauSun, d,
+    vec3 radiance = layerSource(textureLod(sunTable, uvTable, 0.0), textureLod(sunManyTable, uvTable, 0.0),
+                                textureLod(skyTable, uvTable, 0.0), tauSun, d,
                                 sunDirection, sunHorizontal, hgG, sunIrradiance, albedo);
     radiance += albedo * skyIrradiance * singleScatter(d, skyDirection, hgG, mix(depths.y, depths.x, skyFromAbove) / skyMu);
     // City glow, eq. (20).

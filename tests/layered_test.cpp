@@ -116,17 +116,23 @@ TEST(LayeredTest, SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun) {
     s.photons = 1 << 11;
     LightingParameters p;
     p.albedo = 0;  // nothing is scattered: no diffuse light at all
-    for (const glm::vec4& x : precomputeLighting(s, p).tables.sun) EXPECT_EQ(x, glm::vec4(0.0f));
+    const LightingVolume dark = precomputeLighting(s, p);
+    for (const auto* table : {&dark.tables.sun, &dark.tables.sunMany})
+        for (const glm::vec4& x : *table) EXPECT_EQ(x, glm::vec4(0.0f));
     p.albedo = 0.99;
     const LightingVolume v = precomputeLighting(s, p);
     const LayerLightTables& t = v.tables;
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
-    // Per elevation, extinction-weighted over the nodes: the scattered sunlight flows down and
-    // away from the sun (the sun lies along +x), and a higher sun lights the layer more.
+    // Per elevation, extinction-weighted over the nodes, the two parts together: the scattered
+    // sunlight flows down and away from the sun (the sun lies along +x), and a higher sun lights
+    // the layer more. (Overhead the horizontal flux is 0 but for the photons' noise: the two
+    // parts' sum is negative, the few-times scattered part's alone was not.)
     double previous = 0;
     for (std::size_t k = 0; k < t.sunMu.size(); ++k) {
-        glm::dvec3 sum(0.0);
-        for (std::size_t n = 0; n < nodes; ++n) sum += glm::dvec3(t.sun[k * nodes + n]);
+        glm::dvec3 sum(0.0), many(0.0);
+        for (std::size_t n = 0; n < nodes; ++n) sum += glm::dvec3(t.sun[k * nodes + n] + t.sunMany[k * nodes + n]);
+        for (std::size_t n = 0; n < nodes; ++n) many += glm::dvec3(t.sunMany[k * nodes + n]);
+        EXPECT_GT(many.x, 0) << "mu " << t.sunMu[k];  // light scattered more than kFewScatterings times
         EXPECT_GT(sum.x, 0) << "mu " << t.sunMu[k];
         EXPECT_LT(sum.y, 0) << "mu " << t.sunMu[k];
         EXPECT_LT(sum.z, 0) << "mu " << t.sunMu[k];

@@ -3,6 +3,7 @@
 #include "layer_light.hpp"
 
 #include "layer_light_model.hpp"
+#include "nephele/cloud_radiance.hpp"
 #include "../../ellipsoid/src/photon_sampling.hpp"
 
 #include "parallel.hpp"
@@ -71,7 +72,7 @@ struct Source {
 // collision (but the sun's first, its direct light, which single scattering carries) scores its
 // weight and direction of travel; then albedo and a Henyey-Greenstein turn. Russian roulette
 // below weight 0.05.
-template <class Score>
+template <class Score>  // score(x, w, weight, scatterings so far)
 void tracePhoton(const ThresholdMedium& m, const Source& source, double albedo, double g, Rng& rng, Score&& score) {
     Vec3 x, w;
     source.emit(m, rng, x, w);
@@ -82,7 +83,7 @@ void tracePhoton(const ThresholdMedium& m, const Source& source, double albedo, 
             if (x.z < 0 || x.z > m.height) return;
             if (rng.uniform() * m.majorant < m.sigma(x)) break;
         }
-        if (event > 0 || source.kind != Source::Sun) score(x, w, weight);
+        if (event > 0 || source.kind != Source::Sun) score(x, w, weight, event);
         weight *= albedo;
         if (weight < 0.05) {
             if (rng.uniform() < 0.5) return;
@@ -92,25 +93,35 @@ void tracePhoton(const ThresholdMedium& m, const Source& source, double albedo, 
     }
 }
 
-// The scores of one source over all thresholds: sum of weight x (1, w.x, w.z, Y20(w)) per node.
-std::vector<glm::dvec4> traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v,
-                                    std::uint64_t seed) {
+// The scores of one source over all thresholds: sum of weight x (1, w.x, w.z, Y20(w)) per node,
+// of the light scattered 1 to kFewScatterings times (first) and more often (second): at its
+// collision `event` a sun photon's light has scattered `event` times. (The sky's tables take
+// the two together.)
+std::pair<std::vector<glm::dvec4>, std::vector<glm::dvec4>> traceSource(const std::vector<ThresholdMedium>& media,
+                                                                         const Source& source, const LightingVolume& v,
+                                                                         std::uint64_t seed) {
     const int bins = v.settings.tableBins, batches = std::max(1, v.settings.photons / kBatch);
-    std::vector<std::vector<glm::dvec4>> perBatch(std::size_t(batches) * media.size());
-    parallelFor(int(perBatch.size()), [&](int b) {
+    std::vector<std::vector<glm::dvec4>> perBatch(std::size_t(batches) * media.size() * 2);
+    parallelFor(int(perBatch.size() / 2), [&](int b) {
         const ThresholdMedium& m = media[std::size_t(b) / batches];
-        std::vector<glm::dvec4>& grid = perBatch[std::size_t(b)];
-        grid.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
+        std::vector<glm::dvec4>& few = perBatch[2 * std::size_t(b)];
+        std::vector<glm::dvec4>& many = perBatch[2 * std::size_t(b) + 1];
+        few.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
+        many.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
         Rng rng = Rng::fromState(seed * 1000003ull + std::uint64_t(b));
         for (int k = 0; k < kBatch; ++k)
-            tracePhoton(m, source, v.parameters.albedo, v.parameters.csG, rng, [&](const Vec3& x, const Vec3& w, double weight) {
-                const double y20 = 0.3153916 * (3 * w.z * w.z - 1);
-                deposit(grid, bins, m.coords(x), weight * glm::dvec4(1, w.x, w.z, y20));
-            });
+            tracePhoton(m, source, v.parameters.albedo, v.parameters.csG, rng,
+                        [&](const Vec3& x, const Vec3& w, double weight, int scatterings) {
+                            const double y20 = 0.3153916 * (3 * w.z * w.z - 1);
+                            deposit(scatterings <= kFewScatterings ? few : many, bins, m.coords(x),
+                                    weight * glm::dvec4(1, w.x, w.z, y20));
+                        });
     });
-    std::vector<glm::dvec4> sum(std::size_t(bins) * bins, glm::dvec4(0.0));
-    for (const auto& grid : perBatch)  // in order: the same sum whatever the thread count
-        for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += grid[i];
+    std::pair<std::vector<glm::dvec4>, std::vector<glm::dvec4>> sum;
+    sum.first.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
+    sum.second = sum.first;
+    for (std::size_t b = 0; b < perBatch.size(); ++b)  // in order: the same sum whatever the thread count
+        for (std::size_t i = 0; i < sum.first.size(); ++i) (b % 2 ? sum.second : sum.first)[i] += perBatch[b][i];
     return sum;
 }
 
@@ -178,6 +189,7 @@ LayerLightTables traceLayerLight(const LightingVolume& v) {
     t.sunMu.assign(std::begin(kLayerSunMu), std::end(kLayerSunMu));
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     t.sun.assign(nodes * t.sunMu.size(), glm::vec4(0.0f));
+    t.sunMany = t.sun;
     t.sky.assign(nodes * 3, glm::vec4(0.0f));
     if (media.empty() || s.photons == 0) return t;  // no matter, or single scattering alone
     const std::vector<double> extinction = extinctionPerNode(media, v);
@@ -187,22 +199,27 @@ LayerLightTables traceLayerLight(const LightingVolume& v) {
     for (std::size_t n = 0; n < nodes; ++n) reached[n] = extinction[n] > 1e-4 * largest;
     // Power per photon: the source's flux through the tile's top (or bottom) over the photons.
     const double photonsPerMedium = double(std::max(1, s.photons / kBatch) * kBatch);
-    auto table = [&](const Source& src, std::uint64_t seed, glm::vec4* out, bool sky) {
-        const std::vector<glm::dvec4> scores = traceSource(media, src, v, seed);
+    // A source's tables: the sun's in its two parts (few, many), the sky's whole (few + many).
+    auto table = [&](const Source& src, std::uint64_t seed, glm::vec4* few, glm::vec4* many) {
+        const auto [scoresFew, scoresMany] = traceSource(media, src, v, seed);
         const double power = src.flux() * s.tilePeriod * s.tilePeriod / photonsPerMedium;
-        std::vector<glm::vec4> values(nodes, glm::vec4(0.0f));
-        for (std::size_t n = 0; n < nodes; ++n) {
-            if (!reached[n]) continue;
-            const glm::dvec4 m = scores[n] * (power / extinction[n]);  // (phi0, phi1 x, phi1 z, c20)
-            values[n] = sky ? glm::vec4(m.x, m.z, m.w, 0) : glm::vec4(m.x, m.y, m.z, 0);
-        }
-        fillUnreached(values, reached, t.bins);
-        std::copy(values.begin(), values.end(), out);
+        auto write = [&](const std::vector<glm::dvec4>& scores, const std::vector<glm::dvec4>* more, glm::vec4* out) {
+            std::vector<glm::vec4> values(nodes, glm::vec4(0.0f));
+            for (std::size_t n = 0; n < nodes; ++n) {
+                if (!reached[n]) continue;
+                const glm::dvec4 m = (scores[n] + (more ? (*more)[n] : glm::dvec4(0.0))) * (power / extinction[n]);  // (phi0, phi1 x, phi1 z, c20)
+                values[n] = many ? glm::vec4(m.x, m.y, m.z, 0) : glm::vec4(m.x, m.z, m.w, 0);
+            }
+            fillUnreached(values, reached, t.bins);
+            std::copy(values.begin(), values.end(), out);
+        };
+        if (many) write(scoresFew, nullptr, few), write(scoresMany, nullptr, many);
+        else write(scoresFew, &scoresMany, few);
     };
     for (std::size_t k = 0; k < t.sunMu.size(); ++k)
-        table({Source::Sun, t.sunMu[k]}, 17 + k, &t.sun[k * nodes], false);
+        table({Source::Sun, t.sunMu[k]}, 17 + k, &t.sun[k * nodes], &t.sunMany[k * nodes]);
     const Source::Kind bases[3] = {Source::SkyUniform, Source::SkyZenith, Source::Ground};
-    for (int b = 0; b < 3; ++b) table({bases[b]}, 101 + std::uint64_t(b), &t.sky[std::size_t(b) * nodes], true);
+    for (int b = 0; b < 3; ++b) table({bases[b]}, 101 + std::uint64_t(b), &t.sky[std::size_t(b) * nodes], nullptr);
     return t;
 }
 
@@ -211,17 +228,17 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     f.bins = t.bins;
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     f.sun.assign(nodes, glm::vec4(0.0f));
-    f.sky.assign(nodes, glm::vec4(0.0f));
-    if (t.sun.size() < nodes * t.sunMu.size() || t.sky.size() < nodes * 3 || t.sunMu.empty()) return f;
+    f.sunMany = f.sky = f.sun;
+    if (t.sun.size() < nodes * t.sunMu.size() || t.sunMany.size() < nodes * t.sunMu.size() || t.sky.size() < nodes * 3 || t.sunMu.empty()) return f;
     auto luminance = [](const Vec3& c) { return float(0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z); };
     // The sun's table at elevation |mu|: linear between the tabulated ones, clamped at the ends.
-    auto sunAt = [&](double mu, std::size_t i, std::size_t j) {
+    auto sunAt = [&](double mu, std::size_t i, std::size_t j, const std::vector<glm::vec4>& table) {
         const auto& m = t.sunMu;
         const std::size_t k = std::size_t(std::upper_bound(m.begin(), m.end(), float(mu)) - m.begin());
         const std::size_t k0 = k == 0 ? 0 : std::min(k - 1, m.size() - 1), k1 = std::min(k, m.size() - 1);
         const float a = k0 == k1 ? 0.0f : float((mu - m[k0]) / (m[k1] - m[k0]));
         const std::size_t n = j * t.bins + i;
-        return (1 - a) * t.sun[k0 * nodes + n] + a * t.sun[k1 * nodes + n];
+        return (1 - a) * table[k0 * nodes + n] + a * table[k1 * nodes + n];
     };
     const Vec3& s = scene.sun.direction;
     const bool below = s.z < 0;
@@ -233,11 +250,13 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     for (int j = 0; j < t.bins; ++j)
         for (int i = 0; i < t.bins; ++i) {
             // (above, below) node; below the horizon the sun's side is the column's bottom.
-            glm::vec4 sun = below ? sunAt(-s.z, j, i) : sunAt(s.z, i, j);
-            if (below) sun.z = -sun.z;
+            glm::vec4 sun = below ? sunAt(-s.z, j, i, t.sun) : sunAt(s.z, i, j, t.sun);
+            glm::vec4 many = below ? sunAt(-s.z, j, i, t.sunMany) : sunAt(s.z, i, j, t.sunMany);
+            if (below) sun.z = -sun.z, many.z = -many.z;
             if (skylightShare > 0) {
                 const Vec3 l = glm::normalize(scene.skylight->direction);
-                sun.x += skylightShare * (l.z < 0 ? sunAt(-l.z, j, i) : sunAt(l.z, i, j)).x;
+                sun.x += skylightShare * (l.z < 0 ? sunAt(-l.z, j, i, t.sun) : sunAt(l.z, i, j, t.sun)).x;
+                many.x += skylightShare * (l.z < 0 ? sunAt(-l.z, j, i, t.sunMany) : sunAt(l.z, i, j, t.sunMany)).x;
             }
             glm::vec4 sky(0.0f);
             for (int b = 0; b < 3; ++b) {
@@ -246,6 +265,7 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
                 sun.w += luminance(colours[b]) * basis.z;
             }
             f.sun[std::size_t(j) * t.bins + i] = sun;
+            f.sunMany[std::size_t(j) * t.bins + i] = many;
             f.sky[std::size_t(j) * t.bins + i] = sky;
         }
     return f;

@@ -26,15 +26,16 @@ inline constexpr float kLayerSunMu[] = {0.05f, 0.25f, 0.5f, 0.75f, 1.0f};
 // thresholds 0.25, 0.5 and 0.75 with D = 1 and the medium's albedo and phase. Deterministic.
 LayerLightTables traceLayerLight(const LightingVolume& volume);
 
-// The two tables of one frame (bins x bins, node (i, j) at i + j bins), as the shader reads
+// The three tables of one frame (bins x bins, node (i, j) at i + j bins), as the shader reads
 // them (layerSource() in shaders/layer_light.glsl): sun = (phi0, phi1 along the sun's horizontal
-// direction, phi1 z, the sky's c20), sky = (the sky's fluence rgb, phi1 z of its luminance), both
+// direction, phi1 z, the sky's c20) of the sunlight scattered 1 to kFewScatterings times,
+// sunMany = (phi0, phi1 along the sun's horizontal direction, phi1 z, 0) of the rest, sky = (the sky's fluence rgb, phi1 z of its luminance), both
 // indexed by (above, below). The sun's tables interpolated to its elevation, mirrored when it is
 // below the horizon; a skylight's diffuse light added to the sun's fluence in the ratio of their
 // luminances (its flux left out: a broad lobe); the sky's from the bases and the scene's colours.
 struct LayerFrameTables {
     int bins = 0;
-    std::vector<glm::vec4> sun, sky;
+    std::vector<glm::vec4> sun, sunMany, sky;
 };
 LayerFrameTables layerFrameTables(const LayerLightTables& tables, const Scene& scene);
 

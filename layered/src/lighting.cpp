@@ -29,7 +29,7 @@ constexpr char kMagic[8] = {'N', 'P', 'H', 'L', 'A', 'Y', 'R', '\0'};
 // Bump when the file layout OR the precomputation changes: the cache key and the header carry it,
 // so a volume computed by an older algorithm is never reused. 3: a checksum ends the file (#14).
 // 4: the paper's light vectors replaced by the column knots and the photon-traced light tables.
-constexpr std::uint32_t kVersion = 4;
+constexpr std::uint32_t kVersion = 5;  // 5: the sun's tables in two parts (sun, sunMany)
 
 std::string num(double v) {
     char b[64];
@@ -244,7 +244,7 @@ std::string serialise(const LightingVolume& v) {
     out.put(p.extinction), out.put(p.albedo), out.put(p.csG), out.put(p.thickness);
     out.put(std::uint32_t(v.tables.sunMu.size()));
     out.putArray(v.tables.sunMu), out.putArray(v.texels), out.putArray(v.columns);
-    out.putArray(v.tables.sun), out.putArray(v.tables.sky);
+    out.putArray(v.tables.sun), out.putArray(v.tables.sunMany), out.putArray(v.tables.sky);
     return std::move(out.text());
 }
 
@@ -306,10 +306,11 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
     t.bins = s.tableBins;
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     if (!(in.getArray(t.sunMu, mus) && in.getArray(v.texels, std::size_t(w) * h * d * 4) &&
-          in.getArray(v.columns, std::size_t(w) * h * 4) && in.getArray(t.sun, nodes * mus) && in.getArray(t.sky, nodes * 3)))
+          in.getArray(v.columns, std::size_t(w) * h * 4) && in.getArray(t.sun, nodes * mus) && in.getArray(t.sunMany, nodes * mus) &&
+          in.getArray(t.sky, nodes * 3)))
         fail("truncated data");
     if (!in.atEnd()) fail("trailing bytes after the data");
-    for (const std::vector<glm::vec4>* table : {&t.sun, &t.sky})
+    for (const std::vector<glm::vec4>* table : {&t.sun, &t.sunMany, &t.sky})
         for (const glm::vec4& x : *table)
             if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z) || !std::isfinite(x.w))
                 fail("non-finite light tables");

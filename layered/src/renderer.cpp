@@ -36,7 +36,7 @@ using TexturePool = std::vector<std::weak_ptr<const SharedTexture<T>>>;
 struct LayerSlot {
     std::shared_ptr<const SharedTexture<LightingVolume>> light;
     std::shared_ptr<const SharedTexture<ModulationTexture>> modulation;
-    Texture sunTable, skyTable;  // the frame's light tables (layer_light.hpp), refreshed every frame
+    Texture sunTable, sunManyTable, skyTable;  // the frame's light tables (layer_light.hpp), refreshed every frame
     bool ready() const { return light && modulation; }
 };
 
@@ -184,6 +184,7 @@ void setFrameUniforms(const ProgramPair& p, const Scene& scene, const View& view
     p.set("columns", 2);
     p.set("sunTable", 3);
     p.set("skyTable", 4);
+    p.set("sunManyTable", 5);
     p.set("gradScale", float(1.0 / s.downsample));
     int flashes = 0;
     for (const Lightning& l : scene.lightning)
@@ -241,6 +242,7 @@ void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const
         glBindTextureUnit(2, r.light->columns.id());
         glBindTextureUnit(3, r.sunTable.id());
         glBindTextureUnit(4, r.skyTable.id());
+        glBindTextureUnit(5, r.sunManyTable.id());
         glUseProgram(layer.cityGlow ? p.b.id() : p.a.id());
         // Annuli first: outside the billboard disc they lie beyond it along every ray; inside
         // it the two share the volume's optical depth and their order changes colour only.
@@ -402,9 +404,11 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
         if (!r.sunTable) {
             r.sunTable = makeTexture2D(GL_RGBA32F, tables.bins, tables.bins, 1, false);
             r.skyTable = makeTexture2D(GL_RGBA32F, tables.bins, tables.bins, 1, false);
+            r.sunManyTable = makeTexture2D(GL_RGBA32F, tables.bins, tables.bins, 1, false);
         }
         glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sun.data());
         glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sky.data());
+        glTextureSubImage2D(r.sunManyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sunMany.data());
     }
 }
 
@@ -459,7 +463,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    for (GLuint unit = 0; unit <= 4; ++unit) glBindSampler(unit, 0);
+    for (GLuint unit = 0; unit <= 5; ++unit) glBindSampler(unit, 0);
     drawLayers(p, m.layers, m.annulus, m.quad, scene, view, s, t, stats);
     if (s.downsample > 1) {
         const int fused = fuseShadows ? int(shadowing.size()) : 0;

@@ -85,9 +85,11 @@ struct LightingSettings {
 struct LayerLightTables {
     int bins = 0;                  // nodes per axis; node (i, j) at above u = (i + 0.5) / bins, below (j + 0.5) / bins
     std::vector<float> sunMu;      // the sun's elevations (sines) the sun tables are for, ascending
-    // Per sun elevation, bins x bins (i fastest): the sunlight scattered at least once, per unit
-    // irradiance: (phi0 fluence, phi1 net flux along the sun's horizontal direction, phi1 z, 0).
-    std::vector<glm::vec4> sun;
+    // Per sun elevation, bins x bins (i fastest): the sunlight scattered 1 to kFewScatterings
+    // times, per unit irradiance: (phi0 fluence, phi1 net flux along the sun's horizontal
+    // direction, phi1 z, 0); sunMany the same of the sunlight scattered more often (the two
+    // parts of cloud_light.glsl: a forward lobe and the diffusion regime).
+    std::vector<glm::vec4> sun, sunMany;
     // Per sky basis (0: radiance 1 from every direction above the horizon, 1: radiance d.z
     // there, 2: radiance 1 from below; the format's sky is horizon, zenith - horizon and ground
     // times these), bins x bins: (phi0, phi1 z, c20, 0) of its light, scattered or not.
