@@ -49,10 +49,15 @@ MODEL_FN float layerTableCoord(float tau) { return tau / (tau + kLayerTableTau);
 // sky's luminance), sunManyTable = the same (phi0, phi1 x, phi1 z, 0) of the rest, skyTable = (the
 // sky's and the ground's fluence rgb, phi1 z of its luminance); sunHorizontal = the sun's
 // horizontal unit direction; tauSun = the column's depth on the sun's side over |s_z|.
+// A sun table's node as a lobe for lightScalars(): (phi1 xyz, phi0), its horizontal flux along
+// the sun's horizontal direction.
+MODEL_FN vec4 sunTableLobe(vec4 table, vec3 sunHorizontal) {
+    return vec4(sunHorizontal.x * table.y, sunHorizontal.y * table.y, table.z, table.x);
+}
+
 MODEL_FN vec3 layerSource(vec4 sunTable, vec4 sunManyTable, vec4 skyTable, float tauSun, vec3 d, vec3 sunDirection, vec3 sunHorizontal,
                           float g, vec3 sunIrradiance, float albedo) {
-    vec4 sunFew = vec4(sunHorizontal.x * sunTable.y, sunHorizontal.y * sunTable.y, sunTable.z, sunTable.x);
-    vec4 sunMany = vec4(sunHorizontal.x * sunManyTable.y, sunHorizontal.y * sunManyTable.y, sunManyTable.z, sunManyTable.x);
+    vec4 sunFew = sunTableLobe(sunTable, sunHorizontal), sunMany = sunTableLobe(sunManyTable, sunHorizontal);
     vec4 skyTau = vec4(skyTable.x, skyTable.y, skyTable.z, tauSun);
     vec4 skyFlux = vec4(0.0f, 0.0f, skyTable.w, sunTable.w);
     // The sun's diffuse light in the two parts of the clouds' (cloud_light.glsl): a forward lobe

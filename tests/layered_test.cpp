@@ -130,8 +130,10 @@ TEST(LayeredTest, SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun) {
     double previous = 0;
     for (std::size_t k = 0; k < t.sunMu.size(); ++k) {
         glm::dvec3 sum(0.0), many(0.0);
-        for (std::size_t n = 0; n < nodes; ++n) sum += glm::dvec3(t.sun[k * nodes + n] + t.sunMany[k * nodes + n]);
-        for (std::size_t n = 0; n < nodes; ++n) many += glm::dvec3(t.sunMany[k * nodes + n]);
+        for (std::size_t n = 0; n < nodes; ++n) {
+            sum += glm::dvec3(t.sun[k * nodes + n] + t.sunMany[k * nodes + n]);
+            many += glm::dvec3(t.sunMany[k * nodes + n]);
+        }
         EXPECT_GT(many.x, 0) << "mu " << t.sunMu[k];  // light scattered more than kFewScatterings times
         EXPECT_GT(sum.x, 0) << "mu " << t.sunMu[k];
         EXPECT_LT(sum.y, 0) << "mu " << t.sunMu[k];

@@ -97,15 +97,16 @@ void tracePhoton(const ThresholdMedium& m, const Source& source, double albedo, 
 // of the light scattered 1 to kFewScatterings times (first) and more often (second): at its
 // collision `event` a sun photon's light has scattered `event` times. (The sky's tables take
 // the two together.)
-std::pair<std::vector<glm::dvec4>, std::vector<glm::dvec4>> traceSource(const std::vector<ThresholdMedium>& media,
-                                                                         const Source& source, const LightingVolume& v,
-                                                                         std::uint64_t seed) {
+struct Scores {
+    std::vector<glm::dvec4> few, many;
+};
+Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v, std::uint64_t seed) {
     const int bins = v.settings.tableBins, batches = std::max(1, v.settings.photons / kBatch);
-    std::vector<std::vector<glm::dvec4>> perBatch(std::size_t(batches) * media.size() * 2);
-    parallelFor(int(perBatch.size() / 2), [&](int b) {
+    std::vector<Scores> perBatch(std::size_t(batches) * media.size());
+    parallelFor(int(perBatch.size()), [&](int b) {
         const ThresholdMedium& m = media[std::size_t(b) / batches];
-        std::vector<glm::dvec4>& few = perBatch[2 * std::size_t(b)];
-        std::vector<glm::dvec4>& many = perBatch[2 * std::size_t(b) + 1];
+        std::vector<glm::dvec4>& few = perBatch[std::size_t(b)].few;
+        std::vector<glm::dvec4>& many = perBatch[std::size_t(b)].many;
         few.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
         many.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
         Rng rng = Rng::fromState(seed * 1000003ull + std::uint64_t(b));
@@ -117,11 +118,10 @@ std::pair<std::vector<glm::dvec4>, std::vector<glm::dvec4>> traceSource(const st
                                     weight * glm::dvec4(1, w.x, w.z, y20));
                         });
     });
-    std::pair<std::vector<glm::dvec4>, std::vector<glm::dvec4>> sum;
-    sum.first.assign(std::size_t(bins) * bins, glm::dvec4(0.0));
-    sum.second = sum.first;
-    for (std::size_t b = 0; b < perBatch.size(); ++b)  // in order: the same sum whatever the thread count
-        for (std::size_t i = 0; i < sum.first.size(); ++i) (b % 2 ? sum.second : sum.first)[i] += perBatch[b][i];
+    Scores sum{std::vector<glm::dvec4>(std::size_t(bins) * bins, glm::dvec4(0.0)), {}};
+    sum.many = sum.few;
+    for (const Scores& batch : perBatch)  // in order: the same sum whatever the thread count
+        for (std::size_t i = 0; i < sum.few.size(); ++i) sum.few[i] += batch.few[i], sum.many[i] += batch.many[i];
     return sum;
 }
 
@@ -199,27 +199,32 @@ LayerLightTables traceLayerLight(const LightingVolume& v) {
     for (std::size_t n = 0; n < nodes; ++n) reached[n] = extinction[n] > 1e-4 * largest;
     // Power per photon: the source's flux through the tile's top (or bottom) over the photons.
     const double photonsPerMedium = double(std::max(1, s.photons / kBatch) * kBatch);
-    // A source's tables: the sun's in its two parts (few, many), the sky's whole (few + many).
-    auto table = [&](const Source& src, std::uint64_t seed, glm::vec4* few, glm::vec4* many) {
-        const auto [scoresFew, scoresMany] = traceSource(media, src, v, seed);
+    // One table from a source's scores: (phi0, phi1 x, phi1 z, 0) for the sun, (phi0, phi1 z,
+    // c20, 0) for the sky.
+    auto write = [&](const Source& src, const std::vector<glm::dvec4>& scores, glm::vec4* out) {
         const double power = src.flux() * s.tilePeriod * s.tilePeriod / photonsPerMedium;
-        auto write = [&](const std::vector<glm::dvec4>& scores, const std::vector<glm::dvec4>* more, glm::vec4* out) {
-            std::vector<glm::vec4> values(nodes, glm::vec4(0.0f));
-            for (std::size_t n = 0; n < nodes; ++n) {
-                if (!reached[n]) continue;
-                const glm::dvec4 m = (scores[n] + (more ? (*more)[n] : glm::dvec4(0.0))) * (power / extinction[n]);  // (phi0, phi1 x, phi1 z, c20)
-                values[n] = many ? glm::vec4(m.x, m.y, m.z, 0) : glm::vec4(m.x, m.z, m.w, 0);
-            }
-            fillUnreached(values, reached, t.bins);
-            std::copy(values.begin(), values.end(), out);
-        };
-        if (many) write(scoresFew, nullptr, few), write(scoresMany, nullptr, many);
-        else write(scoresFew, &scoresMany, few);
+        std::vector<glm::vec4> values(nodes, glm::vec4(0.0f));
+        for (std::size_t n = 0; n < nodes; ++n) {
+            if (!reached[n]) continue;
+            const glm::dvec4 m = scores[n] * (power / extinction[n]);  // (phi0, phi1 x, phi1 z, c20)
+            values[n] = src.kind == Source::Sun ? glm::vec4(m.x, m.y, m.z, 0) : glm::vec4(m.x, m.z, m.w, 0);
+        }
+        fillUnreached(values, reached, t.bins);
+        std::copy(values.begin(), values.end(), out);
     };
-    for (std::size_t k = 0; k < t.sunMu.size(); ++k)
-        table({Source::Sun, t.sunMu[k]}, 17 + k, &t.sun[k * nodes], &t.sunMany[k * nodes]);
+    // The sun's tables in its two parts, the sky's whole.
+    for (std::size_t k = 0; k < t.sunMu.size(); ++k) {
+        const Source sun{Source::Sun, t.sunMu[k]};
+        const Scores scores = traceSource(media, sun, v, 17 + k);
+        write(sun, scores.few, &t.sun[k * nodes]), write(sun, scores.many, &t.sunMany[k * nodes]);
+    }
     const Source::Kind bases[3] = {Source::SkyUniform, Source::SkyZenith, Source::Ground};
-    for (int b = 0; b < 3; ++b) table({bases[b]}, 101 + std::uint64_t(b), &t.sky[std::size_t(b) * nodes], nullptr);
+    for (int b = 0; b < 3; ++b) {
+        const Source sky{bases[b]};
+        Scores scores = traceSource(media, sky, v, 101 + std::uint64_t(b));
+        for (std::size_t n = 0; n < nodes; ++n) scores.few[n] += scores.many[n];
+        write(sky, scores.few, &t.sky[std::size_t(b) * nodes]);
+    }
     return t;
 }
 
@@ -240,8 +245,15 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
         const std::size_t n = j * t.bins + i;
         return (1 - a) * table[k0 * nodes + n] + a * table[k1 * nodes + n];
     };
-    const Vec3& s = scene.sun.direction;
-    const bool below = s.z < 0;
+    // The table of a light of direction z (its z component): below the horizon its side is the
+    // column's bottom (above and below swap) and its flux points up.
+    auto fromSide = [&](double z, std::size_t i, std::size_t j, const std::vector<glm::vec4>& table) {
+        glm::vec4 v = z < 0 ? sunAt(-z, j, i, table) : sunAt(z, i, j, table);
+        if (z < 0) v.z = -v.z;
+        return v;
+    };
+    const double sz = scene.sun.direction.z;
+    const double lz = scene.skylight ? glm::normalize(scene.skylight->direction).z : 0.0;
     const float skylightShare = scene.skylight && luminance(scene.sun.color) * scene.sun.intensity > 0
                                     ? luminance(scene.skylight->color) * float(scene.skylight->intensity) /
                                           (luminance(scene.sun.color) * float(scene.sun.intensity))
@@ -249,14 +261,11 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     const Vec3 colours[3] = {scene.sky.horizon, scene.sky.zenith - scene.sky.horizon, scene.sky.ground};
     for (int j = 0; j < t.bins; ++j)
         for (int i = 0; i < t.bins; ++i) {
-            // (above, below) node; below the horizon the sun's side is the column's bottom.
-            glm::vec4 sun = below ? sunAt(-s.z, j, i, t.sun) : sunAt(s.z, i, j, t.sun);
-            glm::vec4 many = below ? sunAt(-s.z, j, i, t.sunMany) : sunAt(s.z, i, j, t.sunMany);
-            if (below) sun.z = -sun.z, many.z = -many.z;
+            // (above, below) node.
+            glm::vec4 sun = fromSide(sz, i, j, t.sun), many = fromSide(sz, i, j, t.sunMany);
             if (skylightShare > 0) {
-                const Vec3 l = glm::normalize(scene.skylight->direction);
-                sun.x += skylightShare * (l.z < 0 ? sunAt(-l.z, j, i, t.sun) : sunAt(l.z, i, j, t.sun)).x;
-                many.x += skylightShare * (l.z < 0 ? sunAt(-l.z, j, i, t.sunMany) : sunAt(l.z, i, j, t.sunMany)).x;
+                sun.x += skylightShare * fromSide(lz, i, j, t.sun).x;
+                many.x += skylightShare * fromSide(lz, i, j, t.sunMany).x;
             }
             glm::vec4 sky(0.0f);
             for (int b = 0; b < 3; ++b) {
