@@ -6,7 +6,7 @@
 layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
 uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
-uniform sampler3D lightSkyTau;      // (sky fluence rgb, optical depth to the sun)
+uniform sampler3D lightSkyTau;      // (sky fluence rgb, transmittance to the sun: interpolated as that)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
 uniform vec3 lightInvTexels;        // 1 / the textures' size in texels
 
@@ -18,17 +18,23 @@ vec3 lightTexel(int cloud, vec3 rel) {
     vec3 texel = clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz;
     return texel * lightInvTexels;
 }
+// (sky fluence rgb, optical depth to the sun): the texture holds the sun's transmittance, so that
+// it is interpolated as a transmittance (sampleRadiance() on the CPU).
+vec4 skyTauAt(vec3 uvw) {
+    vec4 t = textureLod(lightSkyTau, uvw, 0.0);
+    return vec4(t.xyz, -log(max(t.w, kMinSunTransmittance)));
+}
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     vec3 uvw = lightTexel(cloud, rel);
-    return lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0),
-                        textureLod(lightSkyTau, uvw, 0.0), textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
+    return lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0), skyTauAt(uvw),
+                        textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
 }
 
 // S(x, d) of cloud `cloud` at camera-relative point `rel` (cloud_light.glsl), the sky light
 // coloured by the fluence's own colour there.
 vec3 cloudSourceAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g, vec3 sunIrradiance, float albedo) {
     vec3 uvw = lightTexel(cloud, rel);
-    vec4 skyTau = textureLod(lightSkyTau, uvw, 0.0);
+    vec4 skyTau = skyTauAt(uvw);
     vec3 scalars = lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0), skyTau,
                                 textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(skyTau.rgb), albedo);

@@ -82,7 +82,10 @@ glm::ivec3 CloudLightTextures::origin(const Place& p) const {
 
 void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
     const glm::ivec3 at = origin(p);
-    const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &grid.skyTau, &grid.skyFlux};
+    // The sun's optical depth goes up as its transmittance (cloud_light_grid.glsl, skyTauAt).
+    std::vector<glm::vec4> skyT = grid.skyTau;
+    for (glm::vec4& v : skyT) v.w = std::exp(-v.w);
+    const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &skyT, &grid.skyFlux};
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
     constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,

@@ -470,6 +470,7 @@ RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
     const Vec3 p = glm::clamp((world - grid.boxMin) / grid.boxExtent * double(n) - 0.5, Vec3(0.0), Vec3(n - 1));
     const glm::ivec3 i0 = glm::min(glm::ivec3(p), glm::ivec3(n - 2));
     const glm::vec3 f = glm::vec3(p - Vec3(i0));
+    float sunTransmittance = 0;  // interpolated as that (model::kMinSunTransmittance), as on the GPU
     for (int c = 0; c < 8; ++c) {
         const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
         const glm::vec3 t = glm::mix(glm::vec3(1.0f) - f, f, glm::vec3(o));
@@ -479,7 +480,9 @@ RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
         r.sunMany += w * grid.sunMany[i];
         r.skyTau += w * grid.skyTau[i];
         r.skyFlux += w * grid.skyFlux[i];
+        sunTransmittance += w * std::exp(-grid.skyTau[i].w);
     }
+    r.skyTau.w = -std::log(std::max(sunTransmittance, model::kMinSunTransmittance));
     return r;
 }
 

@@ -112,7 +112,8 @@ void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {},
                                    const std::atomic<bool>* cancel = nullptr);
 
-// The four texels at a world point, trilinear between voxel centres and clamped to the
+// The four texels at a world point, trilinear between voxel centres (the sun's optical depth
+// interpolated as its transmittance, model::kMinSunTransmittance) and clamped to the
 // outermost ones, as the GPU's GL_LINEAR, clamp-to-edge 3D textures read them.
 struct RadianceSample {
     glm::vec4 sunFew{0.0f}, sunMany{0.0f}, skyTau{0.0f}, skyFlux{0.0f};

@@ -1,0 +1,104 @@
+// Issue #10's component test: the clouds' light model (gardner-exact, the compositor's model
+// per pixel, which the GL tests hold the compositor and the ray-marcher to) against the path
+// tracer, one light component at a time, each path-traced on its own:
+// - the sun's single scattering (the path tracer's scattering order 0; the model without
+//   photons): the exact Henyey-Greenstein phase times the sun's transmittance, within 3%;
+// - the sun's multiple scattering (orders 1 and on; the model's photon grids' part);
+// - the sky's and the ground's light (the sun dark; the cloud's own radiance, the background
+//   seen through it taken out).
+#include "nephele/gardner.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/pathtrace.hpp"
+#include "nephele/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+using namespace nephele;
+
+namespace {
+
+Scene component(const std::string& file, int width) {
+    Scene s = loadScene(std::string(NEPHELE_SCENES) + "/" + file);
+    s.camera.height = s.camera.height * width / s.camera.width;
+    s.camera.width = width;
+    s.medium.noise = 0;  // the format's exact field: the path tracer's and the model's matter are the same
+    s.path.clear();
+    return s;
+}
+Scene sunOnly(Scene s) {
+    s.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
+    return s;
+}
+Scene skyOnly(Scene s) {
+    s.sun.intensity = 0;
+    return s;
+}
+
+// The cloud's own radiance summed over the image: the frame less the background the cloud lets
+// through ((1 - alpha) times the empty scene's frame, which is the same in both renderers).
+double cloudLight(const Image& frame, const Image& empty) {
+    double sum = 0;
+    for (int y = 0; y < frame.height; ++y)
+        for (int x = 0; x < frame.width; ++x)
+            for (int c = 0; c < 3; ++c) sum += frame.at(x, y, c) - (1 - frame.at(x, y, 3)) * empty.at(x, y, c);
+    return sum;
+}
+
+struct Components {
+    double single, multiple, sky;
+};
+
+Components lightModel(const Scene& scene) {
+    const View view = makeView(scene.camera);
+    const NoiseSettings ns;
+    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    RadianceGridSettings none;  // no photons: the sun's single scattering alone
+    none.sunPhotons = none.skyPhotons = 0;
+    Scene empty = scene;
+    empty.clouds.clear();
+    const Image sunEmpty = renderGardnerExact(sunOnly(empty), view, noise, ns), skyEmpty = renderGardnerExact(skyOnly(empty), view, noise, ns);
+    const double single = cloudLight(renderGardnerExact(sunOnly(scene), view, noise, ns, CompositeOrder::PerEllipsoid,
+                                                        model::kWeightExponent, none),
+                                     sunEmpty);
+    const double sun = cloudLight(renderGardnerExact(sunOnly(scene), view, noise, ns), sunEmpty);
+    return {single, sun - single, cloudLight(renderGardnerExact(skyOnly(scene), view, noise, ns), skyEmpty)};
+}
+
+Components pathTraced(const Scene& scene, int spp) {
+    const View view = makeView(scene.camera);
+    Scene empty = scene;
+    empty.clouds.clear();
+    auto trace = [&](const Scene& s, int first, int last) {
+        PathTraceSettings ps;
+        ps.spp = spp, ps.firstBounce = first, ps.maxBounces = last, ps.seed = 7;
+        return renderPathTraced(s, view, ps, nullptr);
+    };
+    const Image sunEmpty = trace(sunOnly(empty), 0, 0), skyEmpty = trace(skyOnly(empty), 0, 0);
+    const int all = PathTraceSettings{}.maxBounces;
+    return {cloudLight(trace(sunOnly(scene), 0, 0), sunEmpty), cloudLight(trace(sunOnly(scene), 1, all), sunEmpty),
+            cloudLight(trace(skyOnly(scene), 0, all), skyEmpty)};
+}
+
+}  // namespace
+
+TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
+    for (const char* file : {"single.json", "cumulus27.json"}) {
+        const Scene scene = component(file, 48);
+        const Components m = lightModel(scene), p = pathTraced(scene, 256);
+        std::printf("[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
+                    file, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
+        // Issue #10's bound on the single scattering: 3%. Measured 2026-12-04 over path tracer
+        // seeds 7-9: 0.987-0.988 (single.json) and 1.011-1.012 (cumulus27); with the sun's optical
+        // depth interpolated between voxels as an optical depth, as until then, 0.965 and 0.913.
+        EXPECT_NEAR(m.single / p.single, 1.0, 0.03) << file;
+        // The photon grids' parts, held to what they measure with room for the path tracer's noise
+        // in them (multiple: 1.07-1.12 and 0.95-0.97 over those seeds; sky: 1.007-1.011 and
+        // 0.973-0.975) and the grids' own photon noise, which another compiler's rounding redraws
+        // (about 6% in the layered sky's tables): a part lost or doubled fails these.
+        EXPECT_NEAR(m.multiple / p.multiple, 1.0, 0.2) << file;
+        EXPECT_NEAR(m.sky / p.sky, 1.0, 0.08) << file;
+    }
+}
