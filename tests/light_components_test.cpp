@@ -2,7 +2,8 @@
 // per pixel, which the GL tests hold the compositor and the ray-marcher to) against the path
 // tracer, one light component at a time, each path-traced on its own:
 // - the sun's single scattering (the path tracer's scattering order 0; the model without
-//   photons): the exact Henyey-Greenstein phase times the sun's transmittance, within 3%;
+//   photons): the exact Henyey-Greenstein phase times the sun's transmittance, within issue
+//   #10's 3% front-lit (back-lit not yet: see below);
 // - the sun's multiple scattering (orders 1 and on; the model's photon grids' part);
 // - the sky's and the ground's light (the sun dark; the cloud's own radiance, the background
 //   seen through it taken out).
@@ -84,21 +85,44 @@ Components pathTraced(const Scene& scene, int spp) {
 
 }  // namespace
 
+// cumulus27 from 2 km with the sun 20 degrees off the view axis behind it (the accuracy bench's
+// back-lit case), where the phase peak magnifies every error of the sun's transmittance.
+Scene backLit(Scene scene) {
+    Vec3 centre(0.0);
+    for (const Ellipsoid& e : scene.clouds.at(0).ellipsoids) centre += e.center;
+    centre /= double(scene.clouds[0].ellipsoids.size());
+    const Vec3 forward = glm::normalize(scene.camera.direction);
+    scene.camera.position = centre - 2000.0 * forward;
+    const Vec3 side = glm::normalize(glm::cross(forward, Vec3(0, 0, 1))), up = glm::cross(side, forward);
+    const double off = glm::radians(20.0);
+    scene.sun.direction = glm::normalize(std::cos(off) * forward + std::sin(off) * up);  // towards the sun
+    return scene;
+}
+
 TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
-    for (const char* file : {"single.json", "cumulus27.json"}) {
-        const Scene scene = component(file, 48);
-        const Components m = lightModel(scene), p = pathTraced(scene, 256);
+    struct Case {
+        const char* name;
+        Scene scene;
+        double singleTolerance;
+    };
+    // Issue #10's bound on the single scattering is 3%. Measured 2026-12-04 over path tracer seeds
+    // 7-9: 0.987-0.988 (single.json) and 1.011-1.012 (cumulus27); with the sun's optical depth
+    // interpolated between voxels as an optical depth, as until then, 0.965 and 0.913. Back-lit
+    // the bound is NOT met: 1.058 (0.920 before); the three chord samples and the 32^3 grid across
+    // the thin lit rims are what is left (an experiment build with 12 samples and 64^3 grids read
+    // 0.99-1.00 front-lit). 8% holds it where it is.
+    for (const Case& c : {Case{"single.json", component("single.json", 48), 0.03},
+                          Case{"cumulus27.json", component("cumulus27.json", 48), 0.03},
+                          Case{"cumulus27.json back-lit", backLit(component("cumulus27.json", 48)), 0.08}}) {
+        const Components m = lightModel(c.scene), p = pathTraced(c.scene, 256);
         std::printf("[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
-                    file, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
-        // Issue #10's bound on the single scattering: 3%. Measured 2026-12-04 over path tracer
-        // seeds 7-9: 0.987-0.988 (single.json) and 1.011-1.012 (cumulus27); with the sun's optical
-        // depth interpolated between voxels as an optical depth, as until then, 0.965 and 0.913.
-        EXPECT_NEAR(m.single / p.single, 1.0, 0.03) << file;
+                    c.name, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
+        EXPECT_NEAR(m.single / p.single, 1.0, c.singleTolerance) << c.name;
         // The photon grids' parts, held to what they measure with room for the path tracer's noise
-        // in them (multiple: 1.07-1.12 and 0.95-0.97 over those seeds; sky: 1.007-1.011 and
-        // 0.973-0.975) and the grids' own photon noise, which another compiler's rounding redraws
-        // (about 6% in the layered sky's tables): a part lost or doubled fails these.
-        EXPECT_NEAR(m.multiple / p.multiple, 1.0, 0.2) << file;
-        EXPECT_NEAR(m.sky / p.sky, 1.0, 0.08) << file;
+        // in them (multiple: 1.07-1.12, 0.95-0.97 and 0.87; sky: 1.01, 0.97 and 0.99) and the
+        // grids' own photon noise, which another compiler's rounding redraws (about 6% in the
+        // layered sky's tables): a part lost or doubled fails these.
+        EXPECT_NEAR(m.multiple / p.multiple, 1.0, 0.2) << c.name;
+        EXPECT_NEAR(m.sky / p.sky, 1.0, 0.08) << c.name;
     }
 }
