@@ -44,13 +44,14 @@ MODEL_FN float hgPhase(float cosTheta, float g) {
     return (1.0f - g2) / (4.0f * kLightPi * d * sqrt(d));
 }
 
-// Single scattering of the sun per unit irradiance: p(d . s) exp(-tauSun).
 // A radiance grid's sun transmittance is interpolated between voxel centres as a transmittance,
 // not as an optical depth: across a lit surface the optical depth jumps from 0 to many within
 // a voxel, and its interpolation darkened the single scattering of what the eye sees there
 // (cumulus27 at 32^3: 0.91 of the path tracer's; as a transmittance 1.01). The GPU stores it in
-// RGBA16F: this floor (optical depth 18.4) keeps it a normal number's logarithm.
+// RGBA16F: this floor (optical depth 18.4) keeps its logarithm finite.
 const float kMinSunTransmittance = 1e-8f;
+
+// Single scattering of the sun per unit irradiance: p(d . s) exp(-tauSun).
 MODEL_FN float singleScatter(vec3 d, vec3 sunDirection, float g, float tauSun) {
     return hgPhase(dot(d, sunDirection), g) * exp(-tauSun);
 }
