@@ -9,16 +9,6 @@
 
 namespace nephele::cli {
 
-Scene sunOnly(Scene scene) {
-    scene.sky.zenith = scene.sky.horizon = scene.sky.ground = Vec3(0.0);
-    return scene;
-}
-
-Scene skyOnly(Scene scene) {
-    scene.sun.intensity = 0;
-    return scene;
-}
-
 Image blockMean(const Image& a, int block) {
     Image out(a.width / block, a.height / block, a.channels);
     for (int y = 0; y < out.height; ++y)

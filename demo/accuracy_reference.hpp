@@ -13,11 +13,6 @@
 
 namespace nephele::cli {
 
-// The scene lit by the sun alone (a black sky and ground) or by the sky and ground alone (a
-// dark sun). Every method here is linear in its light sources, so the two sum to the scene.
-Scene sunOnly(Scene scene);
-Scene skyOnly(Scene scene);
-
 // The mean of each block x block square of pixels (RGBA), the last partial ones dropped.
 Image blockMean(const Image& image, int block);
 

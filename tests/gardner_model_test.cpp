@@ -7,6 +7,7 @@
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"
 #include "nephele/camera.hpp"
+#include "scene_test_util.hpp"
 
 #include <gtest/gtest.h>
 
@@ -472,17 +473,7 @@ TEST(GardnerExactTest, MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop)
               << popping << "\n";
     EXPECT_LT(moments, 0.5 * popping);
 
-    Scene backLit = loadScene(std::string(NEPHELE_SCENES) + "/cumulus27.json");
-    Vec3 centre(0.0);
-    int count = 0;
-    for (const Ellipsoid& e : backLit.clouds.at(0).ellipsoids) centre += e.center, ++count;
-    centre /= double(count);
-    const Vec3 forward = glm::normalize(backLit.camera.direction);
-    backLit.camera.position = centre - 2000.0 * forward;
-    const Vec3 side = glm::normalize(glm::cross(forward, Vec3(0, 0, 1)));
-    const Vec3 up = glm::cross(side, forward);
-    const double off = 20 * std::numbers::pi / 180;
-    backLit.sun.direction = glm::normalize(std::cos(off) * forward + std::sin(off) * up);  // towards the sun
+    const Scene backLit = test::backLit(loadScene(std::string(NEPHELE_SCENES) + "/cumulus27.json"));
     Camera c = backLit.camera;
     c.width = 96;
     c.height = 64;

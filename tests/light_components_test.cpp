@@ -11,6 +11,7 @@
 #include "nephele/noise.hpp"
 #include "nephele/pathtrace.hpp"
 #include "nephele/scene.hpp"
+#include "scene_test_util.hpp"
 
 #include <gtest/gtest.h>
 
@@ -27,14 +28,6 @@ Scene component(const std::string& file, int width) {
     s.camera.width = width;
     s.medium.noise = 0;  // the format's exact field: the path tracer's and the model's matter are the same
     s.path.clear();
-    return s;
-}
-Scene sunOnly(Scene s) {
-    s.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};
-    return s;
-}
-Scene skyOnly(Scene s) {
-    s.sun.intensity = 0;
     return s;
 }
 
@@ -61,10 +54,10 @@ Components lightModel(const Scene& scene) {
     Scene empty = scene;
     empty.clouds.clear();
     const Image sunEmpty = renderGardnerExact(sunOnly(empty), view, noise, ns), skyEmpty = renderGardnerExact(skyOnly(empty), view, noise, ns);
-    const double single = cloudLight(renderGardnerExact(sunOnly(scene), view, noise, ns, CompositeOrder::PerEllipsoid,
-                                                        model::kWeightExponent, none),
-                                     sunEmpty);
-    const double sun = cloudLight(renderGardnerExact(sunOnly(scene), view, noise, ns), sunEmpty);
+    const Scene sunLit = sunOnly(scene);
+    const double single = cloudLight(
+        renderGardnerExact(sunLit, view, noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent, none), sunEmpty);
+    const double sun = cloudLight(renderGardnerExact(sunLit, view, noise, ns), sunEmpty);
     return {single, sun - single, cloudLight(renderGardnerExact(skyOnly(scene), view, noise, ns), skyEmpty)};
 }
 
@@ -79,25 +72,12 @@ Components pathTraced(const Scene& scene, int spp) {
     };
     const Image sunEmpty = trace(sunOnly(empty), 0, 0), skyEmpty = trace(skyOnly(empty), 0, 0);
     const int all = PathTraceSettings{}.maxBounces;
-    return {cloudLight(trace(sunOnly(scene), 0, 0), sunEmpty), cloudLight(trace(sunOnly(scene), 1, all), sunEmpty),
+    const Scene sunLit = sunOnly(scene);
+    return {cloudLight(trace(sunLit, 0, 0), sunEmpty), cloudLight(trace(sunLit, 1, all), sunEmpty),
             cloudLight(trace(skyOnly(scene), 0, all), skyEmpty)};
 }
 
 }  // namespace
-
-// cumulus27 from 2 km with the sun 20 degrees off the view axis behind it (the accuracy bench's
-// back-lit case), where the phase peak magnifies every error of the sun's transmittance.
-Scene backLit(Scene scene) {
-    Vec3 centre(0.0);
-    for (const Ellipsoid& e : scene.clouds.at(0).ellipsoids) centre += e.center;
-    centre /= double(scene.clouds[0].ellipsoids.size());
-    const Vec3 forward = glm::normalize(scene.camera.direction);
-    scene.camera.position = centre - 2000.0 * forward;
-    const Vec3 side = glm::normalize(glm::cross(forward, Vec3(0, 0, 1))), up = glm::cross(side, forward);
-    const double off = glm::radians(20.0);
-    scene.sun.direction = glm::normalize(std::cos(off) * forward + std::sin(off) * up);  // towards the sun
-    return scene;
-}
 
 TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
     struct Case {
@@ -113,7 +93,7 @@ TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
     // 0.99-1.00 front-lit). 8% holds it where it is.
     for (const Case& c : {Case{"single.json", component("single.json", 48), 0.03},
                           Case{"cumulus27.json", component("cumulus27.json", 48), 0.03},
-                          Case{"cumulus27.json back-lit", backLit(component("cumulus27.json", 48)), 0.08}}) {
+                          Case{"cumulus27.json back-lit", test::backLit(component("cumulus27.json", 48)), 0.08}}) {
         const Components m = lightModel(c.scene), p = pathTraced(c.scene, 256);
         std::printf("[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
                     c.name, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);

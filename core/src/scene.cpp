@@ -834,6 +834,16 @@ glm::dmat3 rotationFromDegrees(const Vec3& deg) {
     return rz * ry * rx;
 }
 
+Scene sunOnly(Scene scene) {
+    scene.sky.zenith = scene.sky.horizon = scene.sky.ground = Vec3(0.0);
+    return scene;
+}
+
+Scene skyOnly(Scene scene) {
+    scene.sun.intensity = 0;
+    return scene;
+}
+
 Camera cameraAt(const Scene& scene, double t) {
     Camera cam = scene.camera;
     const std::vector<Keyframe>& path = scene.path;

@@ -223,4 +223,10 @@ glm::dmat3 rotationFromDegrees(const Vec3& deg);
 // the ends) when the scene has one.
 Camera cameraAt(const Scene& scene, double t);
 
+// The scene lit by the sun alone (a black sky and ground) or by the sky and ground alone (a
+// dark sun): every renderer is linear in its light sources, so the two sum to the scene (the
+// accuracy bench's and the light component tests' split by light).
+Scene sunOnly(Scene scene);
+Scene skyOnly(Scene scene);
+
 }  // namespace nephele
