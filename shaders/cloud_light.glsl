@@ -109,15 +109,23 @@ MODEL_FN vec3 sourceFromScalars(vec3 scalars, vec3 sunIrradiance, vec3 chroma, f
 
 // ---- Along one ellipsoid's chord (the compositor and gardner-exact shade each ellipsoid by
 // its own chord; the ray-marcher integrates instead). The radiance the chord sends to the eye
-// is its opacity times the mean of S weighted by T sigma_t, T the transmittance from the
-// chord's start: estimated by kChordSamples points, each at the middle of an equal share of
-// that weight, where the optical depth from the start reaches -ln(1 - (k + 1/2) alpha / K).
+// is the integral of S over the opacity seen from the chord's start, from 0 to the chord's
+// alpha: estimated by three-point Gauss-Legendre quadrature in that opacity, at the points
+// where the opacity in front reaches chordShare(k) alpha, weighted chordWeight(k). It is exact
+// for an S that is a polynomial of degree 5 in the opacity. The midpoint rule it replaced
+// (three equal shares, each at its middle) is exact for degree 1 only, and the sun's
+// transmittance along a chord is curved: with the sun's exact optical depth at every point,
+// the single scattering of cumulus27 was 0.948 of the path tracer's by the midpoint rule, 0.970
+// by this rule and 0.983 by 48 points.
 const int kChordSamples = 3;
+MODEL_FN float chordShare(int k) { return k == 0 ? 0.11270167f : (k == 1 ? 0.5f : 0.88729833f); }
+MODEL_FN float chordWeight(int k) { return k == 1 ? 0.44444444f : 0.27777778f; }
 
-// The distance along the ray (m) of sample k (0 <= k < samples) of an ellipsoid's chord beyond
-// tStart; the ray is o' + t d' in the ellipsoid's unit space, sigma its extinction (1/m). The
-// primitive is monotone on the chord: bisection, 20 halvings (the chord to 1e-6 of its length).
-MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigma, int k, int samples) {
+// The distance along the ray (m) of the point of an ellipsoid's chord beyond tStart where the
+// opacity in front reaches `share` (0..1) of the chord's; the ray is o' + t d' in the
+// ellipsoid's unit space, sigma its extinction (1/m). The primitive is monotone on the chord:
+// bisection, 20 halvings (the chord to 1e-6 of its length).
+MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigma, float share) {
     float len = length(dUnit);
     vec3 dn = dUnit / len;
     float tc = -dot(oUnit, dn);
@@ -128,7 +136,6 @@ MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigm
     float u0 = clamp(tStart * len - tc, -h, h);
     float p0 = chordPrimitive(u0, h2);
     float whole = (chordPrimitive(h, h2) - p0) / len;  // m of (1 - q)^2: the chord's depth / sigma
-    float share = (float(k) + 0.5f) / float(samples);
     float alpha = 1.0f - exp(-sigma * whole);
     float target = (alpha < 1e-4f ? share * whole : -log(1.0f - share * alpha) / sigma) * len;
     float lo = u0, hi = h;

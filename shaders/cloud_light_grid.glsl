@@ -1,42 +1,52 @@
 // The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): four
-// RGBA16F 3D textures holding every cloud's grid in a slot of its own, and per cloud three
-// vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid extent (1/m), 0), (the slot's
-// first texel, the grid's voxels per side: a slot holds the largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost voxel centres, as
-// sampleRadiance() reads them on the CPU.
+// RGBA16F 3D textures holding every cloud's grid in a slot of its own, a fifth (R16F) holding
+// its sun transmittance on a grid lightSunRefinement times finer per axis in the same slot
+// scaled so, and per cloud three vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid
+// extent (1/m), 0), (the slot's first texel, the grid's voxels per side: a slot holds the
+// largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost
+// voxel centres, as sampleRadiance() reads them on the CPU.
 layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
 uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
-uniform sampler3D lightSkyTau;      // (sky fluence rgb, transmittance to the sun: interpolated as that)
+uniform sampler3D lightSkyTau;      // (sky fluence rgb, unused)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
-uniform vec3 lightInvTexels;        // 1 / the textures' size in texels
+uniform sampler3D lightSunTransmittance;  // exp(-tauSun), interpolated as that
+uniform float lightSunRefinement;   // kSunRefinement: its texels per axis per texel of the others
+uniform vec3 lightInvTexels;        // 1 / the four textures' size in texels
 
-// The two light scalars (model::lightScalars) at camera-relative point `rel` of cloud `cloud`
-// for the view direction d.
-vec3 lightTexel(int cloud, vec3 rel) {
+// Where camera-relative point `rel` of cloud `cloud` is read: xyz in the four textures, and in
+// the sun's (each clamped to its grid's outermost voxel centres).
+struct LightTexels {
+    vec3 uvw, sun;
+};
+LightTexels lightTexels(int cloud, vec3 rel) {
     vec3 u = (rel - cloudLightBoxes[3 * cloud].xyz) * cloudLightBoxes[3 * cloud + 1].xyz;
     vec4 slot = cloudLightBoxes[3 * cloud + 2];
-    vec3 texel = clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz;
-    return texel * lightInvTexels;
+    float fine = lightSunRefinement * slot.w;
+    LightTexels t;
+    t.uvw = (clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz) * lightInvTexels;
+    t.sun = (clamp(u * fine, vec3(0.5), vec3(fine - 0.5)) + lightSunRefinement * slot.xyz) * lightInvTexels / lightSunRefinement;
+    return t;
 }
-// (sky fluence rgb, optical depth to the sun): the texture holds the sun's transmittance, so that
-// it is interpolated as a transmittance (sampleRadiance() on the CPU).
-vec4 skyTauAt(vec3 uvw) {
-    vec4 t = textureLod(lightSkyTau, uvw, 0.0);
-    return vec4(t.xyz, -log(max(t.w, kMinSunTransmittance)));
+// (sky fluence rgb, optical depth to the sun): the sun's texture holds its transmittance, so
+// that it is interpolated as a transmittance (sampleRadiance() on the CPU).
+vec4 skyTauAt(LightTexels t) {
+    vec3 sky = textureLod(lightSkyTau, t.uvw, 0.0).rgb;
+    return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)));
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
-    vec3 uvw = lightTexel(cloud, rel);
-    return lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0), skyTauAt(uvw),
-                        textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
+    LightTexels t = lightTexels(cloud, rel);
+    return lightScalars(textureLod(lightSunFew, t.uvw, 0.0), textureLod(lightSunMany, t.uvw, 0.0), skyTauAt(t),
+                        textureLod(lightSkyFlux, t.uvw, 0.0), d, sunDirection, g);
 }
 
 // S(x, d) of cloud `cloud` at camera-relative point `rel` (cloud_light.glsl), the sky light
 // coloured by the fluence's own colour there.
 vec3 cloudSourceAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g, vec3 sunIrradiance, float albedo) {
-    vec3 uvw = lightTexel(cloud, rel);
-    vec4 skyTau = skyTauAt(uvw);
-    vec3 scalars = lightScalars(textureLod(lightSunFew, uvw, 0.0), textureLod(lightSunMany, uvw, 0.0), skyTau,
-                                textureLod(lightSkyFlux, uvw, 0.0), d, sunDirection, g);
+    LightTexels t = lightTexels(cloud, rel);
+    vec4 skyTau = skyTauAt(t);
+    vec3 scalars = lightScalars(textureLod(lightSunFew, t.uvw, 0.0), textureLod(lightSunMany, t.uvw, 0.0), skyTau,
+                                textureLod(lightSkyFlux, t.uvw, 0.0), d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(skyTau.rgb), albedo);
 }
 
@@ -45,8 +55,8 @@ vec3 cloudSourceAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g, vec3
 vec2 chordLightAt(int cloud, vec3 oUnit, vec3 dUnit, vec3 d, float tStart, float sigma, vec3 sunDirection, float g) {
     vec2 sum = vec2(0.0);
     for (int k = 0; k < kChordSamples; ++k) {
-        float t = chordSampleDepth(oUnit, dUnit, tStart, sigma, k, kChordSamples);
-        sum += cloudLightAt(cloud, t * d, d, sunDirection, g).xy;
+        float t = chordSampleDepth(oUnit, dUnit, tStart, sigma, chordShare(k));
+        sum += chordWeight(k) * cloudLightAt(cloud, t * d, d, sunDirection, g).xy;
     }
-    return sum / float(kChordSamples);
+    return sum;
 }

@@ -603,6 +603,7 @@ TEST_F(EllipsoidGLTest, SmallLightGridsShareATextureSlot) {
         auto g = std::make_shared<CloudRadiance>();
         g->size = n;
         for (auto* v : {&g->sunFew, &g->sunMany, &g->skyTau, &g->skyFlux}) v->assign(g->voxels(), glm::vec4(0.5f));
+        g->sunTransmittance.assign(std::size_t(g->sunSize()) * g->sunSize() * g->sunSize(), 0.5f);
         return std::shared_ptr<const CloudRadiance>(g);
     };
     std::vector<PlacedRadiance> placed;
@@ -610,7 +611,7 @@ TEST_F(EllipsoidGLTest, SmallLightGridsShareATextureSlot) {
     placed.push_back({grid(32), Vec3(0.0), Vec3(500.0)});
     CloudLightTextures textures;
     EXPECT_EQ(textures.update(placed), 65);
-    const std::size_t slot = std::size_t(32 * 32 * 32) * 4 * 8;
+    const std::size_t slot = std::size_t(32 * 32 * 32) * (4 * 8 + kSunRefinement * kSunRefinement * kSunRefinement * 2);
     EXPECT_LE(textures.textureBytes(), 4 * slot);
     EXPECT_EQ(textures.update(placed), 0);  // resident: nothing uploaded again
     placed.resize(10);  // fewer grids: their places stay, nothing is uploaded

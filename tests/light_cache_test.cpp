@@ -400,7 +400,11 @@ TEST(CloudRadianceTest, TiledCloudsConserveTheSunsFlux) {
         for (int y = 0; y < n; ++y)
             for (int x = 0; x < n; ++x) {
                 const std::size_t i = (std::size_t(z) * n + y) * n + x;
-                const double direct = s.sun.direction.z * std::exp(-double(r.skyTau[i].w));
+                double transmittance = 0;  // the mean of the finer grid's over the voxel
+                const int k = kSunRefinement, m = r.sunSize();
+                for (int c = 0; c < k * k * k; ++c)
+                    transmittance += r.sunTransmittance[(std::size_t(k * z + c / (k * k)) * m + k * y + c / k % k) * m + k * x + c % k];
+                const double direct = s.sun.direction.z * transmittance / (k * k * k);
                 net[std::size_t(z)] += direct - double(r.sunFew[i].z + r.sunMany[i].z);
             }
         net[std::size_t(z)] /= double(n) * n;
@@ -411,8 +415,8 @@ TEST(CloudRadianceTest, TiledCloudsConserveTheSunsFlux) {
                 "(top %.4f, bottom %.4f; the sun's %.4f)\n",
                 lo, hi, net[std::size_t(n - 1)], net[0], s.sun.direction.z);
     ASSERT_GT(lo, 0.0);
-    // 5%: the direct sun's transmittance is read at the voxels' centres, not averaged over them,
-    // and 2^18 photons leave about 1% of noise per slice.
+    // 5%: the direct sun's transmittance is averaged over kSunRefinement^3 points of a voxel, not
+    // over all of it, and 2^18 photons leave about 1% of noise per slice.
     EXPECT_LT(hi / lo - 1, 0.05);
 }
 
@@ -432,13 +436,13 @@ TEST(CloudRadianceTest, TiledCloudsAreShadowedByTheTilesBeyond) {
     const double column = s.medium.extinction * density * 16 * (32 * M_PI / 105) * 187.5 * 187.5 * 200 / 1e6;
     for (bool tiled : {true, false}) {
         const CloudRadiance r = computeCloudRadiance(s, layerTile(density, tiled), g);
-        double floor = 0;  // the mean optical depth to the sun over the lowest voxels
-        for (int y = 0; y < r.size; ++y)
-            for (int x = 0; x < r.size; ++x) floor += r.skyTau[std::size_t(y) * r.size + x].w;
-        floor /= double(r.size) * r.size;
+        double floor = 0;  // the mean optical depth to the sun over the sun grid's lowest voxels
+        const int m = r.sunSize();
+        for (int i = 0; i < m * m; ++i) floor -= std::log(double(r.sunTransmittance[std::size_t(i)]));
+        floor /= double(m) * m;
         std::printf("[ figure ] sun at 20 degrees, %s: optical depth to the sun from the floor %.2f, the layer's %.2f\n",
                     tiled ? "tiled" : "alone", floor, column / std::sin(elevation));
-        // The lowest voxels' centres lie 12.5 m up, under 1% of the kernel's matter below them.
+        // The lowest voxels' centres lie 6.25 m up, under 1% of the kernel's matter below them.
         if (tiled) EXPECT_NEAR(floor, column / std::sin(elevation), 0.1 * column / std::sin(elevation));
         else EXPECT_LT(floor, 0.6 * column / std::sin(elevation));
     }

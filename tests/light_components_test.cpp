@@ -3,7 +3,7 @@
 // tracer, one light component at a time, each path-traced on its own:
 // - the sun's single scattering (the path tracer's scattering order 0; the model without
 //   photons): the exact Henyey-Greenstein phase times the sun's transmittance, within issue
-//   #10's 3% front-lit (back-lit not yet: see below);
+//   #10's 3% front-lit and back-lit (not where a cloud's ellipsoids overlap deeply: see below);
 // - the sun's multiple scattering (orders 1 and on; the model's photon grids' part);
 // - the sky's and the ground's light (the sun dark; the cloud's own radiance, the background
 //   seen through it taken out).
@@ -85,21 +85,27 @@ TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
         Scene scene;
         double singleTolerance;
     };
-    // Issue #10's bound on the single scattering is 3%. Measured 2026-12-04 over path tracer seeds
-    // 7-9: 0.987-0.988 (single.json) and 1.011-1.012 (cumulus27); with the sun's optical depth
-    // interpolated between voxels as an optical depth, as until then, 0.965 and 0.913. Back-lit
-    // the bound is NOT met: 1.058 (0.920 before); the three chord samples and the 32^3 grid across
-    // the thin lit rims are what is left (an experiment build with 12 samples and 64^3 grids read
-    // 0.99-1.00 front-lit). 8% holds it where it is.
+    // Issue #10's bound on the single scattering is 3%. Measured 2026-12-04 (path tracer seed 7;
+    // seeds 7-9 moved these by 0.001): single.json 0.996, cumulus27 0.986, back-lit 20 degrees off
+    // the view 1.014, 10 degrees off 1.027. Before, with the sun's transmittance on the diffuse
+    // light's 32^3 grid and the chord's midpoint rule: 0.987, 1.011, 1.058 and 1.104.
+    // two_clouds.json: 0.941 (0.932 before). Its small clouds are three ellipsoids each, deep in
+    // one another, and the model shades and composites each ellipsoid's chord whole (Gardner's):
+    // matter of the front ellipsoid that lies behind part of the back one's still covers it.
+    // With the sun's exact optical depth at 48 points of every chord it is 0.948, so it is that
+    // approximation, not the light. 7% holds it where it is.
     for (const Case& c : {Case{"single.json", component("single.json", 48), 0.03},
                           Case{"cumulus27.json", component("cumulus27.json", 48), 0.03},
-                          Case{"cumulus27.json back-lit", test::backLit(component("cumulus27.json", 48)), 0.08}}) {
+                          Case{"cumulus27.json back-lit", test::backLit(component("cumulus27.json", 48)), 0.03},
+                          Case{"cumulus27.json back-lit, 10 degrees", test::backLit(component("cumulus27.json", 48), 10), 0.03},
+                          Case{"two_clouds.json", component("two_clouds.json", 48), 0.07}}) {
         const Components m = lightModel(c.scene), p = pathTraced(c.scene, 256);
         std::printf("[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
                     c.name, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
         EXPECT_NEAR(m.single / p.single, 1.0, c.singleTolerance) << c.name;
         // The photon grids' parts, held to what they measure with room for the path tracer's noise
-        // in them (multiple: 1.07-1.12, 0.95-0.97 and 0.87; sky: 1.01, 0.97 and 0.99) and the
+        // in them (multiple: 1.05-1.12, 0.95-0.97, 0.87, 0.86 and 1.06; sky: 1.01, 0.97, 0.99, 0.99
+        // and 1.01) and the
         // grids' own photon noise, which another compiler's rounding redraws (about 6% in the
         // layered sky's tables): a part lost or doubled fails these.
         EXPECT_NEAR(m.multiple / p.multiple, 1.0, 0.2) << c.name;

@@ -11,7 +11,7 @@ using namespace gl;
 void CloudLightTextures::grow(int slots) {
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
-    const int perAxis = std::max(1, int(max3d) / size_);
+    const int perAxis = std::max(1, int(max3d) / (kSunRefinement * size_));  // the sun's texture is the largest
     const int gx = std::min(perAxis, int(std::ceil(std::cbrt(double(slots)))));
     const int gy = std::min(perAxis, int(std::ceil(std::sqrt(double(slots) / gx))));
     const int gz = (slots + gx * gy - 1) / (gx * gy);
@@ -23,12 +23,16 @@ void CloudLightTextures::grow(int slots) {
         t = Texture::create(GL_TEXTURE_3D);
         glTextureStorage3D(t.id(), 1, GL_RGBA16F, gx * size_, gy * size_, gz * size_);
     }
+    const int fine = kSunRefinement * size_;
+    sunTexture_ = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(sunTexture_.id(), 1, GL_R16F, gx * fine, gy * fine, gz * fine);
     slotUse_.assign(std::size_t(gx) * gy * gz, Slot{});
     resident_.clear();  // every grid is uploaded again into the new textures
 }
 
 std::size_t CloudLightTextures::textureBytes() const {
-    return std::size_t(slots_.x) * slots_.y * slots_.z * size_ * size_ * size_ * 4 * 8;
+    const std::size_t voxels = std::size_t(slots_.x) * slots_.y * slots_.z * size_ * size_ * size_;
+    return voxels * 4 * 8 + voxels * kSunRefinement * kSunRefinement * kSunRefinement * 2;
 }
 
 // The side of a grid's place: the smallest power of two at or above its size that divides
@@ -82,10 +86,7 @@ glm::ivec3 CloudLightTextures::origin(const Place& p) const {
 
 void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
     const glm::ivec3 at = origin(p);
-    // The sun's optical depth goes up as its transmittance (cloud_light_grid.glsl, skyTauAt).
-    std::vector<glm::vec4> skyT = grid.skyTau;
-    for (glm::vec4& v : skyT) v.w = std::exp(-v.w);
-    const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &skyT, &grid.skyFlux};
+    const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &grid.skyTau, &grid.skyFlux};
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
     constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
@@ -98,6 +99,9 @@ void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
     for (int k = 0; k < 4; ++k)
         glTextureSubImage3D(textures_[k].id(), 0, at.x, at.y, at.z, grid.size, grid.size, grid.size, GL_RGBA, GL_FLOAT,
                             data[k]->data());
+    const int fine = grid.sunSize();
+    glTextureSubImage3D(sunTexture_.id(), 0, kSunRefinement * at.x, kSunRefinement * at.y, kSunRefinement * at.z, fine,
+                        fine, fine, GL_RED, GL_FLOAT, grid.sunTransmittance.data());
     for (int i = 0; i < 6; ++i) glPixelStorei(kUnpack[i], saved[i]);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, GLuint(unpackBuffer));
     resident_[&grid] = p;
@@ -169,6 +173,10 @@ void CloudLightTextures::bind(const Program& program) const {
         glBindSampler(kFirstUnit + k, sampler_.id());
         program.set(names[k], int(kFirstUnit + k));
     }
+    glBindTextureUnit(kSunUnit, sunTexture_.id());
+    glBindSampler(kSunUnit, sampler_.id());
+    program.set("lightSunTransmittance", int(kSunUnit));
+    program.set("lightSunRefinement", float(kSunRefinement));
     program.set("lightInvTexels", glm::vec3(1.0 / (glm::dvec3(slots_) * double(size_))));
 }
 

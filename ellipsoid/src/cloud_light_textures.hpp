@@ -1,6 +1,8 @@
 // The clouds' radiance grids (ellipsoid/src/light_cache.hpp) on the GPU, for the compositor and the
 // ray-marcher (shaders/cloud_light_grid.glsl reads them): four RGBA16F 3D textures with one
-// slot per grid, and a storage buffer of the grids' boxes relative to the eye. A grid keeps its
+// slot per grid, a fifth (R16F, kSunRefinement times the texels per axis, its slots in the same
+// places scaled so) of the sun's transmittance, and a storage buffer of the grids' boxes
+// relative to the eye. A grid keeps its
 // slot while it is in use, so a cloud that moves costs only its box: nothing is re-created or
 // uploaded while the clouds only drift. The textures grow (doubling their slots) when more
 // grids are in use than they hold.
@@ -19,6 +21,7 @@ class CloudLightTextures {
 public:
     static constexpr GLuint kBoxesBinding = 3;  // shader storage binding of cloudLightBoxes
     static constexpr GLuint kFirstUnit = 6;     // texture units of the four grids: 6, 7, 8, 9
+    static constexpr GLuint kSunUnit = 10;      // and of the sun's transmittance
 
     // Makes the grids of `placed` (one per scene cloud) resident, uploading
     // only grids that are new. Returns how many grids were uploaded. Throws GlError when the
@@ -30,7 +33,7 @@ public:
     // sampling uniforms of `program` (which includes cloud_light_grid.glsl).
     void bind(const Program& program) const;
 
-    // Texels of GPU memory the grids' slots hold (all four textures), for the tests.
+    // Bytes of GPU memory the grids' slots hold (all five textures), for the tests.
     std::size_t textureBytes() const;
 
 private:
@@ -51,6 +54,7 @@ private:
     void upload(const CloudRadiance& grid, const Place& p);
 
     gl::Texture textures_[4];
+    gl::Texture sunTexture_;
     gl::Sampler sampler_;
     gl::Buffer boxes_;
     std::size_t boxesCapacity_ = 0;

@@ -331,29 +331,47 @@ double beyondTile(const Grid& g, const Vec3& p, const Vec3& w) {
     return tau;
 }
 
-// The sun's optical depth at the voxel centres, closed form through every ellipsoid; on a
-// periodic grid, past where the ray first leaves the box across, on through the voxelised
-// field of the tiles beyond until it leaves through the top or the bottom.
-void sunDepths(const Scene& scene, const Cloud& cloud, const Grid& g, std::vector<glm::vec4>& skyTau) {
-    std::vector<glm::dmat3> units;
-    for (const Ellipsoid& e : cloud.ellipsoids) units.push_back(ellipsoidToUnit(e));
-    parallelFor(g.n, [&](int z) {
-        for (int y = 0; y < g.n; ++y)
-            for (int x = 0; x < g.n; ++x) {
-                const Vec3 p = g.lo + (Vec3(x, y, z) + 0.5) * g.cell;
+// The sun's transmittance at the centres of the voxels of the finer grid (`n` per side over
+// g's box), its optical depth closed form through every ellipsoid; on a periodic grid, past
+// where the ray first leaves the box across, on through g's voxelised field of the tiles beyond
+// until it leaves through the top or the bottom.
+std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n) {
+    // Per ellipsoid, what model::segmentDepth(M (p - c), M s, 0, infinity) needs, M (p - c)
+    // stepped from voxel to voxel: the finer grid has kSunRefinement^3 times the voxels of the
+    // diffuse light's, each crossing every ellipsoid.
+    struct Shape { Vec3 origin, step[3]; Vec3 sun; double length, weight; };
+    const Vec3 cell = g.cell * double(g.n) / double(n), sun = scene.sun.direction;
+    std::vector<Shape> shapes;
+    for (const Ellipsoid& e : cloud.ellipsoids) {
+        if (!(e.density > 0)) continue;
+        const glm::dmat3 unit = ellipsoidToUnit(e);
+        const Vec3 s = unit * sun;
+        const double length = glm::length(s);
+        shapes.push_back({unit * (g.lo + 0.5 * cell - e.center),
+                          {unit * Vec3(cell.x, 0, 0), unit * Vec3(0, cell.y, 0), unit * Vec3(0, 0, cell.z)},
+                          s / length, length, e.density * scene.medium.extinction});
+    }
+    std::vector<float> out(std::size_t(n) * n * n);
+    parallelFor(n, [&](int z) {
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
                 double tau = 0;
-                for (std::size_t i = 0; i < units.size(); ++i) {
-                    const Ellipsoid& e = cloud.ellipsoids[i];
-                    if (!(e.density > 0)) continue;
-                    tau += e.density * model::segmentDepth(glm::vec3(units[i] * (p - e.center)),
-                                                           glm::vec3(units[i] * scene.sun.direction), 0.0f, 1e30f);
+                for (const Shape& e : shapes) {
+                    const Vec3 o = e.origin + double(x) * e.step[0] + double(y) * e.step[1] + double(z) * e.step[2];
+                    const double tc = -glm::dot(o, e.sun);
+                    const Vec3 perp = o + tc * e.sun;
+                    const double h2 = 1 - glm::dot(perp, perp);
+                    if (h2 <= 0 || tc < -std::sqrt(h2)) continue;  // the ray towards the sun misses it, or has left it
+                    const float h = float(std::sqrt(h2)), u0 = std::clamp(float(-tc), -h, h);
+                    tau += e.weight * (model::chordPrimitive(h, float(h2)) - model::chordPrimitive(u0, float(h2))) / e.length;
                 }
-                tau *= scene.medium.extinction;
-                if (g.periodic) tau += beyondTile(g, p, scene.sun.direction);
-                skyTau[g.index(x, y, z)].w = float(tau);
+                if (g.periodic) tau += beyondTile(g, g.lo + (Vec3(x, y, z) + 0.5) * cell, sun);
+                out[(std::size_t(z) * n + y) * n + x] = float(std::exp(-tau));
             }
     });
+    return out;
 }
+
 // [1 2 1] along each axis, clamped at the box's faces.
 void smooth(std::vector<glm::vec4>& f, int n) {
     std::vector<glm::vec4> tmp(f.size());
@@ -458,30 +476,42 @@ CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const
         smooth(out.skyTau, s.size);
         smooth(out.skyFlux, s.size);
     }
-    sunDepths(scene, cloud, g, out.skyTau);  // after smoothing: exact at the voxel centres
+    out.sunTransmittance = sunTransmittances(scene, cloud, g, out.sunSize());
     out.computeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return out;
 }
 
-RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
-    RadianceSample r;
-    const int n = grid.size;
-    if (n == 0) return r;
-    const Vec3 p = glm::clamp((world - grid.boxMin) / grid.boxExtent * double(n) - 0.5, Vec3(0.0), Vec3(n - 1));
-    const glm::ivec3 i0 = glm::min(glm::ivec3(p), glm::ivec3(n - 2));
-    const glm::vec3 f = glm::vec3(p - Vec3(i0));
-    float sunTransmittance = 0;  // interpolated as that (model::kMinSunTransmittance), as on the GPU
+namespace {
+
+// The trilinear weights at a world point of a grid of n^3 voxel centres over the box, clamped
+// to the outermost centres (the GPU's GL_LINEAR, clamp-to-edge): f(index, weight) per corner.
+template <class F>
+void trilinear(const Vec3& boxMin, const Vec3& boxExtent, int n, const Vec3& world, F&& f) {
+    const Vec3 p = glm::clamp((world - boxMin) / boxExtent * double(n) - 0.5, Vec3(0.0), Vec3(n - 1));
+    const glm::ivec3 i0 = glm::min(glm::ivec3(p), glm::ivec3(n - 2));  // n >= 4 (validate)
+    const glm::vec3 fr = glm::vec3(p - Vec3(i0));
     for (int c = 0; c < 8; ++c) {
         const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
-        const glm::vec3 t = glm::mix(glm::vec3(1.0f) - f, f, glm::vec3(o));
-        const std::size_t i = (std::size_t(i0.z + o.z) * n + (i0.y + o.y)) * n + (i0.x + o.x);
-        const float w = t.x * t.y * t.z;
+        const glm::ivec3 at = i0 + o;
+        const glm::vec3 t = glm::mix(glm::vec3(1.0f) - fr, fr, glm::vec3(o));
+        f((std::size_t(at.z) * n + at.y) * n + at.x, t.x * t.y * t.z);
+    }
+}
+
+}  // namespace
+
+RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
+    RadianceSample r;
+    if (grid.size == 0) return r;
+    trilinear(grid.boxMin, grid.boxExtent, grid.size, world, [&](std::size_t i, float w) {
         r.sunFew += w * grid.sunFew[i];
         r.sunMany += w * grid.sunMany[i];
         r.skyTau += w * grid.skyTau[i];
         r.skyFlux += w * grid.skyFlux[i];
-        sunTransmittance += w * std::exp(-grid.skyTau[i].w);
-    }
+    });
+    float sunTransmittance = 0;  // interpolated as that (model::kMinSunTransmittance), as on the GPU
+    trilinear(grid.boxMin, grid.boxExtent, grid.sunSize(), world,
+              [&](std::size_t i, float w) { sunTransmittance += w * grid.sunTransmittance[i]; });
     r.skyTau.w = -std::log(std::max(sunTransmittance, model::kMinSunTransmittance));
     return r;
 }

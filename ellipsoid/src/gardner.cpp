@@ -19,12 +19,12 @@ glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& 
                      const glm::vec3& dUnit, float tStart, float sigma) {
     glm::vec2 sum(0.0f);
     for (int k = 0; k < model::kChordSamples; ++k) {
-        const float t = model::chordSampleDepth(oUnit, dUnit, tStart, sigma, k, model::kChordSamples);
+        const float t = model::chordSampleDepth(oUnit, dUnit, tStart, sigma, model::chordShare(k));
         const RadianceSample r = sampleRadiance(grid, eye + double(t) * d);
-        sum += glm::vec2(model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
+        sum += model::chordWeight(k) * glm::vec2(model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
                                              glm::vec3(scene.sun.direction), float(scene.medium.hgG)));
     }
-    return sum / float(model::kChordSamples);
+    return sum;
 }
 
 glm::vec3 ellipsoidSkyChroma(const CloudRadiance& grid, const Ellipsoid& e) {

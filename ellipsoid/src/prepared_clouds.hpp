@@ -73,8 +73,8 @@ double weightReferenceDepth(const PreparedClouds& prepared, const View& view);
 // Both continuous in the eye's position.
 glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view);
 // The light an ellipsoid's chord sends to the eye, per unit of the sun's irradiance and of the
-// sky's chroma (model::lightScalars averaged over model::kChordSamples points of the chord
-// beyond tStart, weighted by what the eye sees of them): x = sun, y = sky. The ray is
+// sky's chroma (model::lightScalars at the model::kChordSamples Gauss-Legendre points of the
+// chord beyond tStart, in the opacity the eye sees of it): x = sun, y = sky. The ray is
 // o' + t d' in the ellipsoid's unit space from the eye at `eye`, d its unit world direction.
 glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
                      const glm::vec3& dUnit, float tStart, float sigma);
