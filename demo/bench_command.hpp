@@ -100,6 +100,17 @@ struct ScaleBenchOptions {
 };
 int runScaleBench(const ScaleBenchOptions& options);
 
+// `bench --grids`: per cloud of the shared scenes, the time to make its radiance grid and the
+// memory it holds (demo/grid_bench.cpp).
+struct GridBenchOptions {
+    std::string outDir = "docs";  // grid_bench.csv, grid_bench.md
+    std::string readme;           // when set, its "grid bench" section is replaced
+    std::string scenesDir = "data/scenes";
+    std::vector<std::string> scenes{"single.json", "two_clouds.json", "cumulus27.json", "showcase.json", "field1000.json"};
+    int runs = 3;                 // per cloud (median)
+};
+int runGridBench(const GridBenchOptions& options);
+
 }  // namespace nephele::cli
 
 namespace nephele::cli {

@@ -317,6 +317,7 @@ struct BenchArgs {
     BenchOptions bo;
     std::string gl = "egl", cache;
     bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
+    bool grids = false;
     bool quick = false, noCache = false;
     LayeredBenchOptions lbo;
     WeatherBenchOptions wbo;
@@ -352,6 +353,8 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--flights", b.cruiseFlights, "--cruise: only these flights (scene file names)");
     bench->add_flag("--scale", b.scale,
                     "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
+    bench->add_flag("--grids", b.grids,
+                    "Instead: per cloud of the shared scenes, the ms to make its radiance grid and the MB it holds");
     bench->add_option("--scale-counts", b.sbo.counts, "--scale: ellipsoid counts")
         ->check(within(1, limits::kEllipsoids.value))
         ->capture_default_str();
@@ -370,7 +373,7 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
     bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 }
 
@@ -389,9 +392,9 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
 int runBenchArgs(BenchArgs& b) {
     b.bo.backend = parseBackend(b.gl);
     if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-            int(b.cruise) > 1) {
-        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale and --cruise are "
-                     "separate runs; give one\n";
+            int(b.cruise) + int(b.grids) > 1) {
+        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale, --cruise and "
+                     "--grids are separate runs; give one\n";
         return 2;
     }
     const BenchOptions& bo = b.bo;
@@ -448,6 +451,13 @@ int runBenchArgs(BenchArgs& b) {
         if (widthGiven) sbo.width = bo.width;
         if (heightGiven) sbo.height = bo.height;
         return runScaleBench(sbo);
+    }
+    if (b.grids) {
+        GridBenchOptions gbo;
+        gbo.outDir = bo.outDir, gbo.readme = bo.readme, gbo.scenesDir = bo.scenesDir;
+        if (b.cmd->count("--frames") > 0) gbo.runs = bo.frames;
+        if (b.quick) gbo.scenes = {"single.json"}, gbo.runs = 1;
+        return runGridBench(gbo);
     }
     if (b.flicker) {
         FlickerOptions& flo = b.flo;

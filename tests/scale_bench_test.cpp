@@ -61,3 +61,35 @@ TEST(ScaleBenchTest, BadCountsAndModesAreRefused) {
 }
 
 }  // namespace
+
+namespace {
+
+// `nephele bench --grids --quick`: single.json's one cloud, its grid's size, time and memory,
+// and the README section it regenerates.
+TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
+    const fs::path dir = fs::temp_directory_path() / ("nephele_grid_bench_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: grid bench -->\nold\n<!-- END GENERATED: grid bench -->\n";
+    const auto r = nephele::test::runBounded("bench --grids --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
+                                                 dir.string() + " --readme " + (dir / "README.md").string(),
+                                             4096, 120);
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string csv = slurp(dir / "grid_bench.csv");
+    ASSERT_EQ(csv.rfind("scene,cloud,ellipsoids,optical_radius,size,ms,mb\n", 0), 0u) << csv;
+    // single.json: one ellipsoid of optical radius 10, so a 16^3 grid (radianceGridSize), and
+    // its bytes as radianceGridBytes(16) counts them: 16^3 (96 + 8 * 6) B = 0.5625 MiB.
+    const std::string row = csv.substr(csv.find('\n') + 1);
+    EXPECT_EQ(row.rfind("single.json,0,1,", 0), 0u) << row;
+    EXPECT_NE(row.find(",16,"), std::string::npos) << row;
+    EXPECT_NE(row.find(",0.5625\n"), std::string::npos) << row;
+    const double ms = std::stod(row.substr(row.find(",16,") + 4));
+    EXPECT_GT(ms, 0.0);
+    const std::string readme = slurp(dir / "README.md");
+    EXPECT_EQ(readme.find("old\n"), std::string::npos);
+    EXPECT_NE(readme.find("Measured by `nephele bench --grids` on "), std::string::npos);
+    EXPECT_NE(readme.find("| `single.json` | 1 | 1 × 16³ |"), std::string::npos) << readme;
+    fs::remove_all(dir);
+}
+
+}  // namespace
