@@ -617,6 +617,11 @@ TEST_F(EllipsoidGLTest, SmallLightGridsShareATextureSlot) {
     placed.resize(10);  // fewer grids: their places stay, nothing is uploaded
     EXPECT_EQ(textures.update(placed), 0);
     EXPECT_LE(textures.textureBytes(), 4 * slot);
+    // A grid whose sun transmittance does not match its size is refused, not read past.
+    auto broken = std::make_shared<CloudRadiance>(*grid(8));
+    broken->sunTransmittance.resize(8 * 8 * 8);
+    placed.push_back({broken, Vec3(0.0), Vec3(50.0)});
+    EXPECT_THROW(textures.update(placed), GlError);
 }
 
 namespace {

@@ -87,6 +87,14 @@ glm::ivec3 CloudLightTextures::origin(const Place& p) const {
 void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
     const glm::ivec3 at = origin(p);
     const std::vector<glm::vec4>* data[4] = {&grid.sunFew, &grid.sunMany, &grid.skyTau, &grid.skyFlux};
+    // A grid whose arrays do not match its size (made by hand, not by computeCloudRadiance)
+    // would have the upload read past them.
+    const std::size_t fineVoxels = std::size_t(grid.sunSize()) * grid.sunSize() * grid.sunSize();
+    bool whole = grid.sunTransmittance.size() == fineVoxels;
+    for (const auto* d : data) whole = whole && d->size() == grid.voxels();
+    if (!whole)
+        throw GlError("cloud light grid of " + std::to_string(grid.size) + "^3 voxels: its arrays do not hold " +
+                      std::to_string(grid.voxels()) + " voxels and " + std::to_string(fineVoxels) + " sun transmittances");
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
     constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
