@@ -336,20 +336,18 @@ double beyondTile(const Grid& g, const Vec3& p, const Vec3& w) {
 // where the ray first leaves the box across, on through g's voxelised field of the tiles beyond
 // until it leaves through the top or the bottom.
 std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n) {
-    // Per ellipsoid, what model::segmentDepth(M (p - c), M s, 0, infinity) needs, M (p - c)
-    // stepped from voxel to voxel: the finer grid has kSunRefinement^3 times the voxels of the
-    // diffuse light's, each crossing every ellipsoid.
-    struct Shape { Vec3 origin, step[3]; Vec3 sun; double length, weight; };
+    // Per ellipsoid, the arguments of model::segmentDepth(M (p - c), M s, 0, infinity), M (p - c)
+    // stepped from voxel to voxel rather than multiplied out: the finer grid has
+    // kSunRefinement^3 times the voxels of the diffuse light's, each crossing every ellipsoid.
+    struct Shape { Vec3 origin, step[3]; glm::vec3 sun; double weight; };
     const Vec3 cell = g.cell * double(g.n) / double(n), sun = scene.sun.direction;
     std::vector<Shape> shapes;
     for (const Ellipsoid& e : cloud.ellipsoids) {
         if (!(e.density > 0)) continue;
         const glm::dmat3 unit = ellipsoidToUnit(e);
-        const Vec3 s = unit * sun;
-        const double length = glm::length(s);
         shapes.push_back({unit * (g.lo + 0.5 * cell - e.center),
                           {unit * Vec3(cell.x, 0, 0), unit * Vec3(0, cell.y, 0), unit * Vec3(0, 0, cell.z)},
-                          s / length, length, e.density * scene.medium.extinction});
+                          glm::vec3(unit * sun), e.density * scene.medium.extinction});
     }
     std::vector<float> out(std::size_t(n) * n * n);
     parallelFor(n, [&](int z) {
@@ -357,13 +355,9 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
             for (int x = 0; x < n; ++x) {
                 double tau = 0;
                 for (const Shape& e : shapes) {
-                    const Vec3 o = e.origin + double(x) * e.step[0] + double(y) * e.step[1] + double(z) * e.step[2];
-                    const double tc = -glm::dot(o, e.sun);
-                    const Vec3 perp = o + tc * e.sun;
-                    const double h2 = 1 - glm::dot(perp, perp);
-                    if (h2 <= 0 || tc < -std::sqrt(h2)) continue;  // the ray towards the sun misses it, or has left it
-                    const float h = float(std::sqrt(h2)), u0 = std::clamp(float(-tc), -h, h);
-                    tau += e.weight * (model::chordPrimitive(h, float(h2)) - model::chordPrimitive(u0, float(h2))) / e.length;
+                    const glm::vec3 o(e.origin + double(x) * e.step[0] + double(y) * e.step[1] + double(z) * e.step[2]);
+                    if (glm::dot(o, o) >= 1 && glm::dot(o, e.sun) >= 0) continue;  // outside it, the sun away from it: 0
+                    tau += e.weight * model::segmentDepth(o, e.sun, 0.0f, 1e30f);
                 }
                 if (g.periodic) tau += beyondTile(g, g.lo + (Vec3(x, y, z) + 0.5) * cell, sun);
                 out[(std::size_t(z) * n + y) * n + x] = float(std::exp(-tau));
