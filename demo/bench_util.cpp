@@ -162,6 +162,22 @@ void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& path
     files.commit();
 }
 
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& readme, const std::string& tag,
+                     const std::string& stem, const std::string& csv, const std::string& markdown) {
+    const std::string csvPath = (fs::path(outDir) / (stem + ".csv")).string();
+    const std::string mdPath = (fs::path(outDir) / (stem + ".md")).string();
+    try {
+        writeTextFiles({{csvPath, csv}, {mdPath, markdown}});
+        if (!readme.empty()) replaceGeneratedSection(readme, tag, markdown, {csvPath, mdPath});
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: " << what << ": " << e.what() << "\n";
+        return 1;
+    }
+    std::cout << markdown;
+    std::cerr << "nephele: " << what << " wrote " << csvPath << ", " << mdPath << (readme.empty() ? "" : ", " + readme) << "\n";
+    return 0;
+}
+
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args, const std::string& outDir,
              const std::vector<std::string>& charts) {
     // The script draws into a temporary folder of its own; the charts then go into place

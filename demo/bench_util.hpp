@@ -42,6 +42,13 @@ bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, c
 // Writes each (path, text) all or nothing (OutputFiles): on failure none is left. Throws.
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts);
 
+// The end of a bench without charts (`what`, e.g. "bench --scale"): writes `stem`.csv and
+// `stem`.md into outDir (writeTextFiles), with `readme` replaces its section `tag` by the
+// markdown (replaceGeneratedSection), then prints the markdown and what was written. Returns
+// the exit code: 0, or 1 with a message when a write failed.
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& readme, const std::string& tag,
+                     const std::string& stem, const std::string& csv, const std::string& markdown);
+
 // Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
 // which a leading kChartsFolder stands for a temporary folder the script draws into; the files
 // `charts` it drew there are then written to outDir (output_files.hpp's policy, all or

@@ -12,12 +12,10 @@
 #include "nephele/scene.hpp"
 
 #include <algorithm>
-#include <filesystem>
 #include <iostream>
 #include <map>
 #include <sstream>
 
-namespace fs = std::filesystem;
 
 namespace nephele::cli {
 
@@ -96,18 +94,7 @@ int runGridBench(const GridBenchOptions& o) {
     for (const GridRow& r : rows)
         csv << r.scene << "," << r.cloud << "," << r.ellipsoids << "," << fmt("%.2f", r.opticalRadius) << "," << r.size << ","
             << fmt("%.2f", r.ms) << "," << fmt("%.4f", r.megabytes) << "\n";
-    const std::string csvPath = (fs::path(o.outDir) / "grid_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "grid_bench.md").string();
-    try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, md}});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "grid bench", md, {csvPath, mdPath});
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench --grids: " << e.what() << "\n";
-        return 1;
-    }
-    std::cout << md;
-    std::cerr << "nephele: bench --grids wrote " << csvPath << ", " << mdPath << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
-    return 0;
+    return publishTextBench("bench --grids", o.outDir, o.readme, "grid bench", "grid_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli

@@ -258,19 +258,7 @@ int runScaleBench(const ScaleBenchOptions& o) {
         csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << "," << fmt("%.1f", r.load.peakMb)
             << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << "," << fmt("%.1f", r.draw.peakMb) << ","
             << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";
-    const std::string csvPath = (fs::path(o.outDir) / "scale_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "scale_bench.md").string();
-    try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, md}});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "scale bench", md, {csvPath, mdPath});
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench --scale: " << e.what() << "\n";
-        return 1;
-    }
-    std::cout << md;
-    std::cerr << "nephele: bench --scale wrote " << csvPath << ", " << mdPath << (o.readme.empty() ? "" : ", " + o.readme)
-              << "\n";
-    return 0;
+    return publishTextBench("bench --scale", o.outDir, o.readme, "scale bench", "scale_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli
