@@ -1,6 +1,7 @@
 #include "nephele/gl_state.hpp"
 
 #include <sstream>
+#include <stdexcept>
 
 namespace nephele {
 using namespace gl;
@@ -10,6 +11,7 @@ constexpr GLenum kTargets[5] = {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRA
 constexpr GLenum kBindings[5] = {GL_TEXTURE_BINDING_2D, GL_TEXTURE_BINDING_3D, GL_TEXTURE_BINDING_2D_ARRAY,
                                  GL_TEXTURE_BINDING_RECTANGLE, GL_TEXTURE_BINDING_BUFFER};
 GLint geti(GLenum e) { GLint v = 0; glGetIntegerv(e, &v); return v; }
+GLint getii(GLenum e, GLuint i) { GLint v = 0; glGetIntegeri_v(e, i, &v); return v; }
 void enable(GLenum cap, GLboolean on) { on ? glEnable(cap) : glDisable(cap); }
 
 // The pixel store parameters in the order of GlStateSnapshot::PixelStore.
@@ -36,7 +38,6 @@ GlStateSnapshot GlStateSnapshot::capture() {
     s.renderbuffer = geti(GL_RENDERBUFFER_BINDING);
     glGetIntegerv(GL_VIEWPORT, s.viewport);
     glGetIntegerv(GL_SCISSOR_BOX, s.scissorBox);
-    s.blend = glIsEnabled(GL_BLEND);
     s.depthTest = glIsEnabled(GL_DEPTH_TEST);
     s.stencilTest = glIsEnabled(GL_STENCIL_TEST);
     s.cullFace = glIsEnabled(GL_CULL_FACE);
@@ -56,14 +57,18 @@ GlStateSnapshot GlStateSnapshot::capture() {
     s.programPointSize = glIsEnabled(GL_PROGRAM_POINT_SIZE);
     s.depthClamp = glIsEnabled(GL_DEPTH_CLAMP);
     s.dither = glIsEnabled(GL_DITHER);
-    s.blendEquationRgb = geti(GL_BLEND_EQUATION_RGB);
-    s.blendEquationAlpha = geti(GL_BLEND_EQUATION_ALPHA);
-    s.blendSrcRgb = geti(GL_BLEND_SRC_RGB);
-    s.blendDstRgb = geti(GL_BLEND_DST_RGB);
-    s.blendSrcAlpha = geti(GL_BLEND_SRC_ALPHA);
-    s.blendDstAlpha = geti(GL_BLEND_DST_ALPHA);
+    for (GLuint i = 0; i < GLuint(kDrawBuffers); ++i) {
+        DrawBufferBlend& b = s.blend[i];
+        b.blend = glIsEnabledi(GL_BLEND, i);
+        b.equationRgb = getii(GL_BLEND_EQUATION_RGB, i);
+        b.equationAlpha = getii(GL_BLEND_EQUATION_ALPHA, i);
+        b.srcRgb = getii(GL_BLEND_SRC_RGB, i);
+        b.dstRgb = getii(GL_BLEND_DST_RGB, i);
+        b.srcAlpha = getii(GL_BLEND_SRC_ALPHA, i);
+        b.dstAlpha = getii(GL_BLEND_DST_ALPHA, i);
+        glGetBooleani_v(GL_COLOR_WRITEMASK, i, b.colorMask);
+    }
     glGetFloatv(GL_BLEND_COLOR, s.blendColor);
-    glGetBooleanv(GL_COLOR_WRITEMASK, s.colorMask);
     glGetBooleanv(GL_DEPTH_WRITEMASK, &s.depthMask);
     s.depthFunc = geti(GL_DEPTH_FUNC);
     glGetDoublev(GL_DEPTH_RANGE, s.depthRange);
@@ -116,7 +121,6 @@ void GlStateSnapshot::restore() const {
     glBindRenderbuffer(GL_RENDERBUFFER, GLuint(renderbuffer));
     glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
     glScissor(scissorBox[0], scissorBox[1], scissorBox[2], scissorBox[3]);
-    enable(GL_BLEND, blend);
     enable(GL_DEPTH_TEST, depthTest);
     enable(GL_STENCIL_TEST, stencilTest);
     enable(GL_CULL_FACE, cullFace);
@@ -136,10 +140,14 @@ void GlStateSnapshot::restore() const {
     enable(GL_PROGRAM_POINT_SIZE, programPointSize);
     enable(GL_DEPTH_CLAMP, depthClamp);
     enable(GL_DITHER, dither);
-    glBlendEquationSeparate(GLenum(blendEquationRgb), GLenum(blendEquationAlpha));
-    glBlendFuncSeparate(GLenum(blendSrcRgb), GLenum(blendDstRgb), GLenum(blendSrcAlpha), GLenum(blendDstAlpha));
+    for (GLuint i = 0; i < GLuint(kDrawBuffers); ++i) {
+        const DrawBufferBlend& b = blend[i];
+        b.blend ? glEnablei(GL_BLEND, i) : glDisablei(GL_BLEND, i);
+        glBlendEquationSeparatei(i, GLenum(b.equationRgb), GLenum(b.equationAlpha));
+        glBlendFuncSeparatei(i, GLenum(b.srcRgb), GLenum(b.dstRgb), GLenum(b.srcAlpha), GLenum(b.dstAlpha));
+        glColorMaski(i, b.colorMask[0], b.colorMask[1], b.colorMask[2], b.colorMask[3]);
+    }
     glBlendColor(blendColor[0], blendColor[1], blendColor[2], blendColor[3]);
-    glColorMask(colorMask[0], colorMask[1], colorMask[2], colorMask[3]);
     glDepthMask(depthMask);
     glDepthFunc(GLenum(depthFunc));
     glDepthRange(depthRange[0], depthRange[1]);
@@ -195,7 +203,6 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     cmp("renderbuffer", renderbuffer, o.renderbuffer);
     cmpN("viewport", viewport, o.viewport, 4);
     cmpN("scissor box", scissorBox, o.scissorBox, 4);
-    cmp("blend", blend, o.blend);
     cmp("depth test", depthTest, o.depthTest);
     cmp("stencil test", stencilTest, o.stencilTest);
     cmp("cull face", cullFace, o.cullFace);
@@ -215,14 +222,17 @@ std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
     cmp("program point size", programPointSize, o.programPointSize);
     cmp("depth clamp", depthClamp, o.depthClamp);
     cmp("dither", dither, o.dither);
-    cmp("blend equation rgb", blendEquationRgb, o.blendEquationRgb);
-    cmp("blend equation alpha", blendEquationAlpha, o.blendEquationAlpha);
-    cmp("blend src rgb", blendSrcRgb, o.blendSrcRgb);
-    cmp("blend dst rgb", blendDstRgb, o.blendDstRgb);
-    cmp("blend src alpha", blendSrcAlpha, o.blendSrcAlpha);
-    cmp("blend dst alpha", blendDstAlpha, o.blendDstAlpha);
+    for (int i = 0; i < kDrawBuffers; ++i) {
+        const DrawBufferBlend& a = blend[i];
+        const DrawBufferBlend& b = o.blend[i];
+        const std::string n = "draw buffer " + std::to_string(i) + " ";
+        cmp((n + "blend").c_str(), a.blend, b.blend);
+        const GLint x[6] = {a.equationRgb, a.equationAlpha, a.srcRgb, a.dstRgb, a.srcAlpha, a.dstAlpha};
+        const GLint y[6] = {b.equationRgb, b.equationAlpha, b.srcRgb, b.dstRgb, b.srcAlpha, b.dstAlpha};
+        cmpN((n + "blend (equation rgb, alpha; src rgb, dst rgb, src alpha, dst alpha)").c_str(), x, y, 6);
+        cmpN((n + "color mask").c_str(), a.colorMask, b.colorMask, 4);
+    }
     cmpN("blend color", blendColor, o.blendColor, 4);
-    cmpN("color mask", colorMask, o.colorMask, 4);
     cmp("depth mask", depthMask, o.depthMask);
     cmp("depth func", depthFunc, o.depthFunc);
     cmpN("depth range", depthRange, o.depthRange, 2);
@@ -280,6 +290,36 @@ void resetPassState() {
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glDepthMask(GL_FALSE);
+}
+
+namespace {
+thread_local HostStateScope* innermostScope = nullptr;
+}
+
+HostStateScope::HostStateScope() : outer_(innermostScope) {
+    innermostScope = this;
+    resetPassState();
+    resetPixelStore();
+}
+
+HostStateScope::~HostStateScope() {
+    // Newest first, so that a framebuffer recorded twice ends with its first (the host's) list.
+    for (auto it = drawBuffers_.rbegin(); it != drawBuffers_.rend(); ++it)
+        glNamedFramebufferDrawBuffers(it->framebuffer, GlStateSnapshot::kDrawBuffers, it->buffers.data());
+    innermostScope = outer_;
+}
+
+void HostStateScope::selectDrawBuffer(GLuint framebuffer, GLenum attachment) {
+    if (!innermostScope) throw std::logic_error("HostStateScope::selectDrawBuffer outside a HostStateScope");
+    SavedDrawBuffers saved{framebuffer, {}};
+    bool alone = true;  // already the only draw buffer: nothing to change or restore
+    for (int i = 0; i < GlStateSnapshot::kDrawBuffers; ++i) {
+        saved.buffers[i] = GLenum(geti(GL_DRAW_BUFFER0 + i));
+        alone = alone && saved.buffers[i] == (i == 0 ? attachment : GLenum(GL_NONE));
+    }
+    if (alone) return;
+    innermostScope->drawBuffers_.push_back(saved);
+    glNamedFramebufferDrawBuffer(framebuffer, attachment);
 }
 
 void resetPixelStore() {

@@ -102,11 +102,19 @@ ColorTarget colorTargetOf(const ViewDesc& d) {
     };
     drain();
     GLint type = GL_NONE, encoding = GL_LINEAR, component = GL_UNSIGNED_NORMALIZED;
-    const GLenum attachment = GL_COLOR_ATTACHMENT0;
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
+    GLint attachment = GLint(d.drawBuffer);
+    if (attachment == GL_NONE) {  // the host's draw buffer 0: a draw buffer is asked of the bound framebuffer
+        GLint bound = 0;
+        glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &bound);
+        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, d.framebuffer);
+        glGetIntegerv(GL_DRAW_BUFFER0, &attachment);
+        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, GLuint(bound));
+        if (attachment == GL_NONE) return ColorTarget::Unorm8;  // bindFrame reports it
+    }
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
     if (glGetError() != GL_NO_ERROR || type == GL_NONE) return ColorTarget::Unorm8;  // no colour attachment
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
     drain();
     if (encoding == GL_SRGB) return ColorTarget::Srgb8;
     return component == GL_FLOAT ? ColorTarget::Float : ColorTarget::Unorm8;

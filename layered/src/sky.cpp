@@ -136,6 +136,7 @@ SkyStats SkyRenderer::draw(const ViewDesc& desc) {
     const View view = makeView(desc);
     HostFrame frame;
     frame.framebuffer = desc.framebuffer;
+    frame.drawBuffer = desc.drawBuffer;
     frame.hasDepth = desc.hasDepth;
     frame.srgb = colorTargetOf(desc) == ColorTarget::Srgb8;
     SkyStats stats;

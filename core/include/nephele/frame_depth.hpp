@@ -19,7 +19,8 @@ struct DepthSource {
 
 // Where a renderer draws (ViewDesc's framebuffer, depth and colour, resolved).
 struct HostFrame {
-    GLuint framebuffer = 0;  // colour attachment 0: rgb radiance "over", alpha the cloud opacity
+    GLuint framebuffer = 0;  // its draw buffer `drawBuffer`: rgb radiance "over", alpha the cloud opacity
+    GLenum drawBuffer = GL_NONE;  // the colour attachment drawn into; GL_NONE: the framebuffer's draw buffer 0
     bool hasDepth = true;    // false: the frame has no depth to respect
     DepthSource depth;       // its depth when already at hand (the host's depth texture, or a copy made for
                              // this view); texture 0: copied from the framebuffer's when a pass needs it
@@ -50,7 +51,9 @@ private:
 void setViewFrameUniforms(const Program& program, const View& view, bool drawsIntoFrame, const DepthSource& depth = {});
 
 // Binds `frame.framebuffer` and sets the view's viewport in it, with GL_FRAMEBUFFER_SRGB as
-// the frame needs it (inside a HostStateScope).
+// the frame needs it, and its draw buffer `frame.drawBuffer` as its only draw buffer (restored
+// by the HostStateScope it is called in). Throws GlError naming the framebuffer when that draw
+// buffer is GL_NONE or has no image attached.
 void bindFrame(const HostFrame& frame, const View& view);
 // The depth test of geometry drawn with view.projectionMatrix against the frame's depth: the
 // frame's clip control and GL_LESS, or GL_GREATER with reversed Z (inside a HostStateScope).

@@ -1,8 +1,7 @@
 // The GL state Nephele touches, saved and restored, so that a simulator's frame is left
 // exactly as the library found it (as Dear ImGui's backends do).
 //
-// What is covered: framebuffer bindings and draw/read buffers of the default framebuffer
-// binding, viewport, scissor, enables (blend, depth, stencil, cull, scissor, polygon
+// What is covered: framebuffer bindings, viewport, scissor, enables (blend, depth, stencil, cull, scissor, polygon
 // offset fill/line/point, sRGB, multisample, sample alpha-to-coverage/alpha-to-one/coverage/
 // mask, colour logic op, primitive restart, rasterizer discard, program point size, depth
 // clamp, dither), blend equations/functions/colour, colour/depth/stencil write masks, depth
@@ -11,30 +10,38 @@
 // program, vertex array, array/element/uniform/pixel buffers, active texture unit and the
 // 2D/3D/2D-array/rectangle/buffer textures and samplers of units 0..15, the pixel store
 // (pack and unpack: alignment, row length, image height, skips, byte order), clip distances
-// 0..7, shader storage buffer bindings 0..7. Blend enables and functions are restored for
-// all draw buffers alike (from draw buffer 0's state).
+// 0..7, shader storage buffer bindings 0..7. Blend enables, equations, functions and colour
+// write masks are saved and restored per draw buffer (0..kDrawBuffers-1), so that a host's
+// second colour target keeps its own blending. The draw-buffer lists of the host framebuffers
+// Nephele draws into are restored by HostStateScope (bindFrame records them).
 #pragma once
 
 #include "nephele/gl.hpp"
 
 #include <array>
 #include <string>
+#include <vector>
 
 namespace nephele {
 
 struct GlStateSnapshot {
     static constexpr int kUnits = 16;
+    static constexpr int kDrawBuffers = 8;  // GL 4.5 guarantees at least 8 (GL_MAX_DRAW_BUFFERS)
     struct Stencil { GLint func, ref, valueMask, writeMask, fail, depthFail, pass; };
 
     GLint drawFramebuffer, readFramebuffer, renderbuffer;
     GLint viewport[4];
     GLint scissorBox[4];
-    GLboolean blend, depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill, polygonOffsetLine,
+    GLboolean depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill, polygonOffsetLine,
         polygonOffsetPoint, framebufferSrgb, multisample, sampleAlphaToCoverage, sampleAlphaToOne, sampleCoverage,
         sampleMask, colorLogicOp, primitiveRestart, rasterizerDiscard, programPointSize, depthClamp, dither;
-    GLint blendEquationRgb, blendEquationAlpha, blendSrcRgb, blendDstRgb, blendSrcAlpha, blendDstAlpha;
+    struct DrawBufferBlend {
+        GLboolean blend;
+        GLint equationRgb, equationAlpha, srcRgb, dstRgb, srcAlpha, dstAlpha;
+        GLboolean colorMask[4];
+    };
+    std::array<DrawBufferBlend, kDrawBuffers> blend;  // per draw buffer
     GLfloat blendColor[4];
-    GLboolean colorMask[4];
     GLboolean depthMask;
     GLint depthFunc;
     GLdouble depthRange[2];
@@ -88,16 +95,31 @@ private:
 };
 
 // How the library enters a host's frame: saves the GL state, then resets the pass state and
-// the pixel store (resetPassState, resetPixelStore); restores the host's state on destruction.
+// the pixel store (resetPassState, resetPixelStore); restores the host's state on destruction,
+// and the draw-buffer list of every host framebuffer that selectDrawBuffer changed meanwhile.
+// Scopes nest (per thread); the innermost one records.
 class HostStateScope {
 public:
-    HostStateScope() {
-        resetPassState();
-        resetPixelStore();
-    }
+    HostStateScope();
+    ~HostStateScope();
+    HostStateScope(const HostStateScope&) = delete;
+    HostStateScope& operator=(const HostStateScope&) = delete;
+
+    // Makes `attachment` the only draw buffer of the framebuffer object `framebuffer` (bound as
+    // GL_DRAW_FRAMEBUFFER), recording its draw-buffer list in the innermost scope so that it is
+    // restored on that scope's exit. A host's framebuffer with several draw buffers would
+    // otherwise get Nephele's output in every one of them, and dual-source blending (one draw
+    // buffer at most) would fail. Throws std::logic_error outside a scope.
+    static void selectDrawBuffer(GLuint framebuffer, GLenum attachment);
 
 private:
+    struct SavedDrawBuffers {
+        GLuint framebuffer;
+        std::array<GLenum, GlStateSnapshot::kDrawBuffers> buffers;
+    };
     GlStateGuard guard_;
+    std::vector<SavedDrawBuffers> drawBuffers_;
+    HostStateScope* outer_;
 };
 
 }  // namespace nephele

@@ -8,7 +8,7 @@
 
 namespace nephele {
 
-// What the frame's colour attachment 0 holds; Nephele blends linear radiance into it.
+// What the colour attachment Nephele draws into holds; Nephele blends linear radiance into it.
 enum class ColorTarget {
     Auto,    // a framebuffer object: asked of its attachment (component type, colour encoding); the
              // default framebuffer (a window): Unorm8, since drivers report sRGB-capable visuals as
@@ -26,8 +26,13 @@ struct ViewDesc {
                                  // reversed or infinite), in the convention `depth` states
     DepthConvention depth;
     glm::ivec4 viewport{0, 0, 0, 0};  // x, y, width, height of the channel in `framebuffer` (pixels, lower left)
-    GLuint framebuffer = 0;      // the host's (0 = the default framebuffer): colour attachment 0 gets rgb
-                                 // radiance "over" and alpha accumulating the cloud opacity
+    GLuint framebuffer = 0;      // the host's (0 = the default framebuffer): its draw buffer `drawBuffer`
+                                 // gets rgb radiance "over" and alpha accumulating the cloud opacity
+    GLenum drawBuffer = GL_NONE;  // the colour attachment Nephele draws into (GL_COLOR_ATTACHMENTi of
+                                  // `framebuffer`); GL_NONE: the framebuffer's draw buffer 0 as the host
+                                  // set it. While Nephele draws, it is the framebuffer's only draw buffer;
+                                  // the host's draw-buffer list and every draw buffer's blend state and
+                                  // colour mask are restored before draw() returns
     GLuint depthTexture = 0;     // the host's depth as a single-sample 2D texture, sampled instead of a
                                  // copy of `framebuffer`'s depth (it may be that attachment itself: Nephele
                                  // never writes the host's depth); texel (x, y) = framebuffer pixel (x, y).
@@ -42,7 +47,7 @@ struct ViewDesc {
 // stated convention), a viewport outside 1..16384 pixels or at a negative offset.
 View makeView(const ViewDesc& desc);
 
-// The ColorTarget of `framebuffer`'s colour attachment 0 (desc.color unless Auto). Needs a
+// The ColorTarget of the colour attachment `desc` draws into (desc.color unless Auto). Needs a
 // current context.
 ColorTarget colorTargetOf(const ViewDesc& desc);
 
