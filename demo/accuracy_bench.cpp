@@ -1,6 +1,6 @@
 // `nephele bench --accuracy`: every method with a sweep of its settings, timed and compared
 // with the path-traced reference on the shared scenes and on a distance series, with the
-// exact field (medium.noise 0) and with the scene's noise. CSV, charts, a README section.
+// exact field (medium.noise 0) and with the scene's noise. CSV, charts, a generated section for docs/benchmarks.md.
 #include "bench_command.hpp"
 
 #include "accuracy_reference.hpp"
@@ -405,7 +405,7 @@ Image viewsMontage(const std::vector<ViewRow>& rows) {
 }  // namespace
 
 int runAccuracyBench(const AccuracyOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme)) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<Case> all;
     try {
         all = cases(o);
@@ -425,7 +425,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     std::vector<ComponentRow> components;
     std::vector<Result> results;
     std::vector<LayeredPoint> layered;
-    std::vector<ViewRow> views;  // noise 0, for docs/accuracy_views.png
+    std::vector<ViewRow> views;  // noise 0, for accuracy_views.png
     std::string renderer;
     using Clock = std::chrono::steady_clock;
     try {
@@ -616,7 +616,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
         first = false;
     }
     md << "). ✓ = on the Pareto front (nothing else is both faster and more accurate).\n\n";
-    md << "![ms per frame against error, per method and setting](docs/accuracy_chart.png)\n\n";
+    md << "![ms per frame against error, per method and setting](accuracy_chart.png)\n\n";
     for (const std::string& noiseMode : o.noiseModes) {
         md << (noiseMode == "0" ? "With `medium.noise: 0` (the exact analytic field):\n\n"
                                 : "With the scenes' noise (`medium.noise` 0.3; the path tracer uses the project's "
@@ -659,7 +659,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
         }
         md << "\n";
     }
-    md << "\n![error and time against distance](docs/accuracy_distance.png)\n";
+    md << "\n![error and time against distance](accuracy_distance.png)\n";
     md << "\nWhere the error is (`medium.noise: 0`): the reference's radiance over the cloud split by light (the "
           "sun's single scattering, its multiple scattering, the sky's and the ground's light including the "
           "background seen through), and each method's error split the same way, each traced or rendered on its "
@@ -711,19 +711,18 @@ int runAccuracyBench(const AccuracyOptions& o) {
     const std::string distancePath = (fs::path(o.outDir) / "accuracy_distance.png").string();
     const std::string viewsPath = (fs::path(o.outDir) / "accuracy_views.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}, {layeredPath, layeredCsv.str()}});
+        writeTextFiles({{csvPath, csv.str()},
+                        {mdPath, generatedSection("accuracy bench", md.str())},
+                        {layeredPath, layeredCsv.str()}});
         writePng(viewsPath, viewsMontage(views));
         runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "accuracy bench", md.str(),
-                                   {csvPath, mdPath, layeredPath, chartPath, distancePath, viewsPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
     std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", "
-              << chartPath << ", " << distancePath << ", " << viewsPath << (o.readme.empty() ? "" : ", " + o.readme)
-              << "\n";
+              << chartPath << ", " << distancePath << ", " << viewsPath << "\n";
     return 0;
 }
 

@@ -140,7 +140,7 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
 }  // namespace
 
 int runBench(const BenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme)) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<Row> rows;
     std::vector<Accuracy> accuracy;
     std::string renderer;
@@ -224,7 +224,7 @@ int runBench(const BenchOptions& o) {
            << " | " << fmt("%.2f", r.separateMs / r.floorMs) << " | "
            << fmt("%.1f", r.baselineMs / r.ms) << " | " << r.stats.drawCalls << " | " << r.baselineStats.drawCalls
            << " | " << r.stats.passes << " | " << fmt("%.0f%%", 100 * r.stats.utilisation) << " |\n";
-    md << "\n![ms per frame against ellipsoid count](docs/ellipsoid_bench.png)\n";
+    md << "\n![ms per frame against ellipsoid count](ellipsoid_bench.png)\n";
     if (!accuracy.empty()) {
         md << "\nAccuracy on the shared scenes at their own size, same run: the GPU compositor against "
               "`--method gardner-exact` (PSNR of linear RGB clamped to [0, 1]), and for scenes without objects, with "
@@ -240,7 +240,7 @@ int runBench(const BenchOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "ellipsoid_bench.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "ellipsoid_bench.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}});
+        writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("ellipsoid bench", md.str())}});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
         return 1;
@@ -248,14 +248,12 @@ int runBench(const BenchOptions& o) {
     try {
         runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.outDir,
                 {"ellipsoid_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "ellipsoid bench", md.str(), {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
-              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
     return 0;
 }
 

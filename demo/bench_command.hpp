@@ -8,9 +8,11 @@
 
 namespace nephele::cli {
 
+// Every bench writes into its outDir (default bench-out/, never the repository's docs/): its CSV,
+// its charts and STEM.md, its generated section; `bench --publish docs` puts the sections into
+// docs/benchmarks.md (bench_util.hpp).
 struct BenchOptions {
-    std::string outDir = "docs";      // CSV, markdown table and chart go here
-    std::string readme;               // when set, the generated section of this README is replaced
+    std::string outDir = "bench-out";  // CSV, markdown section and chart go here
     std::vector<int> counts{1, 4, 16, 64, 256, 1024, 4096};
     int frames = 5;                   // measured frames per method and count (median reported)
     int width = 1280, height = 720;
@@ -28,8 +30,7 @@ int runBench(const BenchOptions& options);
 
 // `bench --accuracy`: speed against error for every method and a sweep of its settings.
 struct AccuracyOptions {
-    std::string outDir = "docs";  // accuracy.csv, accuracy.md, accuracy_chart.png, accuracy_distance.png
-    std::string readme;           // when set, its "accuracy bench" section is replaced
+    std::string outDir = "bench-out";  // accuracy.csv, accuracy.md, accuracy_chart.png, accuracy_distance.png
     std::string scenesDir = "data/scenes";
     std::string cacheDir;         // path-traced references are cached here ("" = none)
     int width = 320;              // px: every case is rendered this wide (aspect kept)
@@ -47,8 +48,7 @@ int runAccuracyBench(const AccuracyOptions& options);
 // `bench --flicker`: the stability of each method along camera paths (flythrough.json's path and
 // approach.json's 5 km run into a cumulus): mean frame-to-frame change against the exact model's.
 struct FlickerOptions {
-    std::string outDir = "docs";  // flicker.csv, flicker.md, flicker.png
-    std::string readme;           // when set, its "flicker bench" section is replaced
+    std::string outDir = "bench-out";  // flicker.csv, flicker.md, flicker.png
     std::string scenesDir = "data/scenes";
     int width = 160;              // px (aspect kept)
     double fps = 4;               // frames per second of scene time
@@ -60,8 +60,7 @@ int runFlickerBench(const FlickerOptions& options);
 // `bench --layered`: the layered far field against its floor over the extent and the annulus
 // count N, with the cloud-shadow pass's share and the renderer before its speed work.
 struct LayeredBenchOptions {
-    std::string outDir = "docs";  // layered_bench.csv, layered_bench.md, layered_bench.png
-    std::string readme;           // when set, its "layered bench" section is replaced
+    std::string outDir = "bench-out";  // layered_bench.csv, layered_bench.md, layered_bench.png
     std::string scenesDir = "data/scenes";
     std::string cacheDir;         // lighting volumes are cached here ("" = none)
     std::vector<int> counts{2, 4, 8, 16, 32};     // N, annuli per layer
@@ -76,8 +75,7 @@ int runLayeredBench(const LayeredBenchOptions& options);
 // `bench --weather`: frame times along a flight while the weather changes (coverage, base,
 // thickness, wind, the sun), SkyRenderer's update + draw against the one-call render().
 struct WeatherBenchOptions {
-    std::string outDir = "docs";  // weather_bench.csv, weather_bench.md, weather_bench.png
-    std::string readme;           // when set, its "weather bench" section is replaced
+    std::string outDir = "bench-out";  // weather_bench.csv, weather_bench.md, weather_bench.png
     std::string scenesDir = "data/scenes";
     int frames = 240;             // frames of the flight
     double fps = 30;              // frames per second of simulated time
@@ -91,8 +89,7 @@ int runWeatherBench(const WeatherBenchOptions& options);
 // `bench --scale`: load, plan and draw time and peak memory of each fast method (and the CPU
 // model at a thumbnail size) from 10^4 to 10^6 ellipsoids, and the growth exponent.
 struct ScaleBenchOptions {
-    std::string outDir = "docs";  // scale_bench.csv, scale_bench.md
-    std::string readme;           // when set, its "scale bench" section is replaced
+    std::string outDir = "bench-out";  // scale_bench.csv, scale_bench.md
     std::vector<int> counts{10000, 100000, 1000000};
     int width = 1280, height = 720;
     int exactWidth = 64;          // gardner-exact's image width (px; the height keeps the aspect)
@@ -103,8 +100,7 @@ int runScaleBench(const ScaleBenchOptions& options);
 // `bench --grids`: per cloud of the shared scenes, the time to make its radiance grid and the
 // memory it holds (demo/grid_bench.cpp).
 struct GridBenchOptions {
-    std::string outDir = "docs";  // grid_bench.csv, grid_bench.md
-    std::string readme;           // when set, its "grid bench" section is replaced
+    std::string outDir = "bench-out";  // grid_bench.csv, grid_bench.md
     std::string scenesDir = "data/scenes";
     std::vector<std::string> scenes{"single.json", "two_clouds.json", "cumulus27.json", "showcase.json", "field1000.json"};
     int runs = 3;                 // per cloud (median)
@@ -119,8 +115,7 @@ namespace nephele::cli {
 // (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json): ms per
 // frame, tiles rendered, PSNR against the fresh frame, flicker.
 struct CruiseBenchOptions {
-    std::string outDir = "docs";  // cruise_bench.csv, cruise_bench.md, cruise_bench.png
-    std::string readme;           // when set, its "cruise bench" section is replaced
+    std::string outDir = "bench-out";  // cruise_bench.csv, cruise_bench.md, cruise_bench.png
     std::string scenesDir = "data/scenes";
     double fps = 10;              // frames per second of scene time
     int width = 1280, height = 720;

@@ -105,55 +105,113 @@ std::string readText(const std::string& path) {
 
 }  // namespace
 
-bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, const std::string& tag) {
+bool prepareBenchOutputs(const std::string& outDir) {
     std::error_code ec;
     fs::create_directories(outDir, ec);
     if (!fs::is_directory(outDir)) {
         std::cerr << "nephele: bench: cannot create the output folder '" << outDir << "'\n";
         return false;
     }
-    if (readme.empty()) return true;
-    if (!fs::is_regular_file(readme)) {
-        std::cerr << "nephele: bench: --readme '" << readme << "' is not a file\n";
-        return false;
-    }
-    if (tag.empty()) return true;
-    std::string text;
-    try {
-        text = readText(readme);
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench: " << e.what() << "\n";
-        return false;
-    }
-    if (text.find(beginMarker(tag)) == std::string::npos || text.find(endMarker(tag)) == std::string::npos) {
-        std::cerr << "nephele: bench: --readme '" << readme << "' has no '" << beginMarker(tag) << "' ... '"
-                  << endMarker(tag) << "' lines to replace; add them where the table should go\n";
-        return false;
-    }
     return true;
 }
 
-void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown,
-                             const std::vector<std::string>& files) {
-    std::string s = readText(readme);
-    const std::string begin = beginMarker(tag), end = endMarker(tag);
-    const auto b = s.find(begin), e = s.find(end);
-    if (b == std::string::npos || e == std::string::npos || e < b)
-        throw std::runtime_error(readme + " has no '" + begin + "' ... '" + end + "' section");
-    s = s.substr(0, b + begin.size()) + "\n" + markdown + s.substr(e);
-    OutputFiles out;
-    out.add(readme, textWriter(s), "--readme");
-    if (!files.empty()) {
-        const fs::path docs = fs::path(readme).parent_path() / "docs";
-        std::error_code ec;
-        fs::create_directories(docs, ec);
-        if (ec) throw std::runtime_error("cannot make " + docs.string() + " beside --readme: " + ec.message());
-        for (const std::string& f : files)
-            out.add((docs / fs::path(f).filename()).string(),
-                    [from = fs::path(f)](const std::string& p) { fs::copy_file(from, p, fs::copy_options::overwrite_existing); },
-                    "--readme");
+std::string generatedSection(const std::string& tag, const std::string& markdown) {
+    return beginMarker(tag) + "\n" + markdown + endMarker(tag) + "\n";
+}
+
+int publishBenchSections(const std::string& outDir, const std::string& docsDir) {
+    const std::string what = "nephele: bench --publish: ";
+    const fs::path pagePath = fs::path(docsDir) / kBenchmarksPage;
+    struct Section {
+        std::string tag, body;
+        fs::path md;
+    };
+    std::vector<Section> sections;
+    std::error_code ec;
+    if (!fs::is_directory(outDir, ec)) {
+        std::cerr << what << "--out-dir '" << outDir << "' is not a folder (run a bench with --out-dir first)\n";
+        return 2;
     }
-    out.commit();
+    if (!fs::is_regular_file(pagePath, ec)) {
+        std::cerr << what << "'" << pagePath.string() << "' is not a file: --publish names the docs folder that holds "
+                  << kBenchmarksPage << "\n";
+        return 2;
+    }
+    std::string page;
+    try {
+        page = readText(pagePath.string());
+        // A bench's section file: its BEGIN marker on the first line, its END marker last.
+        std::vector<fs::path> mds;
+        for (const auto& entry : fs::directory_iterator(outDir))
+            if (entry.is_regular_file() && entry.path().extension() == ".md" &&
+                entry.path().filename().string().find(".partial-") == std::string::npos)
+                mds.push_back(entry.path());
+        std::sort(mds.begin(), mds.end());
+        const std::string beginPrefix = "<!-- BEGIN GENERATED: ", suffix = " -->";
+        for (const fs::path& md : mds) {
+            const std::string text = readText(md.string());
+            if (text.rfind(beginPrefix, 0) != 0) continue;
+            const auto eol = text.find('\n');
+            const std::string first = text.substr(0, eol);
+            if (eol == std::string::npos || first.size() < beginPrefix.size() + suffix.size() ||
+                first.compare(first.size() - suffix.size(), suffix.size(), suffix) != 0)
+                continue;
+            const std::string tag = first.substr(beginPrefix.size(), first.size() - beginPrefix.size() - suffix.size());
+            const auto end = text.rfind(endMarker(tag));
+            if (end == std::string::npos || end < eol) {
+                std::cerr << what << md.string() << ": no '" << endMarker(tag) << "' line: not a whole section\n";
+                return 2;
+            }
+            sections.push_back({tag, text.substr(eol + 1, end - eol - 1), md});
+        }
+    } catch (const std::exception& e) {
+        std::cerr << what << e.what() << "\n";
+        return 1;
+    }
+    if (sections.empty()) {
+        std::cerr << what << "'" << outDir << "' holds no generated section (a bench's *.md beginning with '"
+                  << beginMarker("TAG") << "'): run a bench with --out-dir " << outDir << " first\n";
+        return 2;
+    }
+    // Every section's markers must be in the page before anything is written.
+    for (const Section& s : sections) {
+        const std::string begin = beginMarker(s.tag), end = endMarker(s.tag);
+        const auto b = page.find(begin), e = page.find(end);
+        if (b == std::string::npos || e == std::string::npos || e < b) {
+            std::cerr << what << pagePath.string() << " has no '" << begin << "' ... '" << end
+                      << "' lines to replace; add them where the section should go\n";
+            return 2;
+        }
+        page = page.substr(0, b + begin.size()) + "\n" + s.body + page.substr(e);
+    }
+    try {
+        OutputFiles out;
+        out.add(pagePath.string(), textWriter(page), "--publish");
+        // The files a section shows or links (its CSVs and charts) are the ones named after its
+        // markdown file: STEM.csv, STEM_series.csv, STEM_chart.png, ...
+        for (const Section& s : sections) {
+            const std::string stem = s.md.stem().string();
+            for (const auto& entry : fs::directory_iterator(outDir)) {
+                const std::string name = entry.path().filename().string(), ext = entry.path().extension().string();
+                if (!entry.is_regular_file() || name.rfind(stem, 0) != 0 || (ext != ".csv" && ext != ".png") ||
+                    name.find(".partial-") != std::string::npos)
+                    continue;
+                const auto copy = [from = entry.path()](const std::string& p) {
+                    fs::copy_file(from, p, fs::copy_options::overwrite_existing);
+                };
+                out.add((fs::path(docsDir) / name).string(), copy, "--publish");
+            }
+        }
+        out.commit();
+    } catch (const std::exception& e) {
+        std::cerr << what << e.what() << "\n";
+        return 1;
+    }
+    std::cerr << what << "replaced " << sections.size() << " section" << (sections.size() == 1 ? "" : "s") << " of "
+              << pagePath.string() << ":";
+    for (const Section& s : sections) std::cerr << " " << s.tag << ";";
+    std::cerr << " and copied their CSVs and charts into " << docsDir << "\n";
+    return 0;
 }
 
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts) {
@@ -162,19 +220,18 @@ void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& path
     files.commit();
 }
 
-int publishTextBench(const std::string& what, const std::string& outDir, const std::string& readme, const std::string& tag,
-                     const std::string& stem, const std::string& csv, const std::string& markdown) {
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag, const std::string& stem,
+                     const std::string& csv, const std::string& markdown) {
     const std::string csvPath = (fs::path(outDir) / (stem + ".csv")).string();
     const std::string mdPath = (fs::path(outDir) / (stem + ".md")).string();
     try {
-        writeTextFiles({{csvPath, csv}, {mdPath, markdown}});
-        if (!readme.empty()) replaceGeneratedSection(readme, tag, markdown, {csvPath, mdPath});
+        writeTextFiles({{csvPath, csv}, {mdPath, generatedSection(tag, markdown)}});
     } catch (const std::exception& e) {
         std::cerr << "nephele: " << what << ": " << e.what() << "\n";
         return 1;
     }
     std::cout << markdown;
-    std::cerr << "nephele: " << what << " wrote " << csvPath << ", " << mdPath << (readme.empty() ? "" : ", " + readme) << "\n";
+    std::cerr << "nephele: " << what << " wrote " << csvPath << ", " << mdPath << "\n";
     return 0;
 }
 

@@ -1,5 +1,5 @@
 // What the bench commands (`bench`, `bench --accuracy`, `bench --flicker`) share: the
-// machine line, medians, interleaved frame timing and the generated README sections.
+// machine line, medians, interleaved frame timing and the generated sections of docs/benchmarks.md.
 #pragma once
 
 #include "nephele/camera.hpp"
@@ -25,29 +25,34 @@ std::string fmt(const char* printfFormat, double v);
 std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
                                const View& view, const std::vector<std::function<void()>>& methods);
 
-// Replaces the text between "<!-- BEGIN GENERATED: TAG -->" and "<!-- END GENERATED: TAG -->"
-// in `readme` (a file) with `markdown`, atomically. Throws std::runtime_error naming what is
-// missing when the markers are not there.
-// `files` (the bench's outputs in its --out-dir that the section shows or links: charts, CSVs,
-// its markdown) are copied into the docs/ folder beside `readme` (made if missing), all or
-// nothing with the README, so that the charts a README shows are the run's that wrote it.
-void replaceGeneratedSection(const std::string& readme, const std::string& tag, const std::string& markdown,
-                             const std::vector<std::string>& files = {});
+// The page in the docs folder that holds every bench's generated section.
+inline constexpr const char* kBenchmarksPage = "benchmarks.md";
 
-// Before a bench runs: creates `outDir` and checks that `readme`, when given, is a file and,
-// when `tag` is given too, that it holds the "<!-- BEGIN/END GENERATED: TAG -->" lines, so
-// that bad arguments fail before the long run. Prints what is wrong and returns false.
-bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, const std::string& tag = "");
+// A bench's generated section as its STEM.md in --out-dir holds it: `markdown` between the lines
+// "<!-- BEGIN GENERATED: TAG -->" and "<!-- END GENERATED: TAG -->" (image links relative to
+// that folder, so that they hold in docs/ too).
+std::string generatedSection(const std::string& tag, const std::string& markdown);
+
+// `bench --publish DOCS`: every generated section in `outDir` (each *.md that begins with a
+// BEGIN GENERATED line) replaces the text between the same markers in DOCS/benchmarks.md, and
+// the CSVs and charts named after its markdown file (STEM*.csv, STEM*.png) are copied into
+// DOCS, all or nothing. Checks every marker before writing. Returns the exit code: 0; 2 with a
+// message for a missing folder, page, section or marker; 1 when a write failed.
+int publishBenchSections(const std::string& outDir, const std::string& docsDir);
+
+// Before a bench runs: creates `outDir`, so that a bad folder fails before the long run.
+// Prints what is wrong and returns false.
+bool prepareBenchOutputs(const std::string& outDir);
 
 // Writes each (path, text) all or nothing (OutputFiles): on failure none is left. Throws.
 void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& pathsAndTexts);
 
 // The end of a bench without charts (`what`, e.g. "bench --scale"): writes `stem`.csv and
-// `stem`.md into outDir (writeTextFiles), with `readme` replaces its section `tag` by the
-// markdown (replaceGeneratedSection), then prints the markdown and what was written. Returns
-// the exit code: 0, or 1 with a message when a write failed.
-int publishTextBench(const std::string& what, const std::string& outDir, const std::string& readme, const std::string& tag,
-                     const std::string& stem, const std::string& csv, const std::string& markdown);
+// `stem`.md, the generated section `tag` (generatedSection), into outDir (writeTextFiles), then
+// prints the markdown and what was written. Returns the exit code: 0, or 1 with a message when
+// a write failed.
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag, const std::string& stem,
+                     const std::string& csv, const std::string& markdown);
 
 // Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
 // which a leading kChartsFolder stands for a temporary folder the script draws into; the files

@@ -190,14 +190,14 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
            << " | " << fmt("%.4f", maxOf(onCh)) << " / " << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs)
            << " / " << fmt("%.0f", f.firstOffMs) << " |\n";
     }
-    md << "\n![ms per frame: auto (reuse and cloud LOD on), reuse alone, both off](docs/cruise_bench.png)\n";
+    md << "\n![ms per frame: auto (reuse and cloud LOD on), reuse alone, both off](cruise_bench.png)\n";
     return md.str();
 }
 
 }  // namespace
 
 int runCruiseBench(const CruiseBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme, "cruise bench")) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<Flight> flights = {
         {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus", 10, {}, 0, 0, true},
         {"cruise_turn.json", "sharp turn: 180° in 3 s in that field", 10, {}, 0, 0, true},
@@ -231,19 +231,16 @@ int runCruiseBench(const CruiseBenchOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "cruise_bench.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "cruise_bench.png").string();
     try {
-        writeTextFiles({{csvPath, csvOf(flights)}, {mdPath, md}});
+        writeTextFiles({{csvPath, csvOf(flights)}, {mdPath, generatedSection("cruise bench", md)}});
         runPlot("plot_cruise.py", {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
                                    std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"cruise_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "cruise bench", md,
-                                   {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md;
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
-              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
     return 0;
 }
 

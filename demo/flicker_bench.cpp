@@ -58,7 +58,7 @@ std::vector<double> renderSequence(const Sequence& s, const RenderOptions& o, do
 }  // namespace
 
 int runFlickerBench(const FlickerOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme)) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<Sequence> sequences;
     try {
         const std::vector<std::string> names =
@@ -189,23 +189,23 @@ int runFlickerBench(const FlickerOptions& o) {
            << fmt("%.3g", sequences[0].fps) << " | " << fmt("%.5f", r.meanChange) << " | " << fmt("%+.5f", r.flickerIndex)
            << " | " << fmt("%+.5f", r.maxExcess) << " (" << r.worstPair << ") |\n";
     }
-    md << "\n![per-frame change along each path](docs/flicker.png)\n";
+    md << "\n![per-frame change along each path](flicker.png)\n";
 
     const std::string csvPath = (fs::path(o.outDir) / "flicker.csv").string();
     const std::string seriesPath = (fs::path(o.outDir) / "flicker_series.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "flicker.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "flicker.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, md.str()}});
+        writeTextFiles(
+            {{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md.str())}});
         runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.outDir, {"flicker.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "flicker bench", md.str(), {csvPath, seriesPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
     std::cerr << "nephele: bench --flicker wrote " << csvPath << ", " << seriesPath << ", " << mdPath << ", " << pngPath
-              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+              << "\n";
     return 0;
 }
 

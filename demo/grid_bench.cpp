@@ -80,7 +80,7 @@ std::string gridMarkdown(const GridBenchOptions& o, const std::vector<GridRow>& 
 }  // namespace
 
 int runGridBench(const GridBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme, o.readme.empty() ? "" : "grid bench")) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<GridRow> rows;
     try {
         rows = measureGrids(o);
@@ -94,7 +94,7 @@ int runGridBench(const GridBenchOptions& o) {
     for (const GridRow& r : rows)
         csv << r.scene << "," << r.cloud << "," << r.ellipsoids << "," << fmt("%.2f", r.opticalRadius) << "," << r.size << ","
             << fmt("%.2f", r.ms) << "," << fmt("%.4f", r.megabytes) << "\n";
-    return publishTextBench("bench --grids", o.outDir, o.readme, "grid bench", "grid_bench", csv.str(), md);
+    return publishTextBench("bench --grids", o.outDir, "grid bench", "grid_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli

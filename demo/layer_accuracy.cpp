@@ -303,7 +303,8 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
 
 int runLayerAccuracyBench(const LayerAccuracyOptions& o, GlBackend backend) {
     const char* tag = "layer accuracy bench";
-    if (!o.readme.empty() && !prepareBenchOutputs(o.imageDir.empty() ? "." : o.imageDir, o.readme, tag)) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
+    const std::string mdPath = (std::filesystem::path(o.outDir) / "layer_accuracy.md").string();
     std::vector<LayerViewAccuracy> results;
     std::string renderer;
     try {
@@ -315,13 +316,13 @@ int runLayerAccuracyBench(const LayerAccuracyOptions& o, GlBackend backend) {
         results = measureLayerAccuracy(o);
         const std::string md = layerAccuracyMarkdown(results, o);
         std::cout << md;
-        if (!o.readme.empty())
-            replaceGeneratedSection(o.readme, tag,
-                                    "Measured by `nephele bench --layer-accuracy` on " + utcNow() + ", " + machineLine(renderer) +
-                                        ". " + md);
+        const std::string dated =
+            "Measured by `nephele bench --layer-accuracy` on " + utcNow() + ", " + machineLine(renderer) + ". " + md;
+        writeTextFiles({{mdPath, generatedSection(tag, dated)}});
     } catch (const std::exception& e) {
         return reportError(e, "bench --layer-accuracy");
     }
+    std::cerr << "nephele: bench --layer-accuracy wrote " << mdPath << "\n";
     return 0;
 }
 

@@ -30,7 +30,7 @@ struct LayerAccuracyOptions {
     int block = 4;            // errors on block x block pixel means
     int frames = 3;           // timed frames per GPU method (median)
     bool quick = false;       // one view at 64 px, 4 spp, one frame (for tests)
-    std::string readme;       // when set, its "layer accuracy bench" section is replaced
+    std::string outDir = "bench-out";  // layer_accuracy.md, its generated section
 };
 
 struct LayerViewAccuracy {

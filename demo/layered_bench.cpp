@@ -97,8 +97,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
 }  // namespace
 
 int runLayeredBench(const LayeredBenchOptions& o) {
-    // The README section is checked before the long run: fail now if it cannot be written.
-    if (!prepareBenchOutputs(o.outDir, o.readme, "layered bench")) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     if (o.extents.empty() || o.counts.empty()) {
         std::cerr << "nephele: bench: --extents and --counts need at least one value each\n";
         return 2;
@@ -212,13 +211,13 @@ int runLayeredBench(const LayeredBenchOptions& o) {
            << fmt("%.1f", autoSplit->farMs) << " ms (" << fmt("%.2f", autoSplit->farMs / autoSplit->floorMs)
            << "× the floor), near field (near LOD update and compositor) " << fmt("%.1f", autoSplit->nearMs) << " ms ("
            << fmt("%.2f", autoSplit->nearMs / autoSplit->floorMs) << "× the far field's floor).\n";
-    md << "\n![ms per frame against the layer count N](docs/layered_bench.png)\n";
+    md << "\n![ms per frame against the layer count N](layered_bench.png)\n";
 
     const std::string csvPath = (fs::path(o.outDir) / "layered_bench.csv").string();
     const std::string mdPath = (fs::path(o.outDir) / "layered_bench.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "layered_bench.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, md.str()}});
+        writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("layered bench", md.str())}});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
         return 1;
@@ -227,14 +226,12 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         runPlot("plot_layered.py",
                 {csvPath, std::string(kChartsFolder) + "/layered_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"layered_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "layered bench", md.str(), {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md.str();
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
-              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
     return 0;
 }
 

@@ -1,5 +1,6 @@
 // The `nephele` command-line tool.
 #include "bench_command.hpp"
+#include "bench_util.hpp"
 #include "cli_checks.hpp"
 #include "compare_command.hpp"
 #include "flythrough_command.hpp"
@@ -319,6 +320,7 @@ struct BenchArgs {
     bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
     bool grids = false;
     bool quick = false, noCache = false;
+    std::string publish;  // --publish DOCS
     LayeredBenchOptions lbo;
     WeatherBenchOptions wbo;
     ScaleBenchOptions sbo;
@@ -330,8 +332,14 @@ struct BenchArgs {
 
 void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     b.cmd = bench;
-    bench->add_option("--out-dir", b.bo.outDir, "Folder for the CSV, the markdown table and the chart")->check(kPath)->capture_default_str();
-    bench->add_option("--readme", b.bo.readme, "Also replace the generated bench section of this README")->check(kPath);
+    bench->add_option("--out-dir", b.bo.outDir,
+                      "Folder for the CSV, the chart and the markdown (the generated section for docs/benchmarks.md)")
+        ->check(kPath)
+        ->capture_default_str();
+    bench->add_option("--publish", b.publish,
+                      "Instead: put the generated sections in --out-dir into DOCS/benchmarks.md between their markers, "
+                      "and copy their CSVs and charts into DOCS (the docs/ regeneration step)")
+        ->check(kPath);
     bench->add_option("--counts", b.bo.counts, "Ellipsoid counts")->check(within(1, 1000000))->capture_default_str();
     bench->add_option("--frames", b.bo.frames, "Measured frames per point (median)")->check(within(1, 1000))->capture_default_str();
     bench->add_option("--width", b.bo.width, "Frame width")->check(within(16, kMaxImageSize))->capture_default_str();
@@ -344,7 +352,8 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
     bench->add_flag("--layer-accuracy", b.layerAccuracy,
                     "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
-                    "layer (markdown on stdout; --width, --frames, --spp, --cache, --out-dir for its images)");
+                    "layer (its section into --out-dir, with the views' images when --out-dir is given; --width, "
+                    "--frames, --spp, --cache)");
     bench->add_flag("--weather", b.weather,
                     "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
     bench->add_flag("--cruise", b.cruise,
@@ -384,8 +393,8 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
     if (b.cmd->count("--width") > 0) lao.width = b.bo.width;
     if (b.cmd->count("--spp") > 0) lao.referenceSpp = b.ao.referenceSpp;
     lao.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
+    lao.outDir = b.bo.outDir;
     if (b.cmd->count("--out-dir") > 0) lao.imageDir = b.bo.outDir;  // the views' images
-    lao.readme = b.bo.readme;
     return runLayerAccuracyBench(lao, b.bo.backend);
 }
 
@@ -398,10 +407,18 @@ int runBenchArgs(BenchArgs& b) {
         return 2;
     }
     const BenchOptions& bo = b.bo;
+    if (!b.publish.empty()) {
+        if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
+                int(b.cruise) + int(b.grids) > 0) {
+            std::cerr << "nephele: bench: --publish runs no bench: it publishes what --out-dir holds; give it alone\n";
+            return 2;
+        }
+        return publishBenchSections(bo.outDir, b.publish);
+    }
     const bool widthGiven = b.cmd->count("--width") > 0, heightGiven = b.cmd->count("--height") > 0;
     if (b.accuracy) {
         AccuracyOptions& ao = b.ao;
-        ao.outDir = bo.outDir, ao.readme = bo.readme, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
+        ao.outDir = bo.outDir, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
         ao.backend = bo.backend, ao.quick = b.quick;
         if (widthGiven) ao.width = bo.width;
         if (!b.noCache) ao.cacheDir = defaultCacheDir(b.cache);
@@ -410,7 +427,7 @@ int runBenchArgs(BenchArgs& b) {
     if (b.layerAccuracy) return runLayerAccuracyArgs(b);
     if (b.layered) {
         LayeredBenchOptions& lbo = b.lbo;
-        lbo.outDir = bo.outDir, lbo.readme = bo.readme, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
+        lbo.outDir = bo.outDir, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
         lbo.backend = bo.backend, lbo.quick = b.quick;
         if (widthGiven) lbo.width = bo.width;
         if (heightGiven) lbo.height = bo.height;
@@ -424,7 +441,7 @@ int runBenchArgs(BenchArgs& b) {
     }
     if (b.weather) {
         WeatherBenchOptions& wbo = b.wbo;
-        wbo.outDir = bo.outDir, wbo.readme = bo.readme, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
+        wbo.outDir = bo.outDir, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
         wbo.quick = b.quick;
         if (b.cmd->count("--frames") > 0) wbo.frames = bo.frames;
         if (b.cmd->count("--fps") > 0) wbo.fps = b.flo.fps;
@@ -435,7 +452,7 @@ int runBenchArgs(BenchArgs& b) {
     }
     if (b.cruise) {
         CruiseBenchOptions cbo;
-        cbo.outDir = bo.outDir, cbo.readme = bo.readme, cbo.scenesDir = bo.scenesDir, cbo.backend = bo.backend;
+        cbo.outDir = bo.outDir, cbo.scenesDir = bo.scenesDir, cbo.backend = bo.backend;
         cbo.quick = b.quick;
         cbo.flights = b.cruiseFlights;
         if (b.cmd->count("--fps") > 0) cbo.fps = b.flo.fps;
@@ -446,7 +463,7 @@ int runBenchArgs(BenchArgs& b) {
     }
     if (b.scale) {
         ScaleBenchOptions& sbo = b.sbo;
-        sbo.outDir = bo.outDir, sbo.readme = bo.readme, sbo.backend = bo.backend;
+        sbo.outDir = bo.outDir, sbo.backend = bo.backend;
         if (b.quick) sbo.counts = {16, 160}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
         if (widthGiven) sbo.width = bo.width;
         if (heightGiven) sbo.height = bo.height;
@@ -454,14 +471,14 @@ int runBenchArgs(BenchArgs& b) {
     }
     if (b.grids) {
         GridBenchOptions gbo;
-        gbo.outDir = bo.outDir, gbo.readme = bo.readme, gbo.scenesDir = bo.scenesDir;
+        gbo.outDir = bo.outDir, gbo.scenesDir = bo.scenesDir;
         if (b.cmd->count("--frames") > 0) gbo.runs = bo.frames;
         if (b.quick) gbo.scenes = {"single.json"}, gbo.runs = 1;
         return runGridBench(gbo);
     }
     if (b.flicker) {
         FlickerOptions& flo = b.flo;
-        flo.outDir = bo.outDir, flo.readme = bo.readme, flo.scenesDir = bo.scenesDir;
+        flo.outDir = bo.outDir, flo.scenesDir = bo.scenesDir;
         flo.backend = bo.backend, flo.quick = b.quick;
         if (widthGiven) flo.width = bo.width;
         return runFlickerBench(flo);

@@ -242,7 +242,7 @@ std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, c
 }  // namespace
 
 int runScaleBench(const ScaleBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme, o.readme.empty() ? "" : "scale bench")) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     std::vector<Row> rows;
     std::string renderer;
     try {
@@ -258,7 +258,7 @@ int runScaleBench(const ScaleBenchOptions& o) {
         csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << "," << fmt("%.1f", r.load.peakMb)
             << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << "," << fmt("%.1f", r.draw.peakMb) << ","
             << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";
-    return publishTextBench("bench --scale", o.outDir, o.readme, "scale bench", "scale_bench", csv.str(), md);
+    return publishTextBench("bench --scale", o.outDir, "scale bench", "scale_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli

@@ -221,14 +221,14 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
            << " | " << overLead << " | " << volumes << " (" << pending << ") | " << cells << " | "
            << fmt("%.1f", beforeMs[b]) << " | " << fmt("%.2f", beforeMs[b] / beforeMed) << " |\n";
     }
-    md << "\n![ms per frame along the flight](docs/weather_bench.png)\n";
+    md << "\n![ms per frame along the flight](weather_bench.png)\n";
     return md.str();
 }
 
 }  // namespace
 
 int runWeatherBench(const WeatherBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir, o.readme, "weather bench")) return 2;
+    if (!prepareBenchOutputs(o.outDir)) return 2;
     if (!(o.fps > 0 && o.fps <= 1000) || !(o.speed >= 0 && o.speed <= 1000) || o.frames < 20 || o.frames > 100000) {
         std::cerr << "nephele: bench --weather: --fps must be in (0, 1000], the speed in [0, 1000] m/s and --frames "
                      "20..100000\n";
@@ -257,19 +257,16 @@ int runWeatherBench(const WeatherBenchOptions& o) {
     const std::string mdPath = (fs::path(o.outDir) / "weather_bench.md").string();
     const std::string pngPath = (fs::path(o.outDir) / "weather_bench.png").string();
     try {
-        writeTextFiles({{csvPath, csvOf(frames)}, {mdPath, md}});
+        writeTextFiles({{csvPath, csvOf(frames)}, {mdPath, generatedSection("weather bench", md)}});
         runPlot("plot_weather.py",
                 {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.outDir, {"weather_bench.png"});
-        if (!o.readme.empty()) replaceGeneratedSection(o.readme, "weather bench", md,
-                                   {csvPath, mdPath, pngPath});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;
     }
     std::cout << md;
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath
-              << (o.readme.empty() ? "" : ", " + o.readme) << "\n";
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
     return 0;
 }
 

@@ -341,7 +341,12 @@ TEST_F(CliTest, MomentCompositeRendersOnTheGpuAndExactly) {
 TEST_F(CliTest, BenchRejectsBadArguments) {
     EXPECT_EQ(run("bench --counts 0 --out-dir " + path("b")).code, 2);
     EXPECT_EQ(run("bench --frames 0 --out-dir " + path("b")).code, 2);
-    EXPECT_EQ(run("bench --readme " + path("missing.md") + " --out-dir " + path("b") + " --counts 1 --frames 1 --no-exact").code, 2);
+    // --publish needs a docs folder holding benchmarks.md, and runs no bench alongside.
+    fs::create_directories(path("b"));
+    const CliRun noPage = run("bench --publish " + path("missing") + " --out-dir " + path("b"));
+    EXPECT_EQ(noPage.code, 2);
+    EXPECT_NE(noPage.output.find("benchmarks.md"), std::string::npos) << noPage.output;
+    EXPECT_EQ(run("bench --publish " + path("b") + " --scale --out-dir " + path("b")).code, 2);
 }
 
 TEST_F(CliTest, FlythroughWritesFramesSummaryAndFlickerIndex) {
@@ -419,12 +424,12 @@ TEST_F(CliTest, GenerateSceneRendersAndInfoReportsIt) {
 }
 
 // `bench --accuracy` at a toy size: every method is timed and compared with the path tracer,
-// the CSV, both charts and the README section are written, the text around the section kept.
+// the CSV, both charts and its generated section are written to --out-dir; `bench --publish`
+// then puts the section into a docs folder's benchmarks.md, the text around it kept, and copies
+// the files it shows there. (The test's name is older than docs/benchmarks.md.)
 TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
-    const std::string readme = write("R.md", "before\n<!-- BEGIN GENERATED: accuracy bench -->\nold\n"
-                                             "<!-- END GENERATED: accuracy bench -->\nafter\n");
     const CliRun r = run("bench --accuracy --quick --width 64 --spp 4 --frames 1 --no-cache --scenes " +
-                         std::string(NEPHELE_SCENES) + " --out-dir " + path("acc") + " --readme " + readme);
+                         std::string(NEPHELE_SCENES) + " --out-dir " + path("acc"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_chart.png", "accuracy_distance.png", "accuracy_views.png"})
         EXPECT_TRUE(fs::exists(path(std::string("acc/") + f))) << f;
@@ -451,22 +456,41 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     // 2 noise settings x 2 cases x 4 methods (the quick sweep: each method's default).
     EXPECT_EQ(rows, 16);
     EXPECT_GE(pareto, 2) << "each noise setting has a Pareto front";
-    std::ifstream in(readme);
-    std::stringstream s;
-    s << in.rdbuf();
-    text = s.str();
-    EXPECT_EQ(text.rfind("before\n", 0), 0u);
-    EXPECT_NE(text.find("Measured by `nephele bench --accuracy`"), std::string::npos);
+    {  // The markdown in --out-dir is the generated section, markers included, its charts linked beside it.
+        std::ifstream in(path("acc/accuracy.md"));
+        std::stringstream s;
+        s << in.rdbuf();
+        text = s.str();
+        EXPECT_EQ(text.rfind("<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy` on ", 0), 0u);
+        EXPECT_NE(text.find("](accuracy_chart.png)"), std::string::npos);
+        EXPECT_EQ(text.find("](docs/"), std::string::npos);
+        const std::string endLine = "<!-- END GENERATED: accuracy bench -->\n";
+        ASSERT_GE(text.size(), endLine.size());
+        EXPECT_EQ(text.substr(text.size() - endLine.size()), endLine);
+    }
+    // The docs/ regeneration step: the section replaces the page's, the text around it kept, and
+    // the run's own CSVs and charts are copied beside the page (not its markdown: the page holds it).
+    fs::create_directories(path("docs"));
+    const std::string page = write("docs/benchmarks.md", "before\n<!-- BEGIN GENERATED: accuracy bench -->\nold\n"
+                                                         "<!-- END GENERATED: accuracy bench -->\nafter\n");
+    const CliRun published = run("bench --publish " + path("docs") + " --out-dir " + path("acc"));
+    ASSERT_EQ(published.code, 0) << published.output;
+    {
+        std::ifstream in(page);
+        std::stringstream s;
+        s << in.rdbuf();
+        text = s.str();
+    }
+    EXPECT_EQ(text.rfind("before\n<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy`", 0), 0u);
     EXPECT_EQ(text.find("old\n"), std::string::npos);
     EXPECT_NE(text.find("<!-- END GENERATED: accuracy bench -->\nafter\n"), std::string::npos);
-    // --readme copies what the section shows into docs/ beside it: the run's own files.
-    const fs::path docs = fs::path(readme).parent_path() / "docs";
-    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png",
+    for (const char* f : {"accuracy.csv", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png",
                           "accuracy_views.png"}) {
-        const fs::path copy = docs / f, made = path(std::string("acc/") + f);
+        const fs::path copy = fs::path(path("docs")) / f, made = path(std::string("acc/") + f);
         ASSERT_TRUE(fs::exists(copy)) << copy;
         EXPECT_EQ(fs::file_size(copy), fs::file_size(made)) << f;
     }
+    EXPECT_FALSE(fs::exists(path("docs/accuracy.md")));
     // The layered sky against its own converged limit: more layers, less error, in every view.
     std::ifstream lay(path("acc/accuracy_layered.csv"));
     std::getline(lay, line);
@@ -487,7 +511,8 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
 }
 
 // `bench --layered --quick`: the layered sky against its floor at two layer counts, a chart,
-// and a README without the section's markers is refused before the run with exit code 2.
+// and its generated section; publishing it into a page without the section's markers is refused
+// with exit code 2, the page left as it was.
 TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
     // (a cache folder of its own: the lighting volume is computed once, not once per renderer)
     const CliRun r = run("bench --layered --quick --cache " + path("cache") + " --scenes " + std::string(NEPHELE_SCENES) +
@@ -506,12 +531,19 @@ TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
     std::ifstream md(path("lay/layered_bench.md"));
     std::stringstream text;
     text << md.rdbuf();
-    EXPECT_NE(text.str().find("Measured by `nephele bench --layered` on "), std::string::npos);
+    EXPECT_EQ(text.str().rfind("<!-- BEGIN GENERATED: layered bench -->\nMeasured by `nephele bench --layered` on ", 0), 0u);
     EXPECT_NE(text.str().find("`--method auto` on near_and_far.json"), std::string::npos);
-    const std::string readme = write("NoMarkers.md", "no generated sections here\n");
-    const CliRun bad = run("bench --layered --quick --out-dir " + path("lay2") + " --readme " + readme);
+    EXPECT_NE(text.str().find("<!-- END GENERATED: layered bench -->\n"), std::string::npos);
+    fs::create_directories(path("docs"));
+    const std::string page = write("docs/benchmarks.md", "no generated sections here\n");
+    const CliRun bad = run("bench --publish " + path("docs") + " --out-dir " + path("lay"));
     EXPECT_EQ(bad.code, 2) << bad.output;
     EXPECT_NE(bad.output.find("<!-- BEGIN GENERATED: layered bench -->"), std::string::npos) << bad.output;
+    std::ifstream kept(page);
+    std::stringstream keptText;
+    keptText << kept.rdbuf();
+    EXPECT_EQ(keptText.str(), "no generated sections here\n");
+    EXPECT_FALSE(fs::exists(path("docs/layered_bench.png")));
 }
 
 // `bench --flicker` on the approach from 5 km into a cumulus, at a toy size: the compositor's

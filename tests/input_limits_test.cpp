@@ -118,9 +118,9 @@ TEST(LimitsTest, NamesAreUniqueAndTextsReadable) {
     for (const Limit& l : allLimits()) EXPECT_NE(help.find(std::string(l.name)), std::string::npos) << l.name;
 }
 
-// data/scene-format.md and README.md state every limit with the header's value (one source).
+// data/scene-format.md and docs/reliability.md state every limit with the header's value (one source).
 TEST(LimitsTest, DocsStateTheHeadersValues) {
-    for (const char* doc : {NEPHELE_SOURCE_DIR "/data/scene-format.md", NEPHELE_SOURCE_DIR "/README.md"}) {
+    for (const char* doc : {NEPHELE_SOURCE_DIR "/data/scene-format.md", NEPHELE_SOURCE_DIR "/docs/reliability.md"}) {
         std::ifstream in(doc);
         std::stringstream text;
         text << in.rdbuf();

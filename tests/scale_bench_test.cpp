@@ -1,5 +1,5 @@
 // `nephele bench --scale --quick`: every method at two counts, per-phase times and memory,
-// the growth exponents, and the README section it regenerates.
+// the growth exponents, and the generated section it writes for docs/benchmarks.md.
 #include "cli_run.hpp"
 
 #include <gtest/gtest.h>
@@ -25,10 +25,7 @@ TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
     const fs::path dir = fs::temp_directory_path() / ("nephele_scale_bench_test_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
-    const auto r = nephele::test::runBounded("bench --scale --quick --out-dir " + dir.string() + " --readme " +
-                                                 (dir / "README.md").string(),
-                                             4096, 300);
+    const auto r = nephele::test::runBounded("bench --scale --quick --out-dir " + dir.string(), 4096, 300);
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string csv = slurp(dir / "scale_bench.csv");
     EXPECT_EQ(csv.rfind("ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n", 0), 0u);
@@ -44,11 +41,20 @@ TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
             ++rows;
         }
     EXPECT_EQ(rows, 8);
-    const std::string readme = slurp(dir / "README.md");
-    EXPECT_EQ(readme.find("old\n"), std::string::npos);
-    EXPECT_NE(readme.find("Measured by `nephele bench --scale` on "), std::string::npos);
-    EXPECT_NE(readme.find("| ellipsoid | "), std::string::npos);
-    EXPECT_NE(readme.find("Growth exponent"), std::string::npos);
+    const std::string section = slurp(dir / "scale_bench.md");
+    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: scale bench -->\nMeasured by `nephele bench --scale` on ", 0), 0u) << section;
+    EXPECT_NE(section.find("| ellipsoid | "), std::string::npos);
+    EXPECT_NE(section.find("Growth exponent"), std::string::npos);
+    EXPECT_NE(section.find("<!-- END GENERATED: scale bench -->\n"), std::string::npos);
+    // The docs/ regeneration step puts it into benchmarks.md and copies its CSV beside it.
+    fs::create_directories(dir / "docs");
+    std::ofstream(dir / "docs" / "benchmarks.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
+    const auto p = nephele::test::runBounded("bench --publish " + (dir / "docs").string() + " --out-dir " + dir.string(), 1024, 30);
+    ASSERT_EQ(p.code, 0) << p.output;
+    const std::string page = slurp(dir / "docs" / "benchmarks.md");
+    EXPECT_EQ(page.find("old\n"), std::string::npos);
+    EXPECT_NE(page.find("Growth exponent"), std::string::npos);
+    EXPECT_EQ(slurp(dir / "docs" / "scale_bench.csv"), csv);
     fs::remove_all(dir);
 }
 
@@ -65,14 +71,13 @@ TEST(ScaleBenchTest, BadCountsAndModesAreRefused) {
 namespace {
 
 // `nephele bench --grids --quick`: single.json's one cloud, its grid's size, time and memory,
-// and the README section it regenerates.
+// and the generated section it writes for docs/benchmarks.md.
 TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
     const fs::path dir = fs::temp_directory_path() / ("nephele_grid_bench_test_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    std::ofstream(dir / "README.md") << "# x\n<!-- BEGIN GENERATED: grid bench -->\nold\n<!-- END GENERATED: grid bench -->\n";
     const auto r = nephele::test::runBounded("bench --grids --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
-                                                 dir.string() + " --readme " + (dir / "README.md").string(),
+                                                 dir.string(),
                                              4096, 120);
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string csv = slurp(dir / "grid_bench.csv");
@@ -85,10 +90,10 @@ TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
     EXPECT_NE(row.find(",0.5625\n"), std::string::npos) << row;
     const double ms = std::stod(row.substr(row.find(",16,") + 4));
     EXPECT_GT(ms, 0.0);
-    const std::string readme = slurp(dir / "README.md");
-    EXPECT_EQ(readme.find("old\n"), std::string::npos);
-    EXPECT_NE(readme.find("Measured by `nephele bench --grids` on "), std::string::npos);
-    EXPECT_NE(readme.find("| `single.json` | 1 | 1 × 16³ |"), std::string::npos) << readme;
+    const std::string section = slurp(dir / "grid_bench.md");
+    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: grid bench -->\nMeasured by `nephele bench --grids` on ", 0), 0u) << section;
+    EXPECT_NE(section.find("| `single.json` | 1 | 1 × 16³ |"), std::string::npos) << section;
+    EXPECT_NE(section.find("<!-- END GENERATED: grid bench -->\n"), std::string::npos);
     fs::remove_all(dir);
 }
 
