@@ -572,7 +572,7 @@ TEST_F(EllipsoidGLTest, EightBitAtlasStaysClose) {
 // Back-lit, the sun 20 degrees off the view behind the cloud: mesh tiles within the sun's
 // phase peak are lit per pixel, as polygon tiles are, so the thin bright rim is not lost
 // between the vertices (per vertex: 25% off the path tracer in the sun's light, per pixel
-// 10%, README "The light").
+// 10%, docs/light.md).
 TEST_F(EllipsoidGLTest, BackLitMeshTilesAreLitPerPixel) {
     Scene scene = sharedScene("cumulus27.json", 160);
     scene.medium.noise = 0;

@@ -1,4 +1,4 @@
-// A host image generator, as the README's "Embedding" loop: its own headless EGL context, its
+// A host image generator, as the loop of docs/embedding.md: its own headless EGL context, its
 // own framebuffer (float colour, depth texture, reversed Z in [0, 1]) with a "terrain" already
 // drawn, two display channels side by side (off-axis frusta), CIGI-shaped weather, and
 // nephele::SkyRenderer driven through prepare / update / draw. It writes the frame to

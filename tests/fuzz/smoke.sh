@@ -4,7 +4,7 @@
 # for SECONDS (default 20; three targets, about 60 s in all). Exits non-zero on a crash, a
 # sanitizer report, a timeout or an out-of-memory, leaving the input in BUILD/fuzz-artifacts/.
 #   tests/fuzz/smoke.sh [SECONDS] [BUILD]     (BUILD default: build-fuzz in the checkout)
-# New inputs go to a temporary folder: the kept corpus changes only by hand (see README).
+# New inputs go to a temporary folder: the kept corpus changes only by hand (see docs/testing.md).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)

@@ -1,12 +1,12 @@
 // The limits of what Nephele loads: one place for every number, read by the scene loader,
 // the OBJ and image readers, the command line's --help and the tests that check that
-// data/scene-format.md ("Limits") and README.md ("Limits") state the same values.
+// data/scene-format.md ("Limits") and docs/reliability.md ("Limits") state the same values.
 //
 // A scene past a limit is rejected on load with a message that names the file, the JSON path
 // and the limit, e.g. "scene.json: clouds[0].ellipsoids[3].radii[0]: 2e+06 is over the limit
 // 'ellipsoid radius' (100000 m)". The values are chosen from what a flight simulator's
 // weather needs (a few layers, thousands of clouds, a sky a few hundred km across) and
-// from what the renderers can do in bounded time and memory (see README.md, "Limits").
+// from what the renderers can do in bounded time and memory (see docs/reliability.md, "Limits").
 #pragma once
 
 #include <cstdint>

@@ -116,7 +116,7 @@ struct EllipsoidSettings {
     // > 0. One pixel: the error is a bound (the rim's parallax) on soft, low-contrast content, and
     // on the cruise bench's 60 s cruise 1 px against 0.5 took the worst frame from 58.2 to 57.8 dB
     // of every tile fresh and the mean change between frames by +0.000002, and rendered a third
-    // fewer tile pixels (README, "Tiles that last").
+    // fewer tile pixels (docs/compositor.md, "Tiles that last").
     double reuseErrorPixels = 1.0;
     double reuseBudget = 1.0;       // >= 0: tile pixels a frame, in frames' pixels
     // A level of detail per cloud (after Harris & Lastra 2001; Elinas & Stuerzlinger close their

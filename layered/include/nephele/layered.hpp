@@ -22,7 +22,7 @@
 //    opacity is 1 - exp(-extinction * density * path), path = the length of the eye ray in
 //    the slab the layer stands for (thickness / N / |d.z|), so that grazing rays see
 //    more matter, as they do in a volume. Colour (premultiplied, alpha = opacity, "over"):
-//    the source function every method shares (shaders/cloud_light.glsl, README "The light"),
+//    the source function every method shares (shaders/cloud_light.glsl, docs/light.md),
 //    S = albedo [E (p(d . s) exp(-tauSun) + J_sun) + J_sky], with the layer's own statistics
 //    standing in for a cloud's radiance grid (shaders/layer_light.glsl): tauSun from the
 //    optical depth of the fragment's column above it (the lighting volume's rgb holds those

@@ -4,7 +4,7 @@
 // clouds and the near LOD's cumulus that stand in for the layer near the eye (faded by the
 // complement). A scene without layers is drawn exactly as EllipsoidRenderer draws it.
 //
-// The host API (see the README, "Embedding"): prepare(scene) once; per frame update(dt,
+// The host API (see docs/embedding.md): prepare(scene) once; per frame update(dt,
 // weather, eye) once, then draw(viewDesc) per display channel. All channels share the clouds,
 // their light volumes, the layers' lighting and the near LOD; nothing is reallocated from frame
 // to frame while the channels stay the same; weather changes never stall a frame (the layers'
@@ -28,13 +28,13 @@ namespace nephele {
 LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 
 // The compositor's settings for auto: `base` with tiles that last across frames (reuse, see
-// EllipsoidSettings::reuse and the README, "Tiles that last") and far clouds as impostors
+// EllipsoidSettings::reuse and docs/compositor.md, "Tiles that last") and far clouds as impostors
 // (EllipsoidSettings::cloudLod, where base's composite allows them). Its composite is base's order,
 // by default back to front: since the compositor's noise is the path tracer's density noise
 // (2026-12-02) an order flip no longer pops (the flicker bench: worst frame +0.009 over the
 // exact per-pixel order, as the exact model's own per-ellipsoid order; the weighted composite
 // with reuse +0.019 to +0.026), and back to front is cheaper and closer to the path tracer
-// than the weighted composite (back-lit 19% against 28%; README, "Composite order").
+// than the weighted composite (back-lit 19% against 28%; docs/compositor.md, "Composite order").
 EllipsoidSettings autoEllipsoidSettings(EllipsoidSettings base = {});
 
 // Near-LOD cells made per update() at most (nearest first): a change of a layer remakes its

@@ -1,7 +1,7 @@
 // The weather a host changes while the aircraft flies, shaped after CIGI 3.3: the cloud fields
 // of the Weather Control packet (ICD section 4.1.12, packet 12) per cloud layer, plus the sun
 // and the sky. SkyRenderer::update() takes a Weather every frame and applies what changed
-// without a stall (see nephele/sky.hpp and the README's CIGI table).
+// without a stall (see nephele/sky.hpp and the CIGI table of docs/embedding.md).
 #pragma once
 
 #include "nephele/scene.hpp"
@@ -24,7 +24,7 @@ enum class CigiWeatherScope : std::uint8_t { Global = 0, Regional = 1, Entity = 
 // The fields of a CIGI 3.3 Weather Control packet that apply to a cloud layer, in the ICD's
 // units. Humidity, air temperature, visibility, scud, random winds and lightning, severity,
 // barometric pressure and aerosol concentration do not apply to Nephele's clouds and are left
-// out (the README's table says what each field becomes).
+// out (docs/embedding.md's table says what each field becomes).
 struct CloudLayerControl {
     int layerId = 1;               // 1..3: CIGI's cloud layers 1..3; 10..255: IG-defined, taken as further cloud layers
     bool weatherEnable = true;     // false: the layer is not drawn (Nephele keeps its state for a later enable)

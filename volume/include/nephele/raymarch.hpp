@@ -27,7 +27,7 @@
 //               ellipsoid). The paper's pseudo-spheroid, eq. (2), modulates the radius instead,
 //               r_eff = r (1 + kappa n(x)): it grew the cloud by the noise's spread and, against
 //               the path tracer, put a back-lit cumulus at 21% error where the density factor
-//               gives 17.5% (README, "The light"). Candidates are the ellipsoids themselves.
+//               gives 17.5% (docs/light.md). Candidates are the ellipsoids themselves.
 //
 // Lighting (Algorithm 3): a segment of length dl adds T * (1 - exp(-sigma_t dl)) * S(x, d) and
 // multiplies T by exp(-sigma_t dl) (the exact exp instead of the paper's first two Maclaurin
@@ -64,7 +64,7 @@ struct RaymarchSettings {
     // layered sky's layers and the compositor's close tiles: the frame's depth reduced per block to
     // its farthest, the rays ended there, nearest-depth upsampling, so an object's silhouette stays
     // sharp); 1 = a ray per pixel. A cloud's light changes slowly across the screen, and the march
-    // costs its pixels: 2 takes about a third of the time (README, "Speed against accuracy"). A
+    // costs its pixels: 2 takes about a third of the time (docs/methods.md, "Speed against accuracy"). A
     // frame whose view comes within the sun's phase peak (model::withinSunPeak) is marched a ray
     // per pixel whatever this is: a back-lit cloud's bright rim is thinner than a block.
     int downsample = 2;
