@@ -6,14 +6,18 @@
 #include "gl_test_util.hpp"
 
 #include "nephele/gl_state.hpp"
+#include "nephele/log.hpp"
 #include "nephele/host_view.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/png.hpp"
 #include "nephele/sky.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <utility>
 #include <string>
 
 using namespace nephele;
@@ -326,4 +330,65 @@ TEST(HostFramebufferWindowGLTest, TheDefaultFramebufferOfAWindow) {
         writePng(test::outputDir() + "/host_framebuffer_window_actual.png", window);
         writePng(test::outputDir() + "/host_framebuffer_window_offscreen.png", offscreen);
     }
+}
+
+// GL errors the host left pending are the host's: draw() neither fails on them nor clears
+// them; it logs each as the host's and leaves it set. (Before, Nephele's first check after a
+// draw threw "<its pass>: GL_INVALID_ENUM", and colorTargetOf drained them silently.)
+TEST_F(HostFramebufferGLTest, TheHostsPendingGlErrorsAreReportedAndLeftSet) {
+    HostFramebuffer target(kW, kH, {"target"});
+    // (Mesa keeps one pending error at a time: one per draw.)
+    const std::pair<GLenum, std::function<void()>> errors[] = {
+        {GL_INVALID_ENUM, [] { glEnable(GL_NONE); }},
+        {GL_INVALID_VALUE, [] { glScissor(0, 0, -1, -1); }},
+        {GL_INVALID_OPERATION, [] { glEndQuery(GL_SAMPLES_PASSED); }},
+    };
+    for (const auto& [error, raise] : errors) {
+        OpaquePass().draw(scene_, view_, target.fbo.id());
+        std::vector<std::string> messages;
+        const LogCallback previous = setLogCallback([&](LogLevel, std::string_view m) { messages.emplace_back(m); });
+        raise();  // the host's
+        EXPECT_NO_THROW(sky_->draw(viewDescOf(view_, target.fbo.id()))) << errorName(error);
+        setLogCallback(previous);
+        EXPECT_EQ(glGetError(), error) << errorName(error);
+        EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR)) << errorName(error);
+        ASSERT_EQ(messages.size(), 1u) << errorName(error);
+        EXPECT_NE(messages[0].find(std::string("pending when the host called Nephele: ") + errorName(error)),
+                  std::string::npos)
+            << messages[0];
+        expectClose(readAttachment(target.fbo.id(), 0, kW, kH), "after_host_errors", 1e-6, 0.0);
+    }
+}
+
+// The host's objects are checked before anything is drawn, and the error names the object and
+// what is wrong (a bad framebuffer was reported as "uploading the layered sky's textures", a
+// bad depth texture as "reducing the frame's depth").
+TEST_F(HostFramebufferGLTest, BadHostObjectsAreNamedBeforeAnythingIsDrawn) {
+    auto expectError = [&](const ViewDesc& d, const std::string& expected) {
+        try {
+            sky_->draw(d);
+            ADD_FAILURE() << "no error; expected: " << expected;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+        EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR)) << expected;
+    };
+    expectError(viewDescOf(view_, 4242), "ViewDesc::framebuffer 4242 is not a framebuffer object");
+    Framebuffer empty = Framebuffer::create();
+    expectError(viewDescOf(view_, empty.id()), "ViewDesc::framebuffer " + std::to_string(empty.id()) +
+                                                   " is incomplete: GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT");
+    HostFramebuffer target(kW, kH, {"target"});
+    ViewDesc d = viewDescOf(view_, target.fbo.id());
+    d.depthTexture = 4343;
+    expectError(d, "ViewDesc::depthTexture 4343 is not a texture object");
+    d.depthTexture = target.colors[0].id();
+    expectError(d, "ViewDesc::depthTexture " + std::to_string(d.depthTexture) + " is not of a depth format");
+    Texture small = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(small.id(), 1, GL_DEPTH_COMPONENT32F, kW / 2, kH);
+    d.depthTexture = small.id();
+    expectError(d, "is 48x64, smaller than the viewport's extent 96x64");
+    Texture volume = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(volume.id(), 1, GL_R8, 4, 4, 4);
+    d.depthTexture = volume.id();
+    expectError(d, "is not a GL_TEXTURE_2D");
 }

@@ -1,5 +1,8 @@
 #include "nephele/gl_state.hpp"
 
+#include "nephele/log.hpp"
+
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
@@ -296,7 +299,45 @@ namespace {
 thread_local HostStateScope* innermostScope = nullptr;
 }
 
-HostStateScope::HostStateScope() : outer_(innermostScope) {
+namespace {
+// The GL errors pending now, each once (a lost context reports errors forever: bounded).
+std::vector<GLenum> takePendingErrors() {
+    std::vector<GLenum> errors;
+    for (int i = 0; i < 16; ++i) {
+        const GLenum e = glGetError();
+        if (e == GL_NO_ERROR) break;
+        if (std::find(errors.begin(), errors.end(), e) == errors.end()) errors.push_back(e);
+    }
+    return errors;
+}
+
+// Sets `error` again by a call GL must reject with it; false when no call can.
+bool raiseAgain(GLenum error) {
+    switch (error) {
+    case GL_INVALID_ENUM: glEnable(GL_NONE); return true;
+    case GL_INVALID_VALUE: glScissor(0, 0, -1, -1); return true;
+    case GL_INVALID_OPERATION: glEndQuery(GL_SAMPLES_PASSED); return true;  // no query active
+    default: return false;
+    }
+}
+
+std::vector<GLenum> takeHostErrors() {
+    std::vector<GLenum> errors = takePendingErrors();
+    for (GLenum e : errors)
+        logMessage(LogLevel::Warning, std::string("a GL error was pending when the host called Nephele: ") + errorName(e) +
+                                          " (the host's; left set for the host)");
+    return errors;
+}
+
+void raiseHostErrors(const std::vector<GLenum>& errors) {
+    for (GLenum e : errors)
+        if (!raiseAgain(e))
+            logMessage(LogLevel::Warning, std::string("the host's pending ") + errorName(e) +
+                                              " could not be set again: GL has no call that raises it");
+}
+}  // namespace
+
+HostStateScope::HostStateScope() : hostErrors_(innermostScope ? std::vector<GLenum>{} : takeHostErrors()), outer_(innermostScope) {
     innermostScope = this;
     resetPassState();
     resetPixelStore();
@@ -307,6 +348,7 @@ HostStateScope::~HostStateScope() {
     for (auto it = drawBuffers_.rbegin(); it != drawBuffers_.rend(); ++it)
         glNamedFramebufferDrawBuffers(it->framebuffer, GlStateSnapshot::kDrawBuffers, it->buffers.data());
     innermostScope = outer_;
+    raiseHostErrors(hostErrors_);  // (calls that fail change no state: the guard's restore is unaffected)
 }
 
 void HostStateScope::selectDrawBuffer(GLuint framebuffer, GLenum attachment) {

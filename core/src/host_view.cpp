@@ -92,15 +92,49 @@ View makeView(const ViewDesc& d) {
     return v;
 }
 
+void checkHostObjects(const ViewDesc& d) {
+    if (d.framebuffer != 0) {
+        const std::string name = "ViewDesc::framebuffer " + std::to_string(d.framebuffer);
+        if (!glIsFramebuffer(d.framebuffer))
+            throw std::invalid_argument(name + " is not a framebuffer object of the current context");
+        const GLenum status = glCheckNamedFramebufferStatus(d.framebuffer, GL_DRAW_FRAMEBUFFER);
+        if (status != GL_FRAMEBUFFER_COMPLETE)
+            throw std::invalid_argument(name + " is incomplete: " + gl::framebufferStatusName(status));
+    }
+    if (d.hasDepth && d.depthTexture != 0) {
+        const std::string name = "ViewDesc::depthTexture " + std::to_string(d.depthTexture);
+        if (!glIsTexture(d.depthTexture))
+            throw std::invalid_argument(name + " is not a texture object of the current context");
+        GLint target = 0, format = 0, width = 0, height = 0;
+        glGetTextureParameteriv(d.depthTexture, GL_TEXTURE_TARGET, &target);
+        if (target != GL_TEXTURE_2D)
+            throw std::invalid_argument(name + " is not a GL_TEXTURE_2D (a multisampled depth is copied from the "
+                                               "framebuffer instead: leave depthTexture 0)");
+        glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_INTERNAL_FORMAT, &format);
+        glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_WIDTH, &width);
+        glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_HEIGHT, &height);
+        switch (format) {
+        case GL_DEPTH_COMPONENT: case GL_DEPTH_STENCIL: case GL_DEPTH_COMPONENT16: case GL_DEPTH_COMPONENT24:
+        case GL_DEPTH_COMPONENT32: case GL_DEPTH_COMPONENT32F: case GL_DEPTH24_STENCIL8: case GL_DEPTH32F_STENCIL8:
+            break;
+        default:
+            throw std::invalid_argument(name + " is not of a depth format (internal format " + std::to_string(format) + ")");
+        }
+        if (width < d.viewport.x + d.viewport.z || height < d.viewport.y + d.viewport.w)
+            throw std::invalid_argument(name + " is " + std::to_string(width) + "x" + std::to_string(height) +
+                                        ", smaller than the viewport's extent " + std::to_string(d.viewport.x + d.viewport.z) +
+                                        "x" + std::to_string(d.viewport.y + d.viewport.w));
+    }
+}
+
 ColorTarget colorTargetOf(const ViewDesc& d) {
     if (d.color != ColorTarget::Auto) return d.color;
     // A window's framebuffer: drivers report sRGB-capable visuals as GL_SRGB whatever the window
     // asked for (Mesa), so linear unless the host says Srgb8.
     if (d.framebuffer == 0) return ColorTarget::Unorm8;
-    auto drain = [] {  // bounded: a lost context reports errors forever
-        for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {}
-    };
-    drain();
+    if (!glIsFramebuffer(d.framebuffer))
+        throw std::invalid_argument("ViewDesc::framebuffer " + std::to_string(d.framebuffer) +
+                                    " is not a framebuffer object of the current context");
     GLint type = GL_NONE, encoding = GL_LINEAR, component = GL_UNSIGNED_NORMALIZED;
     GLint attachment = GLint(d.drawBuffer);
     if (attachment == GL_NONE) {  // the host's draw buffer 0: a draw buffer is asked of the bound framebuffer
@@ -112,10 +146,9 @@ ColorTarget colorTargetOf(const ViewDesc& d) {
         if (attachment == GL_NONE) return ColorTarget::Unorm8;  // bindFrame reports it
     }
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
-    if (glGetError() != GL_NO_ERROR || type == GL_NONE) return ColorTarget::Unorm8;  // no colour attachment
+    if (type == GL_NONE) return ColorTarget::Unorm8;  // no colour attachment: bindFrame names it
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
     glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
-    drain();
     if (encoding == GL_SRGB) return ColorTarget::Srgb8;
     return component == GL_FLOAT ? ColorTarget::Float : ColorTarget::Unorm8;
 }

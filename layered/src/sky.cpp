@@ -133,14 +133,15 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
 
 SkyStats SkyRenderer::draw(const ViewDesc& desc) {
     if (!prepared_) throw std::logic_error("SkyRenderer::draw: call prepare(scene) first");
+    HostStateScope scope;  // first: the host's pending GL errors are its own
     const View view = makeView(desc);
+    checkHostObjects(desc);
     HostFrame frame;
     frame.framebuffer = desc.framebuffer;
     frame.drawBuffer = desc.drawBuffer;
     frame.hasDepth = desc.hasDepth;
     frame.srgb = colorTargetOf(desc) == ColorTarget::Srgb8;
     SkyStats stats;
-    HostStateScope scope;
     // The frame's depth once for both renderers: the host's texture, or one copy.
     if (desc.hasDepth && desc.depthTexture != 0) frame.depth = {desc.depthTexture, view.origin};
     else frame.depth = depths_.get({view.camera.width, view.camera.height}).source(frame, view);

@@ -98,6 +98,12 @@ private:
 // the pixel store (resetPassState, resetPixelStore); restores the host's state on destruction,
 // and the draw-buffer list of every host framebuffer that selectDrawBuffer changed meanwhile.
 // Scopes nest (per thread); the innermost one records.
+//
+// GL errors the host left pending are the host's: the outermost scope takes them off the
+// context on entry (so that Nephele's own checks do not report them as its own), logs each as
+// a warning naming it as the host's, and sets the same errors again on exit (GL_INVALID_ENUM,
+// GL_INVALID_VALUE and GL_INVALID_OPERATION are raised again by a call that must fail so; the
+// log says so of any other, which GL gives no call to raise).
 class HostStateScope {
 public:
     HostStateScope();
@@ -117,6 +123,7 @@ private:
         GLuint framebuffer;
         std::array<GLenum, GlStateSnapshot::kDrawBuffers> buffers;
     };
+    std::vector<GLenum> hostErrors_;  // pending on entry (outermost scope only), set again on exit
     GlStateGuard guard_;
     std::vector<SavedDrawBuffers> drawBuffers_;
     HostStateScope* outer_;

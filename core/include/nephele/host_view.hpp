@@ -47,6 +47,13 @@ struct ViewDesc {
 // stated convention), a viewport outside 1..16384 pixels or at a negative offset.
 View makeView(const ViewDesc& desc);
 
+// Checks the host's objects `desc` names, before anything is drawn, and throws
+// std::invalid_argument naming the object and what is wrong with it: a framebuffer that is not
+// a framebuffer object of the current context or is incomplete (its status named); a depth
+// texture that is not a texture, not GL_TEXTURE_2D, not of a depth format, or smaller than the
+// viewport. Needs a current context; raises no GL error.
+void checkHostObjects(const ViewDesc& desc);
+
 // The ColorTarget of the colour attachment `desc` draws into (desc.color unless Auto). Needs a
 // current context.
 ColorTarget colorTargetOf(const ViewDesc& desc);
