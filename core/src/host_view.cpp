@@ -161,6 +161,7 @@ ViewDesc viewDescOf(const View& view, GLuint framebuffer, bool hasDepth) {
     d.viewport = glm::ivec4(view.origin, view.camera.width, view.camera.height);
     d.framebuffer = framebuffer;
     d.hasDepth = hasDepth;
+    d.cloudShadows = true;
     return d;
 }
 

@@ -422,6 +422,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     if (scene.layers.empty()) return stats;
     Impl& m = *impl_;
     const LayeredSettings& s = settings_;
+    const bool shadows = s.shadows && frame.cloudShadows;
 
     HostStateScope scope;
     // ---- Per layer resources, shared by layers of the same parameters, new only when those change.
@@ -432,13 +433,13 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     check("uploading the layered sky's textures");
 
     // ---- The frame's depth (none without one), for the shadows and the upsampling.
-    const DepthSource frameDepth = s.shadows || s.downsample > 1
+    const DepthSource frameDepth = shadows || s.downsample > 1
                                        ? m.depths.get({view.camera.width, view.camera.height}).source(frame, view)
                                        : DepthSource{};
     // ---- Cloud shadows (19) on the surfaces already in the frame, before the layers cover them:
     // fused into the upsampling at reduced resolution, else a pass of their own.
     std::vector<int> shadowing;
-    if (s.shadows)
+    if (shadows)
         for (int li : ShadowPass::shadowingLayers(scene))
             if (m.layers[li].ready()) shadowing.push_back(li);
     const bool fuseShadows = s.downsample > 1 && int(shadowing.size()) <= ShadowPass::kLayersPerPass;

@@ -140,6 +140,7 @@ SkyStats SkyRenderer::draw(const ViewDesc& desc) {
     frame.framebuffer = desc.framebuffer;
     frame.drawBuffer = desc.drawBuffer;
     frame.hasDepth = desc.hasDepth;
+    frame.cloudShadows = desc.cloudShadows;
     frame.srgb = colorTargetOf(desc) == ColorTarget::Srgb8;
     SkyStats stats;
     // The frame's depth once for both renderers: the host's texture, or one copy.

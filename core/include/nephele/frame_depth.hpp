@@ -25,6 +25,8 @@ struct HostFrame {
     DepthSource depth;       // its depth when already at hand (the host's depth texture, or a copy made for
                              // this view); texture 0: copied from the framebuffer's when a pass needs it
     bool srgb = false;       // the colour attachment is sRGB: GL_FRAMEBUFFER_SRGB on while writing it
+    bool cloudShadows = true;  // the layers' cloud shadows darken the frame's surfaces and the ground below
+                               // the horizon (LayeredSettings::shadows permitting)
 };
 
 class FrameDepth {

@@ -38,6 +38,10 @@ struct ViewDesc {
                                  // never writes the host's depth); texel (x, y) = framebuffer pixel (x, y).
                                  // A multisampled depth is copied (resolved) from the framebuffer instead
     bool hasDepth = true;        // false: no depth at all (the clouds cover everything in the frame)
+    bool cloudShadows = false;   // opt-in: the layers' cloud shadows multiply the colour of the frame's
+                                 // surfaces (where its depth holds one) and of the empty pixels below the
+                                 // horizon (taken as ground at LayeredSettings::groundHeight). Off, the
+                                 // host's pixels are left as they are and the host shades its own
     ColorTarget color = ColorTarget::Auto;
 };
 
@@ -59,7 +63,9 @@ void checkHostObjects(const ViewDesc& desc);
 ColorTarget colorTargetOf(const ViewDesc& desc);
 
 // A ViewDesc of `view` (as made by makeView(Camera) or makeView(Camera, Frustum, ...)) drawn
-// into `framebuffer` at `view.origin`: the bridge from the scene camera to the host API.
+// into `framebuffer` at `view.origin`: the bridge from the scene camera to the host API. The
+// frame holds the scene's own sky, ground and objects, so it takes the cloud shadows as
+// render() draws them (cloudShadows on).
 ViewDesc viewDescOf(const View& view, GLuint framebuffer, bool hasDepth = true);
 
 }  // namespace nephele
