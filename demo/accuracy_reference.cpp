@@ -2,6 +2,7 @@
 
 #include "nephele/opaque.hpp"
 #include "nephele/pathtrace.hpp"
+#include "pathtrace_hooks.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -2,6 +2,7 @@
 
 #include "bench_util.hpp"
 
+#include "ellipsoid_hooks.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"
 #include "nephele/gardner.hpp"
@@ -170,7 +171,7 @@ int runBench(const BenchOptions& o) {
             const std::vector<double> ms = timeFrames(
                 o.frames, target, opaque, scene, view,
                 {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
-                 [&] { instanced.renderFloor(scene, view, target.framebuffer()); },
+                 [&] { renderFloor(instanced, scene, view, target.framebuffer()); },
                  [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
                  [&] { separate.render(scene, view, target.framebuffer(), false); },
                  [&] { other.render(scene, view, target.framebuffer(), false); }});

@@ -8,6 +8,7 @@
 
 #include "bench_util.hpp"
 
+#include "layered_hooks.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/ellipsoid.hpp"
@@ -89,7 +90,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
                         drawNear();
                     },
                     [&] { far.render(scene, view, target.framebuffer(), t); }, drawNear,
-                    [&] { far.renderFloor(scene, view, target.framebuffer(), t); }});
+                    [&] { renderFloor(far, scene, view, target.framebuffer(), t); }});
     a.ms = ms[0], a.farMs = ms[1], a.nearMs = ms[2], a.floorMs = ms[3];
     return a;
 }
@@ -150,7 +151,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
                 const std::vector<double> ms = timeFrames(
                     frames, target, opaque, scene, view,
                     {[&] { r.stats = current[n]->render(scene, view, target.framebuffer(), t); },
-                     [&] { r.floorStats = current[n]->renderFloor(scene, view, target.framebuffer(), t); },
+                     [&] { r.floorStats = renderFloor(*current[n], scene, view, target.framebuffer(), t); },
                      [&] { noShadow[n]->render(scene, view, target.framebuffer(), t); },
                      [&] { before[n]->render(scene, view, target.framebuffer(), t); }});
                 r.ms = ms[0], r.floorMs = ms[1], r.noShadowMs = ms[2], r.beforeMs = ms[3];

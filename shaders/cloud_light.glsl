@@ -3,7 +3,7 @@
 // the ray-marcher and as C++ with glm by gardner-exact and the tests (nephele/gardner_model.hpp,
 // namespace nephele::model), so that every method lights the clouds alike. Same subset and
 // MODEL_FN prefix as gardner_model.glsl. The grids it reads are made by
-// ellipsoid/src/cloud_radiance.cpp (see nephele/cloud_radiance.hpp).
+// model/src/cloud_radiance.cpp (see nephele/cloud_radiance.hpp).
 //
 // The source function (radiance per unit of extinction sent towards the eye; a ray's radiance
 // is the integral of T sigma_t S along it, plus T times what is behind):

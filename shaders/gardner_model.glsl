@@ -1,6 +1,6 @@
 // Nephele's Gardner ellipsoid model: ONE source compiled as GLSL by the tile and composite
 // shaders and as C++ (with glm) by the exact CPU model, so the two cannot drift apart
-// (core/include/nephele/gardner_model.hpp includes this file). Keep to the common subset:
+// (model/include/nephele/gardner_model.hpp includes this file). Keep to the common subset:
 // float and vec3 only, every literal with an `f` suffix, functions prefixed MODEL_FN.
 //
 // Conventions. An ellipsoid with centre c, rotation R and radii r has the unit-space map

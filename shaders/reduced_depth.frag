@@ -1,4 +1,4 @@
-// The frame's depth reduced to a lower resolution (nephele/reduced_target.hpp): per texel, the
+// The frame's depth reduced to a lower resolution (core/internal/reduced_target.hpp): per texel, the
 // farthest depth of the frame's pixels it covers (so that clouds are computed wherever any of them
 // sees past the objects; the upsampling sorts out which pixel gets what). Depths stay in the
 // frame's convention (farthest = the largest, or the smallest with reversed Z).

@@ -1,4 +1,4 @@
-// A reduced-resolution image (nephele/reduced_target.hpp: the layered sky's layers, the
+// A reduced-resolution image (core/internal/reduced_target.hpp: the layered sky's layers, the
 // compositor's magnified close tiles) composited over the full-resolution frame, with the
 // layers' cloud shadows fused in (dual-source blending: dst = cloud + dst * keep, keep.rgb =
 // S (1 - alpha), keep.a = 1 - alpha; S = 1 when shadowLayerCount is 0). Nearest-depth

@@ -5,6 +5,7 @@
 #include "nephele/layer_volume.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/pathtrace.hpp"
+#include "pathtrace_hooks.hpp"
 
 #include "../reference/src/layer_tracking.hpp"
 

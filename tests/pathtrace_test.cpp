@@ -6,6 +6,7 @@
 
 #include "../reference/src/tracking.hpp"
 #include "cache_test_util.hpp"
+#include "pathtrace_hooks.hpp"
 
 #include "nephele/gardner.hpp"
 #include "nephele/gardner_model.hpp"

@@ -1,4 +1,4 @@
-#include "nephele/reduced_target.hpp"
+#include "reduced_target.hpp"
 
 #include <algorithm>
 #include <stdexcept>

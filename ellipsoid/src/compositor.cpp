@@ -2,6 +2,7 @@
 // frame's plan (projection, culling, tile sizes, packing or reuse, the GPU tile data, the light),
 // and render(), which runs the tile pass (tile_pass.cpp) and the composite (composite_pass.cpp).
 #include "compositor_impl.hpp"
+#include "ellipsoid_hooks.hpp"
 
 #include "nephele/gl_state.hpp"
 
@@ -512,10 +513,11 @@ glm::ivec3 EllipsoidRenderer::atlasSize() const {
     return a ? glm::ivec3(a->width, a->height, a->layers) : glm::ivec3(0);
 }
 
-EllipsoidStats EllipsoidRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer) {
-    Impl& m = *impl_;
+EllipsoidStats EllipsoidBenchHooks::renderFloor(EllipsoidRenderer& r, const Scene& scene, const View& view,
+                                                GLuint framebuffer) {
+    EllipsoidRenderer::Impl& m = *r.impl_;
     HostStateScope scope;
-    const FramePlan plan = m.plan(settings_, scene, view, false, false);
+    const FramePlan plan = m.plan(r.settings_, scene, view, false, false);
     EllipsoidStats stats = plan.stats;
     if (plan.order.empty()) return stats;
     if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});

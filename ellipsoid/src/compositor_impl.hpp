@@ -15,7 +15,7 @@
 #include "packer.hpp"
 #include "tile_reuse.hpp"
 #include "nephele/per_view.hpp"
-#include "nephele/reduced_target.hpp"
+#include "reduced_target.hpp"
 
 #include <map>
 #include <memory>

@@ -31,14 +31,6 @@ glm::vec3 ellipsoidSkyChroma(const CloudRadiance& grid, const Ellipsoid& e) {
     return model::skyChroma(glm::vec3(sampleRadiance(grid, e.center).skyTau));
 }
 
-Vec3 environmentMean(const Sky& sky) {
-    // Over the upper hemisphere the format's sky is horizon + (zenith - horizon) d.z, whose
-    // mean over solid angle is (zenith + horizon) / 2 (the mean of d.z is 1/2); below, ground.
-    return 0.5 * (0.5 * (sky.zenith + sky.horizon)) + 0.5 * sky.ground;
-}
-
-Vec3 cloudAmbient(const Sky& sky) { return environmentMean(sky); }
-
 namespace {
 
 // Whether the sphere (centre, radius r) lies wholly outside the view's frustum, where

@@ -7,11 +7,6 @@
 
 namespace nephele {
 
-glm::dmat3 ellipsoidToUnit(const Ellipsoid& e) {
-    const glm::dmat3 invRadii(1.0 / e.radii.x, 0, 0, 0, 1.0 / e.radii.y, 0, 0, 0, 1.0 / e.radii.z);
-    return invRadii * glm::transpose(rotationFromDegrees(e.rotationDeg));
-}
-
 EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     EllipsoidProjection p;
     const double n = view.camera.nearClip, f = view.camera.farClip;  // m, planes z = -n, z = -f

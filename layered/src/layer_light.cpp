@@ -4,7 +4,7 @@
 
 #include "layer_light_model.hpp"
 #include "nephele/cloud_radiance.hpp"
-#include "../../ellipsoid/src/photon_sampling.hpp"
+#include "phase_sampling.hpp"
 
 #include "parallel.hpp"
 

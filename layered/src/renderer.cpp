@@ -1,7 +1,6 @@
 // The layered sky on the GPU: per scene layer, one instanced draw of N annuli (LOD1) and one
 // of the billboard slices (LOD0), into the host's frame with "over" blending.
 #include "nephele/frame_depth.hpp"
-#include "nephele/gardner.hpp"
 #include "nephele/gl_state.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/per_view.hpp"
@@ -9,7 +8,8 @@
 #include "nephele/shader.hpp"
 #include "layer_assets.hpp"
 #include "layer_light.hpp"
-#include "nephele/reduced_target.hpp"
+#include "layered_hooks.hpp"
+#include "reduced_target.hpp"
 #include "shadow_pass.hpp"
 
 #include <algorithm>
@@ -476,12 +476,13 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     return stats;
 }
 
-LayeredStats LayeredRenderer::renderFloor(const Scene& scene, const View& view, GLuint framebuffer, double t) {
+LayeredStats LayeredBenchHooks::renderFloor(LayeredRenderer& r, const Scene& scene, const View& view, GLuint framebuffer,
+                                            double t) {
     LayeredStats stats;
     stats.sceneLayers = int(scene.layers.size());
-    Impl& m = *impl_;
+    LayeredRenderer::Impl& m = *r.impl_;
     if (m.layers.size() != scene.layers.size()) throw std::logic_error("LayeredRenderer::renderFloor: call render() first");
-    const LayeredSettings& s = settings_;
+    const LayeredSettings& s = r.settings_;
     HostStateScope scope;
     const Program& p = m.floor;
     glm::dmat4 rotation = view.viewMatrix;

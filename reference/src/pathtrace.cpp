@@ -8,15 +8,17 @@
 #include "nephele/pathtrace.hpp"
 
 #include "layer_tracking.hpp"
+#include "pathtrace_hooks.hpp"
 #include "tracking.hpp"
 
 #include "cache_file.hpp"
-#include "nephele/gardner.hpp"
+#include "nephele/ellipsoid_space.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/noise.hpp"
 #include "parallel.hpp"
-#include "nephele/projection.hpp"
+#include "phase_sampling.hpp"
 #include "nephele/resources.hpp"
 
 #include <atomic>
@@ -45,7 +47,9 @@ namespace {
 
 using detail::MajorantPiece;
 using detail::MajorantSegment;
+using detail::hgPhase;
 using detail::Pcg32;
+using detail::sampleHg;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
@@ -132,28 +136,6 @@ struct Workspace {
     RayData primary, secondary, shadow;
 };
 
-double hgPhase(double cosTheta, double g) {  // 1/sr; cosTheta between propagation directions
-    const double d = 1 + g * g - 2 * g * cosTheta;
-    return (1 - g * g) / (4 * std::numbers::pi * d * std::sqrt(d));
-}
-
-// A direction about `w` with the HG distribution of the angle to w (exact inversion).
-Vec3 sampleHg(const Vec3& w, double g, Pcg32& rng) {
-    const double xi = rng.uniform(), phi = 2 * std::numbers::pi * rng.uniform();
-    double c;
-    if (std::fabs(g) < 1e-4) {
-        c = 1 - 2 * xi;
-    } else {
-        const double s = (1 - g * g) / (1 - g + 2 * g * xi);
-        c = std::clamp((1 + g * g - s * s) / (2 * g), -1.0, 1.0);
-    }
-    const double sn = std::sqrt(std::max(0.0, 1 - c * c));
-    // Orthonormal basis about w (Duff et al. 2017).
-    const double sign = std::copysign(1.0, w.z), a = -1 / (sign + w.z), b = w.x * w.y * a;
-    const Vec3 u(1 + sign * w.x * w.x * a, sign * b, -sign * w.x), v(b, sign + w.y * w.y * a, -w.y);
-    return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
-}
-
 class World {
 public:
     // `layers` (may be null: no layers) centred on the eye `eye`, as the layered sky is.
@@ -171,7 +153,7 @@ public:
             // slack covers its float round-off).
             noiseBound_ = 1 + amp_ * maxAbs * (1 + 1e-5);
         }
-        const unsigned noiseSeed = NoiseSettings{}.seed;  // the compositor's default offsets
+        const unsigned noiseSeed = NoiseSettings{}.seed;  // the model's default offsets, as every method reads them
         for (std::size_t ci = 0; ci < scene.clouds.size(); ++ci)
             for (std::size_t ei = 0; ei < scene.clouds[ci].ellipsoids.size(); ++ei) {
                 const Ellipsoid& e = scene.clouds[ci].ellipsoids[ei];
@@ -607,7 +589,7 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
 
 constexpr char kMagic[8] = {'N', 'E', 'P', 'H', 'P', 'T', '3', '\n'};
 
-// File (before the checksum of core/src/cache_file.hpp): magic, key length (u64), key, width,
+// File (before the checksum of core/internal/cache_file.hpp): magic, key length (u64), key, width,
 // height, channels (i32), floats. A damaged or implausible file is never used: the caller
 // renders again, with a warning when there was a file.
 std::optional<Image> readCache(const std::filesystem::path& file, const std::string& key) {

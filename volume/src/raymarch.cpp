@@ -5,8 +5,8 @@
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/gl_state.hpp"
-#include "nephele/projection.hpp"
-#include "nephele/reduced_target.hpp"
+#include "nephele/ellipsoid_space.hpp"
+#include "reduced_target.hpp"
 #include "nephele/shader.hpp"
 
 #include <glm/gtc/matrix_access.hpp>

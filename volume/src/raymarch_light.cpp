@@ -5,7 +5,7 @@
 #include "nephele/cloud_radiance.hpp"
 #include "nephele/gardner_model.hpp"
 #include "parallel.hpp"
-#include "nephele/projection.hpp"
+#include "nephele/ellipsoid_space.hpp"
 
 #include <algorithm>
 #include <cmath>

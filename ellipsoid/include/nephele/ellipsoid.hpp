@@ -139,7 +139,7 @@ struct EllipsoidSettings {
     // large it is on screen; it is magnified onto the view as any tile. Consecutive tiles (two
     // or more, in the composite's order) each magnified at least closeDownsample times are
     // composited at 1 / closeDownsample of the view's resolution and upsampled over the frame
-    // with its depth (as the layered sky's layers: nephele/reduced_target.hpp): their image
+    // with its depth (as the layered sky's layers: core/internal/reduced_target.hpp): their image
     // holds nothing finer, and round the eye they overlap across the whole view. Only with the
     // back-to-front composite and the fraction fly-through (PerEllipsoid, FlyThrough::Fraction);
     // other settings draw every tile at its size on screen.
@@ -229,11 +229,6 @@ public:
     // The last light update's figures: grids pending on the worker, stand-ins, over budget.
     RadianceUpdateStats lightStats() const;
 
-    // The bench's floor for the same frame: the same tiles, passes and CPU work, but only
-    // the unavoidable pixel work: each tile's pixels blended once per pass, and each tile's
-    // screen rectangle composited once as a plain textured quad; one draw each per pass.
-    EllipsoidStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer);
-
     // Debug views of the last render (a host's tools: `nephele fly`). The tiles, and the atlas:
     // a GL_TEXTURE_2D_ARRAY of atlasSize() with a layer per pass (at least the last frame's
     // passes; rgba = the tile pass's terms, see the top of this file; 0 before the first tile).
@@ -242,6 +237,7 @@ public:
     glm::ivec3 atlasSize() const;  // width, height, layers
 
 private:
+    friend struct EllipsoidBenchHooks;  // the benches' entry points (ellipsoid/src/ellipsoid_hooks.hpp), not a host's
     struct Impl;
     EllipsoidSettings settings_;
     std::unique_ptr<Impl> impl_;

@@ -21,22 +21,6 @@
 
 namespace nephele {
 
-struct NoiseSettings {
-    int size = 64;      // texels per side of the tileable volume
-    int cells = 8;      // lattice cells per period: one cell is medium.noise_scale metres
-    int octaves = 4;
-    unsigned seed = 7;
-};
-
-// Mean radiance of the environment over the whole sphere of directions: the format's sky over
-// the upper hemisphere ((zenith + horizon) / 2 there), the ground colour over the lower one.
-Vec3 environmentMean(const Sky& sky);
-
-// The layered sky's ambient term: environmentMean(sky). Skylight enters a cloud from every
-// side and, the cloud absorbing little, leaves it nearly as bright: about the mean of what
-// surrounds it.
-Vec3 cloudAmbient(const Sky& sky);
-
 // `--method gardner-exact`: the model per pixel in float, exact ray-ellipsoid geometry and
 // falloff, the light of every pixel's chord (no per-vertex light), no tiles and no 8-bit buffers, over the opaque
 // background (objects inside clouds are covered only by the matter in front of them).

@@ -11,6 +11,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/ellipsoid_space.hpp"  // ellipsoidToUnit (the model's, nephele_model)
 #include "nephele/scene.hpp"
 
 #include <glm/glm.hpp>
@@ -35,9 +36,5 @@ struct EllipsoidProjection {
 // The tile of `e` seen from `view`. Only `visible` projections have a meaningful rect,
 // pixel size and projection; eyeInside, crossesNear, distance and the box are always set.
 EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view);
-
-// Matrices for the shaders: world -> ellipsoid unit-sphere space, M = diag(1/r) * R^T applied
-// to (x - c); a world point x is inside the ellipsoid iff |M (x - c)| < 1.
-glm::dmat3 ellipsoidToUnit(const Ellipsoid& e);  // diag(1/r) * R^T
 
 }  // namespace nephele

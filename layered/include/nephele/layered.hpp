@@ -132,7 +132,7 @@ struct LightingVolume {
     glm::dvec2 columnDepths(double u, double v, double z, double theta, double density) const;
 
     // Binary file: magic "NPHLAYR\0", version, sizes, parameters, derived values, texels, and
-    // a checksum (core/src/cache_file.hpp); load() verifies it and refuses a damaged file.
+    // a checksum (core/internal/cache_file.hpp); load() verifies it and refuses a damaged file.
     void save(const std::string& path) const;
     // Throws LightingFileError naming the file and what is wrong (bad magic, version, a size
     // or a parameter that differs from `expected`, truncated data).
@@ -283,11 +283,6 @@ public:
     // Takes its lighting volumes and modulation textures from `assets` (SkyRenderer's, shared
     // with the near LOD and computed in the background) instead of its own (synchronous).
     void shareAssets(std::shared_ptr<LayerAssets> assets);
-    // The bench's floor (`nephele bench --layered`): the same annulus and billboard instances
-    // (same vertex shader, depth test, blending) with a trivial fragment shader that fetches
-    // the 2D modulation texture once and blends every fragment: the unavoidable pixel work of
-    // the geometry. Call after render() with the same scene (it uses its textures).
-    LayeredStats renderFloor(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds);
 
     // The lighting volume and modulation texture used for scene layer `index` at the last
     // render (nullptr before, or while a background job makes the first).
@@ -295,6 +290,7 @@ public:
     const ModulationTexture* modulation(int index) const;
 
 private:
+    friend struct LayeredBenchHooks;  // the bench's entry point (layered/src/layered_hooks.hpp), not a host's
     struct Impl;
     LayeredSettings settings_;
     std::unique_ptr<Impl> impl_;

@@ -64,7 +64,7 @@ struct SkyUpdateStats {
     NearLodStats nearLod;  // what the near LOD spawned and retired
     int lightVolumes = 0;  // clouds' radiance grids finished on the worker since the last update
     int lightPending = 0;  // grids still being made there (new near clouds, a new sun)
-    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (ellipsoid/src/light_cache.hpp)
+    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (model/internal/light_cache.hpp)
     double lightMs = 0;    // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
     int layers = 0;        // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running

@@ -91,17 +91,11 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 // noise volume when medium.noise > 0, the layers with their textures and time when rendered,
 // spp, maxBounces, firstBounce, seed and a version constant), and the
 // file holds the whole key, so a hash collision is a miss. Files are written atomically
-// (temporary name, then rename) and end with a checksum (core/src/cache_file.hpp); a damaged
+// (temporary name, then rename) and end with a checksum (core/internal/cache_file.hpp); a damaged
 // file (checksum, length, a NaN, a negative radiance, an opacity over 1) or something other
 // than a regular file there (read without blocking) is rendered again with a warning through
 // the log callback (nephele/log.hpp), never used.
 Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
                              const NoiseVolume* noise, const std::string& cacheDir);
-
-namespace detail {
-// How many images renderPathTraced has computed in this process (not read from a cache): for
-// the tests and for tools that report what the cache saved.
-std::uint64_t pathTracedImagesComputed();
-}  // namespace detail
 
 }  // namespace nephele

@@ -34,7 +34,7 @@
 // terms), with S the source of Nephele's one light model (shaders/cloud_light.glsl, shared
 // with the compositor and gardner-exact): the sun's single scattering and the diffuse light of
 // the sun and of the sky from the cloud's radiance grid (nephele/cloud_radiance.hpp), read at
-// every step. The grids are kept while the clouds only move (ellipsoid/src/light_cache.hpp). With
+// every step. The grids are kept while the clouds only move (model/internal/light_cache.hpp). With
 // noise the grid is that of the smooth field.
 // Opaque objects: with opaqueDepth the march ends at the opaque surface (a copy of the
 // frame's depth), so an object inside a cloud is covered only by the matter in front of it.
@@ -42,7 +42,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
-#include "nephele/gardner.hpp"
+#include "nephele/cloud_radiance.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"

@@ -31,6 +31,17 @@ float perlinNoise(const glm::vec3& p, int period, unsigned seed);
 // octaves < 1, period < 1 or period * 2^(octaves-1) overflows int.
 float fbm(const glm::vec3& p, int octaves, int period, unsigned seed);
 
+// The project's noise volume: makeNoiseVolume(size, cells, octaves, seed), read with a period of
+// medium.noise_scale * cells metres at ellipsoidNoiseOffset(cloud, index, seed). Every method
+// that adds noise to the ellipsoids takes these defaults unless told otherwise, so that all of
+// them see the same field (the path tracer always does).
+struct NoiseSettings {
+    int size = 64;      // texels per side of the tileable volume
+    int cells = 8;      // lattice cells per period: one cell is medium.noise_scale metres
+    int octaves = 4;
+    unsigned seed = 7;
+};
+
 // A size^3 scalar volume, uploaded as a 3D texture and sampled as one.
 struct NoiseVolume {
     int size = 0;                 // size^3 texels

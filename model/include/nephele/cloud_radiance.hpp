@@ -60,14 +60,14 @@ struct RadianceGridSettings {
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
     unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
     // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
-    // past it (the smallest on screen first) are lit by a stand-in (ellipsoid/src/light_cache.hpp).
+    // past it (the smallest on screen first) are lit by a stand-in (model/internal/light_cache.hpp).
     double megabytes = 256;
     // Make missing grids on a worker thread, a stand-in lighting the cloud meanwhile, instead of
     // before the frame (a host's frame loop; SkyRenderer::update() always does).
     bool background = false;
 };
 
-// What an update of the clouds' grids did (ellipsoid/src/light_cache.hpp; EllipsoidRenderer::lightStats).
+// What an update of the clouds' grids did (model/internal/light_cache.hpp; EllipsoidRenderer::lightStats).
 struct RadianceUpdateStats {
     int computed = 0;     // grids made in this call, or finished on the worker since the last call
     int pending = 0;      // grids queued or being made on the worker
@@ -75,6 +75,15 @@ struct RadianceUpdateStats {
     int overBudget = 0;   // of those, clouds past the memory budget (the template until they come nearer)
     double workerMs = 0;  // the worker's time for the grids it finished since the last call
 };
+
+// Mean radiance of the environment over the whole sphere of directions: the format's sky over
+// the upper hemisphere ((zenith + horizon) / 2 there), the ground colour over the lower one.
+Vec3 environmentMean(const Sky& sky);
+
+// The layered sky's ambient term: environmentMean(sky). Skylight enters a cloud from every
+// side and, the cloud absorbing little, leaves it nearly as bright: about the mean of what
+// surrounds it.
+Vec3 cloudAmbient(const Sky& sky);
 
 // Scatterings in the cloud that the sunFew lobe holds; the sunMany lobe holds the rest.
 inline constexpr int kFewScatterings = 3;

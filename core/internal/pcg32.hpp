@@ -1,6 +1,6 @@
 // PCG32 (O'Neill 2014): 64-bit LCG state, XSH-RR output, and the SplitMix64 finaliser that
 // seeds it: the one generator of the path tracer (reference/src/tracking.hpp) and of the photon
-// tracers (ellipsoid/src/photon_sampling.hpp). Internal to the libraries.
+// tracers (model/internal/phase_sampling.hpp). Internal to the libraries.
 #pragma once
 
 #include <cstdint>

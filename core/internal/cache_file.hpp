@@ -10,7 +10,7 @@
 
 namespace nephele::cache {
 
-// Writes `payload` followed by its checksum (the 64-bit FNV-1a of core/src/fingerprint.hpp, 8
+// Writes `payload` followed by its checksum (the 64-bit FNV-1a of core/internal/fingerprint.hpp, 8
 // bytes, little-endian) to `file`: through a temporary created exclusively beside it
 // (FILE.tmp-XXXXXX, never through a link) that is renamed into place. Something other than a
 // regular file at `file` (a folder, a FIFO, a device) is left alone. Returns "" when written,

@@ -1,6 +1,8 @@
-// The photon tracers' sampling (the clouds' radiance grids, ellipsoid/src/cloud_radiance.cpp,
-// and the layered sky's light tables, layered/src/layer_light.cpp): a PCG32 generator, an
-// orthonormal basis and Henyey-Greenstein directions. Internal to the library.
+// The phase function and its sampling, one copy for every Monte Carlo tracer: the path tracer
+// (reference/src/pathtrace.cpp), the clouds' radiance grids (model/src/cloud_radiance.cpp) and
+// the layered sky's light tables (layered/src/layer_light.cpp): the Henyey-Greenstein phase,
+// its exact inversion, an orthonormal basis, and the photon tracers' PCG32 generator. Internal
+// to the libraries (model/internal, through nephele_internal).
 #pragma once
 
 #include "nephele/scene.hpp"
@@ -13,8 +15,8 @@
 
 namespace nephele::detail {
 
-// PCG32 (core/src/pcg32.hpp, the path tracer's generator), seeded through SplitMix64 in one of
-// two ways (each tracer's images and tables depend on its own), its uniform numbers in (0, 1).
+// PCG32 (core/internal/pcg32.hpp, the path tracer's generator), seeded through SplitMix64 in one
+// of two ways (each tracer's images and tables depend on its own), its uniform numbers in (0, 1).
 class PhotonRng {
 public:
     // The radiance grids' seeding: PCG's srandom, the stream and the state from the seed.
@@ -33,6 +35,13 @@ private:
     Pcg32 g_;
 };
 
+// The Henyey-Greenstein phase function (1/sr) in double; cosTheta between propagation
+// directions. (The GLSL/C++ model's float twin is model::hgPhase in gardner_model.glsl.)
+inline double hgPhase(double cosTheta, double g) {
+    const double d = 1 + g * g - 2 * g * cosTheta;
+    return (1 - g * g) / (4 * std::numbers::pi * d * std::sqrt(d));
+}
+
 // An orthonormal basis about unit w (Duff et al. 2017).
 inline void basis(const Vec3& w, Vec3& u, Vec3& v) {
     const double sign = std::copysign(1.0, w.z), a = -1 / (sign + w.z), b = w.x * w.y * a;
@@ -40,8 +49,11 @@ inline void basis(const Vec3& w, Vec3& u, Vec3& v) {
     v = Vec3(b, sign + w.y * w.y * a, -w.y);
 }
 
-// A direction about unit w with the Henyey-Greenstein distribution of its angle to w.
-inline Vec3 sampleHg(const Vec3& w, double g, PhotonRng& rng) {
+// A direction about unit w with the Henyey-Greenstein distribution of its angle to w (exact
+// inversion). Draws two numbers from rng.uniform(), the cosine's first: the path tracer's Pcg32
+// gives them in [0, 1), PhotonRng in (0, 1); each tracer keeps its own sequence.
+template <class Rng>
+inline Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
     const double xi = rng.uniform(), phi = 2 * std::numbers::pi * rng.uniform();
     double c = 1 - 2 * xi;
     if (std::fabs(g) >= 1e-4) {

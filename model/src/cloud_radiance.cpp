@@ -2,11 +2,11 @@
 // on the grid, the sun's optical depth in closed form, and the diffuse light by photons traced
 // through the voxelised extinction with the path tracer's physics, scored by track length.
 #include "nephele/cloud_radiance.hpp"
-#include "photon_sampling.hpp"
+#include "phase_sampling.hpp"
 
 #include "nephele/gardner_model.hpp"
 #include "parallel.hpp"
-#include "nephele/projection.hpp"
+#include "nephele/ellipsoid_space.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
 
@@ -17,6 +17,14 @@
 #include <stdexcept>
 
 namespace nephele {
+
+Vec3 environmentMean(const Sky& sky) {
+    // Over the upper hemisphere the format's sky is horizon + (zenith - horizon) d.z, whose
+    // mean over solid angle is (zenith + horizon) / 2 (the mean of d.z is 1/2); below, ground.
+    return 0.5 * (0.5 * (sky.zenith + sky.horizon)) + 0.5 * sky.ground;
+}
+
+Vec3 cloudAmbient(const Sky& sky) { return environmentMean(sky); }
 
 namespace {
 

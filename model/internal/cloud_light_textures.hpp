@@ -1,4 +1,4 @@
-// The clouds' radiance grids (ellipsoid/src/light_cache.hpp) on the GPU, for the compositor and the
+// The clouds' radiance grids (model/internal/light_cache.hpp) on the GPU, for the compositor and the
 // ray-marcher (shaders/cloud_light_grid.glsl reads them): four RGBA16F 3D textures with one
 // slot per grid, a fifth (R16F, kSunRefinement times the texels per axis, its slots in the same
 // places scaled so) of the sun's transmittance, and a storage buffer of the grids' boxes

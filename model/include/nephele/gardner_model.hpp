@@ -20,7 +20,7 @@ using glm::vec2;
 using glm::vec3;
 using glm::vec4;
 #define MODEL_FN inline
-#include "nephele/gardner_model.glsl"  // the build's copy of shaders/gardner_model.glsl (core/CMakeLists.txt)
+#include "nephele/gardner_model.glsl"  // the build's copy of shaders/gardner_model.glsl (model/CMakeLists.txt)
 #undef MODEL_FN
 
 // The sun's phase peak: where the HG phase is at least kSunPeakPhase times the isotropic one
