@@ -109,12 +109,19 @@ bool prepareBenchOutputs(const std::string& outDir, const std::string& readme, c
     std::error_code ec;
     fs::create_directories(outDir, ec);
     if (!fs::is_directory(outDir)) {
-        std::cerr << "nephele: bench: cannot create the output folder '" << outDir << "'\n";
+        std::cerr << "nephele: bench: --out-dir: cannot create the output folder '" << outDir << "'"
+                  << (ec ? ": " + ec.message() : "") << "\n";
         return false;
     }
     if (readme.empty()) return true;
     if (!fs::is_regular_file(readme)) {
         std::cerr << "nephele: bench: --readme '" << readme << "' is not a file\n";
+        return false;
+    }
+    try {  // its name too, before the bench: it is replaced through a temporary beside it
+        resolveOutput("--readme", readme);
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "nephele: bench: " << e.what() << "\n";
         return false;
     }
     if (tag.empty()) return true;
