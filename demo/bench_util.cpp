@@ -109,7 +109,8 @@ bool prepareBenchOutputs(const std::string& outDir) {
     std::error_code ec;
     fs::create_directories(outDir, ec);
     if (!fs::is_directory(outDir)) {
-        std::cerr << "nephele: bench: cannot create the output folder '" << outDir << "'\n";
+        std::cerr << "nephele: bench: --out-dir: cannot create the output folder '" << outDir << "'"
+                  << (ec ? ": " + ec.message() : "") << "\n";
         return false;
     }
     return true;

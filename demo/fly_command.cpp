@@ -59,7 +59,11 @@ int runFly(const FlyOptions& given) {
     }
     try {
         cli::OutputFiles check;
-        if (!o.recordInput.empty()) check.add(o.recordInput, nullptr), check.checkPaths();
+        if (!o.recordInput.empty()) {
+            check.add(o.recordInput, nullptr, "--record-input");
+            check.checkPaths();
+            check.refuseInput(o.scene, "scene file");
+        }
         FlyAppOptions ao;
         ao.scene = o.scene, ao.method = *method, ao.renderScale = o.renderScale, ao.recordInput = o.recordInput;
         ao.script = o.script;

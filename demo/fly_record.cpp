@@ -2,6 +2,7 @@
 #include "fly_command.hpp"
 #include "fly_host.hpp"
 #include "fly_script.hpp"
+#include "output_files.hpp"
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
@@ -45,6 +46,7 @@ Recording prepare(const FlyOptions& o) {
     const auto method = parseFlyMethod(o.method);
     if (!method) throw std::invalid_argument("--method: unknown method '" + o.method + "' (expected auto, ellipsoid, raymarch or layered)");
     r.method = *method;
+    cli::resolveOutput("--record", o.record, /*folder=*/true);  // its name and place, before any work
     std::error_code ec;
     if (fs::exists(o.record) && !(fs::is_directory(o.record) && fs::is_empty(o.record, ec)))
         throw std::invalid_argument("--record '" + o.record + "' exists and is not an empty folder");

@@ -1,10 +1,11 @@
 #include "fly_script.hpp"
 
+#include "nephele/scene_text.hpp"
+
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 namespace nephele::fly {
 
@@ -48,7 +49,15 @@ Keyframe readKeyframe(const At& a) {
     for (const char* k : {"t", "position", "look_at"})
         if (!a.has(k)) a.fail(std::string("missing key '") + k + "'");
     Keyframe kf{a.key("t").number(), a.key("position").vec3(), a.key("look_at").vec3()};
-    if (glm::length(kf.lookAt - kf.position) < 1e-9) a.key("look_at").fail("equals the position");
+    // A direction that means something in float: 1e-6 of the coordinates' size, and 1e-6 m
+    // (issue 38; as the scene's path keyframes).
+    const Vec3 p = glm::abs(kf.position), l = glm::abs(kf.lookAt);
+    const double size = std::max({1.0, p.x, p.y, p.z, l.x, l.y, l.z});
+    if (!(glm::length(kf.lookAt - kf.position) >= 1e-6 * size))
+        a.key("look_at").fail(glm::length(kf.lookAt - kf.position) == 0
+                                  ? "equals the position"
+                                  : "is too close to the position to give a direction in float (at least 1e-06 of the "
+                                    "largest coordinate, and 1e-06 m)");
     return kf;
 }
 
@@ -103,8 +112,10 @@ double Flight::lastTime() const { return keyframes.empty() ? end : keyframes.bac
 int Flight::frameCount() const { return int(std::floor((lastTime() - firstTime()) * fps + 1e-9)) + 1; }
 
 Flight parseFlight(const std::string& text, const std::string& file) {
-    const json j = json::parse(text, nullptr, false);
-    if (j.is_discarded()) throw SceneError(file, "", "not valid JSON");
+    // As a scene file: a NUL byte, a syntax error or a truncated script is named by line and
+    // column; duplicate keys, nesting and size are bounded (issue 38).
+    checkJsonText(text, file);
+    const json j = json::parse(text);
     const At root{j, "", file};
     root.onlyKeys({"flight", "fps", "keyframes", "start", "inputs", "end"});
     if (!root.has("flight") || !j["flight"].is_number_integer() || j["flight"].get<int>() != 1)
@@ -132,11 +143,7 @@ Flight parseFlight(const std::string& text, const std::string& file) {
 }
 
 Flight loadFlight(const std::string& file) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) throw SceneError(file, "", "cannot be read");
-    std::ostringstream text;
-    text << in.rdbuf();
-    return parseFlight(text.str(), file);
+    return parseFlight(readSceneText(file), file);  // a regular file within the scene's size limit
 }
 
 Flight pathFlight(const Scene& scene, double fps) {

@@ -7,6 +7,7 @@
 #include "fly_command.hpp"
 #include "layer_accuracy.hpp"
 #include "render_command.hpp"
+#include "terminal_text.hpp"
 
 #include "nephele/context.hpp"
 #include "nephele/limits.hpp"
@@ -297,8 +298,9 @@ void applySceneArgs(const SceneArgs& a, RenderOptions& ro) {
 void installConsoleLogging() {
     setLogCallback([](LogLevel level, std::string_view message) {
         if (level == LogLevel::Debug) return;
-        if (level == LogLevel::Info) std::fprintf(stderr, "nephele: %.*s\n", int(message.size()), message.data());
-        else std::fprintf(stderr, "nephele: %s: %.*s\n", logLevelName(level), int(message.size()), message.data());
+        const std::string text = terminalText(message);  // it may quote a path or a key
+        if (level == LogLevel::Info) std::fprintf(stderr, "nephele: %s\n", text.c_str());
+        else std::fprintf(stderr, "nephele: %s: %s\n", logLevelName(level), text.c_str());
     });
     if (::isatty(2) == 0) return;
     setProgressCallback([](std::string_view label, double fraction) {
@@ -522,6 +524,29 @@ int runInfoContext(const std::string& gl) {
 
 // Parses the command line: -1 to go on, else the exit code (help, version: 0; a bad argument:
 // 2, with CLI11's message after "nephele: ").
+const CLI::Option* findOption(const CLI::App& app, const std::string& name) {
+    if (const CLI::Option* o = app.get_option_no_throw(name)) return o;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+        if (const CLI::Option* o = findOption(*sub, name)) return o;
+    return nullptr;
+}
+
+// CLI11's "Could not convert: --width = 1e3" as "--width: '1e3' is not an integer ...": the
+// flag, the value and what the flag takes (its range is checked after the conversion).
+std::string conversionFault(const CLI::App& app, const std::string& what) {
+    const std::string prefix = "Could not convert: ";
+    const std::size_t eq = what.find(" = ");
+    if (what.rfind(prefix, 0) != 0 || eq == std::string::npos) return what;
+    const std::string name = what.substr(prefix.size(), eq - prefix.size()), value = what.substr(eq + 3);
+    const CLI::Option* o = findOption(app, name);
+    const std::string type = o ? o->get_type_name() : "";
+    const bool integer = type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0;
+    const std::size_t colon = type.find(':');
+    const std::string range = colon == std::string::npos ? "" : " in " + type.substr(colon + 1);
+    return name + ": '" + value + "' is not " + (integer ? "an integer; it takes a whole number" + range + ", written without an exponent or a fraction"
+                                                         : "a value of its type (" + type + ")");
+}
+
 int parse(CLI::App& app, int argc, char** argv) {
     try {
         app.parse(argc, argv);
@@ -532,6 +557,9 @@ int parse(CLI::App& app, int argc, char** argv) {
         return app.exit(e);
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
+    } catch (const CLI::ConversionError& e) {
+        std::cerr << "nephele: " << conversionFault(app, e.what()) << " (--help lists every option and its range)\n";
+        return 2;
     } catch (const CLI::ParseError& e) {
         std::cerr << "nephele: " << e.what() << " (--help lists every option and its range)\n";
         return 2;
@@ -614,13 +642,14 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
     installConsoleLogging();
+    const auto escaped = escapeStream(std::cerr);  // every message, whatever path it quotes
     // The last word on what escaped the commands' own handling: a message and exit 1, never an abort.
     try {
         return run(argc, argv);
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "nephele: out of memory (std::bad_alloc); lower the image size or the settings that size the work\n");
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "nephele: %s\n", e.what());
+        std::fprintf(stderr, "nephele: %s\n", terminalText(e.what()).c_str());
     }
     return 1;
 }

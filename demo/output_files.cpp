@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -48,6 +49,28 @@ long partialPid(const std::string& rest) {
     return std::stol(rest.substr(0, i));
 }
 
+// The longest suffix makePartial adds: ".partial-" PID "-XXXXXX", a PID of at most 7 digits
+// (Linux's PID_MAX_LIMIT is 4194304).
+constexpr std::size_t kPartialSuffix = 9 + 7 + 7;
+
+// An output whose temporary's name would pass the file system's limits is refused before
+// anything is rendered (issue 38: a 254-byte name rendered, then failed to create the
+// temporary).
+template <class Bad>
+void checkNameLength(const fs::path& p, const Bad& bad) {
+    const std::size_t name = p.filename().string().size();
+    long nameMax = ::pathconf(p.parent_path().c_str(), _PC_NAME_MAX);
+    if (nameMax <= 0) nameMax = NAME_MAX;
+    if (name + kPartialSuffix > std::size_t(nameMax))
+        bad("has a name of " + std::to_string(name) + " bytes; the longest an output can have here is " +
+            std::to_string(std::size_t(nameMax) - kPartialSuffix) + " (the folder allows " + std::to_string(nameMax) +
+            " bytes a name, and the temporary it is written to first adds up to " + std::to_string(kPartialSuffix) + ")");
+    if (p.string().size() + kPartialSuffix >= PATH_MAX)
+        bad("is a path of " + std::to_string(p.string().size()) + " bytes; the longest an output can have is " +
+            std::to_string(PATH_MAX - 1 - kPartialSuffix) + " (the system's PATH_MAX " + std::to_string(PATH_MAX) +
+            ", less the temporary's suffix)");
+}
+
 bool emptyFolder(const fs::path& p) {
     std::error_code ec;
     return fs::is_empty(p, ec) && !ec;
@@ -62,6 +85,7 @@ std::string resolveOutput(const std::string& flag, const std::string& path, bool
     fs::path p = fs::absolute(path, ec);
     if (ec) bad("cannot be made absolute: " + ec.message());
     for (int links = 0;; ++links) {
+        checkNameLength(p, bad);
         struct stat st;
         if (::lstat(p.c_str(), &st) != 0) {
             if (errno != ENOENT) bad(std::string("cannot be inspected: ") + std::strerror(errno));
@@ -171,6 +195,16 @@ void OutputFiles::checkPaths() {
             throw std::invalid_argument(f.flag + ": '" + f.path + "' is named as two outputs");
     }
     checked_ = true;
+}
+
+void OutputFiles::refuseInput(const std::string& input, const std::string& what) {
+    if (!checked_) checkPaths();
+    for (const File& f : files_) {
+        std::error_code ec;
+        if (fs::equivalent(f.target, input, ec) && !ec)
+            throw std::invalid_argument(f.flag + ": '" + f.path + "' is the " + what + " '" + input +
+                                        "'; writing it would overwrite its input");
+    }
 }
 
 void OutputFiles::commit() {

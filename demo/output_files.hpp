@@ -47,6 +47,10 @@ public:
     void add(const std::string& path, Writer writer, const std::string& flag = "output");
     // Resolves every path (resolveOutput) and checks that none repeats. Throws std::invalid_argument.
     void checkPaths();
+    // Refuses (std::invalid_argument naming the flag) an output that is the file `input`
+    // (the same file by any name or link): `-o scene.json` would overwrite the scene. Call after
+    // checkPaths.
+    void refuseInput(const std::string& input, const std::string& what);
     // Writes every file to its temporary and renames them all into place. Throws (after
     // removing every temporary, and the outputs already renamed) if a writer or rename fails.
     void commit();

@@ -219,6 +219,7 @@ int runRender(const RenderOptions& o) {
     try {
         if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
         files.checkPaths();
+        files.refuseInput(o.scene, "scene file");
         scene = loadScene(o.scene);
         applySize(scene, o);
         checkFrameMemory(scene, o);

@@ -170,7 +170,7 @@ TEST(FlyScriptTest, RecordedInputsReadBack) {
 
 TEST(FlyScriptTest, BadFlightsNameTheJsonPath) {
     const std::pair<const char*, const char*> cases[] = {
-        {"{", "f.json: not valid JSON"},
+        {"{", "f.json: syntax error at line 1, column 2: unexpected end of input"},
         {R"({"fps": 10, "keyframes": []})", "f.json: expected \"flight\": 1"},
         {R"({"flight": 1})", "expected either \"keyframes\" or \"inputs\""},
         {R"({"flight": 1, "fps": 0, "inputs": [{"t": 0}]})", "f.json: fps: must be in (0, 1000]"},

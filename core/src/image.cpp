@@ -75,8 +75,10 @@ void writePfm(const std::string& path, const Image& image) {
     if (std::fflush(file.get()) != 0) throw ImageError(path + ": write failed: " + std::strerror(errno));
 }
 
-Image readPfm(const std::string& path) {
-    detail::OpenedFile file = openImage(path);
+namespace {
+
+// Reads and checks a PFM header; `file` is left at the first pixel.
+ImageShape pfmHeader(const std::string& path, detail::OpenedFile& file) {
     // The header: "PF" or "Pf", width, height, scale, each followed by one whitespace byte.
     std::string words[4];
     for (std::string& w : words) {
@@ -98,6 +100,21 @@ Image readPfm(const std::string& path) {
     const std::uint64_t header = std::uint64_t(std::ftell(file.file.get()));
     checkClaimedSize(path, std::uint64_t(w), std::uint64_t(h), header + std::uint64_t(w) * h * c * sizeof(float),
                      file.size, false);
+    return ImageShape{int(w), int(h), c};
+}
+
+}  // namespace
+
+ImageShape readPfmShape(const std::string& path) {
+    detail::OpenedFile file = openImage(path);
+    return pfmHeader(path, file);
+}
+
+Image readPfm(const std::string& path) {
+    detail::OpenedFile file = openImage(path);
+    const ImageShape shape = pfmHeader(path, file);
+    const long long w = shape.width, h = shape.height;
+    const int c = shape.channels;
     Image image(int(w), int(h), c);
     const std::size_t row = std::size_t(w) * c;
     for (long long y = h - 1; y >= 0; --y)

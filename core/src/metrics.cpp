@@ -21,16 +21,6 @@ void require(const Image& img, const Image& ref, int channels, const char* what)
         throw ImageError(std::string("compareRenders: ") + what + " has NaN or infinite values");
 }
 
-// sRGB-encoded Rec. 709 luminance in [0, 1].
-std::vector<double> luma(const Image& img) {
-    std::vector<double> y(std::size_t(img.width) * img.height);
-    for (std::size_t p = 0; p < y.size(); ++p) {
-        const float* px = &img.pixels[p * 3];
-        y[p] = linearToSrgb(0.2126f * px[0] + 0.7152f * px[1] + 0.0722f * px[2]);
-    }
-    return y;
-}
-
 std::vector<double> gaussian(int n) {  // n taps centred on (n-1)/2, sigma 1.5, summing to 1
     std::vector<double> g(n);
     double sum = 0;
@@ -40,26 +30,6 @@ std::vector<double> gaussian(int n) {  // n taps centred on (n-1)/2, sigma 1.5, 
     }
     for (double& v : g) v /= sum;
     return g;
-}
-
-// "Valid" separable filtering of a w x h map with gx (horizontal) and gy (vertical).
-std::vector<double> filter(const std::vector<double>& m, int w, int h, const std::vector<double>& gx,
-                           const std::vector<double>& gy) {
-    const int ow = w - int(gx.size()) + 1, oh = h - int(gy.size()) + 1;
-    std::vector<double> rows(std::size_t(ow) * h), out(std::size_t(ow) * oh);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < ow; ++x) {
-            double s = 0;
-            for (std::size_t k = 0; k < gx.size(); ++k) s += gx[k] * m[std::size_t(y) * w + x + k];
-            rows[std::size_t(y) * ow + x] = s;
-        }
-    for (int y = 0; y < oh; ++y)
-        for (int x = 0; x < ow; ++x) {
-            double s = 0;
-            for (std::size_t k = 0; k < gy.size(); ++k) s += gy[k] * rows[(y + k) * ow + x];
-            out[std::size_t(y) * ow + x] = s;
-        }
-    return out;
 }
 
 void appendNumber(std::string& s, const char* key, double v) {
@@ -80,25 +50,52 @@ double ssimLuminance(const Image& a, const Image& b) {
     require(a, a, 3, "A");
     require(b, a, 3, "B");
     const int w = a.width, h = a.height;
-    const std::vector<double> ya = luma(a), yb = luma(b);
-    std::vector<double> aa(ya.size()), bb(ya.size()), ab(ya.size());
-    for (std::size_t i = 0; i < ya.size(); ++i) {
-        aa[i] = ya[i] * ya[i];
-        bb[i] = yb[i] * yb[i];
-        ab[i] = ya[i] * yb[i];
-    }
     const std::vector<double> gx = gaussian(std::min(w, 11)), gy = gaussian(std::min(h, 11));
-    const std::vector<double> mu_a = filter(ya, w, h, gx, gy), mu_b = filter(yb, w, h, gx, gy),
-                              e_aa = filter(aa, w, h, gx, gy), e_bb = filter(bb, w, h, gx, gy),
-                              e_ab = filter(ab, w, h, gx, gy);
+    const int ow = w - int(gx.size()) + 1, oh = h - int(gy.size()) + 1, ny = int(gy.size());
+    // Row by row: the five maps (luma of A and B, their squares and product), filtered
+    // horizontally, for the last gy.size() rows only, so that the working set is a few rows
+    // whatever the image's size (compare holds two 8192^2 images and no more; issue 38). The
+    // sums are those of a whole-map "valid" separable filter, term by term.
+    constexpr int kMaps = 5;
+    std::vector<double> ring(std::size_t(kMaps) * ny * ow), line(std::size_t(kMaps) * w);
+    auto rowOf = [&](int map, int y) { return ring.data() + (std::size_t(map) * ny + std::size_t(y % ny)) * ow; };
+    auto lumaOf = [](const Image& img, std::size_t p) {
+        const float* px = &img.pixels[p * 3];
+        return double(linearToSrgb(0.2126f * px[0] + 0.7152f * px[1] + 0.0722f * px[2]));
+    };
     constexpr double C1 = 0.01 * 0.01, C2 = 0.03 * 0.03;
     double sum = 0;
-    for (std::size_t i = 0; i < mu_a.size(); ++i) {
-        const double ma = mu_a[i], mb = mu_b[i];
-        const double va = e_aa[i] - ma * ma, vb = e_bb[i] - mb * mb, cov = e_ab[i] - ma * mb;
-        sum += (2 * ma * mb + C1) * (2 * cov + C2) / ((ma * ma + mb * mb + C1) * (va + vb + C2));
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            const std::size_t p = std::size_t(y) * w + x;
+            const double ya = lumaOf(a, p), yb = lumaOf(b, p);
+            line[x] = ya, line[w + x] = yb, line[2 * w + x] = ya * ya, line[3 * w + x] = yb * yb,
+            line[4 * w + x] = ya * yb;
+        }
+        for (int m = 0; m < kMaps; ++m) {
+            double* out = rowOf(m, y);
+            const double* in = line.data() + std::size_t(m) * w;
+            for (int x = 0; x < ow; ++x) {
+                double s = 0;
+                for (std::size_t k = 0; k < gx.size(); ++k) s += gx[k] * in[x + k];
+                out[x] = s;
+            }
+        }
+        const int oy = y - ny + 1;  // the output row whose last input row is y
+        if (oy < 0) continue;
+        for (int x = 0; x < ow; ++x) {
+            double f[kMaps];
+            for (int m = 0; m < kMaps; ++m) {
+                double s = 0;
+                for (int k = 0; k < ny; ++k) s += gy[k] * rowOf(m, oy + k)[x];
+                f[m] = s;
+            }
+            const double ma = f[0], mb = f[1];
+            const double va = f[2] - ma * ma, vb = f[3] - mb * mb, cov = f[4] - ma * mb;
+            sum += (2 * ma * mb + C1) * (2 * cov + C2) / ((ma * ma + mb * mb + C1) * (va + vb + C2));
+        }
     }
-    return sum / double(mu_a.size());
+    return sum / (double(ow) * double(oh));
 }
 
 RenderComparison compareRenders(const Image& a, const Image& b, const Image* alphaA, const Image* alphaB) {

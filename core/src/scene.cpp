@@ -7,6 +7,7 @@
 
 #include "nephele/generate.hpp"
 #include "nephele/limits.hpp"
+#include "nephele/scene_text.hpp"
 
 #include "input_file.hpp"
 
@@ -266,13 +267,22 @@ void checkCount(std::size_t n, const Path& p, const Limit& limit, const std::str
         fail(p, "has " + std::to_string(n) + " " + what + ", over the limit " + limitText(limit));
 }
 
+// The renderers take numbers as floats. A number below float's normal range (0 < |v| <
+// FLT_MIN, about 1.2e-38) is nonzero in the loader's doubles but a subnormal or zero in the
+// shaders, where llvmpipe flushes subnormals: a sun of intensity 1e-39 passed "> 0" on the CPU
+// and was divided by as 0 on the GPU, NaN (issue 38). Such a number is read as 0, which every
+// part sees alike, and the field's range is checked on that 0.
+double flushBelowFloat(double v) { return std::abs(v) < double(std::numeric_limits<float>::min()) ? 0.0 : v; }
+
 double readNumber(const json& j, const Path& p, Range r = {}) {
     if (!j.is_number()) fail(p, "expected a number, got " + describe(j));
-    const double v = j.get<double>();
-    if (!std::isfinite(v)) fail(p, "must be finite, got " + str(v));
-    if (!r.contains(v)) fail(p, "must be " + r.text() + ", got " + str(v));
+    const double given = j.get<double>();
+    if (!std::isfinite(given)) fail(p, "must be finite, got " + str(given));
+    const double v = flushBelowFloat(given);
+    const std::string flushed = v != given ? " (below float range " + str(double(std::numeric_limits<float>::min())) + ": read as 0)" : "";
+    if (!r.contains(v)) fail(p, "must be " + r.text() + ", got " + str(given) + flushed);
     if (r.upper) checkLimit(v, p, *r.upper, r.magnitude);
-    if (r.lower) checkLimit(v, p, *r.lower);
+    if (r.lower && !withinLimit(v, *r.lower)) fail(p, str(given) + " is under the limit " + limitText(*r.lower) + flushed);
     return v;
 }
 
@@ -297,13 +307,37 @@ glm::vec<N, double> readVec(const json& j, const Path& p, Range r = {}) {
     return v;
 }
 
-// v normalised; `zeroFault` if it has no direction.
+// The shortest vector that gives a direction (its largest component). Directions end as floats
+// in the renderers; one much shorter than this is a typo or a hostile input rather than a
+// direction (issue 38: an up of [0, 0, 1e-200] was accepted and gave a sky-only image).
+constexpr double kShortestDirection = 1e-6;
+
+// v normalised; `zeroFault` if it has no direction, and a fault naming kShortestDirection if
+// it is shorter than that.
 Vec3 unit(const Vec3& v, const Path& p, const std::string& zeroFault) {
     const Vec3 a = glm::abs(v);
     const double m = std::max({a.x, a.y, a.z});  // scale first: |v|^2 may under- or overflow
     if (!std::isfinite(m)) fail(p, "gives a direction too long to represent");
     if (m == 0) fail(p, zeroFault);
+    if (m < kShortestDirection)
+        fail(p, "is too short to give a direction: its largest component " + str(m) + " is under " + str(kShortestDirection));
     return glm::normalize(v / m);
+}
+
+// The direction from `from` to `to`, points of the scene (look_at - position): the difference
+// must be a direction (unit) and long enough against the points' own size that the float
+// positions the renderers use still differ by it (float keeps about 7 digits: 1e-6 of the
+// largest coordinate is a few float steps).
+Vec3 unitBetween(const Vec3& from, const Vec3& to, const Path& p, const std::string& zeroFault) {
+    const Vec3 d = to - from;
+    const Vec3 a = glm::abs(d);
+    const double m = std::max({a.x, a.y, a.z});
+    const double size = std::max({std::abs(from.x), std::abs(from.y), std::abs(from.z), std::abs(to.x), std::abs(to.y),
+                                  std::abs(to.z)});
+    if (m > 0 && m < 1e-6 * size)
+        fail(p, "is " + str(m) + " m from position, too close at coordinates of " + str(size) +
+                    " m to give a direction in float (at least 1e-06 of the largest coordinate)");
+    return unit(d, p, zeroFault);
 }
 
 // Reader factories: each returns a callable (const json&, const Path&) -> value.
@@ -485,7 +519,7 @@ Camera readCamera(const json& j, const Path& p) {
     if (lookAt && dir) fail(p, "has both 'look_at' and 'direction'; give exactly one");
     if (!lookAt && !dir) o.missing({"look_at", "direction"}, p, "needs 'look_at' or 'direction'");
     c.direction =
-        lookAt ? unit(readVec<3>(*lookAt, o.at("look_at"), coordinate()) - c.position, o.at("look_at"), "must differ from position")
+        lookAt ? unitBetween(c.position, readVec<3>(*lookAt, o.at("look_at"), coordinate()), o.at("look_at"), "must differ from position")
                : direction()(*dir, o.at("direction"));
     const bool hasUp = o.opt("up", c.up, vec3());
     const Vec3 up = unit(c.up, o.at("up"), "must not be the zero vector");
@@ -727,7 +761,7 @@ Keyframe readKeyframe(const json& j, const Path& p) {
     k.t = o.req("t", number(timeOfDay()));  // s
     k.position = o.req("position", vec3(coordinate()));
     k.lookAt = o.req("look_at", vec3(coordinate()));
-    unit(k.lookAt - k.position, o.at("look_at"), "must differ from position");
+    unitBetween(k.position, k.lookAt, o.at("look_at"), "must differ from position");
     o.finish();
     return k;
 }
@@ -805,11 +839,7 @@ Scene readScene(const json& j, const std::string& file) {
 
 }  // namespace
 
-Scene loadScene(const std::string& file) {
-    std::string text;
-    if (auto fault = detail::readRegularFile(file, limits::kSceneFileBytes, &text)) throw SceneError(file, "", *fault);
-    return parseScene(text, file);
-}
+Scene loadScene(const std::string& file) { return parseScene(readSceneText(file), file); }
 
 Scene parseScene(const std::string& text, const std::string& file) {
     try {
@@ -820,6 +850,21 @@ Scene parseScene(const std::string& text, const std::string& file) {
     } catch (const Invalid& e) {
         throw SceneError(file, e.path, e.fault);
     }
+}
+
+void checkJsonText(const std::string& text, const std::string& file) {
+    try {
+        checkCount(text.size(), "", limits::kSceneFileBytes, "bytes");
+        parseJson(text);
+    } catch (const Invalid& e) {
+        throw SceneError(file, e.path, e.fault);
+    }
+}
+
+std::string readSceneText(const std::string& file) {
+    std::string text;
+    if (auto fault = detail::readRegularFile(file, limits::kSceneFileBytes, &text)) throw SceneError(file, "", *fault);
+    return text;
 }
 
 glm::dmat3 rotationFromDegrees(const Vec3& deg) {

@@ -201,16 +201,24 @@ TileAllocator::TileAllocator(int atlasWidth, int atlasHeight, int minSize, int l
     std::vector<Root> roots;
     decompose(0, 0, std::bit_width(unsigned(std::max(atlasWidth, atlasHeight) - 1)), minLevel_, atlasWidth, atlasHeight,
               roots);
-    for (const Root& r : roots) rootsXYLevel_.push_back({r.x, r.y}), rootLevel_.push_back(r.level);
+    for (const Root& r : roots) {
+        rootsXYLevel_.push_back({r.x, r.y}), rootLevel_.push_back(r.level);
+        topLevel_ = std::max(topLevel_, r.level);
+        layerArea_ += std::int64_t(1) << (2 * r.level);
+    }
     clear();
 }
 
 void TileAllocator::clear() {
     free_.assign(kLevels, {});
     inUse_.assign(std::size_t(layers_), 0);
-    for (int l = 0; l < layers_; ++l)
-        for (std::size_t r = 0; r < rootLevel_.size(); ++r)
-            free_[std::size_t(rootLevel_[r])].insert({l, rootsXYLevel_[r].first, rootsXYLevel_[r].second});
+    opened_ = 0;
+}
+
+void TileAllocator::openLayer() {
+    for (std::size_t r = 0; r < rootLevel_.size(); ++r)
+        free_[std::size_t(rootLevel_[r])].insert({opened_, rootsXYLevel_[r].first, rootsXYLevel_[r].second});
+    ++opened_;
 }
 
 int TileAllocator::rootLevelAt(int x, int y) const {
@@ -226,11 +234,18 @@ TilePlacement TileAllocator::allocate(int size) {
     if (!isPowerOfTwo(size) || levelOf(size) < minLevel_)
         throw std::invalid_argument("TileAllocator: tile size " + std::to_string(size) + " is not a power of two >= the minimum");
     const int level = levelOf(size);
-    // The free block in the lowest layer; among those, the smallest (least splitting).
+    // The free block in the lowest layer; among those, the smallest (least splitting). A layer
+    // not opened yet is wholly free and above every opened one: it is opened when no opened
+    // layer has room.
     int best = -1;
     for (int l = level; l < kLevels; ++l)
         if (!free_[std::size_t(l)].empty() && (best < 0 || free_[std::size_t(l)].begin()->layer < free_[std::size_t(best)].begin()->layer))
             best = l;
+    if (best < 0 && opened_ < layers_ && topLevel_ >= level) {
+        openLayer();
+        for (int l = level; l < kLevels && best < 0; ++l)
+            if (!free_[std::size_t(l)].empty()) best = l;
+    }
     if (best < 0) return {-1, -1, 0, 0, size};
     Block b = *free_[std::size_t(best)].begin();
     free_[std::size_t(best)].erase(free_[std::size_t(best)].begin());
@@ -274,7 +289,7 @@ int TileAllocator::layersUsed() const {
 }
 
 std::int64_t TileAllocator::freeArea() const {
-    std::int64_t a = 0;
+    std::int64_t a = std::int64_t(layers_ - opened_) * layerArea_;
     for (int l = 0; l < kLevels; ++l) a += std::int64_t(free_[std::size_t(l)].size()) << (2 * l);
     return a;
 }

@@ -87,9 +87,16 @@ private:
     int minLevel_, layers_;
     std::vector<std::pair<int, int>> rootsXYLevel_;  // x, y of each root (its level in rootLevel_)
     std::vector<int> rootLevel_;
-    std::vector<std::set<Block>> free_;             // by level
+    int topLevel_ = -1;                             // the largest root's level
+    std::int64_t layerArea_ = 0;                    // px, one layer's
+    // The free blocks of layers [0, opened_), by level; a layer is opened (its roots put in)
+    // only when the layers before it have no room: an atlas of W x 1 px with 1 px tiles has W
+    // roots a layer, and 2048 layers of them up front took 2.2 GB at 16384 px (issue 38).
+    std::vector<std::set<Block>> free_;
+    int opened_ = 0;
     std::vector<int> inUse_;                        // tiles per layer
     int rootLevelAt(int x, int y) const;
+    void openLayer();
 };
 
 }  // namespace nephele

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 
 namespace nephele {
@@ -254,10 +255,14 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     };
     const double sz = scene.sun.direction.z;
     const double lz = scene.skylight ? glm::normalize(scene.skylight->direction).z : 0.0;
-    const float skylightShare = scene.skylight && luminance(scene.sun.color) * scene.sun.intensity > 0
-                                    ? luminance(scene.skylight->color) * float(scene.skylight->intensity) /
-                                          (luminance(scene.sun.color) * float(scene.sun.intensity))
-                                    : 0.0f;
+    // The skylight's irradiance relative to the sun's, in double and capped: a sun far dimmer
+    // than its skylight (or one whose colour times intensity is below float range) made this
+    // ratio infinite in float, and the layer NaN (issue 38).
+    const double sunLuminance = double(luminance(scene.sun.color)) * scene.sun.intensity;
+    const float skylightShare =
+        scene.skylight && sunLuminance > double(std::numeric_limits<float>::min())
+            ? float(std::min(double(luminance(scene.skylight->color)) * scene.skylight->intensity / sunLuminance, 1e30))
+            : 0.0f;
     const Vec3 colours[3] = {scene.sky.horizon, scene.sky.zenith - scene.sky.horizon, scene.sky.ground};
     for (int j = 0; j < t.bins; ++j)
         for (int i = 0; i < t.bins; ++i) {

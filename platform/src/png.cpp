@@ -74,45 +74,99 @@ void writePng(const std::string& path, const Image& image, Encoding encoding) {
     if (std::fflush(file.get()) != 0) throw ImageError(path + ": write failed: " + std::strerror(errno));
 }
 
-Image readPng(const std::string& path) {
-    detail::OpenedFile file = openImage(path);
-    std::string where = path;
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &where, pngError, pngWarning);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!info) {
-        png_destroy_read_struct(&png, nullptr, nullptr);
-        throw ImageError(path + ": libpng could not start");
+namespace {
+
+// A PNG opened for reading, its header read and its transformations set (8-bit, expanded).
+struct PngReader {
+    detail::OpenedFile file;
+    std::string where;
+    png_structp png = nullptr;
+    png_infop info = nullptr;
+
+    explicit PngReader(const std::string& path) : file(openImage(path)), where(path) {
+        png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &where, pngError, pngWarning);
+        info = png ? png_create_info_struct(png) : nullptr;
+        if (!info) {
+            png_destroy_read_struct(&png, nullptr, nullptr);
+            throw ImageError(path + ": libpng could not start");
+        }
+        try {
+            png_init_io(png, file.file.get());
+            // libpng's own guards: the IHDR size, and ancillary chunks (text, ICC) that inflate.
+            png_set_user_limits(png, png_uint_32(limits::kImageSide.value), png_uint_32(limits::kImageSide.value));
+            png_set_chunk_malloc_max(png, 8 << 20);
+            png_set_chunk_cache_max(png, 1000);
+            png_read_info(png, info);
+            png_set_expand(png);
+            png_set_strip_16(png);
+            png_set_packing(png);
+            passes = png_set_interlace_handling(png);  // Adam7: libpng merges the passes into whole rows
+            png_read_update_info(png, info);
+            shape.width = int(png_get_image_width(png, info));
+            shape.height = int(png_get_image_height(png, info));
+            shape.channels = int(png_get_channels(png, info));
+            rowBytes = png_get_rowbytes(png, info);
+            checkClaimedSize(path, std::uint64_t(shape.width), std::uint64_t(shape.height),
+                             std::uint64_t(rowBytes + 1) * std::uint64_t(shape.height), file.size, true);
+        } catch (...) {
+            png_destroy_read_struct(&png, &info, nullptr);
+            throw;
+        }
     }
-    Image image;
-    try {
-        png_init_io(png, file.file.get());
-        // libpng's own guards: the IHDR size, and ancillary chunks (text, ICC) that inflate.
-        png_set_user_limits(png, png_uint_32(limits::kImageSide.value), png_uint_32(limits::kImageSide.value));
-        png_set_chunk_malloc_max(png, 8 << 20);
-        png_set_chunk_cache_max(png, 1000);
-        png_read_info(png, info);
-        png_set_expand(png);
-        png_set_strip_16(png);
-        png_set_packing(png);
-        png_set_interlace_handling(png);  // Adam7: libpng merges the passes into whole rows
-        png_read_update_info(png, info);
-        const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
-        const std::size_t rowBytes = png_get_rowbytes(png, info);
-        checkClaimedSize(path, w, h, std::uint64_t(rowBytes + 1) * h, file.size, true);
-        image = Image(int(w), int(h), int(png_get_channels(png, info)));
-        std::vector<png_byte> bytes(rowBytes * h);
+    ~PngReader() { png_destroy_read_struct(&png, &info, nullptr); }
+    PngReader(const PngReader&) = delete;
+    PngReader& operator=(const PngReader&) = delete;
+
+    ImageShape shape;
+    std::size_t rowBytes = 0;
+    int passes = 1;
+};
+
+}  // namespace
+
+ImageShape readPngShape(const std::string& path) { return PngReader(path).shape; }
+
+namespace {
+
+Image decode(PngReader& r, const std::string& path, std::span<const int> pick) {
+    const int c = r.shape.channels, n = int(pick.size());
+    for (const int k : pick)
+        if (k < 0 || k >= c)
+            throw ImageError(path + ": has " + std::to_string(c) + " channels, channel " + std::to_string(k) + " asked for");
+    Image image(r.shape.width, r.shape.height, n);
+    const std::size_t w = std::size_t(r.shape.width), h = std::size_t(r.shape.height);
+    auto convert = [&](std::size_t y, const png_byte* row) {
+        float* out = image.pixels.data() + y * w * n;
+        for (std::size_t x = 0; x < w; ++x)
+            for (int k = 0; k < n; ++k) out[x * n + k] = row[x * c + pick[k]] / 255.0f;
+    };
+    if (r.passes == 1) {  // row by row: one row of bytes at a time
+        std::vector<png_byte> row(r.rowBytes);
+        for (std::size_t y = 0; y < h; ++y) {
+            png_read_row(r.png, row.data(), nullptr);
+            convert(y, row.data());
+        }
+    } else {  // Adam7: every pass adds pixels to every row, so all rows are held
+        std::vector<png_byte> bytes(r.rowBytes * h);
         std::vector<png_bytep> rows(h);
-        for (png_uint_32 y = 0; y < h; ++y) rows[y] = bytes.data() + rowBytes * y;
-        png_read_image(png, rows.data());
-        const std::size_t rowValues = std::size_t(image.width) * image.channels;
-        for (png_uint_32 y = 0; y < h; ++y)
-            for (std::size_t i = 0; i < rowValues; ++i) image.pixels[y * rowValues + i] = rows[y][i] / 255.0f;
-    } catch (...) {
-        png_destroy_read_struct(&png, &info, nullptr);
-        throw;
+        for (std::size_t y = 0; y < h; ++y) rows[y] = bytes.data() + r.rowBytes * y;
+        png_read_image(r.png, rows.data());
+        for (std::size_t y = 0; y < h; ++y) convert(y, rows[y]);
     }
-    png_destroy_read_struct(&png, &info, nullptr);
     return image;
+}
+
+}  // namespace
+
+Image readPng(const std::string& path, std::span<const int> pick) {
+    PngReader r(path);
+    return decode(r, path, pick);
+}
+
+Image readPng(const std::string& path) {
+    PngReader r(path);
+    const int all[] = {0, 1, 2, 3};
+    return decode(r, path, std::span<const int>(all, std::size_t(r.shape.channels)));
 }
 
 }  // namespace nephele

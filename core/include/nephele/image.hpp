@@ -25,6 +25,11 @@ struct Image {
     bool empty() const { return pixels.empty(); }
 };
 
+// What an image file's header says (readPngShape, readPfmShape): read before decoding.
+struct ImageShape {
+    int width = 0, height = 0, channels = 0;
+};
+
 class ImageError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
@@ -37,6 +42,8 @@ float srgbToLinear(float encoded);
 // Portable float map: "PF" (RGB) or "Pf" (grey), little-endian, linear floats.
 void writePfm(const std::string& path, const Image& image);
 Image readPfm(const std::string& path);
+// The header of a PFM file, checked as readPfm checks it, without reading the pixels.
+ImageShape readPfmShape(const std::string& path);
 
 // The channels [first, first+count) of an image, e.g. RGB of an RGBA image.
 Image channels(const Image& image, int first, int count);

@@ -3,6 +3,7 @@
 
 #include "nephele/image.hpp"
 
+#include <span>
 #include <string>
 
 namespace nephele {
@@ -14,5 +15,15 @@ void writePng(const std::string& path, const Image& image, Encoding encoding = E
 // Reads an 8-bit PNG (grey, grey+alpha, RGB or RGBA) into values in [0, 1], as stored
 // (no sRGB decoding).
 Image readPng(const std::string& path);
+
+// What a PNG's header says: its size and its channels after expansion to 8-bit grey, grey +
+// alpha, RGB or RGBA (as readPng returns them). Checks the limits and the file size as readPng
+// does, without decoding the pixels. Throws ImageError naming the path.
+ImageShape readPngShape(const std::string& path);
+
+// readPng keeping only some channels: output channel k is the file's channel pick[k] (so
+// {0, 0, 0} makes a grey file RGB, {3} is the alpha of RGBA). Decodes row by row (a whole
+// 8-bit copy only for interlaced files), so what it holds is the result's floats.
+Image readPng(const std::string& path, std::span<const int> pick);
 
 }  // namespace nephele
