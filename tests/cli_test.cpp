@@ -355,10 +355,10 @@ TEST_F(CliTest, GardnerExactNeedsNoGl) {
         for (float& v : linear.pixels) v = srgbToLinear(v);
         const double db = psnr(linear, exact);
         std::printf("[ figure ] gardner-exact without GL (--gl %s) vs in-process: PSNR %.1f dB\n", backend, db);
-        // Measured 57.8 dB (the PNG's 8-bit sRGB rounding only); broken (the CLI composites in
-        // per-pixel order instead of the asked per-ellipsoid one, tests/sabotage/13-cli-exact
-        // -wrong-order.sabotage) CLI_BROKEN. Without GL (tests/sabotage/10-gardner-exact-makes
-        // -a-gl-context.sabotage) it does not render at all: exit 1 on EGL.
+        // Measured 57.8 dB (the PNG's 8-bit sRGB rounding only); broken (the CLI's exact
+        // render without the clouds, tests/sabotage/13-cli-exact-draws-no-clouds.sabotage)
+        // 36.9 dB. Without GL (tests/sabotage/10-gardner-exact-makes-a-gl-context.sabotage) it
+        // does not render at all: exit 1 on EGL.
         EXPECT_GT(db, 54.0) << backend;
     }
 }

@@ -188,7 +188,7 @@ TEST(GenerateTest, HollowPruningRemovesExactlyTheCore) {
     // placement order, and the count is pinned (seed 9, 400 placements: 26 in the core, as
     // generated when this test was written; 400 P(|x| < 0.75) P(|y| < 0.75) P(|z| < 1/3) =
     // 400 * 0.547^2 * 0.261 = 31 expected, so 26 is an ordinary draw). A change of the core's
-    // bounds or of the random sequence moves it (the 0.8 sigma core of the sabotage: MOVED).
+    // bounds or of the random sequence moves it (the 0.8 sigma core of the sabotage: 30, not 26).
     Generator all = cumulus(9, 400);
     all.hollow = all.pruneContained = false;
     Generator hollow = all;

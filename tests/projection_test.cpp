@@ -281,7 +281,7 @@ TEST(ProjectionTest, RectContainsExactSilhouetteAndBoxIsTightAabb) {
     EXPECT_GT(checked, 1000);
     std::printf("exact silhouette vs rect, NDC: worst miss %.3g, worst excess %.3g\n", worstMiss, worstExcess);
     // Measured 5.3e-6 NDC of excess (near-plane cases, whose rect is conservative); the
-    // widened rect (tests/sabotage/11-rect-wider.sabotage) RECT_CONTAIN_BROKEN. 2e-5 is 4x the
+    // widened rect (tests/sabotage/11-rect-wider.sabotage) 0.04. 2e-5 is 4x the
     // measured, still a hundredth of a pixel at 1000 px.
     EXPECT_LT(worstExcess, 2e-5);
 }
@@ -308,7 +308,7 @@ TEST(ProjectionTest, RectIsTightForEllipsoidsWellInFront) {
         EXPECT_GE(area / ((s.x1 - s.x0) * (s.y1 - s.y0)), 1 - 1e-9) << describe(k, e, v, p);
         const double excess = std::max({s.x0 - p.rect.x0, s.y0 - p.rect.y0, p.rect.x1 - s.x1, p.rect.y1 - s.y1});
         // Measured 2.7e-13 NDC (the rounding margin the formula adds); broken (the rect 2% of its
-        // width wider on each side, tests/sabotage/11-rect-wider.sabotage) RECT_EXCESS_BROKEN.
+        // width wider on each side, tests/sabotage/11-rect-wider.sabotage) 1.1e-4 to 2.2e-2 NDC.
         // 1e-4 NDC is a twentieth of a pixel at 1000 px: any widening that costs fill shows.
         EXPECT_LT(excess, 1e-4) << describe(k, e, v, p);
         worstExcess = std::max(worstExcess, excess);
@@ -321,7 +321,7 @@ TEST(ProjectionTest, RectIsTightForEllipsoidsWellInFront) {
         }
         const double ratio = area / ((b.x1 - b.x0) * (b.y1 - b.y0));
         // Measured 1.0042 at worst (the 4000 sampled points fall a little inside the exact
-        // bounds); broken (2% wider on each side in x) RECT_RATIO_BROKEN. The old bound, 2.0,
+        // bounds); broken (2% wider on each side in x) 1.04. The old bound, 2.0,
         // passed a rect 41% too wide per side.
         EXPECT_LE(ratio, 1.02) << describe(k, e, v, p);
         worst = std::max(worst, ratio);
