@@ -1,6 +1,16 @@
 // The Elinas-Stuerzlinger compositor on a headless context: against the exact CPU model
 // and against the physics of the density field, across passes, draw paths, fly-through
 // modes, and the host's GL state.
+//
+// The tests "against gardner-exact" (MatchesGardnerExactOnSharedScenes, the weighted and
+// moment composites, ManyClouds..., PolygonGeometry..., FractionMode..., CameraInside...,
+// EightBitAtlas..., the goldens' bound) check the PIPELINE, not the light: the GPU and
+// gardner-exact compile the same model source (shaders/gardner_model.glsl, cloud_light.glsl)
+// and read the same radiance grids, so a wrong term of the model, a wrong phase function or a
+// wrong grid passes them. What they catch: tiles, atlas, resampling, composite order, the
+// fly-through, the uniforms (a dimmed sun on one side). The light itself is held by tests
+// with an independent reference: the path tracer (PathTraceTest, LightComponentsTest) and the
+// density field's closed form (OpacityFollowsTheDensityField).
 #include "cloud_light_textures.hpp"
 #include "gl_test_util.hpp"
 

@@ -3,6 +3,8 @@
 // ellipsoid cut by the near plane, the ray-marcher's growing step on approach. Each is
 // checked against the exact evaluation of the same model (`gardner-exact`, or the closed
 // form of the density field for the ray-marcher), so a pop or a hole is a failure here.
+// gardner-exact shares the compositor's model source: these tests catch pops, holes and
+// order flips of the pipeline, not a wrong light (the path-tracer tests hold the light).
 #include "gl_test_util.hpp"
 
 #include "nephele/camera.hpp"
