@@ -285,9 +285,14 @@ TEST_F(CliTest, GenerateIsValidatedThenExpanded) {
     EXPECT_NE(r.output.find("generate[0].axiom"), std::string::npos) << r.output;
     const std::string good = write("gen.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
       "generate": [{"type": "cumulus", "center": [0, 500, 0]}]})");
-    r = run("render " + good + " -o " + path("out.png") + " --width 64 --height 48");
-    EXPECT_EQ(r.code, 0) << r.output;
-    expectNoOutputs({"gen_bad.json", "gen.json", "out.png"});
+    r = run("render " + good + " -o " + path("out.png") + " --alpha " + path("a.png") + " --width 64 --height 48");
+    ASSERT_EQ(r.code, 0) << r.output;
+    // Expanded, not only accepted: the default cumulus (35 placed, seed 1) keeps 32 ellipsoids
+    // after its prunings, and the eye 500 m from its centre sees cloud everywhere (measured
+    // alpha 1.0 in the middle). Broken (generators left unexpanded): no ellipsoid, alpha 0.
+    EXPECT_NE(r.output.find(" of 32 visible"), std::string::npos) << r.output;
+    EXPECT_GT(readPng(path("a.png")).at(32, 24, 0), 0.9f);
+    expectNoOutputs({"gen_bad.json", "gen.json", "out.png", "a.png"});
 }
 
 // Renders (needs a headless GL context).
