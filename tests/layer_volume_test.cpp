@@ -256,8 +256,32 @@ TEST(LayerVolumeTest, ExtinctionIsTheLayeredSkysDensityMovedByTheWind) {
         nonZero += sigma > 0;
     }
     EXPECT_GT(nonZero, 50);
-    // The rim: nothing beyond the extent, faded within the last extentFade of it.
+    // The rim: nothing beyond the extent, faded within the last extentFade of it. The fade is
+    // held by its ends and middle, not by its formula: whole just inside the band, half at the
+    // band's middle (a smoothstep's), under 3% in the last 1% of the extent (measured 0.028,
+    // the smoothstep at 0.9 of a 10% band, exact up to rounding), and never rising
+    // outward. Broken (no fade, tests/sabotage/15-layer-volume-no-rim-fade.sabotage): 1.0 at
+    // the middle.
     EXPECT_EQ(now.extinction(Vec3(scene.layers[0].extent + 1, 0, kBase + 100), eye), 0.0);
+    const double extent = scene.layers[0].extent, band = extent * ls.extentFade;
+    int checkedRim = 0;
+    for (int a = 0; a < 360; ++a) {
+        const Vec2 dir(std::cos(glm::radians(double(a))), std::sin(glm::radians(double(a))));
+        auto ratioAt = [&](double h) {
+            const Vec3 p(h * dir, kBase + 100);
+            const double whole = scene.medium.extinction *
+                                 layerDensity(scene.layers[0], now.modulation(0), ls.modulation, now.lighting(0), p, 0);
+            return whole > 0 ? now.extinction(p, eye) / whole : -1.0;
+        };
+        const double inside = ratioAt(extent - band - 1), middle = ratioAt(extent - 0.5 * band), rim = ratioAt(extent - 0.01 * extent);
+        if (inside < 0 || middle < 0 || rim < 0) continue;  // no matter at one of the three: another direction
+        ++checkedRim;
+        EXPECT_NEAR(inside, 1.0, 1e-9) << a;
+        EXPECT_NEAR(middle, 0.5, 1e-9) << a;
+        EXPECT_LT(rim, 0.03) << a;
+        EXPECT_GE(middle, rim) << a;
+    }
+    EXPECT_GT(checkedRim, 5) << "the directions must cross matter at all three distances";
 }
 
 TEST(LayerVolumeTest, ScenesWithoutRenderedLayersAreBitIdentical) {

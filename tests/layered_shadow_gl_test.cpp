@@ -56,13 +56,13 @@ struct Shadowed {
     LayeredStats stats;
 };
 
-Shadowed renderShadowed(const Scene& scene, const LayeredSettings& settings) {
+Shadowed renderShadowed(const Scene& scene, const LayeredSettings& settings, double time = kTime) {
     const View view = makeView(scene.camera);
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     LayeredRenderer sky(settings);
     Shadowed r;
-    r.stats = sky.render(scene, view, target.framebuffer(), kTime);
+    r.stats = sky.render(scene, view, target.framebuffer(), time);
     r.rgba = target.readColor();
     r.modulation = *sky.modulation(0);
     return r;
@@ -173,6 +173,9 @@ TEST_F(LayeredShadowGLTest, NoShadowWithoutTheSunOrWhenTurnedOff) {
     EXPECT_EQ(night.stats.shadowLayers, 0);
 }
 
+// The shadow at time t is the time-0 shadow moved by t * wind. Three frames would agree if the
+// shadows were missing altogether, so the test also asks that there is a shadow (pixels under
+// S < 0.7, against the same frame with shadows off) and that it moved between t = 0 and t.
 TEST_F(LayeredShadowGLTest, ShadowsMoveWithTheWind) {
     Scene scene = shadowScene();
     const Image now = renderShadowed(scene, testSettings()).rgba;
@@ -185,7 +188,31 @@ TEST_F(LayeredShadowGLTest, ShadowsMoveWithTheWind) {
     moved.objects[0].center -= shift;
     const Image same = renderShadowed(moved, testSettings()).rgba;
     const ImageDifference d = compareImages(now, same, 2e-3);
-    EXPECT_LT(d.fractionOver, 0.01);  // float texture coordinates differ in their last bits
+    LayeredSettings off = testSettings();
+    off.shadows = false;
+    const Image unshadowed = renderShadowed(scene, off).rgba;
+    const Image start = renderShadowed(scene, testSettings(), 0).rgba;
+    int dark = 0, lit = 0;
+    for (int y = 0; y < now.height; ++y)
+        for (int x = 0; x < now.width; ++x)
+            if (unshadowed.at(x, y, 0) > 0.01f) {
+                ++lit;
+                dark += now.at(x, y, 0) < 0.7f * unshadowed.at(x, y, 0);
+            }
+    const double darkShare = double(dark) / std::max(lit, 1);
+    const ImageDifference moves = compareImages(now, start, 2e-3);
+    std::printf("[ figure ] wind: moved-world frame differs at %.4f of the pixels; %.3f of the lit pixels under S < 0.7; "
+                "t = 0 and t = %.0f s differ at %.3f of the pixels\n",
+                d.fractionOver, darkShare, kTime, moves.fractionOver);
+    // Measured 0.0000 (float texture coordinates may differ in their last bits); the wind
+    // ignored (tests/sabotage/12-layered-shadows-ignore-the-wind.sabotage) 0.931.
+    EXPECT_LT(d.fractionOver, 0.01);
+    // Measured 0.380 of the lit pixels; no shadows at all (tests/sabotage/01-layered-shadows
+    // -missing.sabotage) 0.000.
+    EXPECT_GT(darkShare, 0.3);
+    // Measured 0.931 (40 s of 13 m/s: 520 m, half a 1 km cloud feature); the wind ignored
+    // 0.000.
+    EXPECT_GT(moves.fractionOver, 0.8);
 }
 
 TEST_F(LayeredShadowGLTest, ShadowPassLeavesHostStateUnchanged) {
