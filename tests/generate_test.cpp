@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -358,6 +359,79 @@ TEST(GenerateTest, LoaderExpandsEveryGeneratorOnce) {
     EXPECT_EQ(s.clouds.size(), 2u);
     EXPECT_EQ(s.generated.size(), 2u);
     EXPECT_EQ(static_cast<int>(s.clouds[1].ellipsoids.size()), added[0].kept);
+}
+
+namespace {
+
+// The mean extinction (1/m) of a scene's clouds over the volume they fill (where the summed
+// density is > 0), on a 96^3 grid of cell centres over the clouds' bounding box.
+double meanExtinctionOverVolume(const Scene& s) {
+    Vec3 lo(1e300), hi(-1e300);
+    for (const Cloud& c : s.clouds)
+        for (const Ellipsoid& e : c.ellipsoids) lo = glm::min(lo, e.center - e.maxRadius()), hi = glm::max(hi, e.center + e.maxRadius());
+    const int n = 96;
+    double sum = 0;
+    long filled = 0;
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const Vec3 x = lo + (Vec3(i, j, k) + 0.5) / double(n) * (hi - lo);
+                double rho = 0;
+                for (const Cloud& c : s.clouds)
+                    for (const Ellipsoid& e : c.ellipsoids) {
+                        const Vec3 u = glm::transpose(rotationFromDegrees(e.rotationDeg)) * (x - e.center) / e.radii;
+                        const double q = glm::dot(u, u);
+                        if (q < 1) rho += e.density * (1 - q) * (1 - q);
+                    }
+                if (rho > 0) sum += rho, ++filled;
+            }
+    return s.medium.extinction * sum / double(filled);
+}
+
+}  // namespace
+
+// "medium": "cumulus" gives a generated cumulus real cumulus matter (issue 34: a mean extinction
+// of 0.05-0.1 /m over the cloud), whatever the scene's medium; without it the cloud is as before.
+TEST(GenerateTest, CumulusMediumGivesRealCumulusDensity) {
+    const std::string head = R"({"cloudscene": 1, "camera": {"position": [0, -3000, 1500], "look_at": [0, 0, 1500]}, )";
+    for (const std::string medium : {R"("medium": {"extinction": 0.04})", R"("medium": {"extinction": 0.5})",
+                                     R"("medium": {"liquid_water_content": 0.1, "droplet_effective_radius": 20})"}) {
+        for (const std::string entry : {R"({"type": "cumulus", "center": [0, 0, 1500], "medium": "cumulus"})",
+                                        R"({"type": "cumulus", "center": [0, 0, 1500], "count": 200, "seed": 3, "sigma": [450, 350, 150], "max_radius": 230, "medium": "cumulus"})"}) {
+            SCOPED_TRACE(medium + " " + entry);
+            const Scene s = parseScene(head + medium + R"(, "generate": [)" + entry + "]}", "test.json");
+            ASSERT_EQ(s.clouds.size(), 1u);
+            EXPECT_NEAR(s.clouds[0].ellipsoids[0].density * s.medium.extinction, kCumulusExtinction, 1e-12);
+            const double mean = meanExtinctionOverVolume(s);
+            std::printf("mean extinction over the cloud: %.4f /m\n", mean);
+            EXPECT_GE(mean, 0.05);
+            EXPECT_LE(mean, 0.1);
+        }
+    }
+    // The default ("scene") keeps the scene's own, thin matter: the goldens' clouds.
+    const Scene thin = parseScene(head + R"("generate": [{"type": "cumulus", "center": [0, 0, 1500]}]})", "test.json");
+    EXPECT_EQ(thin.clouds[0].ellipsoids[0].density, 1.0);
+    EXPECT_LT(meanExtinctionOverVolume(thin), 0.02);
+}
+
+TEST(GenerateTest, CumulusMediumRules) {
+    const std::string head = R"({"cloudscene": 1, "camera": {"position": [0, -3000, 1500], "look_at": [0, 0, 1500]}, )";
+    auto fault = [&](const std::string& rest) {
+        try {
+            parseScene(head + rest + "}", "test.json");
+        } catch (const SceneError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_EQ(fault(R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "cumulus", "density": 2}])"),
+              "test.json: generate[0].density: give either 'density' or \"medium\": \"cumulus\" (which sets the density), not both");
+    EXPECT_EQ(fault(R"("medium": {"extinction": 0}, "generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "cumulus"}])"),
+              "test.json: generate[0].medium: 'cumulus' sets the density to 0.328125 / medium.extinction, and medium.extinction is 0");
+    EXPECT_EQ(fault(R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "stratus"}])"),
+              "test.json: generate[0].medium: must be one of 'scene', 'cumulus', got 'stratus'");
+    EXPECT_EQ(fault(R"("generate": [{"type": "lsystem", "center": [0, 0, 0], "axiom": "F", "rules": {}, "medium": "cumulus"}])"),
+              "test.json: generate[0].medium: 'medium' is not a key of a lsystem generator");
 }
 
 namespace {
