@@ -78,8 +78,8 @@ inline constexpr double extinctionFromWater(double lwcGramsPerCubicMetre, double
 }
 
 // The matter of a cumulus generator with "medium": "cumulus": liquid water content
-// kCumulusLiquidWater (g/m^3, on average over one ellipsoid of density 1) in droplets of
-// effective radius kCumulusDropletRadius (um).
+// kCumulusLiquidWater (g/m^3, on average over the volume the cloud fills) in droplets of
+// effective radius kCumulusDropletRadius (um): a mean extinction of 0.075 /m.
 inline constexpr double kCumulusLiquidWater = 0.5;
 inline constexpr double kCumulusDropletRadius = 10.0;
 inline constexpr double kCumulusExtinction = extinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius);  // 1/m at density 1
@@ -142,8 +142,11 @@ struct Generator {
     Vec3 aspect{1.0, 1.0, 0.7};                // radii multipliers per local axis, > 0
     bool hollow = true;                        // drop ellipsoids in the core (eq. 17 region)
     bool pruneContained = true;                // drop ellipsoids inside another one
-    // "medium": "cumulus" (opt-in): `density` is set on load to kCumulusExtinction / the scene's
-    // medium.extinction, so that the cloud has real cumulus matter whatever the scene's medium.
+    // "medium": "cumulus" (opt-in): real cumulus matter whatever the scene's medium. The loader
+    // sets `density` to kCumulusExtinction / medium.extinction (one ellipsoid alone would have
+    // the mean extinction meanExtinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius));
+    // the expansion then scales its ellipsoids' densities by kProfileMean / the mean of their
+    // summed density over the volume they fill, so that the cloud as a whole has that mean.
     bool cumulusMedium = false;
 
     // mesh (one ellipsoid per triangle of a Wavefront OBJ)
