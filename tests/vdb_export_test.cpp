@@ -207,9 +207,9 @@ TEST_F(VdbExportTest, BadArgumentsExitTwoAndWriteNothing) {
     expectRefused(single + " --vdb " + out + " --voxel 0", "--voxel");
     expectRefused(single + " --vdb " + out + " --voxel -2", "--voxel");
     expectRefused(single + " --vdb " + out + " --voxel nan", "--voxel");
-    // 640 x 520 x 400 m at 0.1 m: 6401 x 5201 x 4001 voxels.
+    // 640 x 520 x 400 m (and the path tracer's 1e-9 of slack) at 0.1 m: 6402 x 5202 x 4002 voxels.
     expectRefused(single + " --vdb " + out + " --voxel 0.1",
-                  "--voxel 0.1 m gives 6401 x 5201 x 4001 = 133200131201 voxels over the field's extent (640 x 520 x 400 m), "
+                  "--voxel 0.1 m gives 6402 x 5202 x 4002 = 133279422408 voxels over the field's extent (640 x 520 x 400 m), "
                   "over the limit 'VDB export voxels' (67108864); give a larger --voxel");
     expectRefused(path("missing.json") + " --vdb " + out, "missing.json");
     std::ofstream(path("bad.json")) << R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]}, "medium": {"extinction": 0.04, "liquid_water_content": 1, "droplet_effective_radius": 10}})";
