@@ -12,6 +12,7 @@ PKGS=(
   nlohmann-json3-dev                                   # scene files
   libcli11-dev                                         # command-line parsing
   libpng-dev                                           # PNG output
+  libopenvdb-dev libboost-iostreams-dev                # nephele export --vdb (Debian's FindOpenVDB.cmake needs Boost iostreams)
   libgtest-dev googletest                              # tests
   python3-matplotlib                                   # bench charts (/usr/bin/python3)
   clang libclang-rt-14-dev                             # the libFuzzer harness (tests/fuzz/smoke.sh)

@@ -3,6 +3,7 @@
 #include "bench_util.hpp"
 #include "cli_checks.hpp"
 #include "compare_command.hpp"
+#include "export_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
 #include "layer_accuracy.hpp"
@@ -612,6 +613,17 @@ int run(int argc, char** argv) {
     compare->add_option("--alpha-a", co.alphaA, "A's cloud opacity (grey .png or .pfm)")->check(kPath);
     compare->add_option("--alpha-b", co.alphaB, "B's cloud opacity (grey .png or .pfm)")->check(kPath);
 
+    ExportOptions eo;
+    CLI::App* exportCmd = app.add_subcommand("export", "Write the scene's extinction field, as the path tracer renders it, "
+                                                       "to a file (docs/cli.md, \"export\")");
+    exportCmd->add_option("scene", eo.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required()->check(kPath);
+    exportCmd->add_option("--vdb", eo.vdb, "Output OpenVDB file: a FloatGrid named 'density', in 1/m")->required()->check(kPath);
+    exportCmd->add_option("--voxel", eo.voxel, "Voxel edge in metres (default: the field's box shared among 256^3 voxels)")
+        ->check(within(1e-3, 1e6));
+    exportCmd->add_option("--time", eo.time, "Time in seconds (the layers' wind; the camera path, on whose eye the layers centre)")
+        ->check(within(-1e9, 1e9))
+        ->capture_default_str();
+
     std::string infoGl = "egl";
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
     info->add_option("--gl", infoGl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
@@ -623,6 +635,7 @@ int run(int argc, char** argv) {
     if (*flyCmd) return flyo.cacheDir = defaultCacheDir(""), fly::runFly(flyo);
     if (*info) return infoScene.empty() ? runInfoContext(infoGl) : runInfoScene(infoScene);
     if (*compare) return runCompare(co);
+    if (*exportCmd) return eo.cacheDir = defaultCacheDir(""), runExport(eo);
     if (*benchArgs.cmd) return runBenchArgs(benchArgs);
     try {
         if (*fly) {

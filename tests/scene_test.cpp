@@ -52,7 +52,7 @@ void expectNear(const Vec3& got, const Vec3& want, double tol = 1e-12) {
 
 TEST(SceneLoaderTest, LoadsEverySharedScene) {
     const std::map<std::string, size_t> ellipsoids{
-        {"cumulus27.json", 27},    {"example.json", 3}, {"field1000.json", 1000}, {"flythrough.json", 30},
+        {"cumulus27.json", 27},    {"dense_cumulus.json", 27}, {"example.json", 3}, {"field1000.json", 1000}, {"flythrough.json", 30},
         {"near_and_far.json", 70}, {"single.json", 1},  {"two_clouds.json", 6}};
     size_t loaded = 0;
     for (const auto& entry : std::filesystem::directory_iterator(NEPHELE_SCENES)) {
@@ -405,6 +405,76 @@ TEST(SceneLoaderTest, MediumRanges) {
     EXPECT_TRUE(failsAt(scene(R"("medium": {"hg_g": -1})"), "medium.hg_g", "must be in (-1, 1), got -1"));
     EXPECT_TRUE(failsAt(scene(R"("medium": {"noise": -1})"), "medium.noise", "must be >= 0"));
     EXPECT_TRUE(failsAt(scene(R"("medium": {"noise_scale": 0})"), "medium.noise_scale", "must be > 0, got 0"));
+}
+
+// The physical medium: 3 LWC / (2 rho_w r_eff) is the mean extinction of one ellipsoid of
+// density 1, so the extinction at density 1 is that times 35/8 (data/scene-format.md, "medium").
+TEST(SceneLoaderTest, PhysicalMediumConvertsToExtinction) {
+    struct Case {
+        double lwc, reff, mean;  // g/m^3, um, 1/m (the expected mean, worked by hand)
+    };
+    // 0.5 g/m^3 and 10 um: the issue's cumulus, 1.5 / (2e6 * 1e-5) = 0.075 /m; the ends of the ranges.
+    for (const Case c : {Case{0.5, 10, 0.075}, Case{1, 1, 1.5}, Case{5, 100, 0.075}, Case{0.01, 100, 0.00015},
+                         Case{1.5, 3, 0.75}}) {
+        const Scene s = parseScene(scene(R"("medium": {"liquid_water_content": )" + std::to_string(c.lwc) +
+                                         R"(, "droplet_effective_radius": )" + std::to_string(c.reff) + "}"),
+                                   "test.json");
+        SCOPED_TRACE(std::to_string(c.lwc) + " g/m^3, " + std::to_string(c.reff) + " um");
+        EXPECT_NEAR(s.medium.extinction, c.mean * 35.0 / 8.0, 1e-6 * c.mean * 35.0 / 8.0);
+        EXPECT_NEAR(meanExtinctionFromWater(c.lwc, c.reff), c.mean, 1e-6 * c.mean);
+        EXPECT_EQ(s.medium.albedo, 0.99);  // the albedo keeps its default
+    }
+    // 35/8 is 1 / the mean of (1 - q)^2 over the unit ball: 3 * integral of (1 - r^2)^2 r^2 dr from 0 to 1.
+    double mean = 0;
+    const int n = 200000;
+    for (int i = 0; i < n; ++i) {
+        const double r = (i + 0.5) / n;
+        mean += 3 * (1 - r * r) * (1 - r * r) * r * r / n;
+    }
+    EXPECT_NEAR(mean, kProfileMean, 1e-9);
+}
+
+TEST(SceneLoaderTest, PhysicalMediumRules) {
+    const std::string pair = R"("liquid_water_content": 0.5, "droplet_effective_radius": 10)";
+    EXPECT_TRUE(failsAt(scene(R"("medium": {"extinction": 0.04, )" + pair + "}"), "medium.liquid_water_content",
+                        "give either 'extinction' or the pair 'liquid_water_content' and 'droplet_effective_radius', not both"));
+    EXPECT_TRUE(failsAt(scene(R"("medium": {"extinction": 0.04, "droplet_effective_radius": 10})"),
+                        "medium.droplet_effective_radius", "give either 'extinction' or the pair"));
+    EXPECT_TRUE(failsAt(scene(R"("medium": {"liquid_water_content": 0.5})"), "medium.droplet_effective_radius",
+                        "required key is missing: 'liquid_water_content' is given, and the extinction needs both"));
+    EXPECT_TRUE(failsAt(scene(R"("medium": {"droplet_effective_radius": 10})"), "medium.liquid_water_content",
+                        "required key is missing: 'droplet_effective_radius' is given"));
+    auto with = [](const std::string& lwc, const std::string& reff) {
+        return scene(R"("medium": {"liquid_water_content": )" + lwc + R"(, "droplet_effective_radius": )" + reff + "}");
+    };
+    EXPECT_TRUE(failsAt(with("0", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3 (cloud liquid water content), got 0"));
+    EXPECT_TRUE(failsAt(with("-0.5", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3"));
+    EXPECT_TRUE(failsAt(with("5.01", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3 (cloud liquid water content), got 5.01"));
+    EXPECT_TRUE(failsAt(with("\"a\"", "10"), "medium.liquid_water_content", "expected a number, got a string"));
+    EXPECT_TRUE(failsAt(with("0.5", "0.99"), "medium.droplet_effective_radius", "must be in [1, 100] micrometres (cloud droplets), got 0.99"));
+    EXPECT_TRUE(failsAt(with("0.5", "101"), "medium.droplet_effective_radius", "must be in [1, 100] micrometres"));
+    EXPECT_TRUE(failsAt(with("0.5", "null"), "medium.droplet_effective_radius", "expected a number, got null"));
+    // 5 g/m^3 of 1 um droplets: 7.5 /m on average, 32.8 /m at density 1, over the extinction limit.
+    EXPECT_TRUE(failsAt(with("5", "1"), "medium.liquid_water_content",
+                        "5 g/m^3 with droplet_effective_radius 1 um gives an extinction of 32.8125 1/m at density 1, "
+                        "over the limit 'extinction' (10 1/m)"));
+    // The per-ellipsoid optical depth limit sees the converted extinction: 0.328125 * 16/15 * 30000 m = 10500.
+    EXPECT_TRUE(failsAt(scene(R"("medium": {)" + pair + R"(}, "clouds": [{"ellipsoids": [{"center": [0, 0, 0], "radii": [30000, 1, 1]}]}])"),
+                        "clouds[0].ellipsoids[0].density", "(medium.extinction 0.328125 x density 1"));
+}
+
+TEST(SceneLoaderTest, DenseCumulusIsCumulus27WithRealWater) {
+    const Scene dense = loadScene(NEPHELE_SCENES "/dense_cumulus.json");
+    const Scene thin = loadScene(NEPHELE_SCENES "/cumulus27.json");
+    EXPECT_NEAR(dense.medium.extinction, 0.328125, 1e-6 * 0.328125);
+    ASSERT_EQ(dense.clouds.size(), thin.clouds.size());
+    ASSERT_EQ(dense.clouds[0].ellipsoids.size(), thin.clouds[0].ellipsoids.size());
+    for (size_t i = 0; i < thin.clouds[0].ellipsoids.size(); ++i) {
+        EXPECT_EQ(dense.clouds[0].ellipsoids[i].center, thin.clouds[0].ellipsoids[i].center);
+        EXPECT_EQ(dense.clouds[0].ellipsoids[i].radii, thin.clouds[0].ellipsoids[i].radii);
+        EXPECT_EQ(dense.clouds[0].ellipsoids[i].density, thin.clouds[0].ellipsoids[i].density);
+    }
+    EXPECT_EQ(dense.medium.noise, thin.medium.noise);  // the accuracy bench sets noise 0 itself
 }
 
 TEST(SceneLoaderTest, EllipsoidRules) {

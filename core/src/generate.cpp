@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string_view>
+#include <vector>
 #include <unordered_map>
 
 namespace nephele {
@@ -111,6 +113,34 @@ int pruneContained(const std::vector<Placed>& placed, const std::vector<size_t>&
     return contained;
 }
 
+// The mean of sum_i (1 - q_i)^2 (density 1) over the volume the ellipsoids fill, on a grid of
+// kMeanGrid^3 cell centres over their box: each ellipsoid adds (1 - q)^2 to the cells within
+// its box, so the cost is the cells the ellipsoids cover. For unrotated ellipsoids (a cumulus').
+double meanDensityOverVolume(const std::vector<Ellipsoid>& ellipsoids) {
+    constexpr int kMeanGrid = 64;
+    if (ellipsoids.empty()) return kProfileMean;
+    Vec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const Ellipsoid& e : ellipsoids) lo = glm::min(lo, e.center - e.radii), hi = glm::max(hi, e.center + e.radii);
+    const Vec3 cell = (hi - lo) / double(kMeanGrid);
+    std::vector<double> sum(std::size_t(kMeanGrid) * kMeanGrid * kMeanGrid, 0.0);
+    for (const Ellipsoid& e : ellipsoids) {
+        const glm::ivec3 a = glm::clamp(glm::ivec3(glm::floor((e.center - e.radii - lo) / cell)), 0, kMeanGrid - 1);
+        const glm::ivec3 b = glm::clamp(glm::ivec3(glm::floor((e.center + e.radii - lo) / cell)), 0, kMeanGrid - 1);
+        for (int k = a.z; k <= b.z; ++k)
+            for (int j = a.y; j <= b.y; ++j)
+                for (int i = a.x; i <= b.x; ++i) {
+                    const Vec3 u = (lo + (Vec3(i, j, k) + 0.5) * cell - e.center) / e.radii;
+                    const double q = glm::dot(u, u);
+                    if (q < 1) sum[(std::size_t(k) * kMeanGrid + j) * kMeanGrid + i] += (1 - q) * (1 - q);
+                }
+    }
+    double total = 0;
+    std::size_t filled = 0;
+    for (const double v : sum)
+        if (v > 0) total += v, ++filled;
+    return filled ? total / double(filled) : kProfileMean;
+}
+
 }  // namespace
 
 Cloud generateCumulus(const Generator& g, GenerateStats* stats) {
@@ -149,6 +179,10 @@ Cloud generateCumulus(const Generator& g, GenerateStats* stats) {
         e.radii = placed[i].radius * g.aspect;
         e.density = g.density;
         cloud.ellipsoids.push_back(e);
+    }
+    if (g.cumulusMedium) {
+        const double scale = kProfileMean / meanDensityOverVolume(cloud.ellipsoids);
+        for (Ellipsoid& e : cloud.ellipsoids) e.density *= scale;
     }
     if (stats) {
         *stats = GenerateStats{};

@@ -556,10 +556,38 @@ Sky readSky(const json& j, const Path& p) {
     return s;
 }
 
+// The extinction from liquid_water_content and droplet_effective_radius (extinctionFromWater),
+// when the medium gives them instead of `extinction`.
+void readWater(Obj& o, const json& j, Medium& m) {
+    const bool lwc = j.contains("liquid_water_content"), reff = j.contains("droplet_effective_radius");
+    if (!lwc && !reff) return;
+    if (j.contains("extinction"))
+        fail(o.at(lwc ? "liquid_water_content" : "droplet_effective_radius"),
+             "give either 'extinction' or the pair 'liquid_water_content' and 'droplet_effective_radius', not both");
+    if (!lwc || !reff)
+        fail(o.at(lwc ? "droplet_effective_radius" : "liquid_water_content"),
+             std::string("required key is missing: '") + (lwc ? "liquid_water_content" : "droplet_effective_radius") +
+                 "' is given, and the extinction needs both");
+    const double water = o.req("liquid_water_content", number());
+    if (!(water > kLiquidWaterMin && water <= kLiquidWaterMax))
+        fail(o.at("liquid_water_content"), "must be in (" + str(kLiquidWaterMin) + ", " + str(kLiquidWaterMax) +
+                                               "] g/m^3 (cloud liquid water content), got " + str(water));
+    const double radius = o.req("droplet_effective_radius", number());
+    if (!(radius >= kDropletRadiusMin && radius <= kDropletRadiusMax))
+        fail(o.at("droplet_effective_radius"), "must be in [" + str(kDropletRadiusMin) + ", " + str(kDropletRadiusMax) +
+                                                   "] micrometres (cloud droplets), got " + str(radius));
+    m.extinction = extinctionFromWater(water, radius);
+    if (!withinLimit(m.extinction, limits::kExtinction))
+        fail(o.at("liquid_water_content"), str(water) + " g/m^3 with droplet_effective_radius " + str(radius) +
+                                               " um gives an extinction of " + str(m.extinction) +
+                                               " 1/m at density 1, over the limit " + limitText(limits::kExtinction));
+}
+
 Medium readMedium(const json& j, const Path& p) {
     Obj o(j, p);
     Medium m;
     o.opt("extinction", m.extinction, number(capped(atLeast(0), limits::kExtinction)));  // 1/m
+    readWater(o, j, m);
     o.opt("albedo", m.albedo, number(inclusive(0, 1)));
     o.opt("hg_g", m.hgG, number(exclusive(-1, 1)));
     o.opt("noise", m.noise, number(capped(atLeast(0), limits::kNoiseAmplitude)));
@@ -615,15 +643,18 @@ constexpr std::pair<std::string_view, Generator::Type> kGeneratorTypes[] = {
     {"cumulus", Generator::Type::Cumulus}, {"mesh", Generator::Type::Mesh}, {"lsystem", Generator::Type::LSystem}};
 // The keys of each generator type besides the common type, name, seed and density.
 const std::vector<std::string>& generatorKeys(Generator::Type type) {
-    static const std::vector<std::string> cumulus{"center",     "count",  "sigma",  "clamp_lo",       "clamp_hi",
-                                                  "max_radius", "aspect", "hollow", "prune_contained"};
+    static const std::vector<std::string> cumulus{"center", "count",  "sigma",  "clamp_lo",        "clamp_hi",
+                                                  "max_radius", "aspect", "hollow", "prune_contained", "medium"};
     static const std::vector<std::string> mesh{"path", "position", "scale", "rotation_deg", "thickness_ratio"};
     static const std::vector<std::string> lsystem{"center",     "axiom", "rules",  "angle_deg",
                                                   "iterations", "step",  "radius", "jitter"};
     return type == Generator::Type::Cumulus ? cumulus : type == Generator::Type::Mesh ? mesh : lsystem;
 }
 
-Generator readGenerator(const json& j, const Path& p, size_t index, const std::filesystem::path& sceneDir) {
+constexpr std::pair<std::string_view, bool> kCumulusMedia[] = {{"scene", false}, {"cumulus", true}};
+
+Generator readGenerator(const json& j, const Path& p, size_t index, const std::filesystem::path& sceneDir,
+                        const Medium& medium) {
     using T = Generator::Type;
     Obj o(j, p);
     Generator g;
@@ -654,6 +685,15 @@ Generator readGenerator(const json& j, const Path& p, size_t index, const std::f
         o.opt("aspect", g.aspect, vec3(above(0)));
         o.opt("hollow", g.hollow, boolean());
         o.opt("prune_contained", g.pruneContained, boolean());
+        o.opt("medium", g.cumulusMedium, choice<bool>(kCumulusMedia));
+        if (g.cumulusMedium) {  // real cumulus matter, whatever the scene's medium
+            if (j.contains("density"))
+                fail(o.at("density"), "give either 'density' or \"medium\": \"cumulus\" (which sets the density), not both");
+            if (!(medium.extinction > 0))
+                fail(o.at("medium"), "'cumulus' sets the density to " + str(kCumulusExtinction) +
+                                         " / medium.extinction, and medium.extinction is 0");
+            g.density = kCumulusExtinction / medium.extinction;
+        }
         break;
     case T::Mesh:
         g.path = o.req("path", text());
@@ -821,7 +861,7 @@ Scene readScene(const json& j, const std::string& file) {
     o.opt("clouds", s.clouds,
           listOf([&](const json& c, const Path& p, size_t i) { return readCloud(c, p, i, s.medium); }, &limits::kClouds));
     o.opt("generate", s.generators,
-          listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir); },
+          listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir, s.medium); },
                  &limits::kGenerateEntries));
     o.opt("layers", s.layers, listOf([&](const json& l, const Path& p) { return readLayer(l, p, s.medium); }, &limits::kLayers));
     if (const json* light = o.find("skylight")) s.skylight = readSkylight(*light, o.at("skylight"));

@@ -14,6 +14,7 @@
 #include "cache_file.hpp"
 #include "nephele/ellipsoid_space.hpp"
 #include "nephele/gardner_model.hpp"
+#include "nephele/layer_volume.hpp"
 #include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/noise.hpp"
@@ -31,6 +32,7 @@
 #include <optional>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include <time.h>
 
@@ -230,12 +232,42 @@ public:
             if (t > c.tOut) continue;
             const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
             if (h <= 0) continue;
-            const Shape& shape = shapes_[c.shape];
-            double f = shape.sigma * h * h;
-            if (amp_ > 0) f *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
-            s += f;
+            s += matter(shapes_[c.shape], h, uvw);
         }
         return s;
+    }
+
+    // Extinction (1/m) of the ellipsoids at the point x: what sigmaAt gives on any ray through x
+    // (the same terms, with 1 - q computed from x instead of from the chord), for ExtinctionField.
+    double sigmaAtPoint(const Vec3& x) const {
+        if (shapes_.empty()) return 0;
+        double s = 0;
+        glm::vec3 uvw(0.0f);
+        if (amp_ > 0) uvw = glm::vec3(x / period_);
+        int stack[64], top = 0;
+        stack[top++] = 0;
+        while (top) {
+            const int index = stack[--top];
+            const Node& n = nodes_[index];
+            if (glm::any(glm::lessThan(x, n.lo)) || glm::any(glm::greaterThan(x, n.hi))) continue;
+            if (n.count == 0) {
+                stack[top++] = n.second;
+                stack[top++] = index + 1;
+                continue;
+            }
+            for (int i = n.first; i < n.first + n.count; ++i) {
+                const Shape& shape = shapes_[i];
+                const Vec3 u = shape.unit * (x - shape.center);
+                const double h = 1 - glm::dot(u, u);  // 1 - q
+                if (h > 0) s += matter(shape, h, uvw);
+            }
+        }
+        return s;
+    }
+
+    // The world box outside which the ellipsoids hold no matter (lo > hi when there is none).
+    std::pair<Vec3, Vec3> bounds() const {
+        return nodes_.empty() ? std::pair{Vec3(kInf), Vec3(-kInf)} : std::pair{nodes_[0].lo, nodes_[0].hi};
     }
 
     // The first collision: with the ellipsoids' matter, or nearer with the layers' (each sampled
@@ -319,6 +351,14 @@ public:
     }
 
 private:
+    // One ellipsoid's extinction where 1 - q = h > 0: sigma_i h^2, with noise times
+    // max(0, 1 + amp n(uvw + offset_i)) (uvw = x / period).
+    double matter(const Shape& shape, double h, const glm::vec3& uvw) const {
+        double f = shape.sigma * h * h;
+        if (amp_ > 0) f *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
+        return f;
+    }
+
     void chord(const Vec3& o, const Vec3& d, double t0, double t1, int i, std::vector<Crossing>& out) const {
         const Shape& s = shapes_[i];
         const Vec3 ou = s.unit * (o - s.center), du = s.unit * d;
@@ -522,6 +562,35 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
     });
     ++detail::imagesComputed;
     return image;
+}
+
+struct ExtinctionField::Impl {
+    Scene scene;  // World keeps a reference to it
+    std::shared_ptr<const LayerVolumes> layers;
+    Vec3 eye;
+    World world;
+    Impl(const Scene& s, const NoiseVolume* noise, std::shared_ptr<const LayerVolumes> l, const Vec3& e)
+        : scene(s), layers(std::move(l)), eye(e), world(scene, noise, layers.get(), eye) {}
+};
+
+ExtinctionField::ExtinctionField(const Scene& scene, const NoiseVolume* noise, std::shared_ptr<const LayerVolumes> layers,
+                                 const Vec3& eye) {
+    checkScene(scene);
+    impl_ = std::make_unique<Impl>(scene, noise, layers && !layers->empty() ? std::move(layers) : nullptr, eye);
+    std::tie(lo_, hi_) = impl_->world.bounds();
+    if (impl_->layers && impl_->scene.medium.extinction > 0)
+        for (const Layer& l : impl_->scene.layers) {
+            if (!(l.density > 0 && l.coverage > 0)) continue;
+            lo_ = glm::min(lo_, Vec3(eye.x - l.extent, eye.y - l.extent, l.base));
+            hi_ = glm::max(hi_, Vec3(eye.x + l.extent, eye.y + l.extent, l.base + l.thickness));
+        }
+}
+
+ExtinctionField::~ExtinctionField() = default;
+
+double ExtinctionField::operator()(const Vec3& p) const {
+    const double clouds = impl_->world.sigmaAtPoint(p);
+    return impl_->layers ? clouds + impl_->layers->extinction(p, impl_->eye) : clouds;
 }
 
 // ---- The cache.

@@ -66,9 +66,14 @@ inline constexpr Limit kFarClip{"far clip", 1e8, "m"};
 inline constexpr Limit kObjectSize{"object size", 1e6, "m"};
 inline constexpr Limit kColour{"colour component", 1e6, ""};
 inline constexpr Limit kIntensity{"intensity", 1e9, ""};
+
+// ---- Outputs (not of what Nephele loads: not in allLimits(), documented in docs/cli.md).
+// Voxels of the box `nephele export --vdb` samples (its --voxel over the field's extent): at
+// 4 bytes a float and OpenVDB's leaf overhead a full box stays under about 400 MB.
+inline constexpr Limit kExportVoxels{"VDB export voxels", 64.0 * 1024 * 1024, ""};
 }  // namespace limits
 
-// Every limit above, in the order of data/scene-format.md's table.
+// Every limit above but the outputs', in the order of data/scene-format.md's table.
 std::span<const Limit> allLimits();
 
 // "'ellipsoid radius' (100000 m)", "'scene file size' (256 MiB)", "'layers' (8)".

@@ -57,8 +57,37 @@ struct Sky {
     Vec3 ground{0.12, 0.12, 0.10};
 };
 
+// Cloud matter given physically (data/scene-format.md, "medium"): the extinction coefficient at
+// density 1 of droplets of effective radius r_eff (um) holding liquid water content LWC (g/m^3)
+// on average over one ellipsoid of density 1:
+//   extinction = (35/8) * 3 LWC / (2 rho_w r_eff), rho_w = 1e6 g/m^3 (Stephens 1978),
+// 35/8 being 1 / the mean of the profile (1 - q)^2 over the ellipsoid, so that the mean
+// extinction of the ellipsoid is the physical 3 LWC / (2 rho_w r_eff). LWC 0.5 and r_eff 10
+// give a mean of 0.075 /m and an extinction at density 1 of 0.328125 /m.
+inline constexpr double kWaterDensity = 1e6;              // g/m^3
+inline constexpr double kProfileMean = 8.0 / 35.0;        // mean of (1 - q)^2 over the unit ball
+inline constexpr double kLiquidWaterMin = 0.0;            // g/m^3, exclusive
+inline constexpr double kLiquidWaterMax = 5.0;            // g/m^3: cumulonimbus cores
+inline constexpr double kDropletRadiusMin = 1.0;          // um
+inline constexpr double kDropletRadiusMax = 100.0;        // um: drizzle; rain drops are not cloud matter
+inline constexpr double meanExtinctionFromWater(double lwcGramsPerCubicMetre, double reffMicrometres) {
+    return 3.0 * lwcGramsPerCubicMetre / (2.0 * kWaterDensity * reffMicrometres * 1e-6);
+}
+inline constexpr double extinctionFromWater(double lwcGramsPerCubicMetre, double reffMicrometres) {
+    return meanExtinctionFromWater(lwcGramsPerCubicMetre, reffMicrometres) / kProfileMean;
+}
+
+// The matter of a cumulus generator with "medium": "cumulus": liquid water content
+// kCumulusLiquidWater (g/m^3, on average over the volume the cloud fills) in droplets of
+// effective radius kCumulusDropletRadius (um): a mean extinction of 0.075 /m.
+inline constexpr double kCumulusLiquidWater = 0.5;
+inline constexpr double kCumulusDropletRadius = 10.0;
+inline constexpr double kCumulusExtinction = extinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius);  // 1/m at density 1
+
 struct Medium {
-    double extinction = 0.04;  // 1/m at density 1, >= 0
+    double extinction = 0.04;  // 1/m at density 1 (the peak of an ellipsoid of density 1), >= 0;
+                               // the loader sets it from liquid_water_content and
+                               // droplet_effective_radius when the scene gives those instead
     double albedo = 0.99;      // [0, 1]
     double hgG = 0.85;         // Henyey-Greenstein asymmetry, (-1, 1)
     double noise = 0.3;        // relative amplitude of procedural detail, >= 0; 0 = exact field
@@ -113,6 +142,12 @@ struct Generator {
     Vec3 aspect{1.0, 1.0, 0.7};                // radii multipliers per local axis, > 0
     bool hollow = true;                        // drop ellipsoids in the core (eq. 17 region)
     bool pruneContained = true;                // drop ellipsoids inside another one
+    // "medium": "cumulus" (opt-in): real cumulus matter whatever the scene's medium. The loader
+    // sets `density` to kCumulusExtinction / medium.extinction (one ellipsoid alone would have
+    // the mean extinction meanExtinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius));
+    // the expansion then scales its ellipsoids' densities by kProfileMean / the mean of their
+    // summed density over the volume they fill, so that the cloud as a whole has that mean.
+    bool cumulusMedium = false;
 
     // mesh (one ellipsoid per triangle of a Wavefront OBJ)
     std::string path;                          // as written in the scene

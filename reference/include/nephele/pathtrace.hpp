@@ -98,4 +98,30 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
                              const NoiseVolume* noise, const std::string& cacheDir);
 
+// The extinction field (1/m) that renderPathTraced renders, at a point: the ellipsoids' matter
+// as the path tracer holds it (each ellipsoid's sigma capped as above, the noise factor with
+// the same offsets), plus the layers' extinction when `layers` is given (centred on `eye`, as
+// PathTraceSettings::layers with View::eye). For exports of the field (nephele export --vdb)
+// and for tests. Throws std::invalid_argument as renderPathTraced for a scene it cannot render.
+class ExtinctionField {
+public:
+    ExtinctionField(const Scene& scene, const NoiseVolume* noise, std::shared_ptr<const LayerVolumes> layers = nullptr,
+                    const Vec3& eye = Vec3(0.0));
+    ~ExtinctionField();
+    ExtinctionField(const ExtinctionField&) = delete;
+    ExtinctionField& operator=(const ExtinctionField&) = delete;
+
+    double operator()(const Vec3& p) const;  // thread-safe
+    // The world box outside which the field is 0: the ellipsoids' boxes and the layers' slabs
+    // (their extent about the eye). lo > hi on some axis when the scene holds no matter.
+    const Vec3& lo() const { return lo_; }
+    const Vec3& hi() const { return hi_; }
+    bool empty() const { return !(lo_.x <= hi_.x && lo_.y <= hi_.y && lo_.z <= hi_.z); }
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+    Vec3 lo_{0.0}, hi_{0.0};
+};
+
 }  // namespace nephele
