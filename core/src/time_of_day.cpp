@@ -73,12 +73,16 @@ Vec3 transmittance(const Depths& d, double airMass) {
 double luminance(const Vec3& c) { return kLuma[0] * c.x + kLuma[1] * c.y + kLuma[2] * c.z; }
 
 // The clear sky's diffuse horizontal illuminance relative to a sun at the zenith, as a
-// function of the geometric elevation h: 0.05 + 0.95 sqrt(sin h) by day (the sky is a
-// twentieth as bright at sunset), then ten times dimmer per 2.5 degrees below the horizon
-// (a factor 250 by the end of civil twilight, -6), 0 below astronomical twilight (-18).
+// function of the geometric elevation h: ten times dimmer per 2.5 degrees below the horizon
+// (a factor 250 over civil twilight, to -6), 0 below astronomical twilight (-18); by day it
+// rises from a twentieth at sunset, 0.05 + 0.95 (1 - exp(-sin h / s)) / (1 - exp(-1 / s)), whose
+// slope at the horizon, with s = 0.39, is the twilight's: no kink at sunset.
 double relativeSkyBrightness(double h) {
-    constexpr double kSunset = 0.05;
-    if (h >= 0) return kSunset + (1.0 - kSunset) * std::sqrt(std::sin(rad(std::min(h, 90.0))));
+    constexpr double kSunset = 0.05, kScale = 0.39;
+    if (h >= 0) {
+        const double rise = -std::expm1(-std::sin(rad(std::min(h, 90.0))) / kScale) / -std::expm1(-1.0 / kScale);
+        return kSunset + (1.0 - kSunset) * rise;
+    }
     if (h < -18.0) return 0.0;
     return kSunset * std::pow(10.0, h / 2.5);
 }
