@@ -29,8 +29,8 @@ constexpr double kTolDeg = 0.1;
 // 0.004 degree at this zenith and NOAA ignores the 0.002-degree parallax.
 TEST(TimeOfDayTest, MatchesTheSpaPapersWorkedExample) {
     const SolarPosition p = solarPosition({2003, 10, 17, 19, 30, 30}, 39.742476, -105.1786);
-    // measured: zenith 50.111 (diff 0.001), azimuth 194.339 (diff 0.001); the equation of time's
-    // sign flipped: azimuth 186.4 (diff 7.9), zenith 47.5.
+    // measured: zenith 50.1086 (diff 0.003), azimuth 194.3426 (diff 0.002); broken (the equation
+    // of time's sign flipped, tests/sabotage/70): zenith 49.165, azimuth 184.94 (diff 9.4).
     EXPECT_NEAR(p.apparentZenithDeg, 50.11162, kTolDeg);
     EXPECT_NEAR(p.azimuthDeg, 194.34024, kTolDeg);
     // The direction is the apparent elevation at that azimuth, x east, y north, z up.
@@ -47,8 +47,8 @@ TEST(TimeOfDayTest, MatchesTheSpaPapersWorkedExample) {
 TEST(TimeOfDayTest, MatchesMeeusWorkedExamples) {
     const SolarPosition p = solarPosition({1992, 10, 13, 0, 0, 0}, 0, 0);
     EXPECT_DOUBLE_EQ(p.julianDay, 2448908.5);
-    // measured: declination -7.7853 (diff 0.0003), RA 198.3808 (diff 0.0000), EoT 13.7115 min
-    // (diff 0.01 s); the EoT's sign flipped: -13.7 min.
+    // measured: declination -7.78507, RA 198.38083 (diff below 0.000005), EoT 13m 42.65s (diff
+    // 0.05 s); broken (the EoT's sign flipped): -13.71 min.
     EXPECT_NEAR(p.declinationDeg, -7.78507, kTolDeg);
     EXPECT_NEAR(p.rightAscensionDeg, 198.38083, kTolDeg);
     // 0.1 degree of hour angle is 0.4 minute of time.
@@ -65,7 +65,7 @@ TEST(TimeOfDayTest, PolarDayAndNightAtTheJuneSolstice) {
     const UtcTime solstice{2023, 6, 21, 14, 58, 0};
     const SolarPosition north = solarPosition(solstice, 90, 0);
     const SolarPosition south = solarPosition(solstice, -90, 0);
-    // measured: +23.438 and -23.438 (diff 0.002).
+    // measured: +23.4384 and -23.4384 (diff 0.002).
     EXPECT_NEAR(north.elevationDeg, 23.4362, kTolDeg);
     EXPECT_NEAR(south.elevationDeg, -23.4362, kTolDeg);
     EXPECT_NEAR(glm::length(north.direction), 1.0, 1e-12);
@@ -99,13 +99,13 @@ Culmination culmination(int year, int month, int day, double latitudeDeg, double
 // 18.9553 E) gets the polar night: the sun stays 3.085 degrees below the southern horizon at noon.
 TEST(TimeOfDayTest, NoonAtTheDecemberSolsticeInBothHemispheres) {
     const Culmination sydney = culmination(2023, 12, 22, -33.8597, 151.2046);
-    // measured: 79.576 (diff 0.000), azimuth 0.2 from north.
+    // measured: 79.5788 (diff 0.002), azimuth 0.1 from north.
     EXPECT_NEAR(sydney.elevationDeg, 90 - std::fabs(-33.8597 + 23.4362), kTolDeg);
     // The 30-s scan step moves the azimuth near the top by up to 0.6 degree.
     EXPECT_LT(azimuthDifference(sydney.azimuthDeg, 0), 1.0);
 
     const Culmination tromso = culmination(2023, 12, 22, 69.6492, 18.9553);
-    // measured: -3.085 (diff 0.000), azimuth 0.0 from south.
+    // measured: -3.0874 (diff 0.002), azimuth 0.02 from south.
     EXPECT_NEAR(tromso.elevationDeg, 90 - (69.6492 + 23.4362), kTolDeg);
     EXPECT_LT(azimuthDifference(tromso.azimuthDeg, 180), 1.0);
     EXPECT_LT(tromso.elevationDeg, 0);  // below the horizon all day
@@ -254,7 +254,7 @@ TEST(GeodeticTest, RoundTripsToAMillimetre) {
         const Vec3 enu{1234.5, -5678.25, 910.0};
         ASSERT_LT(glm::length(frame.ecefToEnu(frame.enuToEcef(enu)) - enu), 1e-3);
     }
-    // measured: worst 1e-8 m; with one latitude iteration instead of eight: 0.7 m.
+    // measured: worst 4e-9 m; broken (one latitude iteration instead of eight): 22 m.
     EXPECT_LT(worst, 1e-3);
 }
 
