@@ -74,6 +74,9 @@ TEST(TimeOfDayTest, PolarDayAndNightAtTheJuneSolstice) {
     const Daylight night = daylight(south);
     EXPECT_EQ(night.sun.intensity, 0.0);
     EXPECT_EQ(night.sky.zenith, Vec3(0.0));
+    const Daylight day = daylight(solstice, 90, 0);  // from the time and place directly
+    EXPECT_GT(day.sun.intensity, 0.0);
+    EXPECT_EQ(day.sun.direction, north.direction);
 }
 
 // The highest geometric elevation of the sun over a UTC day and its azimuth there, scanned every

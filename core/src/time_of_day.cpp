@@ -248,4 +248,8 @@ Daylight daylight(const SolarPosition& position, const ClearSky& sky) {
     return d;
 }
 
+Daylight daylight(const UtcTime& time, double latitudeDeg, double longitudeDeg, const ClearSky& sky) {
+    return daylight(solarPosition(time, latitudeDeg, longitudeDeg), sky);
+}
+
 }  // namespace nephele

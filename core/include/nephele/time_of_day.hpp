@@ -86,6 +86,8 @@ struct Daylight {
 // The daylight of `position` under `sky`. Throws std::invalid_argument naming the field of
 // `sky` out of range.
 Daylight daylight(const SolarPosition& position, const ClearSky& sky = {});
+// The same for a UTC time and a place: `scene.sun = daylight(time, lat, lon).sun`.
+Daylight daylight(const UtcTime& time, double latitudeDeg, double longitudeDeg, const ClearSky& sky = {});
 
 // Relative optical air mass at geometric elevation `elevationDeg` (Kasten & Young 1989):
 // 1 at the zenith, about 38 at the horizon; held at its value for -0.9 degree below that.
