@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The fuzz smoke: builds the libFuzzer targets of the input readers (clang, ASan + UBSan) and
 # runs each on the kept corpus (tests/fuzz/corpus/) and the shipped scenes, meshes and images
-# for SECONDS (default 20; three targets, about 60 s in all). Exits non-zero on a crash, a
+# for SECONDS (default 20; four targets, about 80 s in all). Exits non-zero on a crash, a
 # sanitizer report, a timeout or an out-of-memory, leaving the input in BUILD/fuzz-artifacts/.
 #   tests/fuzz/smoke.sh [SECONDS] [BUILD]     (BUILD default: build-fuzz in the checkout)
 # New inputs go to a temporary folder: the kept corpus changes only by hand (see docs/testing.md).
@@ -16,7 +16,7 @@ if command -v ccache >/dev/null; then
 fi
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DNEPHELE_FUZZ=ON -DNEPHELE_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" >/dev/null
-cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png
+cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png nephele_fuzz_cigi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 artifacts="$build/fuzz-artifacts"
@@ -25,8 +25,9 @@ declare -A seeds=(
   [scene]="$root/data/scenes $root/tests/data/scenes"
   [obj]="$root/data/meshes $root/tests/data"
   [png]="$root/tests/golden"
+  [cigi]=""
 )
-for target in scene obj png; do
+for target in scene obj png cigi; do
   mkdir -p "$work/$target"
   echo "fuzz smoke: $target for ${seconds} s"
   # -timeout: one input over 10 s is a hang; -rss_limit_mb: more than 2 GB is runaway memory.
