@@ -2,13 +2,23 @@
 // the standard's layout (docs/cigi.md's tables), independently of the codec's own writer, in both
 // byte orders; each must decode to its fields and the writer must produce exactly those bytes.
 // Then malformed datagrams: truncated at every length, size bytes 0 and past the end, unknown
-// opcodes, wrong sizes, no IG Control first, a bad byte-swap magic.
+// opcodes, wrong sizes, no IG Control first, a bad byte-swap magic. Last, `nephele ig` on loopback.
+#include "cli_run.hpp"
 #include "nephele/cigi.hpp"
 #include "nephele/log.hpp"
 
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cstring>
+#include <filesystem>
+#include <future>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -635,4 +645,122 @@ TEST(CigiTest, PacketsOfTheOtherSideAreSkipped) {
     EXPECT_EQ(d->skipped, 3);
     ASSERT_EQ(d->packets.size(), 1u);
     EXPECT_TRUE(log.any("Start of Frame at offset 24 does not belong here"));
+}
+
+namespace {
+
+// A host's UDP socket on 127.0.0.1, its receive bounded by `timeoutMs`.
+struct HostSocket {
+    int fd = -1;
+    explicit HostSocket(int timeoutMs) {
+        fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+        timeval tv{timeoutMs / 1000, (timeoutMs % 1000) * 1000};
+        ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    }
+    ~HostSocket() { ::close(fd); }
+    void send(const std::vector<std::uint8_t>& bytes, int port) const {
+        sockaddr_in to{};
+        to.sin_family = AF_INET;
+        to.sin_port = htons(static_cast<std::uint16_t>(port));
+        to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        ::sendto(fd, bytes.data(), bytes.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
+    }
+    std::vector<std::uint8_t> receive() const {
+        std::vector<std::uint8_t> b(65536);
+        const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
+        b.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+        return b;
+    }
+};
+
+// A UDP port nobody holds at the moment of asking (the kernel's pick for port 0).
+int freePort() {
+    const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+    socklen_t len = sizeof a;
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    ::close(fd);
+    return ntohs(a.sin_port);
+}
+
+}  // namespace
+
+// `nephele ig` as one channel of a host on loopback: three host frames, each answered by a
+// Start of Frame that names it, with the IG's counter advancing; a Weather Control in frame 2;
+// an Environmental Conditions Request in frame 3 answered in the same datagram; frames recorded.
+TEST(CigiIgTest, AnswersThreeFramesWithAdvancingStartOfFrame) {
+    const int port = freePort();
+    const std::string record = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-record";
+    std::filesystem::remove_all(record);
+    const std::string args = "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --width 48 --height 27 --port " +
+                             std::to_string(port) + " --channel 0 --headless --frames 3 --timeout 30 --record " + record;
+    auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
+
+    HostSocket host(1000);
+    std::map<std::uint32_t, StartOfFrame> answers;  // by the host frame number answered
+    std::vector<IgPacket> frame3Responses;
+    std::uint32_t lastIg = 0;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
+    for (std::uint32_t frame = 1; frame <= 3 && std::chrono::steady_clock::now() < deadline;) {
+        DatagramWriter w(frame == 2 ? ByteOrder::LittleEndian : ByteOrder::BigEndian);  // either order is answered
+        IgControl igc;
+        igc.hostFrameNumber = frame;
+        igc.lastIgFrameNumber = lastIg;
+        w.add(igc);
+        if (frame == 2) {
+            WeatherControl wc = weatherValues();
+            wc.layerId = 1;
+            wc.scope = 0;
+            wc.cloudType = 7;
+            w.add(wc);
+        }
+        if (frame == 3) w.add(envRequestValues());
+        host.send(w.bytes(), port);  // resent each second until answered: the IG may still be starting
+        const std::vector<std::uint8_t> reply = host.receive();
+        const auto d = parseIgDatagram(reply);
+        if (!d || d->startOfFrame.lastHostFrameNumber != frame) continue;
+        answers[frame] = d->startOfFrame;
+        lastIg = d->startOfFrame.igFrameNumber;
+        if (frame == 3) frame3Responses = d->packets;
+        ++frame;
+    }
+    const nephele::test::BoundedRun run = ig.get();
+    EXPECT_EQ(run.code, 0) << run.output;
+    ASSERT_EQ(answers.size(), 3u) << run.output;
+    for (std::uint32_t f = 1; f <= 3; ++f) {
+        EXPECT_EQ(answers[f].lastHostFrameNumber, f);
+        EXPECT_EQ(answers[f].igMode, IgMode::Operate);
+        EXPECT_EQ(answers[f].majorVersion, 3);
+        EXPECT_EQ(answers[f].minorVersion, 3);
+    }
+    EXPECT_EQ(answers[1].igFrameNumber, 1u);
+    EXPECT_EQ(answers[2].igFrameNumber, 2u);
+    EXPECT_EQ(answers[3].igFrameNumber, 3u);
+    // Weather (request type 4) and aerosol (8): the atmosphere's response and one per enabled layer.
+    ASSERT_FALSE(frame3Responses.empty());
+    ASSERT_TRUE(std::holds_alternative<WeatherConditionsResponse>(frame3Responses[0]));
+    EXPECT_EQ(std::get<WeatherConditionsResponse>(frame3Responses[0]).requestId, envRequestValues().requestId);
+    EXPECT_GE(frame3Responses.size(), 2u);
+    for (std::uint32_t f = 1; f <= 3; ++f) {
+        char name[64];
+        std::snprintf(name, sizeof name, "/host-frame-%010u.pfm", f);
+        EXPECT_TRUE(std::filesystem::exists(record + name)) << name;
+    }
+    EXPECT_NE(run.output.find("3 frames drawn"), std::string::npos) << run.output;
+}
+
+TEST(CigiIgTest, TimesOutBeforeItsFramesWithExit1) {
+    const nephele::test::BoundedRun run = nephele::test::runBounded(
+        "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --width 16 --height 9 --port " + std::to_string(freePort()) +
+            " --headless --frames 2 --timeout 0.5",
+        4096, 120);
+    EXPECT_EQ(run.code, 1) << run.output;
+    EXPECT_NE(run.output.find("no datagram from the host for 0.5 s after 0 of 2 frames"), std::string::npos) << run.output;
 }
