@@ -6,6 +6,7 @@
 #include "export_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
+#include "ig_command.hpp"
 #include "layer_accuracy.hpp"
 #include "render_command.hpp"
 #include "terminal_text.hpp"
@@ -631,7 +632,21 @@ int run(int argc, char** argv) {
     info->add_option("scene", infoScene, "Instead: load this scene and print its clouds and what each `generate` entry made")
         ->check(kPath);
 
+    IgOptions igo;
+    SceneArgs igArgs;
+    CLI::App* ig = app.add_subcommand("ig", "Draw one display channel for a CIGI 3.3 host over UDP (docs/cigi.md)");
+    addSceneOptions(ig, igArgs);
+    addIgOptions(ig, igo);
+
     if (const int code = parse(app, argc, argv); code >= 0) return code;
+    if (*ig) {
+        try {
+            applySceneArgs(igArgs, igo.render);
+        } catch (const std::exception& e) {
+            return reportError(e, "checking the settings");
+        }
+        return runIg(igo);
+    }
     if (*flyCmd) return flyo.cacheDir = defaultCacheDir(""), fly::runFly(flyo);
     if (*info) return infoScene.empty() ? runInfoContext(infoGl) : runInfoScene(infoScene);
     if (*compare) return runCompare(co);

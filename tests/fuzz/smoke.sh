@@ -16,7 +16,7 @@ if command -v ccache >/dev/null; then
 fi
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DNEPHELE_FUZZ=ON -DNEPHELE_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" >/dev/null
-cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png nephele_fuzz_flight
+cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png nephele_fuzz_flight nephele_fuzz_cigi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 artifacts="$build/fuzz-artifacts"
@@ -26,8 +26,9 @@ declare -A seeds=(
   [obj]="$root/data/meshes $root/tests/data"
   [png]="$root/tests/golden"
   [flight]="$root/data/flights"
+  [cigi]=""
 )
-for target in scene obj png flight; do
+for target in scene obj png flight cigi; do
   mkdir -p "$work/$target"
   echo "fuzz smoke: $target for ${seconds} s"
   # -timeout: one input over 10 s is a hang; -rss_limit_mb: more than 2 GB is runaway memory.

@@ -1,0 +1,338 @@
+#include "ig_command.hpp"
+
+#include "output_files.hpp"
+
+#include "nephele/cigi.hpp"
+#include "nephele/gl.hpp"
+#include "nephele/log.hpp"
+#include "nephele/weather.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+
+namespace nephele::cli {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kMaxDatagram = 65536;  // a UDP datagram's largest payload
+
+// A UDP socket bound to ADDRESS:PORT whose receive gives up after `timeout` seconds.
+class UdpSocket {
+public:
+    UdpSocket(const std::string& address, int port, double timeout) {
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_port = htons(static_cast<std::uint16_t>(port));
+        if (inet_pton(AF_INET, address.c_str(), &a.sin_addr) != 1)
+            throw UsageError("--address must be an IPv4 address such as 127.0.0.1, got '" + address + "'");
+        fd_ = ::socket(AF_INET, SOCK_DGRAM, 0);
+        if (fd_ < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
+        if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+            const int e = errno;
+            ::close(fd_);
+            throw std::runtime_error("binding UDP " + address + ":" + std::to_string(port) + ": " + std::strerror(e));
+        }
+        timeval tv{};
+        tv.tv_sec = static_cast<time_t>(timeout);
+        tv.tv_usec = static_cast<suseconds_t>((timeout - std::floor(timeout)) * 1e6);
+        ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    }
+    ~UdpSocket() { ::close(fd_); }
+    UdpSocket(const UdpSocket&) = delete;
+    UdpSocket& operator=(const UdpSocket&) = delete;
+
+    // The datagram's size, or -1 at the timeout.
+    long receive(std::vector<std::uint8_t>& buffer, sockaddr_in& from) {
+        buffer.resize(kMaxDatagram);
+        for (;;) {
+            socklen_t len = sizeof from;
+            const ssize_t n = ::recvfrom(fd_, buffer.data(), buffer.size(), 0, reinterpret_cast<sockaddr*>(&from), &len);
+            if (n >= 0) return static_cast<long>(n);
+            if (errno == EINTR) continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK) return -1;
+            throw std::runtime_error(std::string("receiving: ") + std::strerror(errno));
+        }
+    }
+    void send(const std::vector<std::uint8_t>& bytes, const sockaddr_in& to) {
+        if (::sendto(fd_, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) < 0)
+            logMessage(LogLevel::Warning, std::string("nephele ig: sending Start of Frame: ") + std::strerror(errno));
+    }
+
+private:
+    int fd_ = -1;
+};
+
+double degrees(double radians) { return radians * 180 / kPi; }
+double radians(double degrees) { return degrees * kPi / 180; }
+
+// What the host's packets have set so far.
+struct IgState {
+    Scene scene;       // the starting scene, its sun and layers replaced by `weather`'s
+    Weather weather;
+    int channel = 0;
+    double left = 0, right = 0, bottom = 0, top = 0;  // the channel's half-angles (degrees), View Definition's
+    ChannelOptions view;  // the frustum and yaw/pitch offsets drawn
+    double yaw = 0, pitch = 0;
+    cigi::AtmosphereControl atmosphere;
+    std::map<int, float> aerosol;  // by layer id: the last Weather Control's Aerosol Concentration
+    std::set<std::string> said;    // messages given once
+
+    void once(const std::string& message) {
+        if (said.insert(message).second) logMessage(LogLevel::Warning, "nephele ig: " + message);
+    }
+
+    void apply(const cigi::WeatherControl& p) {
+        CloudLayerControl c;
+        c.layerId = p.layerId;
+        c.weatherEnable = p.weatherEnable;
+        c.scope = static_cast<CigiWeatherScope>(p.scope);
+        c.cloudType = static_cast<CigiCloudType>(p.cloudType);
+        c.coverage = p.coverage;
+        c.baseElevation = p.baseElevation;
+        c.thickness = p.thickness;
+        c.transitionBand = p.transitionBand;
+        c.horizontalWindSpeed = p.horizontalWindSpeed;
+        c.verticalWindSpeed = p.verticalWindSpeed;
+        c.windDirection = p.windDirection;
+        try {
+            weather.apply(c);
+            aerosol[p.layerId] = p.aerosolConcentration;
+        } catch (const std::invalid_argument& e) {
+            once(std::string(e.what()) + " (packet ignored)");
+        }
+    }
+
+    void apply(const cigi::ViewDefinition& p) {
+        if (p.viewId != channel) return;
+        if (p.leftEnable) left = p.left;
+        if (p.rightEnable) right = p.right;
+        if (p.bottomEnable) bottom = p.bottom;
+        if (p.topEnable) top = p.top;
+        if (p.nearEnable || p.farEnable) once("View Definition: the near and far planes are the scene camera's");
+        if (p.mirrorMode != 0 || p.pixelReplication != 0 || p.orthographic)
+            once("View Definition: mirror modes, pixel replication and orthographic views are not drawn");
+        setView();
+    }
+
+    void apply(const cigi::ViewControl& p) {
+        if (p.viewId != channel) return;
+        if (p.yawEnable) yaw = p.yaw;
+        if (p.pitchEnable) pitch = p.pitch;
+        if (p.rollEnable || p.xOffsetEnable || p.yOffsetEnable || p.zOffsetEnable)
+            once("View Control: roll and eyepoint offsets are not applied (yaw and pitch are)");
+        setView();
+    }
+
+    // The frustum of the half-angles as tangents, checked as --frustum is.
+    void setView() {
+        char f[160];
+        std::snprintf(f, sizeof f, "%.9g,%.9g,%.9g,%.9g", std::tan(radians(left)), std::tan(radians(right)),
+                      std::tan(radians(bottom)), std::tan(radians(top)));
+        try {
+            view = parseChannel(f, yaw, pitch);
+        } catch (const UsageError& e) {
+            once(std::string("channel ") + std::to_string(channel) + ": " + e.what() + " (view left as it was)");
+        }
+    }
+
+    // Environmental Conditions Request: the global atmosphere, and each cloud layer's aerosol
+    // concentration where the point is inside the layer (0 elsewhere).
+    void answer(const cigi::EnvironmentalConditionsRequest& r, cigi::DatagramWriter& out) {
+        if (r.requestType & 4) {
+            cigi::WeatherConditionsResponse w;
+            w.requestId = r.requestId;
+            w.humidity = atmosphere.humidity;
+            w.airTemperature = atmosphere.airTemperature;
+            w.visibilityRange = atmosphere.visibilityRange;
+            w.horizontalWindSpeed = atmosphere.horizontalWindSpeed;
+            w.verticalWindSpeed = atmosphere.verticalWindSpeed;
+            w.windDirection = atmosphere.windDirection;
+            w.barometricPressure = atmosphere.barometricPressure;
+            out.add(w);
+        }
+        if (r.requestType & 8) {
+            for (const auto& [id, l] : weather.layers) {
+                if (!l.enabled) continue;
+                cigi::AerosolConcentrationResponse a;
+                a.requestId = r.requestId;
+                a.layerId = static_cast<std::uint8_t>(id);
+                const bool inside = r.altitude >= l.layer.base && r.altitude <= l.layer.base + l.layer.thickness;
+                const auto it = aerosol.find(id);
+                a.aerosolConcentration = inside && it != aerosol.end() ? it->second : 0.0f;
+                out.add(a);
+            }
+        }
+        if (r.requestType & 3) once("Environmental Conditions Request: maritime and terrestrial surface conditions are not answered");
+    }
+};
+
+}  // namespace
+
+void addIgOptions(CLI::App* cmd, IgOptions& o) {
+    cmd->add_option("--port", o.port, "UDP port to receive the host's datagrams on")->required()->check(CLI::Range(1, 65535));
+    cmd->add_option("--address", o.address, "IPv4 address to bind (0.0.0.0: every interface, for a host on another PC)")
+        ->capture_default_str();
+    cmd->add_option("--channel", o.channel, "The CIGI View ID this process draws")->check(CLI::Range(0, 65535))->capture_default_str();
+    cmd->add_flag("--headless", o.headless, "Render off-screen (EGL); required: --window is not done yet");
+    cmd->add_option("--record", o.record, "Folder (created if absent) for one PFM per frame, host-frame-NUMBER.pfm");
+    cmd->add_option("--frames", o.frames, "Stop after this many frames (0: no limit)")->check(CLI::Range(0LL, 1000000000LL));
+    cmd->add_option("--timeout", o.timeout, "Stop after this many seconds without a datagram")
+        ->check(CLI::Range(0.01, 86400.0))
+        ->capture_default_str();
+}
+
+int runIg(const IgOptions& o) {
+    IgState s;
+    std::unique_ptr<Context> context;
+    std::unique_ptr<FrameTarget> target;
+    std::unique_ptr<OpaquePass> opaque;
+    std::unique_ptr<SkyRenderer> sky;
+    std::unique_ptr<UdpSocket> socket;
+    try {
+        if (!o.headless) throw UsageError("nephele ig draws off-screen only for now: pass --headless");
+        if (o.render.method != Method::Auto) throw UsageError("nephele ig draws with --method auto only");
+        if (!o.record.empty()) {
+            std::filesystem::create_directories(o.record);
+            if (!std::filesystem::is_directory(o.record)) throw UsageError("--record: '" + o.record + "' is not a folder");
+        }
+        s.scene = loadScene(o.render.scene);
+        applySize(s.scene, o.render);
+        checkFrameMemory(s.scene, o.render);
+        s.weather = Weather::of(s.scene);
+        s.channel = o.channel;
+        const Camera& cam = s.scene.camera;
+        const Frustum f = symmetricFrustum(cam.fovYDeg, double(cam.width) / cam.height);
+        s.left = degrees(std::atan(f.left)), s.right = degrees(std::atan(f.right));
+        s.bottom = degrees(std::atan(f.bottom)), s.top = degrees(std::atan(f.top));
+        socket = std::make_unique<UdpSocket>(o.address, o.port, o.timeout);
+        ContextOptions co;
+        co.backend = o.render.backend;
+        context = Context::create(co);
+        gl::setChecks(true);
+        opaque = std::make_unique<OpaquePass>();
+        sky = std::make_unique<SkyRenderer>(SkySettings{o.render.layered, o.render.nearLod, o.render.ellipsoid});
+        target = std::make_unique<FrameTarget>(cam.width, cam.height);
+    } catch (const std::exception& e) {
+        return reportError(e, "starting nephele ig");
+    }
+    std::cerr << "nephele: ig: channel " << o.channel << " listening on " << o.address << ":" << o.port << " ("
+              << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
+
+    const auto start = std::chrono::steady_clock::now();
+    std::uint32_t igFrame = 0;
+    long long rendered = 0;
+    std::vector<std::uint8_t> buffer;
+    std::optional<std::uint32_t> lastHostFrame;
+    std::vector<std::uint8_t> lastAnswer;
+    try {
+        for (;;) {
+            sockaddr_in from{};
+            const long n = socket->receive(buffer, from);
+            if (n < 0) {
+                if (o.frames > 0 && rendered < o.frames) {
+                    std::cerr << "nephele: ig: no datagram from the host for " << o.timeout << " s after " << rendered
+                              << " of " << o.frames << " frames\n";
+                    return 1;
+                }
+                std::cerr << "nephele: ig: no datagram for " << o.timeout << " s: stopping after " << rendered << " frames\n";
+                return 0;
+            }
+            const auto d = cigi::parseHostDatagram(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)));
+            if (!d) continue;  // logged by the parser; no Start of Frame for a datagram that is not a frame
+            const cigi::IgControl& igc = d->igControl;
+            // A host resending its frame (it has not seen the Start of Frame yet) gets the same
+            // answer again: the frame is not drawn twice and the IG frame counter does not move.
+            if (lastHostFrame && igc.hostFrameNumber == *lastHostFrame) {
+                socket->send(lastAnswer, from);
+                continue;
+            }
+            cigi::DatagramWriter reply(d->byteOrder);  // answered in the host's byte order
+            std::vector<const cigi::EnvironmentalConditionsRequest*> requests;
+            for (const cigi::HostPacket& p : d->packets) {
+                if (auto* w = std::get_if<cigi::WeatherControl>(&p)) s.apply(*w);
+                else if (auto* v = std::get_if<cigi::ViewDefinition>(&p)) s.apply(*v);
+                else if (auto* c = std::get_if<cigi::ViewControl>(&p)) s.apply(*c);
+                else if (auto* a = std::get_if<cigi::AtmosphereControl>(&p)) s.atmosphere = *a;
+                else if (auto* r = std::get_if<cigi::EnvironmentalConditionsRequest>(&p)) requests.push_back(r);
+                else if (std::holds_alternative<cigi::CelestialSphereControl>(p))
+                    s.once("Celestial Sphere Control: the sun is the scene's (date and time are not applied yet)");
+                else if (std::holds_alternative<cigi::EntityControl>(p))
+                    s.once("Entity Control: entities are not drawn and the eye is the scene camera's (not applied yet)");
+            }
+            const bool operate = igc.igMode == cigi::IgMode::Operate || igc.igMode == cigi::IgMode::Debug;
+            if (operate) {
+                // The frame's time: the host's timestamp when valid, else its frame number at 60 Hz, so
+                // that every channel of one host frame draws the same instant.
+                const double t = igc.timestampValid ? igc.timestamp * 1e-5 : igc.hostFrameNumber / 60.0;
+                s.scene.sun = s.weather.sun;
+                s.scene.layers = s.weather.enabledLayers();
+                context->makeCurrent();
+                Camera camera = cameraAt(s.scene, t);
+                camera.width = s.scene.camera.width;
+                camera.height = s.scene.camera.height;
+                const View view = channelView(camera, s.view);
+                opaque->draw(s.scene, view, target->framebuffer());
+                sky->render(s.scene, view, target->framebuffer(), t, !s.scene.objects.empty());
+                if (!o.record.empty()) {
+                    char name[64];
+                    std::snprintf(name, sizeof name, "host-frame-%010u.pfm", igc.hostFrameNumber);
+                    const Image color = channels(target->readColor(), 0, 3);
+                    OutputFiles files;
+                    files.add((std::filesystem::path(o.record) / name).string(), [&](const std::string& p) { writePfm(p, color); },
+                              "--record");
+                    files.checkPaths();
+                    files.commit();
+                } else {
+                    gl::glFinish();
+                }
+                ++rendered;
+            }
+            for (const auto* r : requests) {
+                if (reply.bytes().size() > 60000) {  // a UDP datagram holds 65507 bytes
+                    s.once("more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
+                    break;
+                }
+                s.answer(*r, reply);
+            }
+            cigi::StartOfFrame sof;
+            sof.databaseNumber = static_cast<std::int8_t>(igc.databaseNumber > 0 ? igc.databaseNumber : 0);
+            sof.igMode = operate ? igc.igMode : cigi::IgMode::Reset;
+            sof.igFrameNumber = ++igFrame;
+            sof.lastHostFrameNumber = igc.hostFrameNumber;
+            sof.timestampValid = true;
+            sof.timestamp = static_cast<std::uint32_t>(
+                std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count() / 10);
+            cigi::DatagramWriter out(d->byteOrder);
+            out.add(sof);
+            const std::vector<std::uint8_t>& extra = reply.bytes();
+            std::vector<std::uint8_t> datagram = out.bytes();
+            datagram.insert(datagram.end(), extra.begin(), extra.end());
+            socket->send(datagram, from);
+            lastHostFrame = igc.hostFrameNumber;
+            lastAnswer = std::move(datagram);
+            if (o.frames > 0 && rendered >= o.frames) {
+                std::cerr << "nephele: ig: " << rendered << " frames drawn\n";
+                return 0;
+            }
+        }
+    } catch (const std::exception& e) {
+        return reportError(e, "nephele ig");
+    }
+}
+
+}  // namespace nephele::cli

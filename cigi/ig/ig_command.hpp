@@ -1,0 +1,36 @@
+// `nephele ig`: one display channel of a CIGI 3.3 image generator over UDP (docs/cigi.md).
+// Each datagram from the host is one frame: its packets are applied, the channel is drawn
+// (headless) and a Start of Frame goes back to the sender with the IG's frame counter and the
+// host frame number it answers.
+#pragma once
+
+#include "render_command.hpp"
+
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace nephele::cli {
+
+struct IgOptions {
+    RenderOptions render;  // the starting scene, image size, GL backend (method: auto only)
+    std::string address = "127.0.0.1";
+    int port = 0;
+    int channel = 0;       // the View ID this process draws
+    bool headless = false;
+    std::string record;    // a folder: one PFM per rendered frame, named by host frame number
+    long long frames = 0;  // stop after this many frames (0: no limit)
+    double timeout = 10;   // seconds without a datagram: stop
+};
+
+// Adds --address, --port, --channel, --headless, --record, --frames, --timeout to `cmd`.
+void addIgOptions(CLI::App* cmd, IgOptions& o);
+
+// Runs the loop; returns the exit code: 0 after --frames frames or at the receive timeout
+// (having rendered every frame asked for), 1 on a runtime failure or a timeout before
+// --frames, 2 on bad options.
+int runIg(const IgOptions& o);
+
+}  // namespace nephele::cli
