@@ -341,7 +341,12 @@ TEST(SceneLoaderTest, CameraNeedsExactlyOneOfLookAtAndDirection) {
                         "must differ from position"));
     const Scene s = parseScene(withCamera(R"("position": [1, 1, 1], "look_at": [4, 5, 1])"), "test.json");
     expectNear(s.camera.direction, {0.6, 0.8, 0});
-    const Scene d = parseScene(withCamera(R"("position": [1, 1, 1], "direction": [0, 1e-300, 0])"), "test.json");
+    // Below float's range a component reads as 0 (docs/reliability.md, hostile input): no direction.
+    EXPECT_TRUE(failsAt(withCamera(R"("position": [1, 1, 1], "direction": [0, 1e-300, 0])"), "camera.direction",
+                        "must not be the zero vector"));
+    EXPECT_TRUE(failsAt(withCamera(R"("position": [1, 1, 1], "direction": [0, 1e-7, 0])"), "camera.direction",
+                        "is too short to give a direction"));
+    const Scene d = parseScene(withCamera(R"("position": [1, 1, 1], "direction": [0, 1e-5, 0])"), "test.json");
     expectNear(d.camera.direction, {0, 1, 0});
 }
 
