@@ -16,4 +16,9 @@ inline constexpr bool kSanitized = false;
 // the scale bench's quick run and the hostile-input runs 3-4x.
 inline constexpr double kTimeScale = kSanitized ? 4.0 : 1.0;
 
+// Added to tests' bounds on a child's peak resident memory. AddressSanitizer's shadow memory,
+// quarantine and runtime raise every process's floor: `nephele compare` refusing two images by
+// their headers peaks at 60 MB in the release build and 122 MB under ASan + UBSan.
+inline constexpr double kMemoryOverheadMb = kSanitized ? 150.0 : 0.0;
+
 }  // namespace nephele::test
