@@ -1,0 +1,134 @@
+# The ctest labels of the test executables' tests (docs/testing.md, "Labels"). ctest reads this
+# after the executables have listed their tests (gtest_discover_tests: nephele_tests_TESTS,
+# nephele_gltests_TESTS), so a label follows a test by its name, whichever file it moves to:
+#   unit      nephele_tests: no GL context, no child process;
+#   cli       nephele_tests that run the `nephele` executable (it renders through EGL);
+#   gl        nephele_gltests: a GL context (EGL, OSMesa, or GLFW under Xvfb);
+#   sanitize  what the sanitizers exist for: hostile input, the log, the host's GL state;
+#   slow      over 3 s under the sanitizers (clang -O1, ctest -j2, 2026-12-02 to -04): the
+#             sanitize test preset leaves these out (CMakePresets.json), sanitize-full runs them.
+# A name listed here that no executable has is an error (tests/CMakeLists.txt checks it).
+
+set(NEPHELE_CLI_SUITES CliTest HostileInputTest VdbExportTest ScaleBenchTest GridBenchTest CigiIgTest FlyCliTest)
+set(NEPHELE_CLI_TESTS HostileFileTest.CommandLineFailsClearlyWithinBoundedMemoryAndTime)
+set(NEPHELE_SANITIZE_SUITES LogTest LimitsTest HostileSceneTest HostileFileTest HostileInputTest HostileNumbersTest
+    HostileCumulusTest CigiTest)
+set(NEPHELE_SANITIZE_TESTS)  # GL-state tests: every test whose name has LeavesHostStateUnchanged, HostState or Restored
+set(NEPHELE_SLOW_TESTS
+  BigSceneGLTest.RaymarchTilesLoseNoCloud
+  CliTest.AccuracyBenchWritesCsvChartsAndReadmeSection
+  CliTest.BadArgumentsExit2AndWriteNothing
+  CliTest.ChannelFlagsFrameTheCameraAndAreValidated
+  CliTest.CruiseBenchWritesCsvChartAndTable
+  CliTest.EverySettingHasARangeNamedByItsFlag
+  CliTest.FlickerBenchReportsTheIndexAgainstTheExactModel
+  CliTest.FlythroughRecordsFrameTimesAndTilesRendered
+  CliTest.FlythroughStreamsFramesInBoundedMemory
+  CliTest.FlythroughWritesFramesSummaryAndFlickerIndex
+  CliTest.GenerateSceneRendersAndInfoReportsIt
+  CliTest.LayeredBenchWritesCsvChartAndTable
+  CliTest.LayeredMethodDrawsTheLayers
+  CliTest.MomentCompositeRendersOnTheGpuAndExactly
+  CliTest.StaleTemporariesOfKilledRunsAreRemovedSafely
+  CliTest.WeatherBenchWritesCsvChartAndTable
+  Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/1
+  Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/2
+  Downsample/LayeredShadowResolutionGLTest.TwoLayersMultiplyTheirShadows/1
+  Downsample/LayeredShadowResolutionGLTest.TwoLayersMultiplyTheirShadows/2
+  EllipsoidGLTest.BackLitMeshTilesAreLitPerPixel
+  EllipsoidGLTest.CachedLightFollowsTheMedium
+  EllipsoidGLTest.CameraInsideACloudSeesFog
+  EllipsoidGLTest.ClosedFormFalloffMatchesTheFalloffTexture
+  EllipsoidGLTest.DrawCallsDoNotGrowWithEllipsoids
+  EllipsoidGLTest.EightBitAtlasStaysClose
+  EllipsoidGLTest.FusedColourMatrixGivesTheSameImage
+  EllipsoidGLTest.LeavesHostStateUnchanged
+  EllipsoidGLTest.MatchesGardnerExactOnSharedScenes
+  EllipsoidGLTest.MomentCompositeMatchesGardnerExactMoments
+  EllipsoidGLTest.OneDrawPerEllipsoidBaselineGivesTheSameImage
+  EllipsoidGLTest.OpacityFollowsTheDensityField
+  EllipsoidGLTest.PassesStayWithinTheirBudget
+  EllipsoidGLTest.PolygonGeometryMatchesGardnerExact
+  EllipsoidGLTest.PolygonGeometryPerEllipsoidDrawsGiveTheSameImage
+  EllipsoidGLTest.SeveralPassesGiveTheSameImageAsOne
+  EllipsoidGLTest.WeightedCompositeIsTheSameOverPassesAndDrawPaths
+  EllipsoidGLTest.WeightedCompositeKeepsTheBackToFrontOpacity
+  EllipsoidGLTest.WeightedCompositeLeavesHostStateUnchanged
+  EllipsoidGLTest.WeightedCompositeMatchesGardnerExactWeighted
+  FailureCaseGLTest.OrderFlipThroughOverlappingEllipsoidsDoesNotPop
+  FailureCaseGLTest.TileSizeJumpOnApproachDoesNotPop
+  FlyGLTest.HeadlessRecordingMatchesRender
+  FlyGLTest.HudAndDebugViewsToggleWithoutGlErrors
+  FlyGLTest.WindowRecordingUnderXvfbMatchesRender
+  GardnerExactTest.MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop
+  GardnerExactTest.OrderFlipOfOverlappingEllipsoidsPopsOnlyInPerEllipsoidOrder
+  GardnerExactTest.WeightedOrderKeepsOpacityAndDoesNotPop
+  HostileCumulusTest.ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
+  HostileInputTest.CompareHoldsTwoLargestImagesWithinItsBudget
+  HostApiGLTest.AChangeOfWindDoesNotJump
+  HostApiGLTest.ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone
+  HostApiGLTest.ANewSunNeverWaitsForTheCloudsGrids
+  HostApiGLTest.AWindyFrameComputesAndUploadsNoLightVolume
+  HostApiGLTest.AnSrgbFrameGetsTheFloatFramesColoursEncoded
+  HostApiGLTest.CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce
+  HostApiGLTest.DrawReportsItsPartsTimesWhenAsked
+  HostApiGLTest.EveryDepthConventionGivesTheSameImage
+  HostApiGLTest.StitchedChannelsAreTheWideView
+  HostApiGLTest.UpdateAndDrawDrawWhatRenderDraws
+  HostApiGLTest.ViewportOffsetAndTheHostsDepthTexture
+  LayerVolumeTest.ExtinctionIsTheLayeredSkysDensityMovedByTheWind
+  LayerVolumeTest.LayersTheirTexturesAndTimeAreInTheCacheKey
+  LayerVolumeTest.MajorantBoundsTheExtinctionAndCoversAllMatter
+  LayerVolumeTest.OpacityAlongRaysIsTheCpuIntegralOfTheLayersDensity
+  LayerVolumeTest.ScenesWithoutRenderedLayersAreBitIdentical
+  LayeredGLTest.CoverageZeroLeavesTheFrameUnchanged
+  LayeredGLTest.DrawCallsDoNotGrowWithTheLayerCount
+  LayeredGLTest.EyeBelowInAndAboveTheLayer
+  LayeredGLTest.GrazingViewsHaveFewGapsAtTheDefaultLayerCount
+  LayeredGLTest.LayersOfTheSameParametersShareTheirTexturesWithinABudget
+  LayeredGLTest.LeavesHostStateUnchanged
+  LayeredGLTest.LightningBrightensOnlyWhileActive
+  LayeredGLTest.ObjectsInFrontHideTheLayer
+  LayeredGLTest.UnderADeckTheSunsLightMatchesThePathTracer
+  LayeredGLTest.WindMovesThePatternByTimeTimesWind
+  LayeredGlowGLTest.GlowingLayerIsLitFromBelowOnlyWithGlow
+  LayeredShadowGLTest.HalfResolutionMatchesFullResolutionAndKeepsSilhouettes
+  LayeredShadowGLTest.NoShadowWithoutTheSunOrWhenTurnedOff
+  LayeredShadowGLTest.ShadowPassLeavesHostStateUnchanged
+  LayeredShadowGLTest.ShadowsMoveWithTheWind
+  LayeredTest.OpticalDepthsPastTheCapAreLitAsIt
+  LayeredTest.SkyTablesConserveEnergyInAWhiteFurnace
+  LayeredTest.SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun
+  NearLodGLTest.AutoDrawsTheLayerAndTheNearCumulus
+  NearLodGLTest.LayersWithoutNearLodAreDrawnAllTheWayIn
+  NearLodGLTest.NearAndFarRadianceAgreeAcrossTheBand
+  NearLodGLTest.NearCloudsCoverTheSkyAsTheLayerDoes
+  NearLodGLTest.NoPopAcrossTheBlendBand
+  NearLodTest.ABudgetRemakesAChangedLayerNearestFirstKeepingTheOldCloudsMeanwhile
+  NearLodTest.CloudsDriftWithTheWind
+  NearLodTest.CloudsLieInTheLayerWhereItHasCloud
+  NearLodTest.LayersWithoutNearLodSpawnNothing
+  NearLodTest.NearCloudsCarryTheLayersOpticalDepth
+  NearLodTest.OnlyCellsWithinReachSpawnAndTheyRetire
+  NearLodTest.SameCellSameCloudWhateverTheEyePath
+  NearLodTest.WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge
+  LightComponentsTest.EachComponentAgainstThePathTracersOwn
+  PathTraceTest.ErrorFallsAsOneOverSqrtSpp
+  ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
+  ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids
+  ProjectionTest.RectIsTightForEllipsoidsWellInFront
+  RaymarchGLTest.HugeCloudsAndTinyStepsEndInBoundedTime
+  RaymarchGLTest.LeavesHostStateUnchanged
+  RaymarchGLTest.LightIsComputedOnlyWhenCloudsSunSkyOrMediumChange
+  RaymarchGLTest.ObjectInsideACloudIsHiddenOnlyByTheMatterInFront
+  RaymarchGLTest.OpacityFollowsTheDensityFieldAndConvergesWithTheStep
+  RaymarchGLTest.RadianceMatchesTheLightModelIntegratedOnTheCpu
+  RaymarchGLTest.RendersAreDeterministic
+  ScaleBenchTest.QuickRunWritesPhasesAndExponents
+  TileReuseGLTest.AMovingCameraStaysCloseToFreshTiles
+  TileReuseGLTest.AStillCameraRendersNothingAfterTheFirstFrame
+  TileReuseGLTest.ASunChangeRendersEveryTileAgainWithinTheBudget
+  TileReuseGLTest.WindCarriesReusedTilesWithTheirClouds
+  VdbExportTest.BetweenCentresTheGridInterpolatesTheField
+  VdbExportTest.VoxelCentresHoldThePathTracersField
+)
