@@ -61,10 +61,10 @@ MODEL_FN vec3 layerSource(vec4 sunTable, vec4 sunManyTable, vec4 skyTable, float
     vec4 skyTau = vec4(skyTable.x, skyTable.y, skyTable.z, tauSun);
     vec4 skyFlux = vec4(0.0f, 0.0f, skyTable.w, sunTable.w);
     // The sun's diffuse light in the two parts of the clouds' (cloud_light.glsl): a forward lobe
-    // of the few-times scattered, the diffusion regime's l <= 1 harmonics of the rest. (Until
-    // 2026-12-03 one lobe held it all: 100 m under a deck, looking up 20 degrees, 0.71 of the
-    // path tracer's sun light, 0.60 at 7 degrees up; all of it as harmonics, 1.04 there but
-    // 1.12-1.26 in the other views.)
+    // of the few-times scattered, the diffusion regime's l <= 1 harmonics of the rest. (One lobe
+    // for all of it gave, 100 m under a deck looking up 20 degrees, 0.71 of the path tracer's sun
+    // light, 0.60 at 7 degrees up; all of it as harmonics, 1.04 there but 1.12-1.26 in the other
+    // views.)
     vec3 scalars = lightScalars(sunFew, sunMany, skyTau, skyFlux, d, sunDirection, g);
     return sourceFromScalars(scalars, sunIrradiance, skyChroma(vec3(skyTable.x, skyTable.y, skyTable.z)), albedo);
 }

@@ -3,7 +3,7 @@
 // compositor on a scene without layers.
 #include "gl_test_util.hpp"
 
-#include "../layered/src/hand_off.hpp"
+#include "hand_off.hpp"  // sky/src (nephele_testing_internal)
 
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"

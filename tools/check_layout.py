@@ -44,7 +44,8 @@ DEPENDS = {
     "model": ["core"],
     "ellipsoid": ["core", "model"],
     "volume": ["core", "model"],
-    "layered": ["core", "model", "ellipsoid"],
+    "layered": ["core", "model"],
+    "sky": ["core", "model", "ellipsoid", "layered"],
     "reference": ["core", "model", "layered"],
 }
 # Not libraries: folders a library may include from by a relative path (GLSL sources it

@@ -165,8 +165,8 @@ namespace {
 // Mesh tiles light per vertex (the paper's Gouraud light). Looking within the sun's phase
 // peak (model::withinSunPeak), the vertices miss the thin bright rim of a back-lit cloud: there
 // the tile is drawn as a polygon tile, the model per pixel. Back-lit cumulus27, the sun's light
-// alone: 25% off per vertex, 10% per pixel, as the ray-marcher. (At twice the peak's angle the
-// weather bench's tiles took 2-3x as long, 37 -> 77-107 ms; at the peak: 48-63 ms.)
+// alone: 25% off per vertex, 10% per pixel, as the ray-marcher. Per-pixel tiles cost more, so
+// only the peak's angle is taken, not more.
 bool nearTheSun(const PreparedEllipsoid& e, const View& view, const Scene& scene) {
     const Vec3 toCentre = e.shape.center - view.eye;
     const double distance = glm::length(toCentre);

@@ -28,8 +28,9 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     // inside the ellipsoid: where its section by the near plane meets the view's near rectangle,
     // or (conservatively) when it comes within the near rectangle's corner distance of the eye,
     // where it could poke into the frustum between the eye and the near plane. An ellipsoid beside
-    // the eye whose cut lies outside the view is a tile like any other (before 2026-12-03 every
-    // box across the near plane was: lit per pixel, never reused, its rectangle the box's).
+    // the eye whose cut lies outside the view is a tile like any other: taking every box across
+    // the near plane as cut would light it per pixel, never reuse it, and give it the box's
+    // rectangle.
     const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
     const bool straddles = p.boxMin.z <= -n && p.boxMax.z >= -n;
     // The section by the near plane, the ellipse of points with z = -n (when it straddles): its

@@ -260,7 +260,7 @@ struct LayeredStats {
                              // the same data share one)
 };
 
-class LayerAssets;  // internal (layered/src/layer_assets.hpp): the layers' lighting and modulation data
+class LayerAssets;  // internal (layered/internal/layer_assets.hpp): the layers' lighting and modulation data
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class LayeredRenderer {

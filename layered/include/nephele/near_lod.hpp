@@ -73,8 +73,7 @@ struct NearLodSettings {
     // A column with less optical depth on average gets no ellipsoid, >= 0. Spread over a whole
     // ellipsoid, such faint matter hazes over more of the sky than the layer's patchy matter
     // does: mean opacity along the view rays inside a layer of coverage 0.3, near clouds against
-    // the layer's own, 0.411 against 0.284 at 0.02, 0.344 at 0.2, 0.300 at 0.3 (NearLodGLTest;
-    // 2026-12-02, when the compositor's noise stopped thinning the rims, which had hidden it).
+    // the layer's own, 0.411 against 0.284 at 0.02, 0.344 at 0.2, 0.300 at 0.3 (NearLodGLTest).
     double minColumnDepth = 0.3;
     // Horizontal radius of a column's ellipsoid, in columns, [0.5, 2], and (stack 1) its vertical
     // radius in standard deviations of the height of the column's matter, [1, 8] (the kernel's
@@ -83,7 +82,7 @@ struct NearLodSettings {
     // near_and_far.json's layer 0.805 against the volume's 0.869 (gaps between the columns, the
     // matter heaped at mid-height), inside a layer of coverage 0.4 0.718 against 0.664 (a
     // column's matter spread over the whole thickness); with these, 0.853 and 0.704 (NearLodGLTest,
-    // `bench --layer-accuracy`; 2026-12-03).
+    // `bench --layer-accuracy`).
     double overlap = 1.25;
     double verticalSpread = 3.5;
     double columnJitter = 0.15; // largest random offset of a column's ellipsoid per axis, in columns, [0, 0.5]
@@ -117,7 +116,7 @@ struct NearLodStats {
     int pending = 0;       // cells due to be made (new, or of a changed layer) left for later updates
 };
 
-class LayerAssets;  // internal (layered/src/layer_assets.hpp): the layers' lighting and modulation data
+class LayerAssets;  // internal (layered/internal/layer_assets.hpp): the layers' lighting and modulation data
 
 // The layer's own cell: same arguments, same cloud (pure; what NearLod caches). `light` is
 // the layer's lighting volume (its density A), as the layered sky uses it.

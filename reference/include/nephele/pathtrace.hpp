@@ -55,7 +55,7 @@ inline constexpr double kMaxPathTraceNoise = 1;
 struct PathTraceSettings {
     int spp = 64;         // samples per pixel, >= 1
     // Scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only. Past
-    // 32 (the default until 2026-12-03) the orders left out carried 4% of the light 100 m under a
+    // 32 the orders left out carried 4% of the light 100 m under a
     // deck of optical depth about 15 (albedo 0.99, g 0.85); by 128 none is left there to float
     // precision. A path dies when it leaves the matter, so a higher cap costs only the paths that
     // would have been cut (6% more time under that deck).

@@ -15,10 +15,8 @@
 #include "nephele/host_view.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/near_lod.hpp"
-#include "nephele/per_view.hpp"
 #include "nephele/weather.hpp"
 
-#include <map>
 #include <memory>
 
 namespace nephele {
@@ -30,8 +28,8 @@ LayeredSettings autoLayeredSettings(LayeredSettings base = {});
 // The compositor's settings for auto: `base` with tiles that last across frames (reuse, see
 // EllipsoidSettings::reuse and docs/compositor.md, "Tiles that last") and far clouds as impostors
 // (EllipsoidSettings::cloudLod, where base's composite allows them). Its composite is base's order,
-// by default back to front: since the compositor's noise is the path tracer's density noise
-// (2026-12-02) an order flip no longer pops (the flicker bench: worst frame +0.009 over the
+// by default back to front: the compositor's noise being the path tracer's density noise, an
+// order flip does not pop (the flicker bench: worst frame +0.009 over the
 // exact per-pixel order, as the exact model's own per-ellipsoid order; the weighted composite
 // with reuse +0.019 to +0.026), and back to front is cheaper and closer to the path tracer
 // than the weighted composite (back-lit 19% against 28%; docs/compositor.md, "Composite order").
@@ -78,7 +76,7 @@ public:
     ~SkyRenderer();
     SkyRenderer(const SkyRenderer&) = delete;
     SkyRenderer& operator=(const SkyRenderer&) = delete;
-    const SkySettings& settings() const { return settings_; }
+    const SkySettings& settings() const;
 
     // ---- The host API.
     // Takes the scene (its explicit clouds, medium, sky, objects are not drawn; its sun and layers
@@ -100,7 +98,7 @@ public:
     // depth convention, viewport, depth, colour encoding). Throws std::invalid_argument for a
     // bad ViewDesc (makeView), std::logic_error before prepare().
     SkyStats draw(const ViewDesc& view);
-    double time() const { return time_; }
+    double time() const;
     // Background jobs queued or running (layers' lighting and modulation); waitForBackgroundWork()
     // blocks until there are none, and until the clouds' radiance grids are made (tests and
     // benches; a host never needs to).
@@ -116,26 +114,12 @@ public:
 
     // For a host's debug views: the compositor (its last tiles and atlas), and the near LOD
     // (its cells; nullptr before the first scene with layers).
-    const EllipsoidRenderer& compositor() const { return clouds_; }
-    const NearLod* nearLod() const { return nearLod_.get(); }
+    const EllipsoidRenderer& compositor() const;
+    const NearLod* nearLod() const;
 
 private:
-    void makeLayered();
-    void warmUp(const Scene& scene);
-    SkySettings settings_;
-    EllipsoidRenderer clouds_;
-    std::shared_ptr<LayerAssets> assets_;
-    std::unique_ptr<LayeredRenderer> layered_;  // made by prepare(), or at render()'s first scene with layers
-    std::unique_ptr<NearLod> nearLod_;
-    // The host API's state.
-    bool prepared_ = false;
-    Scene scene_;        // the prepared scene with the current weather's sun, sky and layers
-    Scene frame_;        // scene_ with the near LOD's clouds after its explicit ones (what the compositor draws)
-    std::size_t explicitClouds_ = 0;
-    double time_ = 0;
-    long long updates_ = 0;      // since prepare()
-    std::map<int, Vec2> drift_;  // by CIGI layer id: how far its wind has moved it (m)
-    PerViewCache<FrameDepth> depths_;
+    struct Impl;  // sky/src/sky.cpp: the compositor, the layered sky, the near LOD and the host API's state
+    std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace nephele

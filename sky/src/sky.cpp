@@ -1,11 +1,15 @@
+// SkyRenderer (sky.hpp): the layered far field and the compositor's explicit and near clouds as one
+// host API, behind its Impl.
 #include "nephele/sky.hpp"
 
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
+#include "nephele/per_view.hpp"
 #include "layer_assets.hpp"
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <stdexcept>
 
 namespace nephele {
@@ -31,7 +35,37 @@ EllipsoidSettings withTimings(EllipsoidSettings s, bool timings) {
 }
 }  // namespace
 
-SkyRenderer::SkyRenderer(SkySettings settings)
+// What SkyRenderer holds (sky.hpp): the compositor for the explicit and the near clouds, the
+// layered sky, the near LOD, the layers' lighting and modulation jobs they share, and the host
+// API's state between prepare(), update() and draw().
+struct SkyRenderer::Impl {
+    explicit Impl(SkySettings settings);
+    void makeLayered();
+    void warmUp(const Scene& scene);
+    SkyStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth);
+    void prepare(const Scene& scene);
+    SkyUpdateStats update(double dt, const Weather& weather, const Vec3& eye);
+    SkyStats draw(const ViewDesc& desc);
+    int backgroundJobs() const;
+    void waitForBackgroundWork();
+
+    SkySettings settings_;
+    EllipsoidRenderer clouds_;
+    std::shared_ptr<LayerAssets> assets_;
+    std::unique_ptr<LayeredRenderer> layered_;  // made by prepare(), or at render()'s first scene with layers
+    std::unique_ptr<NearLod> nearLod_;
+    // The host API's state.
+    bool prepared_ = false;
+    Scene scene_;        // the prepared scene with the current weather's sun, sky and layers
+    Scene frame_;        // scene_ with the near LOD's clouds after its explicit ones (what the compositor draws)
+    std::size_t explicitClouds_ = 0;
+    double time_ = 0;
+    long long updates_ = 0;      // since prepare()
+    std::map<int, Vec2> drift_;  // by CIGI layer id: how far its wind has moved it (m)
+    PerViewCache<FrameDepth> depths_;
+};
+
+SkyRenderer::Impl::Impl(SkySettings settings)
     : settings_(std::move(settings)),
       clouds_(withTimings(settings_.ellipsoid, settings_.timings)),
       assets_(std::make_shared<LayerAssets>(settings_.layered)) {
@@ -42,16 +76,14 @@ SkyRenderer::SkyRenderer(SkySettings settings)
     nearLod_->shareAssets(assets_);
 }
 
-SkyRenderer::~SkyRenderer() = default;
-
-void SkyRenderer::makeLayered() {
+void SkyRenderer::Impl::makeLayered() {
     if (layered_) return;
     layered_ = std::make_unique<LayeredRenderer>(settings_.layered);
     layered_->shareAssets(assets_);
 }
 
-SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds,
-                             bool opaqueDepth) {
+SkyStats SkyRenderer::Impl::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds,
+                                   bool opaqueDepth) {
     SkyStats stats;
     if (scene.layers.empty()) {
         stats.ellipsoids = clouds_.render(scene, view, framebuffer, opaqueDepth);
@@ -68,7 +100,7 @@ SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint frameb
     return stats;
 }
 
-void SkyRenderer::prepare(const Scene& scene) {
+void SkyRenderer::Impl::prepare(const Scene& scene) {
     makeLayered();
     layered_->prepare();
     scene_ = scene;
@@ -90,7 +122,7 @@ void SkyRenderer::prepare(const Scene& scene) {
     prepared_ = true;
 }
 
-SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3& eye) {
+SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, const Vec3& eye) {
     if (!prepared_) throw std::logic_error("SkyRenderer::update: call prepare(scene) first");
     if (!(dt >= 0 && std::isfinite(dt))) throw std::invalid_argument("SkyRenderer::update: dt must be a finite number >= 0 s");
     weather.validate();
@@ -131,7 +163,7 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
     return stats;
 }
 
-SkyStats SkyRenderer::draw(const ViewDesc& desc) {
+SkyStats SkyRenderer::Impl::draw(const ViewDesc& desc) {
     if (!prepared_) throw std::logic_error("SkyRenderer::draw: call prepare(scene) first");
     HostStateScope scope;  // first: the host's pending GL errors are its own
     const View view = makeView(desc);
@@ -155,7 +187,7 @@ SkyStats SkyRenderer::draw(const ViewDesc& desc) {
 
 // One draw of the scene off-screen, so that the driver builds its variants of the programs
 // (llvmpipe compiles a program's code at its first draw) and the layers' textures are uploaded.
-void SkyRenderer::warmUp(const Scene& scene) {
+void SkyRenderer::Impl::warmUp(const Scene& scene) {
     Camera camera = scene.camera;
     camera.width = camera.height = 64;
     const View view = makeView(camera);
@@ -166,11 +198,27 @@ void SkyRenderer::warmUp(const Scene& scene) {
     clouds_.render(scene, view, frame);
 }
 
-int SkyRenderer::backgroundJobs() const { return assets_->pending(); }
+int SkyRenderer::Impl::backgroundJobs() const { return assets_->pending(); }
 
-void SkyRenderer::waitForBackgroundWork() {
+void SkyRenderer::Impl::waitForBackgroundWork() {
     assets_->wait();
     clouds_.waitForLights(frame_);
 }
+
+// ---- SkyRenderer: the public face of Impl.
+SkyRenderer::SkyRenderer(SkySettings settings) : impl_(std::make_unique<Impl>(std::move(settings))) {}
+SkyRenderer::~SkyRenderer() = default;
+const SkySettings& SkyRenderer::settings() const { return impl_->settings_; }
+void SkyRenderer::prepare(const Scene& scene) { impl_->prepare(scene); }
+SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3& eye) { return impl_->update(dt, weather, eye); }
+SkyStats SkyRenderer::draw(const ViewDesc& view) { return impl_->draw(view); }
+double SkyRenderer::time() const { return impl_->time_; }
+int SkyRenderer::backgroundJobs() const { return impl_->backgroundJobs(); }
+void SkyRenderer::waitForBackgroundWork() { impl_->waitForBackgroundWork(); }
+SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth) {
+    return impl_->render(scene, view, framebuffer, timeSeconds, opaqueDepth);
+}
+const EllipsoidRenderer& SkyRenderer::compositor() const { return impl_->clouds_; }
+const NearLod* SkyRenderer::nearLod() const { return impl_->nearLod_.get(); }
 
 }  // namespace nephele
