@@ -16,6 +16,9 @@ Rules:
    header, and it declares nothing in namespace detail.
 4. The installed headers are a curated list, nephele_public_headers(...) in each library's
    CMakeLists.txt: every header in <lib>/include/nephele/ is on it and everything on it exists.
+5. Every public and shared internal header declares between NEPHELE_API_BEGIN and
+   NEPHELE_API_END (nephele/api.hpp): the libraries are built with hidden symbols, and a shared
+   build exports what those headers declare, nothing else.
 
 Seen failing, each broken on a copy of the tree and run there (then LayoutCheck fails the same):
 - `#include "../../ellipsoid/src/packer.hpp"` in volume/src/raymarch.cpp: "volume/src/raymarch.cpp:10:
@@ -113,7 +116,12 @@ def check(root):
                 rel = os.path.relpath(path, root)
                 public = rel.split(os.sep)[1] == "include"
                 with open(path, encoding="utf-8", errors="replace") as fh:
-                    lines = fh.read().split("\n")
+                    text = fh.read()
+                    lines = text.split("\n")
+                exported = public or rel.split(os.sep)[1] == "internal"
+                if exported and f != "api.hpp" and not ("\nNEPHELE_API_BEGIN\n" in text and "\nNEPHELE_API_END" in text):
+                    errors.append(f"{rel}: declares outside NEPHELE_API_BEGIN ... NEPHELE_API_END (nephele/api.hpp): "
+                                  "a shared build would hide it")
                 for n, line in enumerate(lines, 1):
                     if public and re.search(r"\bnamespace\s+detail\b|\bdetail::", line.split("//")[0]):
                         errors.append(f"{rel}:{n}: a public header declares or uses namespace detail (internal)")

@@ -3,11 +3,13 @@
 // verified before anything in them is used.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
 
+NEPHELE_API_BEGIN
 namespace nephele::cache {
 
 // Writes `payload` followed by its checksum (the 64-bit FNV-1a of core/internal/fingerprint.hpp, 8
@@ -24,3 +26,4 @@ std::string write(const std::string& file, std::string_view payload);
 std::optional<std::string> read(const std::string& file, std::size_t maxBytes, std::string& why);
 
 }  // namespace nephele::cache
+NEPHELE_API_END

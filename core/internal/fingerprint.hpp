@@ -2,12 +2,14 @@
 // images): add every input, compare values. Not cryptographic.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
 #include <cstdint>
 #include <string>
 #include <type_traits>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class Fingerprint {
@@ -39,3 +41,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

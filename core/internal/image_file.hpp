@@ -1,6 +1,7 @@
 // Internal: what the image files of core (PFM) and of platform (PNG) share.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/image.hpp"
 
 #include "input_file.hpp"
@@ -11,6 +12,7 @@
 #include <cstring>
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele::detail {
 
 // For writing (reading goes through openImage).
@@ -36,3 +38,4 @@ void checkClaimedSize(const std::string& path, std::uint64_t w, std::uint64_t h,
                       std::uint64_t fileBytes, bool compressed);
 
 }  // namespace nephele::detail
+NEPHELE_API_END

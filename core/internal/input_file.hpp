@@ -7,6 +7,7 @@
 // before a byte is read; reading stops one byte past the limit if the file grows meanwhile.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/limits.hpp"
 
 #include <cstdint>
@@ -16,6 +17,7 @@
 #include <string>
 #include <string_view>
 
+NEPHELE_API_BEGIN
 namespace nephele::detail {
 
 struct FileCloser {
@@ -43,3 +45,4 @@ std::optional<std::string> readRegularFile(const std::string& path, const Limit&
 std::optional<std::string> nulByteFault(std::string_view text);
 
 }  // namespace nephele::detail
+NEPHELE_API_END

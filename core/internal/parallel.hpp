@@ -3,6 +3,7 @@
 // thread-safe; exceptions are rethrown on the calling thread (the first one).
 #pragma once
 
+#include "nephele/api.hpp"
 #include <algorithm>
 #include <atomic>
 #include <exception>
@@ -18,6 +19,7 @@
 #include <unistd.h>
 #endif
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // The calling thread's bound on parallelFor's workers (0: all cores). Background jobs set 1
@@ -72,3 +74,4 @@ void parallelFor(int n, F&& f) {
 }
 
 }  // namespace nephele
+NEPHELE_API_END

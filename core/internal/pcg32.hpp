@@ -3,8 +3,10 @@
 // tracers (model/internal/phase_sampling.hpp). Internal to the libraries.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <cstdint>
 
+NEPHELE_API_BEGIN
 namespace nephele::detail {
 
 class Pcg32 {
@@ -45,3 +47,4 @@ inline std::uint64_t mix64(std::uint64_t x) {
 }
 
 }  // namespace nephele::detail
+NEPHELE_API_END

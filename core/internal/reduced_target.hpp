@@ -3,11 +3,13 @@
 // screen (EllipsoidSettings::closeDownsample). For the libraries' use, not a host's.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/per_view.hpp"
 #include "nephele/shader.hpp"
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // llvmpipe runs a fragment shader to its end whatever it discards, so the layers cost their
@@ -58,3 +60,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -3,6 +3,7 @@
 // from the cache) and modulation textures (by the layer's seed). Internal to layered/.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/layered.hpp"
 
 #include <condition_variable>
@@ -14,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class LayerAssets {
@@ -71,3 +73,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

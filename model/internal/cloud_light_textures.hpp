@@ -8,6 +8,7 @@
 // grids are in use than they hold.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/gl.hpp"
 #include "light_cache.hpp"
 #include "nephele/shader.hpp"
@@ -15,6 +16,7 @@
 #include <map>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class CloudLightTextures {
@@ -66,3 +68,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -16,6 +16,7 @@
 // smallest on screen keep the template until they come nearer.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/cloud_radiance.hpp"
 
 #include <atomic>
@@ -27,6 +28,7 @@
 #include <unordered_map>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // A grid where a cloud is now: the grid's box stretched onto the cloud's box (an exact grid's
@@ -96,3 +98,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -5,6 +5,7 @@
 // to the libraries (model/internal, through nephele_internal).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 #include "pcg32.hpp"
 
@@ -13,6 +14,7 @@
 #include <cstdint>
 #include <numbers>
 
+NEPHELE_API_BEGIN
 namespace nephele::detail {
 
 // PCG32 (core/internal/pcg32.hpp, the path tracer's generator), seeded through SplitMix64 in one
@@ -67,3 +69,4 @@ inline Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
 }
 
 }  // namespace nephele::detail
+NEPHELE_API_END

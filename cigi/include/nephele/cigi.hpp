@@ -14,6 +14,7 @@
 // the end of the datagram), keeping the packets before it.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -21,6 +22,7 @@
 #include <variant>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele::cigi {
 
 enum class ByteOrder : std::uint8_t { BigEndian, LittleEndian };
@@ -281,3 +283,4 @@ private:
 };
 
 }  // namespace nephele::cigi
+NEPHELE_API_END

@@ -6,10 +6,12 @@
 // with its own matrices uses makeView(ViewDesc) (nephele/host_view.hpp).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
 #include <glm/glm.hpp>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // How a frame's depth buffer maps eye depth. Window depth d in [0, 1] (glDepthRange(0, 1)).
@@ -74,3 +76,4 @@ View makeView(const Camera& camera, const Frustum& frustum, double yawDeg = 0, d
 Frustum symmetricFrustum(double fovYDeg, double aspect);
 
 }  // namespace nephele
+NEPHELE_API_END

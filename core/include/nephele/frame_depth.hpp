@@ -5,10 +5,12 @@
 // including the default framebuffer of a host's window.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/shader.hpp"
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // A depth texture to read the view's depth from, and the texel of the view's pixel (0, 0).
@@ -62,3 +64,4 @@ void bindFrame(const HostFrame& frame, const View& view);
 void frameDepthTest(const View& view);
 
 }  // namespace nephele
+NEPHELE_API_END

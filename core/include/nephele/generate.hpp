@@ -16,6 +16,7 @@
 // Generator in code) never duplicates a cloud.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/limits.hpp"
 #include "nephele/scene.hpp"  // Generator, Cloud, Scene, GenerateStats
 
@@ -23,6 +24,7 @@
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // A Wavefront OBJ that cannot be read as a triangle mesh. what() is "FILE:LINE: fault"
@@ -114,3 +116,4 @@ Vec3 degreesFromRotation(const glm::dmat3& R);
 std::vector<GenerateStats> expandGenerators(Scene& scene);
 
 }  // namespace nephele
+NEPHELE_API_END

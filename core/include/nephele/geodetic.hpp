@@ -4,8 +4,10 @@
 // frame's origin. Formulas: docs/embedding.md, "Time of day and geodetic frame".
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // WGS84 (NIMA TR8350.2): semi-major axis a and flattening f; e2 = f(2 - f).
@@ -53,3 +55,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

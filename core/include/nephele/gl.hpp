@@ -6,6 +6,7 @@
 // <GL/gl.h> in such a unit.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/gl_functions.hpp"
 
 #include <chrono>
@@ -15,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele::gl {
 
 using ProcLoader = void* (*)(const char*);
@@ -145,3 +147,4 @@ void uploadDynamic(Buffer& buffer, std::size_t& capacity, const void* data, std:
 Sampler linearSampler(GLenum wrap);
 
 }  // namespace nephele::gl
+NEPHELE_API_END

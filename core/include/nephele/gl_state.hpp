@@ -16,12 +16,14 @@
 // Nephele draws into are restored by HostStateScope (bindFrame records them).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/gl.hpp"
 
 #include <array>
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct GlStateSnapshot {
@@ -130,3 +132,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -3,9 +3,11 @@
 // its framebuffer, where its depth is, and what its colour buffer holds.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // What the colour attachment Nephele draws into holds; Nephele blends linear radiance into it.
@@ -69,3 +71,4 @@ ColorTarget colorTargetOf(const ViewDesc& desc);
 ViewDesc viewDescOf(const View& view, GLuint framebuffer, bool hasDepth = true);
 
 }  // namespace nephele
+NEPHELE_API_END

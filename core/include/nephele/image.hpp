@@ -1,12 +1,14 @@
 // Float images, PFM files, and the metrics the tests use (PNG: nephele/png.hpp).
 #pragma once
 
+#include "nephele/api.hpp"
 #include <glm/glm.hpp>
 
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Row 0 is the top row. Values are linear radiance (colour) or opacity (grey) unless a
@@ -61,3 +63,4 @@ Image differenceImage(const Image& a, const Image& b, float gain = 4.0f);
 double psnr(const Image& a, const Image& b);
 
 }  // namespace nephele
+NEPHELE_API_END

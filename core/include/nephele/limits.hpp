@@ -9,11 +9,13 @@
 // from what the renderers can do in bounded time and memory (see docs/reliability.md, "Limits").
 #pragma once
 
+#include "nephele/api.hpp"
 #include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct Limit {
@@ -91,3 +93,4 @@ inline bool withinLimit(double value, const Limit& limit) {
 }
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -7,9 +7,11 @@
 // rendering; setting it again while another thread logs is safe.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <functional>
 #include <string_view>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 enum class LogLevel { Debug, Info, Warning, Error };
@@ -32,3 +34,4 @@ ProgressCallback setProgressCallback(ProgressCallback callback);
 void reportProgress(std::string_view label, double fraction);
 
 }  // namespace nephele
+NEPHELE_API_END

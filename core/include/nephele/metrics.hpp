@@ -1,10 +1,12 @@
 // Comparing two renders of the same view: exposure-fitted error, SSIM and alpha agreement.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/image.hpp"
 
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct RenderComparison {
@@ -40,3 +42,4 @@ double meanClampedDifference(const Image& a, const Image& b);
 std::string toJson(const RenderComparison& c);
 
 }  // namespace nephele
+NEPHELE_API_END

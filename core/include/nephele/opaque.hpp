@@ -5,6 +5,7 @@
 // A GPU pass and a CPU reference that evaluates the same formulas per ray.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/image.hpp"
@@ -13,6 +14,7 @@
 
 #include <optional>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // An off-screen frame: RGBA32F colour (rgb = linear radiance, a = cloud opacity) and a
@@ -66,3 +68,4 @@ Vec3 opaqueRadiance(const Scene& scene, const View& view, const Vec3& direction)
 Image renderOpaqueCpu(const Scene& scene, const View& view);
 
 }  // namespace nephele
+NEPHELE_API_END

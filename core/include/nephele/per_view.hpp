@@ -3,6 +3,7 @@
 // nothing, and channels of the same size, drawn one after the other, share them.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <glm/glm.hpp>
 
 #include <cstddef>
@@ -11,6 +12,7 @@
 #include <tuple>
 #include <utility>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 template <class T, class Key = glm::ivec2>
@@ -38,3 +40,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

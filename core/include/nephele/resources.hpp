@@ -3,10 +3,12 @@
 // or the kernel's OOM killer.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Too big for this machine or driver: memory, or a GL maximum. what() says what needed how much.
@@ -27,3 +29,4 @@ std::string formatBytes(std::uint64_t bytes);
 void requireMemory(const std::string& what, std::uint64_t bytes);
 
 }  // namespace nephele
+NEPHELE_API_END

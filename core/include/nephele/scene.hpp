@@ -7,6 +7,7 @@
 // degrees, colours linear RGB. Every field below carries the format's default.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <glm/glm.hpp>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 using Vec3 = glm::dvec3;
@@ -265,3 +267,4 @@ Scene sunOnly(Scene scene);
 Scene skyOnly(Scene scene);
 
 }  // namespace nephele
+NEPHELE_API_END

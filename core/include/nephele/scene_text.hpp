@@ -2,10 +2,12 @@
 // (the flight scripts of `nephele fly --script`), so that they fail as scene files do.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"  // SceneError
 
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Checks `text` as JSON by the scene loader's rules: a NUL byte, a syntax error or a truncated
@@ -19,3 +21,4 @@ void checkJsonText(const std::string& text, const std::string& file);
 std::string readSceneText(const std::string& file);
 
 }  // namespace nephele
+NEPHELE_API_END

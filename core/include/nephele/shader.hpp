@@ -5,6 +5,7 @@
 // "sky.frag:12(5): error: ..." with the stage, the file and the driver's whole log.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/gl.hpp"
 
 #include <glm/glm.hpp>
@@ -14,6 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class ShaderError : public gl::GlError {
@@ -61,3 +63,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -8,8 +8,10 @@
 // field for input out of range; nothing here prints or touches GL.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // A UTC instant on the Gregorian calendar. No time zones and no daylight saving: a host
@@ -94,3 +96,4 @@ Daylight daylight(const UtcTime& time, double latitudeDeg, double longitudeDeg, 
 double kastenYoungAirMass(double elevationDeg);
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -20,6 +20,7 @@
 // EllipsoidSettings::order). Objects inside clouds: see FlyThrough.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/cloud_radiance.hpp"
 #include "nephele/frame_depth.hpp"
@@ -33,6 +34,7 @@
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 enum class AtlasPrecision { Float16, Unorm8 };
@@ -244,3 +246,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

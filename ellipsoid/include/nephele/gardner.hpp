@@ -10,6 +10,7 @@
 // back to front by the distance of their centres from the eye.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/cloud_radiance.hpp"
 #include "nephele/gardner_model.hpp"
@@ -19,6 +20,7 @@
 
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // `--method gardner-exact`: the model per pixel in float, exact ray-ellipsoid geometry and
@@ -51,3 +53,4 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
 Image exactDensityOpacity(const Scene& scene, const View& view);
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -10,12 +10,14 @@
 // view is [-1,1]^2 (pixel y, in contrast, grows downwards: py = (1 - y_ndc) / 2 * height).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid_space.hpp"  // ellipsoidToUnit (the model's, nephele_model)
 #include "nephele/scene.hpp"
 
 #include <glm/glm.hpp>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct ScreenRect { double x0 = 0, y0 = 0, x1 = 0, y1 = 0; };  // NDC, x0 < x1, y0 < y1, inside [-1,1]^2
@@ -38,3 +40,4 @@ struct EllipsoidProjection {
 EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view);
 
 }  // namespace nephele
+NEPHELE_API_END

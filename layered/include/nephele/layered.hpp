@@ -45,6 +45,7 @@
 //    full-resolution pixel) and upsampled with the frame's depth.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gl.hpp"
@@ -56,6 +57,7 @@
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // ---------------------------------------------------------------------------------------
@@ -297,3 +299,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -41,6 +41,7 @@
 //   sky's ambient), as it lights the scene's explicit clouds.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/scene.hpp"
 
@@ -50,6 +51,7 @@
 #include <tuple>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Auto's defaults (`--method auto`): a helicopter sees the cumulus it can reach within a
@@ -164,3 +166,4 @@ private:
 Scene withNearClouds(const Scene& scene, const std::vector<Cloud>& near);
 
 }  // namespace nephele
+NEPHELE_API_END

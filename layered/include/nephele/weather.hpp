@@ -4,12 +4,14 @@
 // without a stall (see nephele/sky.hpp and the CIGI table of docs/embedding.md).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
 #include <cstdint>
 #include <map>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // CIGI 3.3 Weather Control, Cloud Type.
@@ -76,3 +78,4 @@ struct Weather {
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -34,12 +34,14 @@
 // sky, the medium and the settings only: a cloud that moves keeps it (see light_cache.hpp).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
 #include <atomic>
 #include <cstdint>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct RadianceGridSettings {
@@ -148,3 +150,4 @@ struct RadianceSample {
 RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world);
 
 }  // namespace nephele
+NEPHELE_API_END

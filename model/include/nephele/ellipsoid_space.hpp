@@ -2,10 +2,12 @@
 // evaluates the model's density (shaders/gardner_model.glsl) and its chords.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/scene.hpp"
 
 #include <glm/glm.hpp>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Matrices for the shaders: world -> ellipsoid unit-sphere space, M = diag(1/r) * R^T applied
@@ -13,3 +15,4 @@ namespace nephele {
 glm::dmat3 ellipsoidToUnit(const Ellipsoid& e);  // diag(1/r) * R^T
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -2,10 +2,12 @@
 // that the exact CPU model and the GPU shaders share one source.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <glm/glm.hpp>
 
 #include <numbers>
 
+NEPHELE_API_BEGIN
 namespace nephele::model {
 using glm::clamp;
 using glm::dot;
@@ -34,3 +36,4 @@ inline bool withinSunPeak(double cosAngle, double g) {
     return hgPhase(float(cosAngle), float(g)) >= kSunPeakPhase / (4 * std::numbers::pi_v<float>);
 }
 }  // namespace nephele::model
+NEPHELE_API_END

@@ -11,11 +11,13 @@
 // 32-bit integer arithmetic (no std distributions, no libm beyond floor).
 #pragma once
 
+#include "nephele/api.hpp"
 #include <glm/glm.hpp>
 
 #include <cstddef>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // Improved Perlin gradient noise (Perlin 2002: quintic fade, 12 edge gradients) on a
@@ -69,3 +71,4 @@ NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed);
 glm::dvec3 ellipsoidNoiseOffset(std::size_t cloud, std::size_t index, unsigned seed);
 
 }  // namespace nephele
+NEPHELE_API_END

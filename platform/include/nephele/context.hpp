@@ -2,12 +2,14 @@
 // A host that owns its context needs none of this: it calls nephele::gl::load() once.
 #pragma once
 
+#include "nephele/api.hpp"
 #include <memory>
 #include <stdexcept>
 #include <string>
 
 struct GLFWwindow;
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 enum class GlBackend { Egl, OSMesa, Glfw };
@@ -54,3 +56,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -1,11 +1,13 @@
 // PNG files (libpng), in Nephele::platform: a host that links only Nephele::core gets no libpng.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/image.hpp"
 
 #include <span>
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 enum class Encoding { Srgb, Linear };
@@ -27,3 +29,4 @@ ImageShape readPngShape(const std::string& path);
 Image readPng(const std::string& path, std::span<const int> pick);
 
 }  // namespace nephele
+NEPHELE_API_END

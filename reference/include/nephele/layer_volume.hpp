@@ -19,12 +19,14 @@
 // lookups in the cell can read; cells where the layer is empty cost no steps.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/scene.hpp"
 
 #include <string>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class LayerVolumes {
@@ -80,3 +82,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -27,6 +27,7 @@
 // Russian roulette of paths.
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/image.hpp"
 #include "nephele/noise.hpp"
@@ -36,6 +37,7 @@
 #include <memory>
 #include <string>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 class LayerVolumes;  // nephele/layer_volume.hpp
@@ -125,3 +127,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

@@ -11,6 +11,7 @@
 // lighting is computed on a worker thread while the last good one is drawn).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/ellipsoid.hpp"
 #include "nephele/host_view.hpp"
 #include "nephele/layered.hpp"
@@ -19,6 +20,7 @@
 
 #include <memory>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 // `base` with auto's hand-off: nearRadius kAutoNearRadius and blendBand kAutoBlendBand where
@@ -123,3 +125,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END

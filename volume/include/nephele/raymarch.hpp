@@ -41,6 +41,7 @@
 // Resolution: RaymarchSettings::downsample (2: one ray per 2x2 pixels, upsampled with the depth).
 #pragma once
 
+#include "nephele/api.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/cloud_radiance.hpp"
 #include "nephele/gl.hpp"
@@ -50,6 +51,7 @@
 #include <memory>
 #include <vector>
 
+NEPHELE_API_BEGIN
 namespace nephele {
 
 struct RaymarchSettings {
@@ -135,3 +137,4 @@ private:
 };
 
 }  // namespace nephele
+NEPHELE_API_END
