@@ -584,6 +584,8 @@ int run(int argc, char** argv) {
     render->add_option("--density-alpha", ro.densityAlpha,
                        "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against")
         ->check(kPath);
+    render->add_flag("--silhouette", ro.silhouette,
+                     "Print the box-counting dimension of the cloud opacity's alpha > 0.5 silhouette (boxes 2-32 px) on stdout");
     render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")
         ->check(within(-1e9, 1e9))
         ->capture_default_str();
