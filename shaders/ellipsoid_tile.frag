@@ -43,7 +43,7 @@ uniform sampler3D detailVolume;        // the nephele kind's texture
 // The chord's eroded depth is followed in three pieces, each eroded by the detail at its middle
 // (in closed form, detail.glsl): a chord near the rim keeps matter only where its pieces' erosion
 // leaves the shrunk ellipsoid reaching it, so the rim is cut where the detail is high.
-const int kTilePieces = 3;
+const int kTilePieces = 6;
 #ifndef CUT
 vec3 rayOf() { return rayRel; }
 #else

@@ -25,7 +25,7 @@ uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
 uniform DetailParams detail;           // medium.detail (detail.erosion 0: off)
 uniform sampler3D detailVolume;        // the nephele kind's texture
-const int kTilePieces = 3;             // as ellipsoid_tile.frag
+const int kTilePieces = 6;             // as ellipsoid_tile.frag
 uniform vec3 sunDirection;             // unit, towards the sun
 uniform float hgG;                     // medium.hg_g
 
