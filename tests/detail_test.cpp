@@ -59,7 +59,8 @@ Scene oneCloud(double erosion, Medium::Detail::Kind kind = Medium::Detail::Kind:
 
 // The check table of data/scene-format.md, printed by `python3 tools/detail_reference.py` (double
 // precision). Float evaluation agrees to about 1e-5 here (measured: largest difference 9.5e-6, the
-// contrast 6 magnifying float round-off); a wrong octave offset or seed step moves D by 0.1-1.
+// contrast 6 magnifying float round-off; bound 3e-5); a wrong octave offset or seed step moves D by
+// 0.1-1 (no sabotage patch: the shared source's constants are compiled into about 40 files).
 TEST(DetailTest, ReferenceKindMatchesToolsReference) {
     EXPECT_NEAR(model::detailPerlin(glm::vec3(0.3f, 1.7f, -2.2f), model::kDetailSeed), -0.195971644, 2e-6);
     struct Check { Vec3 origin, rel; double d; };
@@ -82,6 +83,8 @@ TEST(DetailTest, ReferenceKindMatchesToolsReference) {
 // The detail is anchored to the air: carried by the wind for t seconds, the pattern a point
 // reads is the one the point t * wind upwind read before (the eye carried along too, so the
 // fade sees the same distance). And it does move: a fixed point reads another value.
+// Measured: equal to float round-off (bound 1e-5); broken (drift applied against the wind,
+// tests/sabotage/112-detail-wind-backwards.sabotage): off by 0.33 and 0.72.
 TEST(DetailTest, MovesWithTheWind) {
     for (auto kind : {Medium::Detail::Kind::Nephele, Medium::Detail::Kind::Reference}) {
         Medium::Detail still = referenceDetail();
@@ -97,9 +100,9 @@ TEST(DetailTest, MovesWithTheWind) {
 }
 
 // An approach from 6 km to 5 m in steps of 0.5% of the distance (a 30 fps approach at 500 km/h
-// from 1 km): the detail at a point changes by at most 0.006 per step (measured 0.0030 nephele,
-// 0.0034 reference), where octaves switched on at their threshold (no fade) jump by 0.05 (broken:
-// tests/sabotage/111-detail-octaves-pop.sabotage, measured max step 0.066).
+// from 1 km), 20 points: D at a point changes by at most 0.006 per step. Measured: largest step
+// 0.0016 (nephele), 0.0036 (reference); broken (octaves switched on whole at the middle of their
+// fade, tests/sabotage/111-detail-octaves-pop.sabotage): 0.49.
 TEST(DetailTest, OctaveFadeHasNoPop) {
     for (auto kind : {Medium::Detail::Kind::Nephele, Medium::Detail::Kind::Reference}) {
         Medium::Detail d = referenceDetail();
@@ -142,8 +145,9 @@ TEST(DetailTest, ErosionZeroChangesNothing) {
 }
 
 // The path tracer's field is the definition: extinction * density * max(1 - q (1 + e(x))^2, 0)^2
-// with e seen from the camera (checked at random points of the ellipsoid; a path tracer that
-// multiplied instead of eroding differs by 0.02 /m).
+// with e seen from the camera, at random points of the ellipsoid. Measured: equal to 1e-5
+// relative; broken (the detail faded by the distance from the world origin,
+// tests/sabotage/114-pathtrace-detail-seen-from-the-origin.sabotage): 0 where 0.0275 /m is due.
 TEST(DetailTest, PathTracerFieldIsTheDefinition) {
     const Scene s = oneCloud(1.5, Medium::Detail::Kind::Reference);
     const ExtinctionField field(s, nullptr, nullptr, s.camera.position);
@@ -165,8 +169,9 @@ TEST(DetailTest, PathTracerFieldIsTheDefinition) {
 }
 
 // gardner-exact renders the field: its opacity is 1 - exp(-optical depth of ExtinctionField along
-// the pixel's ray) (midpoint quadrature at 0.25 m here). Measured: largest difference 0.002
-// (its pieces of a quarter of the finest wavelength against 0.25 m steps).
+// the pixel's ray) (midpoint quadrature at 0.25 m here). Measured: largest difference 0.0006 (its
+// pieces of a quarter of the finest wavelength against 0.25 m steps); broken (one piece per chord,
+// tests/sabotage/115-gardner-exact-one-detail-piece.sabotage): 0.81.
 TEST(DetailTest, GardnerExactOpacityIsTheField) {
     Scene s = oneCloud(1.5);
     s.camera.width = 24, s.camera.height = 18;
