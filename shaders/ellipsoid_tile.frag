@@ -40,10 +40,11 @@ uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
 uniform DetailParams detail;           // medium.detail (detail.erosion 0: off)
 uniform sampler3D detailVolume;        // the nephele kind's texture
-// The chord's eroded depth is followed in three pieces, each eroded by the detail at its middle
-// (in closed form, detail.glsl): a chord near the rim keeps matter only where its pieces' erosion
-// leaves the shrunk ellipsoid reaching it, so the rim is cut where the detail is high.
-const int kTilePieces = 6;
+// The chord's eroded depth is followed in detailPieces pieces (DetailTexture::kTilePieces), each
+// eroded by the detail at its middle (in closed form, detail.glsl): a chord near the rim keeps
+// matter only where its pieces' erosion leaves the shrunk ellipsoid reaching it. A uniform, not a
+// constant, so that the compiler keeps one copy of the octave loop instead of one per piece.
+uniform int detailPieces;
 #ifndef CUT
 vec3 rayOf() { return rayRel; }
 #else
@@ -83,13 +84,17 @@ void main() {
         return;
     }
     float n = texture(noiseVolume, noiseCoord).r;
+    // The paper's falloff-texture variant (EllipsoidSettings::falloffTexture) draws no detail:
+    // llvmpipe's LLVM 15 aborted compiling it with the detail (stack smashing in EarlyCSE).
+#ifndef FALLOFF_TEXTURE
     if (detail.erosion > 0.0) {
         // The exact chord of this pixel's ray, eroded (detail.glsl).
         Tile tile = tiles[tileIndex];
         vec3 dr = normalize(rayOf());
         float t0 = instance.w > 0.5 ? nearClip / dot(dr, forward) : 0.0;
-        depth = erodedSegmentDepth(detailVolume, detail, tile.eyeUnitAc.xyz, toUnit(tile, dr), dr, t0, 1e30, kTilePieces);
+        depth = erodedSegmentDepth(detailVolume, detail, tile.eyeUnitAc.xyz, toUnit(tile, dr), dr, t0, 1e30, detailPieces);
     }
+#endif
     float a = opacityOf(instance.y * depth);
     vec2 eq2 = gardnerTerms(ac, a, noiseAmp, n);
     terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);

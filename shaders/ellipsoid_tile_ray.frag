@@ -25,7 +25,7 @@ uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
 uniform DetailParams detail;           // medium.detail (detail.erosion 0: off)
 uniform sampler3D detailVolume;        // the nephele kind's texture
-const int kTilePieces = 6;             // as ellipsoid_tile.frag
+uniform int detailPieces;              // as ellipsoid_tile.frag
 uniform vec3 sunDirection;             // unit, towards the sun
 uniform float hgG;                     // medium.hg_g
 
@@ -54,7 +54,7 @@ void main() {
     vec3 shade = tShade * d;
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
     if (detail.erosion > 0.0 && depth > 0.0)
-        depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, kTilePieces);
+        depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, detailPieces);
     vec2 light = chordLightAt(cloud, o, du, d, tStart, instance.y, sunDirection, hgG);
     // Outside the silhouette: no matter (A = 0) makes eq. (2) zero whatever Ac and n are; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.

@@ -23,6 +23,7 @@ void DetailTexture::bind(const Program& program, const Medium::Detail& detail, c
     program.set("detail.mean", p.mean);
     program.set("detail.octaves", p.octaves);
     program.set("detail.kind", p.kind);
+    program.set("detailPieces", kTilePieces);
     program.set("detailVolume", int(kUnit));
     glBindTextureUnit(kUnit, texture_.id());
     glBindSampler(kUnit, 0);
