@@ -57,6 +57,18 @@ struct FlickerOptions {
 };
 int runFlickerBench(const FlickerOptions& options);
 
+// `bench --silhouette`: the box-counting dimension of the alpha > 0.5 silhouette of cumulus27 and
+// dense_cumulus, detail off and on, from 100 m, 1 km and 5 km, for the compositor and the ray-marcher.
+struct SilhouetteBenchOptions {
+    std::string outDir = "bench-out";  // silhouette_bench.csv, silhouette_bench.md
+    std::string scenesDir = "data/scenes";
+    int width = 640;              // px (aspect kept): the measurements were at 640 x 480
+    double erosion = 1.5;         // medium.detail.erosion of the "on" column
+    bool quick = false;           // dense_cumulus from 1 km only (for tests)
+    GlBackend backend = GlBackend::Egl;
+};
+int runSilhouetteBench(const SilhouetteBenchOptions& options);
+
 // `bench --layered`: the layered far field against its floor over the extent and the annulus
 // count N, with the cloud-shadow pass's share and the renderer before its speed work.
 struct LayeredBenchOptions {

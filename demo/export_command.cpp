@@ -64,7 +64,8 @@ int runExport(const ExportOptions& o) {
     double v = o.voxel;
     try {
         resolveOutput("--vdb", o.vdb);  // a folder or a device is refused before any work
-        const Scene scene = loadScene(o.scene);
+        Scene scene = loadScene(o.scene);
+        scene.medium.detail.drift = scene.medium.detail.wind * o.time;  // the detail, carried to --time
         if (scene.medium.noise > 0) {
             const NoiseSettings ns;  // the path tracer's (PathTraceSettings has no others)
             noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);

@@ -322,6 +322,7 @@ struct BenchArgs {
     BenchOptions bo;
     std::string gl = "egl", cache;
     bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
+    bool silhouette = false;
     bool grids = false;
     bool quick = false, noCache = false;
     std::string publish;  // --publish DOCS
@@ -353,6 +354,8 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_flag("--accuracy", b.accuracy,
                     "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
     bench->add_flag("--flicker", b.flicker, "Instead: frame-to-frame change along camera paths against the exact model");
+    bench->add_flag("--silhouette", b.silhouette,
+                    "Instead: box-counting dimension of the cumulus silhouettes, detail off and on, from 100 m to 5 km");
     bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
     bench->add_flag("--layer-accuracy", b.layerAccuracy,
                     "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
@@ -405,7 +408,7 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
 int runBenchArgs(BenchArgs& b) {
     b.bo.backend = parseBackend(b.gl);
     if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-            int(b.cruise) + int(b.grids) > 1) {
+            int(b.cruise) + int(b.grids) + int(b.silhouette) > 1) {
         std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale, --cruise and "
                      "--grids are separate runs; give one\n";
         return 2;
@@ -479,6 +482,13 @@ int runBenchArgs(BenchArgs& b) {
         if (b.cmd->count("--frames") > 0) gbo.runs = bo.frames;
         if (b.quick) gbo.scenes = {"single.json"}, gbo.runs = 1;
         return runGridBench(gbo);
+    }
+    if (b.silhouette) {
+        SilhouetteBenchOptions so;
+        so.outDir = bo.outDir, so.scenesDir = bo.scenesDir;
+        so.backend = bo.backend, so.quick = b.quick;
+        if (widthGiven) so.width = bo.width;
+        return runSilhouetteBench(so);
     }
     if (b.flicker) {
         FlickerOptions& flo = b.flo;
@@ -584,6 +594,8 @@ int run(int argc, char** argv) {
     render->add_option("--density-alpha", ro.densityAlpha,
                        "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against")
         ->check(kPath);
+    render->add_flag("--silhouette", ro.silhouette,
+                     "Print the box-counting dimension of the cloud opacity's alpha > 0.5 silhouette (boxes 2-32 px) on stdout");
     render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")
         ->check(within(-1e9, 1e9))
         ->capture_default_str();

@@ -1,4 +1,5 @@
 #include "render_command.hpp"
+#include "nephele/metrics.hpp"
 
 #include "output_files.hpp"
 
@@ -11,6 +12,7 @@
 #include "nephele/resources.hpp"
 
 #include <chrono>
+#include <optional>
 #include <unistd.h>
 
 #include <cmath>
@@ -152,7 +154,14 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
 
 FrameRenderer::~FrameRenderer() = default;
 
-Frame FrameRenderer::render(const Scene& scene, double time) {
+Frame FrameRenderer::render(const Scene& sceneIn, double time) {
+    // The detail drifts with its wind: at time t it has been carried t * wind.
+    std::optional<Scene> drifted;
+    if (sceneIn.medium.detail.on() && sceneIn.medium.detail.wind != Vec3(0.0)) {
+        drifted = sceneIn;
+        drifted->medium.detail.drift = sceneIn.medium.detail.wind * time;
+    }
+    const Scene& scene = drifted ? *drifted : sceneIn;
     Camera camera = cameraAt(scene, time);
     camera.width = scene.camera.width;
     camera.height = scene.camera.height;
@@ -241,6 +250,7 @@ int runRender(const RenderOptions& o) {
               << (o.method == Method::GardnerExact || o.method == Method::Pathtrace ? ""
                                                                                 : std::string(", ") + backendName(o.backend))
               << ")\n";
+    if (o.silhouette) std::cout << "silhouette dimension " << silhouetteDimension(frame.alpha) << "\n";
     const EllipsoidStats& st = frame.stats;
     if (st.ellipsoids > 0)
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes

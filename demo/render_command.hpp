@@ -59,6 +59,7 @@ struct RenderOptions {
     NearLodSettings nearLod;      // auto: the near LOD's cells
     std::string cacheDir;         // path-traced references are cached here ("" = no cache)
     CompositeOrder exactOrder = CompositeOrder::PerEllipsoid;  // gardner-exact: --exact-order
+    bool silhouette = false;      // --silhouette: print the box-counting dimension of the alpha > 0.5 silhouette
 };
 
 struct Frame {

@@ -10,6 +10,7 @@
 // across it (a few metres ahead to hundreds): Gouraud light is visibly off there.
 #define MODEL_FN
 #include "gardner_model.glsl"
+#include "detail.glsl"
 #include "tiles.glsl"
 #ifdef CUT
 #include "cloud_light_grid.glsl"
@@ -21,6 +22,7 @@ flat in int tileIndex;
 in vec3 relPosition;
 #else
 in vec3 projCoord;
+in vec3 rayRel;
 #endif
 in float invLen;
 in vec3 noiseCoord;
@@ -36,6 +38,18 @@ uniform sampler2D falloff;             // projective radial falloff: F(b) = (1 -
 #endif
 uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
+uniform DetailParams detail;           // medium.detail (detail.erosion 0: off)
+uniform sampler3D detailVolume;        // the nephele kind's texture
+// The chord's eroded depth is followed in detailPieces pieces (DetailTexture::kTilePieces), each
+// eroded by the detail at its middle (in closed form, detail.glsl): a chord near the rim keeps
+// matter only where its pieces' erosion leaves the shrunk ellipsoid reaching it. A uniform, not a
+// constant, so that the compiler keeps one copy of the octave loop instead of one per piece.
+uniform int detailPieces;
+#ifndef CUT
+vec3 rayOf() { return rayRel; }
+#else
+vec3 rayOf() { return relPosition; }
+#endif
 
 void main() {
     float ac = instance.x;
@@ -69,8 +83,19 @@ void main() {
         terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);
         return;
     }
-    float a = opacityOf(instance.y * depth);
     float n = texture(noiseVolume, noiseCoord).r;
+    // The paper's falloff-texture variant (EllipsoidSettings::falloffTexture) draws no detail:
+    // llvmpipe's LLVM 15 aborted compiling it with the detail (stack smashing in EarlyCSE).
+#ifndef FALLOFF_TEXTURE
+    if (detail.erosion > 0.0) {
+        // The exact chord of this pixel's ray, eroded (detail.glsl).
+        Tile tile = tiles[tileIndex];
+        vec3 dr = normalize(rayOf());
+        float t0 = instance.w > 0.5 ? nearClip / dot(dr, forward) : 0.0;
+        depth = erodedSegmentDepth(detailVolume, detail, tile.eyeUnitAc.xyz, toUnit(tile, dr), dr, t0, 1e30, detailPieces);
+    }
+#endif
+    float a = opacityOf(instance.y * depth);
     vec2 eq2 = gardnerTerms(ac, a, noiseAmp, n);
     terms = vec4(kTranslucence * eq2.y, 1.0 - encodeLight(light.x), 1.0 - encodeLight(light.y), eq2.x);
 }

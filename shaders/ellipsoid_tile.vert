@@ -28,6 +28,7 @@ flat out int tileIndex;
 out vec3 relPosition;                    // camera-relative world position (the ray)
 #else
 out vec3 projCoord;                      // projective falloff coordinates (x, y, w)
+out vec3 rayRel;                         // camera-relative world position: the ray, for the detail
 #endif
 out float invLen;                        // 1 / |M d|: metres of ray per unit of unit space
 out vec3 noiseCoord;                     // shading point in noise texture coordinates
@@ -54,6 +55,8 @@ void main() {
     gl_Position = clip;
 #ifdef CUT
     relPosition = world;
+#else
+    rayRel = world;
 #endif
     instance = vec4(t.eyeUnitAc.w, t.centerSigma.w, dot(t.eyeUnitAc.xyz, t.eyeUnitAc.xyz), t.params.x);
 

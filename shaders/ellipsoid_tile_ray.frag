@@ -7,6 +7,7 @@
 // CUT: ellipsoids cut by the near plane (or around the eye): the chord beyond the near plane.
 #define MODEL_FN
 #include "gardner_model.glsl"
+#include "detail.glsl"
 #include "tiles.glsl"
 #include "cloud_light_grid.glsl"
 in vec3 ray;                           // camera-relative point on the ray (m)
@@ -22,6 +23,9 @@ uniform float nearClip;                // m
 uniform float noisePeriod;             // m
 uniform sampler3D noiseVolume;         // tileable fBm, [-1, 1]
 uniform float noiseAmp;                // medium.noise
+uniform DetailParams detail;           // medium.detail (detail.erosion 0: off)
+uniform sampler3D detailVolume;        // the nephele kind's texture
+uniform int detailPieces;              // as ellipsoid_tile.frag
 uniform vec3 sunDirection;             // unit, towards the sun
 uniform float hgG;                     // medium.hg_g
 
@@ -49,6 +53,8 @@ void main() {
     float tShade = clamp(tc / len, max(tIn, tStart), max(tOut, tStart));
     vec3 shade = tShade * d;
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
+    if (detail.erosion > 0.0 && depth > 0.0)
+        depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, detailPieces);
     vec2 light = chordLightAt(cloud, o, du, d, tStart, instance.y, sunDirection, hgG);
     // Outside the silhouette: no matter (A = 0) makes eq. (2) zero whatever Ac and n are; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.

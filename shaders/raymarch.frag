@@ -6,6 +6,7 @@
 #include "view_frame.glsl"
 #define MODEL_FN
 #include "gardner_model.glsl"
+#include "detail.glsl"
 #include "cloud_light_grid.glsl"
 
 in vec2 ndc;
@@ -24,6 +25,8 @@ uniform float kappa;                          // medium.noise: the density's noi
 uniform sampler3D noiseVolume;                // tileable fBm in [-1, 1], GL_REPEAT
 uniform vec3 eyeNoise;                        // fract(eye / noisePeriod): the eye in noise coordinates
 uniform float invNoisePeriod;                 // 1/m
+uniform DetailParams detail;                  // medium.detail (detail.erosion 0: off)
+uniform sampler3D detailVolume;               // the nephele kind's texture
 uniform vec3 sunDirection;                    // unit, towards the sun
 uniform vec3 sunIrradiance;                   // sun.color * sun.intensity
 uniform float hgG, albedo;
@@ -118,11 +121,30 @@ float extinctionAt(float l) {
     return sigma;
 }
 
+// With the detail: each candidate's profile eroded to max(1 - q (1 + e)^2, 0)^2, times the noise
+// factor, with e read once at the point (detail.glsl), as the path tracer's field.
+float erodedExtinctionAt(float l) {
+    float nf = 1.0;
+    if (kappa > 0.0) nf = max(0.0, 1.0 + kappa * textureLod(noiseVolume, eyeNoise + dir * (l * invNoisePeriod), 0.0).r);
+    float e = -1.0;
+    float sigma = 0.0;
+    for (int k = 0; k < candCount; ++k) {
+        vec4 c = candData[k];
+        float u = l - c.x;
+        float q = c.z * u * u + c.y;
+        if (q < 1.0) {
+            if (e < 0.0) e = detailErosion(detailVolume, detail, dir * l);
+            sigma += c.w * erodedProfile(q, e) * nf;
+        }
+    }
+    return sigma;
+}
+
 // One segment [l0, l1] with its extinction at the midpoint: Algorithm 3, with the light of
 // the cloud's radiance grid (cloud_light.glsl) as the in-scattered radiance.
 void shade(RmCloud c, float l0, float l1) {
     float mid = 0.5 * (l0 + l1);
-    float sigma = extinctionAt(mid);
+    float sigma = detail.erosion > 0.0 ? erodedExtinctionAt(mid) : extinctionAt(mid);
     if (sigma <= 0.0) return;
     float dT = exp(-sigma * (l1 - l0));
     radiance += transmittance * (1.0 - dT) * cloudSourceAt(c.range.z, dir * mid, dir, sunDirection, hgG, sunIrradiance, albedo);
@@ -134,7 +156,10 @@ void shade(RmCloud c, float l0, float l1) {
 // the step asked for) nor under 2^-20 of the distance, so that a step always moves l in float
 // (a tiny step or a far cloud would otherwise mark time until maxSteps).
 float minStep = 0.0;
-float stepAt(float l) { return max(max(stepBase * (1.0 + l * invLod), minStep), l * (1.0 / 1048576.0)); }
+// With the detail, a step spans at most the finest wavelength drawn at l (detail.glsl's r, twice:
+// an octave is whole from 2 r), so that the march resolves the octaves it draws.
+float detailStep(float l) { return detail.erosion > 0.0 ? 2.0 * max(kDetailFadeAngle * l, 0.5 * detail.smallest) : 1e30; }
+float stepAt(float l) { return max(max(min(stepBase * (1.0 + l * invLod), detailStep(l)), minStep), l * (1.0 / 1048576.0)); }
 
 // One cloud over [tMin, tMax]: the sorted candidates marched front to back with the
 // no-duplicate tracing of Algorithm 2 (lambda only moves forward: overlaps are marched once,

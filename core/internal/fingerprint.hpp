@@ -34,6 +34,10 @@ public:
         return *this;
     }
     Fingerprint& addMedium(const Medium& m) { return add(m.extinction).add(m.albedo).add(m.hgG).add(m.noise).add(m.noiseScale); }
+    // medium.detail without its drift (what the field is, not where the wind has carried it).
+    Fingerprint& addDetail(const Medium::Detail& d) {
+        return add(d.kind).add(d.erosion).add(d.scale).add(d.smallest).add(d.wind);
+    }
     std::uint64_t value() const { return value_; }
 
 private:

@@ -137,6 +137,34 @@ RenderComparison compareRenders(const Image& a, const Image& b, const Image* alp
     return c;
 }
 
+double silhouetteDimension(const Image& alpha) {
+    const int w = alpha.width, h = alpha.height;
+    const auto in = [&](int x, int y) { return alpha.at(x, y, 0) > 0.5f; };
+    std::vector<char> edge(std::size_t(w) * h, 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            if (!in(x, y)) continue;
+            const bool open = (x > 0 && !in(x - 1, y)) || (x + 1 < w && !in(x + 1, y)) || (y > 0 && !in(x, y - 1)) ||
+                              (y + 1 < h && !in(x, y + 1));
+            edge[std::size_t(y) * w + x] = open;
+        }
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (int s = 2; s <= 32; s *= 2) {
+        const int bw = (w + s - 1) / s, bh = (h + s - 1) / s;
+        std::vector<char> box(std::size_t(bw) * bh, 0);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                if (edge[std::size_t(y) * w + x]) box[std::size_t(y / s) * bw + x / s] = 1;
+        long count = 0;
+        for (char b : box) count += b;
+        if (count == 0) return 0;
+        const double lx = std::log(1.0 / s), ly = std::log(double(count));
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly, ++n;
+    }
+    return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
 double meanClampedDifference(const Image& a, const Image& b) {
     if (a.width != b.width || a.height != b.height || a.channels != b.channels)
         throw ImageError("meanClampedDifference: " + sizeOf(a) + " against " + sizeOf(b));

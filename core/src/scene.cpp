@@ -583,6 +583,27 @@ void readWater(Obj& o, const json& j, Medium& m) {
                                                " 1/m at density 1, over the limit " + limitText(limits::kExtinction));
 }
 
+constexpr std::pair<std::string_view, Medium::Detail::Kind> kDetailKinds[] = {
+    {"nephele", Medium::Detail::Kind::Nephele}, {"reference", Medium::Detail::Kind::Reference}};
+
+Medium::Detail readDetail(const json& j, const Path& p) {
+    Obj o(j, p);
+    Medium::Detail d;
+    o.opt("kind", d.kind, choice<Medium::Detail::Kind>(kDetailKinds));
+    o.opt("erosion", d.erosion, number(inclusive(0, 4)));
+    o.opt("scale", d.scale, number(inclusive(limits::kDetailSmallest, limits::kDetailScale)));  // m
+    o.opt("smallest", d.smallest, number(inclusive(limits::kDetailSmallest, limits::kDetailScale)));  // m
+    if (d.smallest > d.scale)
+        fail(o.at("smallest"), "must be at most detail.scale (" + str(d.scale) + " m), got " + str(d.smallest));
+    if (d.scale / d.smallest > limits::kDetailOctaveRatio)
+        fail(o.at("smallest"), "scale / smallest is " + str(d.scale / d.smallest) + ", over " +
+                                   str(limits::kDetailOctaveRatio) + " (16 octaves)");
+    if (o.opt("wind", d.wind, vec3()))  // m/s
+        checkLimit(glm::length(d.wind), o.at("wind"), limits::kWindSpeed);
+    o.finish();
+    return d;
+}
+
 Medium readMedium(const json& j, const Path& p) {
     Obj o(j, p);
     Medium m;
@@ -593,6 +614,7 @@ Medium readMedium(const json& j, const Path& p) {
     o.opt("noise", m.noise, number(capped(atLeast(0), limits::kNoiseAmplitude)));
     o.opt("noise_scale", m.noiseScale,
           number(capped(capped(above(0), limits::kNoiseScale), limits::kSmallestNoiseScale)));  // m
+    o.opt("detail", m.detail, readDetail);
     o.finish();
     return m;
 }

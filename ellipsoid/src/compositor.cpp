@@ -204,8 +204,10 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     out.prepared = prepareClouds(scene, view, s.noise);
     const PreparedClouds& prepared = out.prepared;
-    // The close LOD: no tile finer than its ellipsoid's image (closeTileTexels).
-    if (lod && cloudLodApplies(s)) {
+    // The close LOD: no tile finer than its ellipsoid's image (closeTileTexels). The detail's image
+    // holds features of a few pixels at every distance (its octaves fade by projected size), so
+    // with it a tile keeps the texels its ellipsoid covers on screen.
+    if (lod && cloudLodApplies(s) && !scene.medium.detail.on()) {
         const double noiseTexel = scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size
                                                          : std::numeric_limits<double>::infinity();
         for (PreparedEllipsoid& e : out.prepared.ellipsoids) e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);

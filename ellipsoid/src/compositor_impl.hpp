@@ -11,6 +11,7 @@
 #include "nephele/frame_depth.hpp"
 #include "cloud_impostors.hpp"
 #include "cloud_light_textures.hpp"
+#include "detail_texture.hpp"
 #include "light_cache.hpp"
 #include "packer.hpp"
 #include "tile_reuse.hpp"
@@ -112,6 +113,7 @@ struct EllipsoidRenderer::Impl {
     Sampler linearClamp;
     CloudRadianceCache lightCache;      // the clouds' radiance grids
     CloudLightTextures lightTextures;   // ... on the GPU
+    DetailTexture detail;               // medium.detail's texture
     std::vector<PlacedRadiance> light;  // updateLights(): the scene clouds' grids, one each
     Buffer tiles, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0;

@@ -1,6 +1,7 @@
 // Frame preparation shared by the GPU compositor and the exact CPU model, and the exact
 // CPU model itself.
 #include "nephele/gardner.hpp"
+#include "nephele/detail.hpp"
 
 #include "nephele/gardner_model.hpp"
 #include "prepared_clouds.hpp"
@@ -153,6 +154,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
     for (const Cloud& cloud : scene.clouds) grids.push_back(computeCloudRadiance(scene, cloud, lightSettings));
     std::vector<glm::vec3> chroma;  // per prepared ellipsoid
     for (const PreparedEllipsoid& p : prepared.ellipsoids) chroma.push_back(ellipsoidSkyChroma(grids[p.cloud], p.shape));
+    const model::DetailParams detail = scene.medium.detail.on() ? detailParams(scene.medium.detail, view.eye) : model::DetailParams{};
     const float weightReference = float(weightReferenceDepth(prepared, view));
     const glm::vec2 momentRange = momentDepthRange(prepared, view);
     Image image(view.camera.width, view.camera.height, 4);
@@ -172,7 +174,7 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
                 // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
                 const float tStart = p.projection.crossesNear ? float(range.tNear) : 0.0f;
-                const float depth = model::segmentDepth(o, du, tStart, 1e30f);
+                float depth = model::segmentDepth(o, du, tStart, 1e30f);
                 if (depth <= 0) continue;
                 const float len = glm::length(du);
                 const glm::vec3 dn = du / len;
@@ -183,12 +185,20 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                 const Vec3 shadePoint = view.eye + double(tShade) * d;
                 const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
                 const float n = noiseVolume.sample(glm::vec3(uvw));
+                const float tIn = std::max((tc - h) / len, tStart);
+                // The detail: the chord's depth of the eroded profile, followed piece by piece.
+                const auto eroded = [&](float tMax) {
+                    const int pieces = exactPieces(detail, std::min(tMax, tOut) - tIn, tIn);
+                    return model::erodedSegmentDepth(detailVolume(), detail, o, du, glm::vec3(d), tStart, tMax, pieces);
+                };
+                if (detail.erosion > 0 && (depth = eroded(1e30f)) <= 0) continue;
                 const float a = model::opacityOf(float(p.sigma) * depth);
                 const glm::vec2 terms = model::gardnerTerms(float(p.ac), a, amp, n);
                 float alpha = std::clamp(model::gardnerAlpha(terms.x, terms.y), 0.0f, 1.0f);
                 // An opaque object inside the cloud: only the matter in front of it covers it.
                 if (range.tEnd < tOut) {
-                    const float front = model::segmentDepth(o, du, tStart, float(range.tEnd));
+                    const float front = detail.erosion > 0 ? eroded(float(range.tEnd))
+                                                           : model::segmentDepth(o, du, tStart, float(range.tEnd));
                     alpha = model::opacityInFront(alpha, front, depth);
                 }
                 if (alpha <= 0) continue;

@@ -32,6 +32,7 @@ void EllipsoidRenderer::Impl::drawTiles(const EllipsoidSettings& s, const FrameP
         tp->set("noisePeriod", float(prepared.noisePeriod));
         tp->set("noiseAmp", float(scene.medium.noise));
         tp->set("sunDirection", glm::vec3(scene.sun.direction));
+        m.detail.bind(*tp, scene.medium.detail, view.eye);
         tp->set("foldAtlas", s.instanced ? 1 : 0);
     }
     glBindTextureUnit(0, m.falloff.id());

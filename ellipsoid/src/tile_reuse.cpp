@@ -25,7 +25,7 @@ double pixelRadiusOf(const EllipsoidProjection& p) { return 0.5 * std::max(p.pix
 }  // namespace
 
 std::uint64_t reuse::imageInputs(const Scene& scene, double noisePeriod) {
-    return Fingerprint().add(scene.sun.direction).addMedium(scene.medium).add(noisePeriod).value();
+    return Fingerprint().add(scene.sun.direction).addMedium(scene.medium).addDetail(scene.medium.detail).add(noisePeriod).value();
 }
 
 double reuse::sunPhase(const Vec3& centre, const View& view, const Scene& scene) {

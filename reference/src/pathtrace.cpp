@@ -12,6 +12,7 @@
 #include "tracking.hpp"
 
 #include "cache_file.hpp"
+#include "nephele/detail.hpp"
 #include "nephele/ellipsoid_space.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/layer_volume.hpp"
@@ -174,12 +175,16 @@ public:
                 shapes_.push_back(s);
             }
         if (!shapes_.empty()) build(0, int(shapes_.size()));
+        // The detail only takes matter away (max(phi - e, 0) <= phi): the majorant stands.
+        if (m.detail.on()) detail_ = detailParams(m.detail, eye_);
         sunE_ = scene.sun.color * scene.sun.intensity;
     }
 
     const Scene& scene() const { return scene_; }
     // The primary rays' transmittance is estimated (noise or layers), not in closed form.
-    bool estimatesTransmittance() const { return amp_ > 0 || layers_; }
+    bool estimatesTransmittance() const { return amp_ > 0 || detailOn() || layers_; }
+    bool varies() const { return amp_ > 0 || detailOn(); }  // not the smooth field's closed form
+    bool detailOn() const { return detail_.erosion > 0; }
 
     // The chords of the ray o + t d (unit d) within [t0, t1], sorted by entry.
     void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
@@ -227,12 +232,14 @@ public:
         double s = 0;
         glm::vec3 uvw(0.0f);
         if (amp_ > 0) uvw = glm::vec3((o + t * d) / period_);
+        float e = -1.0f;  // the detail's erosion at the point: read once, and only where there is matter
         for (const Crossing& c : r.cross) {
             if (c.tIn > t) break;
             if (t > c.tOut) continue;
             const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
             if (h <= 0) continue;
-            s += matter(shapes_[c.shape], h, uvw);
+            if (detailOn() && e < 0) e = erosionAt(o + t * d);
+            s += matter(shapes_[c.shape], h, uvw, e);
         }
         return s;
     }
@@ -244,6 +251,7 @@ public:
         double s = 0;
         glm::vec3 uvw(0.0f);
         if (amp_ > 0) uvw = glm::vec3(x / period_);
+        const float e = detailOn() ? erosionAt(x) : 0.0f;
         int stack[64], top = 0;
         stack[top++] = 0;
         while (top) {
@@ -259,7 +267,7 @@ public:
                 const Shape& shape = shapes_[i];
                 const Vec3 u = shape.unit * (x - shape.center);
                 const double h = 1 - glm::dot(u, u);  // 1 - q
-                if (h > 0) s += matter(shape, h, uvw);
+                if (h > 0) s += matter(shape, h, uvw, e);
             }
         }
         return s;
@@ -284,7 +292,7 @@ public:
         return ellipsoidTransmittance(o, d, t0, t1, r, rng);
     }
     double ellipsoidTransmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
-        if (amp_ > 0) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
+        if (varies()) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
         double tau = 0;
         for (const Crossing& c : r.cross) {
             const Shape& s = shapes_[c.shape];
@@ -301,7 +309,7 @@ public:
     double sunTransmittance(const Vec3& x, double tMinObjects, RayData& r, Pcg32& rng) const {
         const Vec3& l = scene_.sun.direction;
         if (intersectObjects(scene_, x, l, tMinObjects, kInf)) return 0;
-        if (amp_ > 0) {
+        if (varies()) {
             prepare(x, l, 0, kInf, r);
         } else {
             collect(x, l, 0, kInf, r);  // the closed form needs only the chords
@@ -351,13 +359,17 @@ public:
     }
 
 private:
-    // One ellipsoid's extinction where 1 - q = h > 0: sigma_i h^2, with noise times
-    // max(0, 1 + amp n(uvw + offset_i)) (uvw = x / period).
-    double matter(const Shape& shape, double h, const glm::vec3& uvw) const {
-        double f = shape.sigma * h * h;
-        if (amp_ > 0) f *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
-        return f;
+    // One ellipsoid's extinction where 1 - q = h > 0: sigma_i phi, phi = h^2 (with the detail
+    // max(1 - q (1 + e)^2, 0)^2, e = erosionAt(x)), with noise times max(0, 1 + amp n(uvw + offset_i))
+    // (uvw = x / period).
+    double matter(const Shape& shape, double h, const glm::vec3& uvw, float e) const {
+        double phi = detailOn() ? erodedProfile(1 - h, e) : h * h;
+        if (amp_ > 0) phi *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
+        return shape.sigma * phi;
     }
+
+    // The detail's erosion e(x) (shaders/detail.glsl) for the world point x, seen from the eye.
+    float erosionAt(const Vec3& x) const { return model::detailErosion(detailVolume(), detail_, glm::vec3(x - eye_)); }
 
     void chord(const Vec3& o, const Vec3& d, double t0, double t1, int i, std::vector<Crossing>& out) const {
         const Shape& s = shapes_[i];
@@ -408,6 +420,7 @@ private:
     const LayerVolumes* layers_;
     Vec3 eye_;
     double amp_ = 0, period_ = 1, noiseBound_ = 1;
+    model::DetailParams detail_{};  // erosion 0: the detail is off
     Vec3 sunE_{0.0};  // sun irradiance, colour * intensity
     std::vector<Shape> shapes_;
     std::vector<Node> nodes_;
@@ -631,6 +644,11 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     const Medium& m = sc.medium;
     k.tag("medium");
     k.num(m.extinction), k.num(m.albedo), k.num(m.hgG), k.num(m.noise), k.num(m.noiseScale);
+    if (m.detail.on()) {  // keys without the detail stay as they were
+        k.tag("detail");
+        k.num(std::int64_t(m.detail.kind)), k.num(m.detail.erosion), k.num(m.detail.scale), k.num(m.detail.smallest);
+        k.vec(m.detail.drift);
+    }
     if (m.noise > 0 && noise) {  // the noise field only matters when it is used
         k.num(std::int64_t(noise->size));
         k.num(std::int64_t(fnv1a(noise->texels.data(), noise->texels.size() * sizeof(float), 0xCBF29CE484222325ull)));

@@ -2,6 +2,7 @@
 #include "nephele/raymarch.hpp"
 
 #include "cloud_light_textures.hpp"
+#include "detail_texture.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/gl_state.hpp"
@@ -152,6 +153,7 @@ struct RaymarchRenderer::Impl {
     int noiseOctaves = 0;
     CloudRadianceCache lightCache;      // the clouds' radiance grids
     CloudLightTextures lightTextures;   // ... on the GPU
+    DetailTexture detail;               // medium.detail's texture
     Buffer ellipsoids, clouds, tileFirst, tileClouds;
     std::size_t ellipsoidCapacity = 0, cloudCapacity = 0, tileFirstCapacity = 0, tileCloudCapacity = 0;
     FrameDepth depth;  // copy of the frame's depth (objects inside clouds)
@@ -291,6 +293,7 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     p.set("eyeNoise", glm::vec3(glm::fract(view.eye / period)));
     p.set("invNoisePeriod", float(1.0 / period));
     m.lightTextures.bind(p);
+    m.detail.bind(p, medium.detail, view.eye);
     p.set("sunDirection", glm::vec3(scene.sun.direction));
     p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
     p.set("hgG", float(medium.hgG));

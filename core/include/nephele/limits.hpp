@@ -61,6 +61,11 @@ inline constexpr Limit kSmallestNoiseScale{"smallest noise scale", 0.01, "m", tr
 inline constexpr Limit kLayerThickness{"layer thickness", 20'000, "m"};
 inline constexpr Limit kLayerExtent{"layer extent", 500'000, "m"};
 inline constexpr Limit kLayerOpticalDepth{"layer optical depth", 10'000, ""};  // extinction*density*thickness
+// medium.detail (shaders/detail.glsl): wavelengths in [kDetailSmallest, kDetailScale] m, at most
+// 16 octaves (scale / smallest < 2^16).
+inline constexpr double kDetailSmallest = 0.05;
+inline constexpr double kDetailScale = 1e5;
+inline constexpr double kDetailOctaveRatio = 65535;
 inline constexpr Limit kWindSpeed{"wind speed", 200, "m/s"};
 inline constexpr Limit kTime{"time", 1e7, "s"};  // |t| of keyframes and lightning; flash durations
 inline constexpr Limit kSmallestNear{"smallest near clip", 1e-3, "m", true};

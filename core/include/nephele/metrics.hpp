@@ -36,6 +36,14 @@ double ssimLuminance(const Image& a, const Image& b);
 // Throws ImageError on a size or channel mismatch.
 double meanClampedDifference(const Image& a, const Image& b);
 
+// The box-counting dimension of the silhouette of the (alpha > 0.5) mask of a grey image
+// (channel 0): the mask's boundary pixels are those with a 4-neighbour inside the image that is
+// not in the mask (the image's own edge is no boundary); N(s) counts the s x s boxes of a grid
+// from the top-left pixel that hold a boundary pixel, for s = 2, 4, ..., 32; the dimension is the
+// least-squares slope of log N(s) against log(1 / s). A straight or smooth edge measures about 1,
+// cloud perimeters about 1.35 (Lovejoy 1982). Returns 0 when no box at 32 px holds a boundary pixel.
+double silhouetteDimension(const Image& alpha);
+
 // One line of JSON: {"exposure":..,"rmse":..,"psnr":..,"ssim":..} plus "alpha_mae" and
 // "alpha_iou" when hasAlpha. Numbers are shortest round-trip decimals. JSON has no infinity:
 // a non-finite value is written as null, so "psnr":null means the images match exactly.

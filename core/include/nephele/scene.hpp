@@ -94,6 +94,19 @@ struct Medium {
     double hgG = 0.85;         // Henyey-Greenstein asymmetry, (-1, 1)
     double noise = 0.3;        // relative amplitude of procedural detail, >= 0; 0 = exact field
     double noiseScale = 60.0;  // m, > 0
+    // medium.detail: the eroding detail field (shaders/detail.glsl, docs/detail.md). erosion 0
+    // (the default) leaves every method's field and images exactly as without it.
+    struct Detail {
+        enum class Kind { Nephele, Reference };
+        Kind kind = Kind::Nephele;  // the project's own (a tileable Worley texture) or the exactly defined one
+        double erosion = 0.0;       // E in [0, 4]: how deep the detail bites (the rim moves in to 1 / (1 + E D))
+        double scale = 256.0;       // m: the largest octave's wavelength, in [smallest, 1e5]
+        double smallest = 1.0;      // m: the smallest wavelength drawn, in [0.05, scale]
+        Vec3 wind{0.0};             // m/s: the air's motion that carries the detail, |wind| <= 200
+        Vec3 drift{0.0};            // m: how far the wind has carried it. Set in code (time * wind by
+                                    // the CLI's renders, integrated by a host), never read from a file
+        bool on() const { return erosion > 0; }
+    } detail;
 };
 
 struct Ellipsoid {

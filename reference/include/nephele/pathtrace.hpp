@@ -8,6 +8,8 @@
 //   P = medium.noise_scale * NoiseSettings{}.cells (m; the project's tileable fBm volume,
 //   anchored to the world), o_i = ellipsoidNoiseOffset(c, k, NoiseSettings{}.seed): the
 //   same noise coordinates as the compositor and gardner-exact read for that ellipsoid;
+//   with medium.detail on, each ellipsoid's (1 - q_i)^2 eroded to max(1 - q_i (1 + e(x))^2, 0)^2,
+//   e the detail field seen from the view's eye (nephele/detail.hpp);
 //   sigma_s = albedo * sigma_t; Henyey-Greenstein phase (hg_g);
 // - the sun, a directional light of irradiance sun.color * sun.intensity, sampled at every
 //   scattering vertex (next-event estimation) through the clouds and the objects;

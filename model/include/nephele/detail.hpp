@@ -1,0 +1,62 @@
+// The detail field of shaders/detail.glsl, compiled as C++ (one source with the shaders), and
+// the CPU side every method needs of it: the "nephele" kind's texture and the parameters of a
+// view. The field (data/scene-format.md, "The detail field"): each ellipsoid's profile
+// (1 - q_i)^2 (times the noise factor) becomes max(1 - q_i (1 + delta(x))^2, 0)^2, with
+// delta(x) = erosion * D(x - drift; |x - eye|) and D the octave sum of detailValue.
+#pragma once
+
+#include "nephele/api.hpp"
+#include "nephele/gardner_model.hpp"
+#include "nephele/noise.hpp"
+#include "nephele/scene.hpp"
+
+#include <algorithm>
+#include <cstdint>
+
+NEPHELE_API_BEGIN
+namespace nephele::model {
+using glm::abs;
+using glm::floor;
+using glm::log2;
+using uint = std::uint32_t;
+#define MODEL_FN inline
+#define DETAIL_TEX const ::nephele::NoiseVolume&
+#define DETAIL_FETCH(tex, uvw) (tex).sample(uvw)
+#include "nephele/detail.glsl"  // the build's copy of shaders/detail.glsl (model/CMakeLists.txt)
+#undef DETAIL_FETCH
+#undef DETAIL_TEX
+#undef MODEL_FN
+}  // namespace nephele::model
+
+namespace nephele {
+
+// The nephele kind's tileable texture: kDetailTextureSize^3 texels, kDetailTextureCells Worley
+// cells per period, texel = min(F1, 1)^2 with F1 the distance to the nearest feature point in
+// cells (one point per cell, placed by a hash). Built once, the same on every platform.
+inline constexpr int kDetailTextureSize = 64;
+const NoiseVolume& detailVolume();
+// The mean of detailVolume()'s texels, and the reference kind's mean of (1 - |perlin|)^8
+// (data/scene-format.md): what an octave faded out stands in with.
+float detailVolumeMean();
+inline constexpr float kDetailReferenceMean = 0.284f;
+
+// The parameters a renderer hands to the shared functions for the eye `eye` (m, world).
+model::DetailParams detailParams(const Medium::Detail& detail, const Vec3& eye);
+
+// The erosion delta = E D at the world point x, seen from `eye` (0 when the detail is off).
+float detailErosionAt(const Medium::Detail& detail, const Vec3& eye, const Vec3& x);
+
+// How many pieces erodedSegmentDepth needs to follow the detail along a chord of `chord` metres
+// whose nearest point is `nearest` metres from the eye: a quarter of the finest wavelength drawn
+// there, at most kExactPiecesMax (gardner-exact's "exact" opacity, to that quadrature).
+inline constexpr int kExactPiecesMax = 256;
+int exactPieces(const model::DetailParams& p, float chord, float nearest);
+
+// The eroded profile of one ellipsoid, in units of its density, at unit-space squared radius q.
+inline double erodedProfile(double q, double delta) {
+    const double f = std::max(1.0 - q * (1.0 + delta) * (1.0 + delta), 0.0);
+    return f * f;
+}
+
+}  // namespace nephele
+NEPHELE_API_END
