@@ -133,17 +133,22 @@ TEST_F(RaymarchGLTest, OpacityFollowsTheDensityFieldAndConvergesWithTheStep) {
                 save(std::string("raymarch_exact_alpha_") + name, exact);
             }
         }
-        std::printf("[ figure ] %-14s raymarch alpha vs density field: MAE %.6f / max %.5f (step 50), %.6f / %.5f (25), "
-                    "%.6f / %.5f (10)\n",
+        std::printf("[ figure ] %-14s raymarch alpha vs density field: MAE %.2e / max %.2e (step 50), %.2e / %.2e (25), "
+                    "%.2e / %.2e (10)\n",
                     name, mae[0], worst[0], mae[1], worst[1], mae[2], worst[2]);
         // The default step (25 m, growing to ~37 m at these 2 km by the LOD) against chords of
         // 200-600 m: the midpoint rule on the smooth (1 - q)^2 profile, float rounding and the
         // 1e-4 transmittance cut. Measured on llvmpipe: MAE 1.5e-5 (single) and 6.9e-5
-        // (cumulus27), max 4.4e-4 and 2.9e-3. The bounds leave 4x and 7x that for other
-        // drivers' float paths, and still fail for marching overlaps twice (cumulus27: MAE
-        // 4.2e-4, max 0.22) or losing one ellipsoid (MAE 8e-3).
-        EXPECT_LT(mae[1], 3e-4) << name;
-        EXPECT_LT(worst[1], 0.02) << name;
+        // (cumulus27), max 4.4e-4 and 2.9e-3; at step 50 MAE 1.15e-4 and 4.96e-4. Each step's
+        // extinction taken at its start, the left-point rule
+        // (tests/sabotage/39-raymarch-extinction-at-step-start.sabotage): MAE 3.5e-5 and 1.74e-4,
+        // max 1.06e-3 and 1.05e-2; at step 50 2.85e-4 and 1.33e-3. The bounds sit about 1.5x
+        // over what is measured, per scene; marching overlaps twice (cumulus27: MAE 4.2e-4, max
+        // 0.22) or losing one ellipsoid (MAE 8e-3) are far past them.
+        const bool single = std::string(name) == "single.json";
+        EXPECT_LT(mae[1], single ? 2.2e-5 : 1.0e-4) << name;
+        EXPECT_LT(worst[1], single ? 6.5e-4 : 4.3e-3) << name;
+        EXPECT_LT(mae[0], single ? 1.7e-4 : 7.4e-4) << name;
         // Convergence: from 50 m to 10 m the error must fall clearly. The midpoint rule's falls
         // as h^2 (25x); measured 55x (cumulus27) and 115x (single). Ask for 4x.
         EXPECT_LT(mae[2], 0.25 * mae[0]) << name;
