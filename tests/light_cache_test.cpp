@@ -231,10 +231,12 @@ TEST(CloudRadianceCacheTest, WorkNoLongerWantedIsDropped) {
     const double wholeMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     ASSERT_GT(whole.size, 0);
     std::printf("destroyed with a grid in progress in %.1f ms; the grid alone takes %.0f ms\n", destroyMs, wholeMs);
-    // Measured 31-92 ms against a grid of 1.1-1.2 s (3-8%: the sun's batches are an eighth of
-    // its photons each, the machine shared); the destructor not cancelling
-    // (tests/sabotage/16-radiance-cache-destructor-waits.sabotage) waits 1016 ms of 1123 (90%).
-    EXPECT_LT(destroyMs, 0.25 * wholeMs);
+    // Measured 31-92 ms against a grid of 1.1-1.2 s (3-8%: it waits for the batch each thread
+    // is on, an eighth of the sun's or the sky's photons), and 848 ms of 2984 (28%) with the
+    // machine loaded (load average 8 on its 2 cores: the two times are taken apart); the
+    // destructor not cancelling (tests/sabotage/16-radiance-cache-destructor-waits.sabotage)
+    // waits 1016 ms of 1123 (90%). Half sits between.
+    EXPECT_LT(destroyMs, 0.5 * wholeMs);
 }
 
 // A grid cancelled before or while it is made comes back empty (size 0), never half-summed.
