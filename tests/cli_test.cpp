@@ -7,6 +7,9 @@
 #include "nephele/scene.hpp"
 #include "nephele/png.hpp"
 
+#include "cli_run.hpp"
+#include "temp_dir.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -31,37 +34,15 @@ using namespace nephele;
 
 namespace {
 
-struct CliRun {
-    int code;
-    std::string output;  // stdout and stderr
-};
-
-CliRun run(const std::string& args) {
-    const std::string cmd = std::string(NEPHELE_BINARY) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return {-1, "popen failed"};
-    std::string out;
-    std::array<char, 512> buf;
-    while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using CliRun = test::CliResult;
+CliRun run(const std::string& args) { return test::runCli(args); }
 
 class CliTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        // The process id too: other checkouts on the machine run the same tests at the same time.
-        dir_ = fs::temp_directory_path() / ("nephele_cli_" + std::to_string(::getpid()) + "_" +
-                                            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
-    std::string write(const std::string& name, const std::string& text) const {
-        std::ofstream(path(name)) << text;
-        return path(name);
-    }
+    test::TempDir tmp_{"nephele_cli_"};  // the test's folder, removed at its end
+    const fs::path& dir_ = tmp_.dir();
+    std::string path(const std::string& name) const { return tmp_.path(name); }
+    std::string write(const std::string& name, const std::string& text) const { return tmp_.write(name, text); }
     // Only the files this test wrote itself (scenes) may be in the folder.
     void expectNoOutputs(const std::vector<std::string>& inputs) const {
         for (const auto& e : fs::directory_iterator(dir_)) {
@@ -69,7 +50,6 @@ protected:
             EXPECT_NE(std::find(inputs.begin(), inputs.end(), n), inputs.end()) << "left behind: " << n;
         }
     }
-    fs::path dir_;
 };
 
 const char* kGood = R"({"cloudscene": 1,
@@ -652,40 +632,10 @@ TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
 namespace {
 
 // Runs the command line without a shell and returns its exit code, output and peak memory.
-struct Spawned {
-    int code = -1;
-    std::string output;
-    long maxRssKb = 0;
-};
 // `asanOptions` are appended to ASAN_OPTIONS for the child (only a sanitizer build reads them).
+using Spawned = test::CliResult;
 Spawned spawn(const std::vector<std::string>& args, const std::string& asanOptions = "") {
-    int fds[2];
-    if (::pipe(fds) != 0) return {};
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        if (!asanOptions.empty()) {
-            const char* before = std::getenv("ASAN_OPTIONS");
-            ::setenv("ASAN_OPTIONS", ((before && *before ? std::string(before) + ":" : std::string()) + asanOptions).c_str(), 1);
-        }
-        ::dup2(fds[1], 1), ::dup2(fds[1], 2);
-        ::close(fds[0]), ::close(fds[1]);
-        std::vector<char*> argv{const_cast<char*>(NEPHELE_BINARY)};
-        for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-        argv.push_back(nullptr);
-        ::execv(NEPHELE_BINARY, argv.data());
-        ::_exit(127);
-    }
-    ::close(fds[1]);
-    Spawned r;
-    char buf[512];
-    for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, std::size_t(n));
-    ::close(fds[0]);
-    int status = 0;
-    struct rusage usage {};
-    ::wait4(pid, &status, 0, &usage);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.maxRssKb = usage.ru_maxrss;
-    return r;
+    return test::spawnCli(args, {.asanOptions = asanOptions});
 }
 
 // The identity of what is at a path, to prove that a run left it untouched.

@@ -3,6 +3,7 @@
 // events, toggles its HUD and debug views without GL errors, resizes and closes cleanly.
 #include "fly_app.hpp"
 #include "fly_script.hpp"
+#include "cli_run.hpp"
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
@@ -44,15 +45,9 @@ bool haveDisplay() {
 const std::string kScene = std::string(NEPHELE_TEST_DATA) + "/scenes/fly_small.json";
 
 int run(const std::string& args, std::string* output = nullptr) {
-    const std::string cmd = std::string(NEPHELE_BINARY) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return -1;
-    std::string out;
-    std::array<char, 512> buf;
-    while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
-    const int status = pclose(pipe);
-    if (output) *output = out;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    const test::CliResult r = test::runCli(args);
+    if (output) *output = r.output;
+    return r.code;
 }
 
 fs::path freshDir(const std::string& name) {

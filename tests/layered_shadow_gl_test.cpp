@@ -2,6 +2,7 @@
 // against its CPU twin sunTransmittance() at every pixel of a box top and of the ground, shadow
 // where the modulation says cloud and none where it is clear, and the host's GL state.
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
@@ -18,9 +19,7 @@ using namespace nephele::gl;
 namespace {
 
 LayeredSettings testSettings() {
-    LayeredSettings s;
-    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
-    s.modulation.size = 128;
+    LayeredSettings s = test::smallLayered();
     s.modulation.period = 6000;  // 1 km cloud features, 47 m texels: several shadows across the box
     return s;
 }
@@ -221,22 +220,8 @@ TEST_F(LayeredShadowGLTest, ShadowPassLeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     LayeredRenderer sky(testSettings());
-    glEnable(GL_CULL_FACE);
-    glEnable(GL_DEPTH_TEST);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glBlendEquationSeparate(GL_FUNC_ADD, GL_MAX);
-    glDepthMask(GL_FALSE);
-    glActiveTexture(GL_TEXTURE3);
-    Texture hostTexture = Texture::create(GL_TEXTURE_2D);
-    glBindTextureUnit(0, hostTexture.id());
-    glBindTextureUnit(1, hostTexture.id());
-    glViewport(3, 4, 50, 60);
-    for (int frame = 0; frame < 2; ++frame) {
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        const LayeredStats stats = sky.render(scene, view, target.framebuffer(), frame);
-        EXPECT_EQ(stats.shadowLayers, 1);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
-    }
+    const test::HostileGlState hostile;
+    test::expectStateUnchanged([&](int frame) { EXPECT_EQ(sky.render(scene, view, target.framebuffer(), frame).shadowLayers, 1); }, 2);
 }
 
 // The layers drawn at half resolution and upsampled with the frame's depth against the same

@@ -81,30 +81,11 @@ TEST(GlStateGLTest, OpaquePassLeavesHostStateUnchanged) {
     const Scene scene = parseScene(kKnownScene, "known.json");
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass pass;
-    // A host's state, deliberately unlike Nephele's own.
-    Framebuffer hostFbo = Framebuffer::create();
-    Texture hostTex = Texture::create(GL_TEXTURE_2D);
-    glTextureStorage2D(hostTex.id(), 1, GL_RGBA8, 8, 8);
-    glNamedFramebufferTexture(hostFbo.id(), GL_COLOR_ATTACHMENT0, hostTex.id(), 0);
-    glBindFramebuffer(GL_FRAMEBUFFER, hostFbo.id());
-    glViewport(1, 2, 3, 4);
-    glEnable(GL_BLEND);
-    glBlendFuncSeparate(GL_ONE, GL_ONE, GL_ZERO, GL_SRC_ALPHA);
-    glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_MAX);
-    glEnable(GL_SCISSOR_TEST);
-    glScissor(1, 1, 2, 2);
-    glDepthMask(GL_FALSE);
-    glColorMask(GL_TRUE, GL_FALSE, GL_TRUE, GL_FALSE);
-    glStencilFuncSeparate(GL_FRONT, GL_EQUAL, 3, 0x0F);
-    glClearColor(0.1f, 0.2f, 0.3f, 0.4f);
-    glActiveTexture(GL_TEXTURE3);
-    glBindTexture(GL_TEXTURE_2D, hostTex.id());
-    glCullFace(GL_FRONT);
-    const GlStateSnapshot before = GlStateSnapshot::capture();
-    pass.draw(scene, makeView(scene.camera), target.framebuffer());
-    (void)target.readColor();
-    const GlStateSnapshot after = GlStateSnapshot::capture();
-    EXPECT_EQ(before.differences(after), "");
+    const test::HostileGlState hostile;  // a host's state, deliberately unlike Nephele's own
+    test::expectStateUnchanged([&](int) {
+        pass.draw(scene, makeView(scene.camera), target.framebuffer());
+        (void)target.readColor();
+    });
 }
 
 TEST(GlStateGLTest, SnapshotSeesAChange) {

@@ -69,15 +69,8 @@ double mean(const Image& a) {
     return sum / double(a.pixels.size());
 }
 
-Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
-void save(const std::string& name, const Image& image) {
-    writePng(test::outputDir() + "/" + name + ".png", image.channels == 4 ? channels(image, 0, 3) : image,
-             image.channels == 1 ? Encoding::Linear : Encoding::Srgb);
-}
+using test::clamped;
+using test::save;
 
 // box_in_thin_cloud.json (noise 0) marched with `settings`: its opacity, and that opacity's mean
 // error on the box pixels inside the cloud (where the object cuts the ray: there the closed form
@@ -557,20 +550,9 @@ TEST_F(RaymarchGLTest, LeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     RaymarchRenderer clouds;
-    Buffer hostSsbo = Buffer::create();
-    glNamedBufferStorage(hostSsbo.id(), 256, nullptr, 0);
-    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, hostSsbo.id(), 0, 128);
-    glEnable(GL_CLIP_DISTANCE2);
-    glEnable(GL_DEPTH_TEST);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glStencilFunc(GL_GREATER, 5, 0x0F);
-    glActiveTexture(GL_TEXTURE4);
-    glViewport(3, 4, 50, 60);
-    for (bool depth : {true, false}) {
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        clouds.render(scene, view, target.framebuffer(), depth);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "opaqueDepth " << depth;
-    }
+    const test::HostileGlState hostile;
+    // With the frame's depth (draw 0) and without (draw 1).
+    test::expectStateUnchanged([&](int k) { clouds.render(scene, view, target.framebuffer(), k == 0); }, 2);
 }
 
 TEST_F(RaymarchGLTest, CloudsBehindTheEyeLeaveTheFrameUntouched) {
