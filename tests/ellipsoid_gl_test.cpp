@@ -62,14 +62,8 @@ EllipsoidSettings weightedSettings() {
     return s;
 }
 
-Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
-void save(const std::string& name, const Image& rgba) {
-    writePng(test::outputDir() + "/" + name + ".png", channels(rgba, 0, 3));
-}
+using test::clamped;
+using test::save;
 
 // flythrough.json's camera at `t` s (among its puffs from about 5 s on), at 160 x 120.
 Scene flythroughAt(double t) {
@@ -512,17 +506,8 @@ TEST_F(EllipsoidGLTest, EllipsoidsBehindTheEyeCostNothing) {
 // Renders with `settings` over a host state set to unusual values; nothing may differ after.
 void stateUnchanged(const EllipsoidSettings& settings, const Scene& scene, const View& view, FrameTarget& target) {
     EllipsoidRenderer clouds(settings);
-    Buffer hostSsbo = Buffer::create();
-    glNamedBufferStorage(hostSsbo.id(), 256, nullptr, 0);
-    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, hostSsbo.id(), 0, 128);
-    glEnable(GL_CLIP_DISTANCE2);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glStencilFunc(GL_GREATER, 5, 0x0F);
-    glActiveTexture(GL_TEXTURE4);
-    glViewport(3, 4, 50, 60);
-    const GlStateSnapshot before = GlStateSnapshot::capture();
-    clouds.render(scene, view, target.framebuffer(), !scene.objects.empty());
-    EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "");
+    const test::HostileGlState hostile;
+    test::expectStateUnchanged([&](int) { clouds.render(scene, view, target.framebuffer(), !scene.objects.empty()); });
 }
 
 TEST_F(EllipsoidGLTest, LeavesHostStateUnchanged) {

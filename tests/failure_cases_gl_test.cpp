@@ -25,14 +25,8 @@ using namespace nephele;
 
 namespace {
 
-Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
-void save(const std::string& name, const Image& rgba) {
-    writePng(test::outputDir() + "/" + name + ".png", channels(clamped(rgba), 0, 3));
-}
+using test::clamped;
+using test::save;
 
 // One ellipsoid 3 km ahead of a small camera, noise off (the model's exact field).
 Scene oneEllipsoid(Vec3 radii) {

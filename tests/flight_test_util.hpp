@@ -29,14 +29,7 @@ struct Flight {
     EllipsoidStats last;
 };
 
-inline Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
 // PSNR of two frames, clamped to [0, 1] (what a display shows of them).
 inline double db(const Image& a, const Image& b) { return psnr(clamped(a), clamped(b)); }
-
-inline void save(const std::string& name, const Image& rgb) { writePng(outputDir() + "/" + name + ".png", rgb); }
 
 }  // namespace nephele::test

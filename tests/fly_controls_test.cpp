@@ -2,6 +2,8 @@
 // the time step) and flight files (keyframes or recorded inputs).
 #include "fly_controls.hpp"
 #include "fly_script.hpp"
+#include "cli_run.hpp"
+#include "temp_dir.hpp"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -203,24 +205,11 @@ TEST(FlyScriptTest, APathlessSceneCannotBeFollowed) {
 // The command line rejects bad flights and options with exit code 2 before it makes a
 // context (so these need no GL), and leaves no record folder behind.
 namespace {
-struct CliResult {
-    int code;
-    std::string output;
-};
-
-CliResult runNephele(const std::string& args) {
-    FILE* pipe = popen((std::string(NEPHELE_BINARY) + " " + args + " 2>&1").c_str(), "r");
-    std::string out;
-    char buf[512];
-    while (pipe && fgets(buf, sizeof buf, pipe)) out += buf;
-    const int status = pipe ? pclose(pipe) : -1;
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+test::CliResult runNephele(const std::string& args) { return test::runCli(args); }
 }  // namespace
 
 TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
-    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "nephele_fly_cli";
-    std::filesystem::remove_all(dir);
+    const std::filesystem::path dir = test::freshProcessDir("nephele_fly_cli_");
     std::filesystem::create_directories(dir / "full");
     std::ofstream(dir / "full" / "x") << "x";
     std::ofstream(dir / "bad.json") << R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]},
@@ -242,7 +231,7 @@ TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
         {"fly " + scene + " --record " + rec + " --record-input " + (dir / "in.json").string(), "does not go with --record"},
     };
     for (const auto& [args, message] : cases) {
-        const CliResult r = runNephele(args);
+        const test::CliResult r = runNephele(args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
         EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
     }

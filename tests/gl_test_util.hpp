@@ -3,18 +3,22 @@
 
 #include "nephele/context.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/gl_state.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/image.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/png.hpp"
+#include "nephele/shader.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nephele::test {
 
@@ -84,6 +88,19 @@ inline std::string outputDir() {
     return dir;
 }
 
+// An image clamped to [0, 1]: what a display shows of it.
+inline Image clamped(Image image) {
+    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
+    return image;
+}
+
+// Writes outputDir()/NAME.png for a person to look at: RGB and RGBA as RGB (sRGB), one
+// channel as its values (linear: an opacity map). writePng clamps to [0, 1].
+inline void save(const std::string& name, const Image& image) {
+    writePng(outputDir() + "/" + name + ".png", image.channels == 4 ? channels(image, 0, 3) : image,
+             image.channels == 1 ? Encoding::Linear : Encoding::Srgb);
+}
+
 struct GoldenTolerance {
     double pixel;          // per-channel difference (in [0,1] of 8-bit sRGB) that counts a pixel as off
     double fractionOff;    // largest allowed fraction of pixels that are off
@@ -118,6 +135,100 @@ inline void expectMatchesGolden(const Image& linearRgb, const std::string& name,
                     << "/255 (allowed " << tol.fractionOff * 100 << "%), mean difference " << d.meanAbs * 255
                     << "/255 (allowed " << tol.mean * 255 << "/255), max " << d.maxAbs * 255
                     << "/255. Actual and diff images: " << outputDir();
+}
+
+// A host's GL state as hostile as it gets (issue #39: one fixture for the tests that check a
+// pass leaves the host's state as it found it). Made, it has set: programs, vertex arrays,
+// textures and samplers bound on every unit; buffers bound where uploads and SSBOs look (the
+// SSBO bindings 0-7 whole, 1 also as a range); another framebuffer bound; every fixed-function
+// setting away from its default. It owns the objects it bound.
+struct HostileGlState {
+    Program program;
+    gl::VertexArray vao;
+    gl::Buffer buffer;
+    gl::Sampler sampler;
+    std::vector<gl::Texture> textures;
+    gl::Framebuffer other;
+
+    HostileGlState() {
+        using namespace gl;
+        program = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
+        vao = VertexArray::create();
+        buffer = Buffer::create();
+        glNamedBufferStorage(buffer.id(), 4096, nullptr, GL_DYNAMIC_STORAGE_BIT);
+        sampler = Sampler::create();
+        glSamplerParameteri(sampler.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glSamplerParameteri(sampler.id(), GL_TEXTURE_WRAP_S, GL_MIRRORED_REPEAT);
+        constexpr std::array<GLenum, 4> kTargets{GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE};
+        for (GLenum target : kTargets) {
+            textures.push_back(Texture::create(target));
+            if (target == GL_TEXTURE_2D || target == GL_TEXTURE_RECTANGLE) glTextureStorage2D(textures.back().id(), 1, GL_RGBA8, 4, 4);
+            else glTextureStorage3D(textures.back().id(), 1, GL_RGBA8, 4, 4, 4);
+        }
+        other = Framebuffer::create();
+        glNamedFramebufferTexture(other.id(), GL_COLOR_ATTACHMENT0, textures[0].id(), 0);
+        for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
+            glActiveTexture(GL_TEXTURE0 + u);
+            for (std::size_t t = 0; t < textures.size(); ++t) glBindTexture(kTargets[t], textures[t].id());
+            glBindSampler(GLuint(u), sampler.id());
+        }
+        glActiveTexture(GL_TEXTURE5);
+        glUseProgram(program.id());
+        glBindVertexArray(vao.id());
+        for (GLenum target : {GL_PIXEL_UNPACK_BUFFER, GL_PIXEL_PACK_BUFFER, GL_ARRAY_BUFFER, GL_UNIFORM_BUFFER, GL_DRAW_INDIRECT_BUFFER})
+            glBindBuffer(target, buffer.id());
+        for (GLuint i = 0; i < 8; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffer.id());
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, buffer.id(), 0, 128);
+        glBindFramebuffer(GL_FRAMEBUFFER, other.id());
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, 7);
+        glPixelStorei(GL_UNPACK_SKIP_PIXELS, 2);
+        glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 3);
+        glPixelStorei(GL_PACK_ALIGNMENT, 8);
+        glPixelStorei(GL_PACK_ROW_LENGTH, 5);
+        for (GLenum cap : {GL_SCISSOR_TEST, GL_POLYGON_OFFSET_FILL, GL_FRAMEBUFFER_SRGB, GL_DEPTH_TEST, GL_STENCIL_TEST,
+                           GL_CULL_FACE, GL_BLEND, GL_COLOR_LOGIC_OP, GL_DEPTH_CLAMP, GL_PRIMITIVE_RESTART,
+                           GL_SAMPLE_ALPHA_TO_COVERAGE, GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE2, GL_CLIP_DISTANCE3})
+            glEnable(cap);
+        glDisable(GL_DITHER);
+        glScissor(5, 5, 10, 10);
+        glPolygonOffset(4, 40);
+        glColorMask(GL_TRUE, GL_FALSE, GL_TRUE, GL_FALSE);
+        glDepthMask(GL_TRUE);
+        glDepthFunc(GL_NEVER);
+        glDepthRange(0.3, 0.6);
+        glClipControl(GL_UPPER_LEFT, GL_ZERO_TO_ONE);
+        glStencilFunc(GL_NEVER, 3, 0x0F);
+        glStencilOp(GL_INCR, GL_DECR, GL_INVERT);
+        glCullFace(GL_FRONT_AND_BACK);
+        glFrontFace(GL_CW);
+        glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+        glBlendEquationSeparate(GL_MIN, GL_MAX);
+        glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
+        glLogicOp(GL_XOR);
+        glClearColor(0.1f, 0.2f, 0.3f, 0.4f);
+        glViewport(7, 9, 11, 13);
+        check("setting up the hostile host state");
+    }
+    // A program deleted while current stays until another is made current: a pass that then
+    // restores it would name a deleted program (GL_INVALID_VALUE). A host unbinds it first.
+    ~HostileGlState() {
+        GLint current = 0;
+        gl::glGetIntegerv(GL_CURRENT_PROGRAM, &current);
+        if (GLuint(current) == program.id()) gl::glUseProgram(0);
+    }
+    HostileGlState(const HostileGlState&) = delete;
+    HostileGlState& operator=(const HostileGlState&) = delete;
+};
+
+// Runs draw(k) for k = 0 .. frames - 1 from the current state: each must leave it as it found it.
+template <class Draw>
+void expectStateUnchanged(Draw&& draw, int frames = 1) {
+    for (int k = 0; k < frames; ++k) {
+        const GlStateSnapshot before = GlStateSnapshot::capture();
+        draw(k);
+        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "draw " << k;
+    }
 }
 
 }  // namespace nephele::test

@@ -3,6 +3,7 @@
 // image, a hostile host state changes nothing and is restored, weather changes are applied
 // without a stall (the last good lighting meanwhile) and without a jump of the wind's drift.
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/gl_state.hpp"
 #include "nephele/host_view.hpp"
@@ -14,21 +15,15 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <optional>
 
 using namespace nephele;
 using namespace nephele::gl;
 
 namespace {
 
-// Small lighting textures keep the precomputation in milliseconds; the geometry is the real one.
-SkySettings testSettings() {
-    SkySettings s;
-    s.layered.lighting.width = 32, s.layered.lighting.height = 32, s.layered.lighting.depth = 8;
-    s.layered.modulation.size = 128;
-    s.ellipsoid.light.size = 8;
-    s.ellipsoid.light.sunPhotons = s.ellipsoid.light.skyPhotons = 4096;
-    return s;
-}
+SkySettings testSettings() { return test::smallSky(); }
 
 // The eye under a layer (2000-2600 m) looking 8 degrees up towards +x, an explicit cumulus
 // ahead and a box inside its edge (fly-through) under the layer's shadows.
@@ -322,70 +317,15 @@ TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
     OpaquePass().draw(scene, view, hostile.fbo.id());
     // Programs, vertex arrays, textures and samplers bound everywhere; buffers bound where
     // uploads and SSBOs look; every fixed-function setting away from its default.
-    const Program program = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
-    VertexArray vao = VertexArray::create();
-    Buffer buffer = Buffer::create();
-    glNamedBufferStorage(buffer.id(), 4096, nullptr, GL_DYNAMIC_STORAGE_BIT);
-    Sampler sampler = Sampler::create();
-    glSamplerParameteri(sampler.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glSamplerParameteri(sampler.id(), GL_TEXTURE_WRAP_S, GL_MIRRORED_REPEAT);
-    std::vector<Texture> textures;
-    for (GLenum target : {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE}) {
-        textures.push_back(Texture::create(target));
-        if (target == GL_TEXTURE_2D || target == GL_TEXTURE_RECTANGLE) glTextureStorage2D(textures.back().id(), 1, GL_RGBA8, 4, 4);
-        else glTextureStorage3D(textures.back().id(), 1, GL_RGBA8, 4, 4, 4);
-    }
-    Framebuffer other = Framebuffer::create();
-    glNamedFramebufferTexture(other.id(), GL_COLOR_ATTACHMENT0, textures[0].id(), 0);
-    for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
-        glActiveTexture(GL_TEXTURE0 + u);
-        for (std::size_t t = 0; t < textures.size(); ++t)
-            glBindTexture(std::array<GLenum, 4>{GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE}[t],
-                          textures[t].id());
-        glBindSampler(GLuint(u), sampler.id());
-    }
-    glActiveTexture(GL_TEXTURE5);
-    glUseProgram(program.id());
-    glBindVertexArray(vao.id());
-    for (GLenum target : {GL_PIXEL_UNPACK_BUFFER, GL_PIXEL_PACK_BUFFER, GL_ARRAY_BUFFER, GL_UNIFORM_BUFFER, GL_DRAW_INDIRECT_BUFFER})
-        glBindBuffer(target, buffer.id());
-    for (GLuint i = 0; i < 8; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffer.id());
-    glBindFramebuffer(GL_FRAMEBUFFER, other.id());
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glPixelStorei(GL_UNPACK_ROW_LENGTH, 7);
-    glPixelStorei(GL_UNPACK_SKIP_PIXELS, 2);
-    glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 3);
-    glPixelStorei(GL_PACK_ALIGNMENT, 8);
-    glPixelStorei(GL_PACK_ROW_LENGTH, 5);
-    for (GLenum cap : {GL_SCISSOR_TEST, GL_POLYGON_OFFSET_FILL, GL_FRAMEBUFFER_SRGB, GL_DEPTH_TEST, GL_STENCIL_TEST,
-                       GL_CULL_FACE, GL_BLEND, GL_COLOR_LOGIC_OP, GL_DEPTH_CLAMP, GL_PRIMITIVE_RESTART,
-                       GL_SAMPLE_ALPHA_TO_COVERAGE, GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE3})
-        glEnable(cap);
-    glDisable(GL_DITHER);
-    glScissor(5, 5, 10, 10);
-    glPolygonOffset(4, 40);
-    glColorMask(GL_TRUE, GL_FALSE, GL_TRUE, GL_FALSE);
-    glDepthMask(GL_TRUE);
-    glDepthFunc(GL_NEVER);
-    glDepthRange(0.3, 0.6);
-    glClipControl(GL_UPPER_LEFT, GL_ZERO_TO_ONE);
-    glStencilFunc(GL_NEVER, 3, 0x0F);
-    glStencilOp(GL_INCR, GL_DECR, GL_INVERT);
-    glCullFace(GL_FRONT_AND_BACK);
-    glFrontFace(GL_CW);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-    glBlendEquation(GL_MIN);
-    glBlendFunc(GL_DST_COLOR, GL_ZERO);
-    glLogicOp(GL_XOR);
-    glViewport(7, 9, 11, 13);
-    check("setting up the hostile host state");
+    const test::HostileGlState hostileState;
 
-    const GlStateSnapshot before = GlStateSnapshot::capture();
-    SkyRenderer sky(testSettings());  // made, prepared and drawn in the hostile state
-    sky.prepare(scene);
-    sky.update(0.5, Weather::of(scene), view.eye);
-    sky.draw(viewDescOf(view, hostile.fbo.id()));
-    EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "");
+    std::optional<SkyRenderer> sky;
+    test::expectStateUnchanged([&](int) {
+        sky.emplace(testSettings());  // made, prepared and drawn in the hostile state
+        sky->prepare(scene);
+        sky->update(0.5, Weather::of(scene), view.eye);
+        sky->draw(viewDescOf(view, hostile.fbo.id()));
+    });
     EXPECT_EQ(hostile.read().pixels, expected.pixels);  // (read() resets the pixel store itself)
 }
 
@@ -394,6 +334,10 @@ TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
 // and the first frame after the job uploads the new one.
 TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     Scene scene = testScene(96, 64);
+    // The layer's own light only: its near clouds (near LOD) have grids and cells of their own,
+    // made again on their own schedule (with them, the frame after the job differs from a fresh
+    // renderer's by a mean of 1.8e-2).
+    scene.layers[0].nearLod = false;
     const View view = makeView(scene.camera);
     SkySettings settings = testSettings();
     settings.layered.lighting = LightingSettings{};  // the paper's 256 x 256 x 32: a job of 0.3 s or more
@@ -407,7 +351,8 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     weather.layers.begin()->second.layer.thickness = 900;
     const SkyUpdateStats up = sky.update(0.0, weather, view.eye);
     EXPECT_GE(up.backgroundJobs, 1);
-    const SkyStats during = sky.draw(viewDescOf(view, target.fbo.id()));
+    SkyStats during;
+    const Image drawnDuring = frameOf(scene, view, target, [&] { during = sky.draw(viewDescOf(view, target.fbo.id())); });
     EXPECT_EQ(during.layered.pendingLayers, 1);
     EXPECT_EQ(during.layered.uploads, 0);
     sky.waitForBackgroundWork();
@@ -419,6 +364,35 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     EXPECT_EQ(done.layered.pendingLayers, 0);
     EXPECT_EQ(done.layered.uploads, 1);  // the new volume, into the texture the layer had
     EXPECT_GT(compareImages(after, before, 1.0).meanAbs, 1e-3) << "a thicker layer looks different";
+    // The images: a renderer made for the thicker layer from the start draws `fresh`. After the
+    // job the frame is that one; during it the layer is drawn (its opacity is the thicker
+    // layer's), but with the lighting of the 600 m layer, so its colour is not yet fresh's.
+    Scene thicker = scene;
+    thicker.layers[0].thickness = 900;
+    SkyRenderer other(settings);
+    other.prepare(thicker);
+    other.update(0.1, Weather::of(thicker), view.eye);
+    other.waitForBackgroundWork();
+    other.update(0.0, Weather::of(thicker), view.eye);
+    const Image fresh = frameOf(thicker, view, target, [&] { other.draw(viewDescOf(view, target.fbo.id())); });
+    const double afterErr = compareImages(after, fresh, 1.0).meanAbs, duringErr = compareImages(drawnDuring, fresh, 1.0).meanAbs;
+    const double duringAlpha = compareImages(channels(drawnDuring, 3, 1), channels(fresh, 3, 1), 1.0).meanAbs;
+    const double beforeAlpha = compareImages(channels(before, 3, 1), channels(fresh, 3, 1), 1.0).meanAbs;
+    std::printf("against a renderer made for the thicker layer: mean |difference| after the job %.2e, during it %.2e "
+                "(alpha %.2e; the thinner layer's alpha %.2e)\n",
+                afterErr, duringErr, duringAlpha, beforeAlpha);
+    // Measured: after the job 6.5e-9 (the same frame); during it 1.4e-2, its opacity 0 (the
+    // thinner layer's 4.0e-2). A slot that forgets its volume while the job runs
+    // (tests/sabotage/17-layer-slot-dropped-while-its-job-runs.sabotage: the counters the same)
+    // draws no layer meanwhile: opacity 4.0e-2 off. The new volume never drawn: 1.4e-2 after.
+    EXPECT_LT(afterErr, 1e-6);
+    EXPECT_GT(duringErr, 1e-2);
+    EXPECT_LT(duringAlpha, 1e-6);
+    if (afterErr >= 1e-6 || duringAlpha >= 1e-6) {
+        writePng(test::outputDir() + "/layer_change_during.png", channels(drawnDuring, 0, 3));
+        writePng(test::outputDir() + "/layer_change_after.png", channels(after, 0, 3));
+        writePng(test::outputDir() + "/layer_change_fresh.png", channels(fresh, 0, 3));
+    }
 }
 
 // The wind's drift is integrated: a change of wind moves the pattern on from where it is, so

@@ -4,6 +4,7 @@
 // window. Each gives the image of the plain float frame, and the host's draw-buffer list and
 // every draw buffer's blend state and colour mask come back as they were.
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/gl_state.hpp"
 #include "nephele/log.hpp"
@@ -25,14 +26,7 @@ using namespace nephele::gl;
 
 namespace {
 
-SkySettings testSettings() {
-    SkySettings s;
-    s.layered.lighting.width = 32, s.layered.lighting.height = 32, s.layered.lighting.depth = 8;
-    s.layered.modulation.size = 128;
-    s.ellipsoid.light.size = 8;
-    s.ellipsoid.light.sunPhotons = s.ellipsoid.light.skyPhotons = 4096;
-    return s;
-}
+SkySettings testSettings() { return test::smallSky(); }
 
 // Under a layer, an explicit cumulus ahead with a box at its edge: the box's depth decides
 // which cloud pixels are hidden, so a wrong depth copy shows.

@@ -2,7 +2,9 @@
 // numeric field, near-zero direction vectors, long output names on every output flag, the
 // scene given as its own output, integer flags given as 1e3, flight scripts cut short or with
 // NULs, control and bidirectional characters in printed paths, and a 16384x1 frame.
+#include "cli_run.hpp"
 #include "test_build.hpp"
+#include "temp_dir.hpp"
 
 #include "nephele/cloud_radiance.hpp"
 #include "nephele/generate.hpp"
@@ -36,59 +38,20 @@ namespace {
 
 // ---------------------------------------------------------------- running the command line
 
-struct CliResult {
-    int code = -1;         // exit code; -1 if killed (by the time limit) or not run
-    std::string output;    // stdout and stderr
-    double peakMb = 0;     // the child's peak resident memory
-    double cpuSeconds = 0; // the child's user + system time
-};
+using test::CliResult;
 
 // `nephele ARGS...` without a shell (any byte may be in an argument), killed after `seconds`
 // (x kTimeScale), its peak memory and CPU time from wait4.
 CliResult nephele(const std::vector<std::string>& args, double seconds = 60) {
-    int fds[2];
-    if (::pipe(fds) != 0) return {};
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        ::dup2(fds[1], 1);
-        ::dup2(fds[1], 2);
-        ::close(fds[0]);
-        ::close(fds[1]);
-        ::alarm(unsigned(std::ceil(seconds * test::kTimeScale)));  // SIGALRM kills it when it is late
-        std::vector<char*> argv{const_cast<char*>(NEPHELE_BINARY)};
-        for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-        argv.push_back(nullptr);
-        ::execv(NEPHELE_BINARY, argv.data());
-        ::_exit(127);
-    }
-    ::close(fds[1]);
-    CliResult r;
-    char buf[4096];
-    for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, std::size_t(n));
-    ::close(fds[0]);
-    int status = 0;
-    rusage u{};
-    ::wait4(pid, &status, 0, &u);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.peakMb = double(u.ru_maxrss) / 1024.0;
-    r.cpuSeconds = double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-    return r;
+    return test::spawnCli(args, {.seconds = seconds});
 }
 
 class HostileInputTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("nephele_hostile3_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
-    std::string write(const std::string& name, const std::string& text) const {
-        std::ofstream(path(name), std::ios::binary) << text;
-        return path(name);
-    }
+    test::TempDir tmp_{"nephele_hostile3_"};  // the test's folder, removed at its end
+    const fs::path& dir_ = tmp_.dir();
+    std::string path(const std::string& name) const { return tmp_.path(name); }
+    std::string write(const std::string& name, const std::string& text) const { return tmp_.write(name, text); }
     // The names in the folder, but `keep`.
     std::vector<std::string> filesBut(const std::vector<std::string>& keep) const {
         std::vector<std::string> out;
@@ -98,7 +61,6 @@ protected:
         }
         return out;
     }
-    fs::path dir_;
 };
 
 // Whether every value of a PFM is finite.

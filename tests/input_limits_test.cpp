@@ -4,6 +4,7 @@
 // time and memory stay bounded: CPU-time ceilings far above the linear cost (a quadratic
 // step is 10-100x over them), and runs of the command line under `ulimit -v`.
 #include "cli_run.hpp"
+#include "temp_dir.hpp"
 
 #include "nephele/generate.hpp"
 #include "nephele/image.hpp"
@@ -76,18 +77,12 @@ double cpuTime(const std::function<void()>& f) {
 
 class HostileFileTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() /
-               ("nephele_hostile_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        std::ofstream(path(name), std::ios::binary) << bytes;
-        return path(name);
-    }
+    // The test's folder, removed at its end (with the process id: it had none, and other
+    // checkouts on the machine run the same tests at the same time).
+    test::TempDir tmp_{"nephele_hostile_"};
+    const fs::path& dir_ = tmp_.dir();
+    std::string path(const std::string& name) const { return tmp_.path(name); }
+    std::string write(const std::string& name, const std::string& bytes) const { return tmp_.write(name, bytes); }
     // A file of `bytes` zero bytes that takes no disk space (the size check comes first).
     std::string sparse(const std::string& name, std::uint64_t bytes) const {
         write(name, "");
@@ -98,7 +93,6 @@ protected:
         EXPECT_EQ(::mkfifo(path(name).c_str(), 0600), 0);
         return path(name);
     }
-    fs::path dir_;
 };
 
 // ---------------------------------------------------------------- the limits themselves

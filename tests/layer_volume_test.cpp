@@ -6,6 +6,9 @@
 #include "nephele/gardner.hpp"
 #include "nephele/pathtrace.hpp"
 #include "pathtrace_hooks.hpp"
+#include "temp_dir.hpp"
+#include "stats_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "../reference/src/layer_tracking.hpp"
 
@@ -51,25 +54,10 @@ std::shared_ptr<const LayerVolumes> uniformLayer(const Scene& scene) {
 }
 
 // Small real textures: the lighting volume and modulation of the layered sky at low resolution.
-LayeredSettings smallTextures() {
-    LayeredSettings s;
-    s.lighting.width = s.lighting.height = 32, s.lighting.depth = 8;
-    s.modulation.size = 64;
-    return s;
-}
+LayeredSettings smallTextures() { return test::smallLayered(64); }
 
-struct MeanAndError {
-    double mean = 0, error = 0;
-};
-MeanAndError meanOf(int n, const std::function<double(int)>& sample) {
-    double sum = 0, sum2 = 0;
-    for (int i = 0; i < n; ++i) {
-        const double v = sample(i);
-        sum += v, sum2 += v * v;
-    }
-    const double mean = sum / n;
-    return {mean, std::sqrt(std::max(0.0, (sum2 - n * mean * mean) / (n - 1)) / n)};
-}
+using test::MeanAndError;
+using test::meanOf;
 
 }  // namespace
 
@@ -310,9 +298,7 @@ TEST(LayerVolumeTest, ScenesWithoutRenderedLayersAreBitIdentical) {
 }
 
 TEST(LayerVolumeTest, LayersTheirTexturesAndTimeAreInTheCacheKey) {
-    const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / ("nephele_layer_cache_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir);
+    const std::filesystem::path dir = test::freshProcessDir("nephele_layer_cache_", false);
     Scene scene = layerScene(6, 4, 0.7, 0.9);
     scene.layers[0].wind = Vec2(5, 0);
     LayeredSettings ls = smallTextures();

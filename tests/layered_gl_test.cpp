@@ -1,6 +1,7 @@
 // The layered sky on a headless context: draw counts, coverage, the eye below / in / above
 // the layer, wind, lightning, grazing-view gaps, and the host's GL state.
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
@@ -22,12 +23,7 @@ namespace {
 constexpr double kBase = 2000, kThickness = 600, kExtent = 20000;
 
 // Small textures keep the precomputation in milliseconds; the geometry is the real one.
-LayeredSettings testSettings() {
-    LayeredSettings s;
-    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
-    s.modulation.size = 128;
-    return s;
-}
+LayeredSettings testSettings() { return test::smallLayered(); }
 
 // One layer, the eye at height z looking along +y tilted up by pitchDeg, 160x90.
 Scene layerScene(double eyeZ, double pitchDeg, double coverage = 0.6, double density = 1.0) {
@@ -349,21 +345,9 @@ TEST_F(LayeredGLTest, LeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     LayeredRenderer sky(testSettings());
-    Buffer hostSsbo = Buffer::create();
-    glNamedBufferStorage(hostSsbo.id(), 256, nullptr, 0);
-    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, hostSsbo.id(), 0, 128);
-    glEnable(GL_CLIP_DISTANCE2);
-    glEnable(GL_CULL_FACE);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glDepthFunc(GL_GEQUAL);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glActiveTexture(GL_TEXTURE4);
-    glViewport(3, 4, 50, 60);
-    for (int frame = 0; frame < 2; ++frame) {  // the first frame also uploads the textures
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        sky.render(scene, view, target.framebuffer(), frame);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
-    }
+    const test::HostileGlState hostile;
+    // Two frames: the first also uploads the textures.
+    test::expectStateUnchanged([&](int frame) { sky.render(scene, view, target.framebuffer(), frame); }, 2);
 }
 
 TEST_F(LayeredGLTest, ObjectsInFrontHideTheLayer) {

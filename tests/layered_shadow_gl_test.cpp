@@ -2,6 +2,7 @@
 // against its CPU twin sunTransmittance() at every pixel of a box top and of the ground, shadow
 // where the modulation says cloud and none where it is clear, and the host's GL state.
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
@@ -18,9 +19,7 @@ using namespace nephele::gl;
 namespace {
 
 LayeredSettings testSettings() {
-    LayeredSettings s;
-    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
-    s.modulation.size = 128;
+    LayeredSettings s = test::smallLayered();
     s.modulation.period = 6000;  // 1 km cloud features, 47 m texels: several shadows across the box
     return s;
 }
@@ -221,22 +220,8 @@ TEST_F(LayeredShadowGLTest, ShadowPassLeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     LayeredRenderer sky(testSettings());
-    glEnable(GL_CULL_FACE);
-    glEnable(GL_DEPTH_TEST);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glBlendEquationSeparate(GL_FUNC_ADD, GL_MAX);
-    glDepthMask(GL_FALSE);
-    glActiveTexture(GL_TEXTURE3);
-    Texture hostTexture = Texture::create(GL_TEXTURE_2D);
-    glBindTextureUnit(0, hostTexture.id());
-    glBindTextureUnit(1, hostTexture.id());
-    glViewport(3, 4, 50, 60);
-    for (int frame = 0; frame < 2; ++frame) {
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        const LayeredStats stats = sky.render(scene, view, target.framebuffer(), frame);
-        EXPECT_EQ(stats.shadowLayers, 1);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
-    }
+    const test::HostileGlState hostile;
+    test::expectStateUnchanged([&](int frame) { EXPECT_EQ(sky.render(scene, view, target.framebuffer(), frame).shadowLayers, 1); }, 2);
 }
 
 // The layers drawn at half resolution and upsampled with the frame's depth against the same
@@ -291,7 +276,10 @@ TEST_F(LayeredShadowGLTest, HalfResolutionMatchesFullResolutionAndKeepsSilhouett
 }
 
 // City glow is compiled into a program of its own (CITY_GLOW): a layer with glow is drawn with
-// it and lit from below where the city map is, a layer without is drawn as before.
+// it and lit from below where the city map is, a layer without is drawn as before. Where: the
+// red the glow adds to a pixel follows the city map (the modulation's green channel, fixed to
+// the ground: the wind carries the clouds over the cities, not the cities) where the pixel's
+// ray enters the layer's base.
 class LayeredGlowGLTest : public LayeredShadowGLTest {};
 TEST_F(LayeredGlowGLTest, GlowingLayerIsLitFromBelowOnlyWithGlow) {
     Scene scene;
@@ -301,22 +289,45 @@ TEST_F(LayeredGlowGLTest, GlowingLayerIsLitFromBelowOnlyWithGlow) {
     scene.sun.direction = glm::normalize(Vec3(0.3, 0.2, -0.5));  // night
     Layer l;
     l.base = 2000, l.thickness = 600, l.extent = 20000, l.coverage = 1.0, l.density = 1.0;
+    l.wind = Vec2(40, 0);  // 1.6 km at kTime: a quarter of the city map's 6 km period
     scene.layers.push_back(l);
-    const Image dark = renderShadowed(scene, testSettings()).rgba;
+    const LayeredSettings settings = testSettings();
+    const Image dark = renderShadowed(scene, settings).rgba;
     scene.layers[0].cityGlow = CityGlow{Vec3(1.0, 0.6, 0.3), 2.0};
-    const Image lit = renderShadowed(scene, testSettings()).rgba;
-    double gain = 0;
-    int brighter = 0, darker = 0;
+    const Shadowed glowing = renderShadowed(scene, settings);
+    const Image& lit = glowing.rgba;
+    const View view = makeView(scene.camera);
+    const double period = settings.modulation.period;
+    double gain = 0, sg = 0, sc = 0, sgg = 0, scc = 0, sgc = 0, gainNoCity = 0, gainCity = 0;
+    int brighter = 0, darker = 0, n = 0, noCity = 0, city = 0;
     for (int y = 0; y < dark.height; ++y)
         for (int x = 0; x < dark.width; ++x) {
-            const float d = lit.at(x, y, 0) - dark.at(x, y, 0);
+            const double d = lit.at(x, y, 0) - dark.at(x, y, 0);
             gain += d;
-            brighter += d > 1e-3f;
-            darker += d < -1e-6f;
+            brighter += d > 1e-3;
+            darker += d < -1e-6;
+            const Vec3 ray = view.rayDirection(x + 0.5, y + 0.5);
+            if (ray.z < 0.05) continue;
+            const Vec3 p = view.eye + ray * ((l.base - view.eye.z) / ray.z);  // where the ray enters the layer
+            const double c = glowing.modulation.sample(p.x / period, p.y / period, 1);
+            sg += d, sc += c, sgg += d * d, scc += c * c, sgc += d * c, ++n;
+            if (c < 0.02) gainNoCity += d, ++noCity;
+            if (c > 0.1) gainCity += d, ++city;
         }
-    std::printf("glow: mean red gain %.4f, %d pixels brighter\n", gain / (dark.width * dark.height), brighter);
+    const double r = (sgc / n - sg / n * sc / n) / std::sqrt((sgg / n - sg * sg / n / n) * (scc / n - sc * sc / n / n));
+    std::printf("glow: mean red gain %.4f, %d pixels brighter; against the city map at the layer's base: correlation %.3f, "
+                "mean gain %.4f where no city (%d px), %.4f where city > 0.1 (%d px)\n",
+                gain / (dark.width * dark.height), brighter, r, gainNoCity / std::max(noCity, 1), noCity,
+                gainCity / std::max(city, 1), city);
     EXPECT_GT(brighter, dark.width * dark.height / 10);  // the city map covers part of the layer's view
     EXPECT_EQ(darker, 0);
+    // Measured: correlation 0.921; mean gain 0.0052 where the map has no city, 0.2338 where it has
+    // more than 0.1 (a ratio of 0.022). The city map read from the threshold channel
+    // (tests/sabotage/19-city-glow-reads-the-threshold.sabotage): correlation -0.167, ratio 1.26.
+    ASSERT_GT(noCity, 100);
+    ASSERT_GT(city, 100);
+    EXPECT_GT(r, 0.88);
+    EXPECT_LT(gainNoCity / noCity, 0.03 * gainCity / city);
 }
 
 // Two layers: the shadow is the product of both layers' S (the fused upsampling compiled for

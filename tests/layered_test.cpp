@@ -3,6 +3,7 @@
 // tables), the lighting file, the modulation texture and the near-LOD hook.
 #include "nephele/layered.hpp"
 #include "cache_test_util.hpp"
+#include "temp_dir.hpp"
 
 #include "../layered/src/layer_light.hpp"
 
@@ -27,8 +28,7 @@ LightingSettings small() {
 }
 
 std::string tempPath(const std::string& name) {
-    // The process id: other checkouts on the machine run the same tests at the same time.
-    const auto dir = std::filesystem::temp_directory_path() / ("nephele_layered_test_" + std::to_string(::getpid()));
+    const auto dir = test::processPath("nephele_layered_test_");
     std::filesystem::create_directories(dir);
     return (dir / name).string();
 }

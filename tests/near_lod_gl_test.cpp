@@ -1,7 +1,10 @@
 // The near LOD with the layered sky and the compositor (what `--method auto` draws): both
 // are drawn, the per-layer near radius, no flicker across the blend band, and auto = the
 // compositor on a scene without layers.
+#include "cli_run.hpp"
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
+#include "temp_dir.hpp"
 
 #include "hand_off.hpp"  // sky/src (nephele_testing_internal)
 
@@ -35,9 +38,7 @@ constexpr double kBase = 2000, kThickness = 600;
 
 // Small textures keep the precomputation in milliseconds; the geometry is the real one.
 LayeredSettings testLayered(double nearRadius = 2000, double blendBand = 1500) {
-    LayeredSettings s;
-    s.lighting.width = 32, s.lighting.height = 32, s.lighting.depth = 8;
-    s.modulation.size = 128;
+    LayeredSettings s = test::smallLayered();
     s.nearRadius = nearRadius, s.blendBand = blendBand;
     return s;
 }
@@ -223,14 +224,8 @@ TEST_F(NearLodGLTest, AutoWithoutLayersIsTheCompositor) {
         std::replace(name.begin(), name.end(), ' ', '_');
         const std::string out = dir + "/near_lod_auto_vs_" + name + ".png";
         std::filesystem::remove(out);
-        const std::string cmd = std::string(NEPHELE_BINARY) + " render " + scene + " -o " + out + " --method " + method +
-                                " --width 128 2>&1";
-        FILE* pipe = popen(cmd.c_str(), "r");
-        std::string text;
-        char buf[512];
-        while (pipe && fgets(buf, sizeof buf, pipe)) text += buf;
-        const int status = pipe ? pclose(pipe) : -1;
-        EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 0) << text;
+        const test::CliResult r = test::runCli("render " + scene + " -o " + out + " --method " + method + " --width 128");
+        EXPECT_EQ(r.code, 0) << r.output;
         return readPng(out);
     };
     const Image a = render("auto --cloud-lod off"), e = render("ellipsoid"), lod = render("auto");
@@ -250,18 +245,15 @@ TEST_F(NearLodGLTest, SkyRendererLeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     SkyRenderer sky(SkySettings{testLayered(), {}, testEllipsoid()});
-    glEnable(GL_CULL_FACE);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glDepthFunc(GL_GEQUAL);
-    glActiveTexture(GL_TEXTURE4);
-    glViewport(3, 4, 50, 60);
-    for (int frame = 0; frame < 2; ++frame) {  // the first frame also makes the textures and cells
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        const SkyStats st = sky.render(scene, view, target.framebuffer(), frame, false);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "frame " << frame;
-        EXPECT_EQ(st.layered.sceneLayers, 1);
-        EXPECT_GT(st.nearLod.clouds, 0);
-    }
+    const test::HostileGlState hostile;
+    // Two frames: the first also makes the textures and cells.
+    test::expectStateUnchanged(
+        [&](int frame) {
+            const SkyStats st = sky.render(scene, view, target.framebuffer(), frame, false);
+            EXPECT_EQ(st.layered.sceneLayers, 1);
+            EXPECT_GT(st.nearLod.clouds, 0);
+        },
+        2);
 }
 
 // Without layers SkyRenderer is the compositor alone, pixel for pixel.
@@ -344,7 +336,7 @@ TEST_F(NearLodGLTest, NearCloudsCoverTheSkyAsTheLayerDoes) {
 TEST_F(NearLodGLTest, NearAndFarRadianceAgreeAcrossTheBand) {
     constexpr double kMeanTolerance = 0.05, kViewTolerance = 0.20;
     LayeredSettings ls;  // the default textures and photons
-    ls.cacheDir = test::outputDir() + "/hand-off-lighting-" + std::to_string(::getpid());  // one volume per coverage
+    ls.cacheDir = test::processPath("hand-off-lighting-", test::outputDir()).string();  // one volume per coverage
     for (const HandOffEye& e : kHandOffEyes)
         for (double coverage : {0.3, 0.6, 0.9}) {
             double sum = 0;

@@ -2,6 +2,8 @@
 // clouds lie, wind, and the weights across the blend band.
 #include "nephele/near_lod.hpp"
 
+#include "layered_test_util.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -25,9 +27,9 @@ Scene layerScene(Vec2 wind = Vec2(0.0), bool nearLod = true) {
 }
 
 LayeredSettings layeredSettings() {
-    LayeredSettings s;
-    s.modulation.size = 128;  // the pattern's period stays 30 km: a few ms to make
-    s.lighting.width = 64, s.lighting.height = 64, s.lighting.depth = 8;  // the volume's period stays 8 km
+    // 128^2 modulation (the pattern's period stays 30 km: a few ms to make), a 64 x 64 x 8
+    // lighting volume (its period stays 8 km).
+    LayeredSettings s = test::smallLayered(128, 64);
     s.nearRadius = kNear, s.blendBand = kBand;
     return s;
 }

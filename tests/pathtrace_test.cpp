@@ -6,6 +6,8 @@
 
 #include "../reference/src/tracking.hpp"
 #include "cache_test_util.hpp"
+#include "temp_dir.hpp"
+#include "stats_test_util.hpp"
 #include "pathtrace_hooks.hpp"
 
 #include "nephele/gardner.hpp"
@@ -86,20 +88,8 @@ double rmse(const Image& a, const Image& b) {  // over rgb
     return std::sqrt(sum / (3.0 * a.width * a.height));
 }
 
-struct MeanAndError {
-    double mean = 0, error = 0;  // sample mean and its standard error
-};
-template <class F>
-MeanAndError meanOf(int n, F&& sample) {
-    double sum = 0, sum2 = 0;
-    for (int i = 0; i < n; ++i) {
-        const double v = sample(i);
-        sum += v;
-        sum2 += v * v;
-    }
-    const double mean = sum / n, var = std::max(0.0, (sum2 - n * mean * mean) / (n - 1));
-    return {mean, std::sqrt(var / n)};
-}
+using test::MeanAndError;
+using test::meanOf;
 
 double seconds(std::chrono::steady_clock::time_point since) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -418,9 +408,7 @@ TEST(PathTraceTest, NoiseIsReadPerEllipsoidAtTheCompositorsOffsets) {
 }
 
 TEST(PathTraceTest, CacheHitsAndMisses) {
-    const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / ("nephele_pathtrace_cache_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir);
+    const std::filesystem::path dir = test::freshProcessDir("nephele_pathtrace_cache_", false);
     Scene scene = cloudScene(12, 9);
     scene.objects.push_back(Object{});
     const PathTraceSettings settings{.spp = 2};
@@ -648,9 +636,7 @@ TEST(PathTraceTest, EstimatesItsTimeBeforeItStarts) {
 // is never used: the image is rendered again (the same image), with a warning through the log
 // callback, and the FIFO does not block.
 TEST(PathTraceTest, DamagedCacheFilesAreRenderedAgainWithAWarning) {
-    const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / ("nephele_pathtrace_damaged_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir);
+    const std::filesystem::path dir = test::freshProcessDir("nephele_pathtrace_damaged_", false);
     const Scene scene = cloudScene(40, 30);  // 19 kB of floats
     const View view = makeView(scene.camera);
     const PathTraceSettings settings{.spp = 1};

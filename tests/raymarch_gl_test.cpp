@@ -69,15 +69,8 @@ double mean(const Image& a) {
     return sum / double(a.pixels.size());
 }
 
-Image clamped(Image image) {
-    for (float& v : image.pixels) v = std::clamp(v, 0.0f, 1.0f);
-    return image;
-}
-
-void save(const std::string& name, const Image& image) {
-    writePng(test::outputDir() + "/" + name + ".png", image.channels == 4 ? channels(image, 0, 3) : image,
-             image.channels == 1 ? Encoding::Linear : Encoding::Srgb);
-}
+using test::clamped;
+using test::save;
 
 // box_in_thin_cloud.json (noise 0) marched with `settings`: its opacity, and that opacity's mean
 // error on the box pixels inside the cloud (where the object cuts the ray: there the closed form
@@ -133,17 +126,22 @@ TEST_F(RaymarchGLTest, OpacityFollowsTheDensityFieldAndConvergesWithTheStep) {
                 save(std::string("raymarch_exact_alpha_") + name, exact);
             }
         }
-        std::printf("[ figure ] %-14s raymarch alpha vs density field: MAE %.6f / max %.5f (step 50), %.6f / %.5f (25), "
-                    "%.6f / %.5f (10)\n",
+        std::printf("[ figure ] %-14s raymarch alpha vs density field: MAE %.2e / max %.2e (step 50), %.2e / %.2e (25), "
+                    "%.2e / %.2e (10)\n",
                     name, mae[0], worst[0], mae[1], worst[1], mae[2], worst[2]);
         // The default step (25 m, growing to ~37 m at these 2 km by the LOD) against chords of
         // 200-600 m: the midpoint rule on the smooth (1 - q)^2 profile, float rounding and the
         // 1e-4 transmittance cut. Measured on llvmpipe: MAE 1.5e-5 (single) and 6.9e-5
-        // (cumulus27), max 4.4e-4 and 2.9e-3. The bounds leave 4x and 7x that for other
-        // drivers' float paths, and still fail for marching overlaps twice (cumulus27: MAE
-        // 4.2e-4, max 0.22) or losing one ellipsoid (MAE 8e-3).
-        EXPECT_LT(mae[1], 3e-4) << name;
-        EXPECT_LT(worst[1], 0.02) << name;
+        // (cumulus27), max 4.4e-4 and 2.9e-3; at step 50 MAE 1.15e-4 and 4.96e-4. Each step's
+        // extinction taken at its start, the left-point rule
+        // (tests/sabotage/39-raymarch-extinction-at-step-start.sabotage): MAE 3.5e-5 and 1.74e-4,
+        // max 1.06e-3 and 1.05e-2; at step 50 2.85e-4 and 1.33e-3. The bounds sit about 1.5x
+        // over what is measured, per scene; marching overlaps twice (cumulus27: MAE 4.2e-4, max
+        // 0.22) or losing one ellipsoid (MAE 8e-3) are far past them.
+        const bool single = std::string(name) == "single.json";
+        EXPECT_LT(mae[1], single ? 2.2e-5 : 1.0e-4) << name;
+        EXPECT_LT(worst[1], single ? 6.5e-4 : 4.3e-3) << name;
+        EXPECT_LT(mae[0], single ? 1.7e-4 : 7.4e-4) << name;
         // Convergence: from 50 m to 10 m the error must fall clearly. The midpoint rule's falls
         // as h^2 (25x); measured 55x (cumulus27) and 115x (single). Ask for 4x.
         EXPECT_LT(mae[2], 0.25 * mae[0]) << name;
@@ -552,20 +550,9 @@ TEST_F(RaymarchGLTest, LeavesHostStateUnchanged) {
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
     RaymarchRenderer clouds;
-    Buffer hostSsbo = Buffer::create();
-    glNamedBufferStorage(hostSsbo.id(), 256, nullptr, 0);
-    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, hostSsbo.id(), 0, 128);
-    glEnable(GL_CLIP_DISTANCE2);
-    glEnable(GL_DEPTH_TEST);
-    glBlendFuncSeparate(GL_DST_COLOR, GL_ZERO, GL_ONE, GL_ONE);
-    glStencilFunc(GL_GREATER, 5, 0x0F);
-    glActiveTexture(GL_TEXTURE4);
-    glViewport(3, 4, 50, 60);
-    for (bool depth : {true, false}) {
-        const GlStateSnapshot before = GlStateSnapshot::capture();
-        clouds.render(scene, view, target.framebuffer(), depth);
-        EXPECT_EQ(before.differences(GlStateSnapshot::capture()), "") << "opaqueDepth " << depth;
-    }
+    const test::HostileGlState hostile;
+    // With the frame's depth (draw 0) and without (draw 1).
+    test::expectStateUnchanged([&](int k) { clouds.render(scene, view, target.framebuffer(), k == 0); }, 2);
 }
 
 TEST_F(RaymarchGLTest, CloudsBehindTheEyeLeaveTheFrameUntouched) {

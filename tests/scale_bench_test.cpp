@@ -1,6 +1,7 @@
 // `nephele bench --scale --quick`: every method at two counts, per-phase times and memory,
 // the growth exponents, and the generated section it writes for docs/benchmarks.md.
 #include "cli_run.hpp"
+#include "temp_dir.hpp"
 
 #include <gtest/gtest.h>
 
@@ -22,9 +23,7 @@ std::string slurp(const fs::path& p) {
 }
 
 TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
-    const fs::path dir = fs::temp_directory_path() / ("nephele_scale_bench_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = nephele::test::freshProcessDir("nephele_scale_bench_test_");
     const auto r = nephele::test::runBounded("bench --scale --quick --out-dir " + dir.string(), 4096, 300);
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string csv = slurp(dir / "scale_bench.csv");
@@ -73,9 +72,7 @@ namespace {
 // `nephele bench --grids --quick`: single.json's one cloud, its grid's size, time and memory,
 // and the generated section it writes for docs/benchmarks.md.
 TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
-    const fs::path dir = fs::temp_directory_path() / ("nephele_grid_bench_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = nephele::test::freshProcessDir("nephele_grid_bench_test_");
     const auto r = nephele::test::runBounded("bench --grids --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
                                                  dir.string(),
                                              4096, 120);

@@ -3,6 +3,7 @@
 // between centres within the trilinear interpolation's error bound; bad arguments exit 2 with
 // a message and leave no file.
 #include "cli_run.hpp"
+#include "temp_dir.hpp"
 
 #include "nephele/gardner.hpp"  // NoiseSettings
 #include "nephele/limits.hpp"
@@ -32,9 +33,7 @@ class VdbExportTest : public ::testing::Test {
 protected:
     void SetUp() override {
         openvdb::initialize();
-        dir_ = fs::path(NEPHELE_TEST_OUTPUT) / ("vdb_export-" + std::to_string(::getpid()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
+        dir_ = test::freshProcessDir("vdb_export-", true, NEPHELE_TEST_OUTPUT);
     }
     void TearDown() override { fs::remove_all(dir_); }
 
