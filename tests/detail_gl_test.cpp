@@ -34,15 +34,7 @@ std::string probeShaderDir() {
 }
 
 std::vector<float> detailOnGpu(const Medium::Detail& d, const Vec3& eye, const std::vector<glm::vec4>& rel) {
-    ::setenv("NEPHELE_SHADER_DIR", probeShaderDir().c_str(), 1);
-    Program program;
-    try {
-        program = Program::build({{GL_COMPUTE_SHADER, "detail_probe.comp"}});
-    } catch (...) {
-        ::unsetenv("NEPHELE_SHADER_DIR");
-        throw;
-    }
-    ::unsetenv("NEPHELE_SHADER_DIR");
+    Program program = test::buildProbe(probeShaderDir(), "detail_probe.comp");
     DetailTexture texture;
     texture.bind(program, d, eye);
     const GLsizei n = GLsizei(rel.size());

@@ -15,12 +15,28 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace nephele::test {
+
+// A test's compute probe: `file` built from the shader folder `dir` (NEPHELE_SHADER_DIR, which
+// the probe's #includes of the library's shaders resolve through), the variable unset again
+// whether or not the build throws.
+inline Program buildProbe(const std::string& dir, const char* file) {
+    ::setenv("NEPHELE_SHADER_DIR", dir.c_str(), 1);
+    try {
+        Program program = Program::build({{GL_COMPUTE_SHADER, file}});
+        ::unsetenv("NEPHELE_SHADER_DIR");
+        return program;
+    } catch (...) {
+        ::unsetenv("NEPHELE_SHADER_DIR");
+        throw;
+    }
+}
 
 // A scene of data/scenes at `width` pixels wide (its aspect kept; 160x120 for the 4:3
 // scenes): enough pixels per ellipsoid to measure, small enough for CI on llvmpipe.

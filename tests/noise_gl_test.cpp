@@ -34,15 +34,7 @@ Texture uploadVolume(const NoiseVolume& v) {
 
 // Samples `tex` at every uvw on the GPU and reads the values back.
 std::vector<float> sampleOnGpu(const Texture& tex, const std::vector<glm::vec4>& uvw) {
-    ::setenv("NEPHELE_SHADER_DIR", NEPHELE_TEST_DATA "/shaders", 1);
-    Program program;
-    try {
-        program = Program::build({{GL_COMPUTE_SHADER, "noise_probe.comp"}});
-    } catch (...) {
-        ::unsetenv("NEPHELE_SHADER_DIR");
-        throw;
-    }
-    ::unsetenv("NEPHELE_SHADER_DIR");
+    Program program = test::buildProbe(NEPHELE_TEST_DATA "/shaders", "noise_probe.comp");
     const GLsizei n = GLsizei(uvw.size());
     Buffer in = Buffer::create(), out = Buffer::create();
     glNamedBufferStorage(in.id(), GLsizeiptr(n * sizeof(glm::vec4)), uvw.data(), 0);
