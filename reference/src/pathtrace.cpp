@@ -12,6 +12,7 @@
 #include "tracking.hpp"
 
 #include "cache_file.hpp"
+#include "nephele/cloud_matter.hpp"
 #include "nephele/detail.hpp"
 #include "nephele/ellipsoid_space.hpp"
 #include "nephele/gardner_model.hpp"
@@ -55,7 +56,6 @@ using detail::Pcg32;
 using detail::sampleHg;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kLeafSize = 4;         // ellipsoids per BVH leaf
 constexpr int kMaxImageSide = 16384;           // px: a cached image of more is not ours
 constexpr double kEstimateAboveSamples = 1e6;  // renders of fewer samples are not estimated (they are short)
 // Bump when the estimator or the field changes: invalidates caches. 2: the noise is read per
@@ -89,44 +89,9 @@ void checkScene(const Scene& scene) {
         }
 }
 
-// The extinction the path tracer gives an ellipsoid (1/m): medium.extinction * density, capped
-// so that the optical depth through its centre along its shortest axis, sigma * 16/15 * r_min,
-// is at most kMaxOpticalDepth. Beyond that the ellipsoid is opaque in double precision, and the
-// capped rim (where its optical depth is under 50) is thinner than 2e-5 of its radius: under a
-// pixel for an ellipsoid up to 50000 pixels across.
-double cappedSigma(const Medium& m, const Ellipsoid& e) {
-    const double rMin = std::min({e.radii.x, e.radii.y, e.radii.z});
-    return std::min(m.extinction * e.density, kMaxOpticalDepth / (16.0 / 15.0 * rMin));
-}
-
-// One ellipsoid of matter.
-struct Shape {
-    glm::dmat3 unit{1.0};  // M = diag(1/r) R^T: world offset -> unit sphere
-    Vec3 center{0.0};      // m
-    double sigma = 0;      // extinction * density, 1/m
-    Vec3 lo{0.0}, hi{0.0};  // m, world bounding box
-    glm::vec3 noiseOffset{0.0f};  // noise-volume texture coordinates (periods): ellipsoidNoiseOffset()
-};
-
-struct Node {
-    Vec3 lo{0.0}, hi{0.0};
-    int first = 0, count = 0;  // a leaf: shapes [first, first + count); else children at index+1 and `second`
-    int second = 0;
-};
-
-// A ray's chord through one ellipsoid. In unit space the ray is at arc length u = t*len - tc
-// from its closest approach to the centre, at squared distance q = b2 + u^2.
-struct Crossing {
-    double tIn, tOut;  // m, the chord clipped to the ray's interval
-    double len;        // |M d|: unit-space length per metre
-    double tc;         // unit-space arc length of the closest approach
-    double b2;         // squared impact parameter, < 1
-    int shape;
-};
-
 // A ray prepared for tracking: its chords (by tIn) and its majorant.
 struct RayData {
-    std::vector<Crossing> cross;
+    std::vector<CloudMatter::Chord> cross;
     std::vector<double> breaks;  // scratch: one chord's piece ends
     std::vector<MajorantPiece> pieces;
     std::vector<std::pair<double, double>> events;
@@ -143,81 +108,26 @@ class World {
 public:
     // `layers` (may be null: no layers) centred on the eye `eye`, as the layered sky is.
     World(const Scene& scene, const NoiseVolume* noise, const LayerVolumes* layers = nullptr, const Vec3& eye = Vec3(0.0))
-        : scene_(scene), noise_(noise), layers_(layers && !layers->empty() ? layers : nullptr), eye_(eye) {
-        const Medium& m = scene.medium;
-        amp_ = m.noise;
-        period_ = m.noiseScale * NoiseSettings{}.cells;  // m: one period of the noise volume
-        if (amp_ > 0) {
-            if (!noise_ || noise_->texels.empty())
-                throw std::invalid_argument("renderPathTraced: medium.noise > 0 needs a noise volume");
-            double maxAbs = 0;
-            for (float v : noise_->texels) maxAbs = std::max(maxAbs, double(std::fabs(v)));
-            // max(0, 1 + amp n) <= this: trilinear filtering stays within the texels' range (the
-            // slack covers its float round-off).
-            noiseBound_ = 1 + amp_ * maxAbs * (1 + 1e-5);
-        }
-        const unsigned noiseSeed = NoiseSettings{}.seed;  // the model's default offsets, as every method reads them
-        for (std::size_t ci = 0; ci < scene.clouds.size(); ++ci)
-            for (std::size_t ei = 0; ei < scene.clouds[ci].ellipsoids.size(); ++ei) {
-                const Ellipsoid& e = scene.clouds[ci].ellipsoids[ei];
-                if (!(e.density > 0) || !(m.extinction > 0)) continue;
-                Shape s;
-                s.noiseOffset = glm::vec3(ellipsoidNoiseOffset(ci, ei, noiseSeed));
-                s.unit = ellipsoidToUnit(e);
-                s.center = e.center;
-                s.sigma = cappedSigma(m, e);
-                const glm::dmat3 axes = rotationFromDegrees(e.rotationDeg) *
-                                        glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
-                Vec3 half;  // half extent of the exact world box
-                for (int i = 0; i < 3; ++i) half[i] = glm::length(Vec3(axes[0][i], axes[1][i], axes[2][i])) * (1 + 1e-9);
-                s.lo = e.center - half;
-                s.hi = e.center + half;
-                shapes_.push_back(s);
-            }
-        if (!shapes_.empty()) build(0, int(shapes_.size()));
-        // The detail only takes matter away (max(phi - e, 0) <= phi): the majorant stands.
-        if (m.detail.on()) detail_ = detailParams(m.detail, eye_);
+        : scene_(scene), layers_(layers && !layers->empty() ? layers : nullptr), eye_(eye),
+          matter_(scene, noise, eye, kMaxOpticalDepth, false) {
         sunE_ = scene.sun.color * scene.sun.intensity;
     }
 
     const Scene& scene() const { return scene_; }
     // The primary rays' transmittance is estimated (noise or layers), not in closed form.
-    bool estimatesTransmittance() const { return amp_ > 0 || detailOn() || layers_; }
-    bool varies() const { return amp_ > 0 || detailOn(); }  // not the smooth field's closed form
-    bool detailOn() const { return detail_.erosion > 0; }
+    bool estimatesTransmittance() const { return varies() || layers_; }
+    bool varies() const { return matter_.varies(); }  // not the smooth field's closed form
 
     // The chords of the ray o + t d (unit d) within [t0, t1], sorted by entry.
-    void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
-        r.cross.clear();
-        if (shapes_.empty() || !(t1 > t0)) return;
-        const Vec3 inv(1 / (d.x != 0 ? d.x : 1e-300), 1 / (d.y != 0 ? d.y : 1e-300), 1 / (d.z != 0 ? d.z : 1e-300));
-        int stack[64], top = 0;
-        stack[top++] = 0;
-        while (top) {
-            const int index = stack[--top];
-            const Node& n = nodes_[index];
-            const Vec3 a = (n.lo - o) * inv, b = (n.hi - o) * inv;  // slab test
-            const Vec3 lo = glm::min(a, b), hi = glm::max(a, b);
-            if (std::max({lo.x, lo.y, lo.z, t0}) > std::min({hi.x, hi.y, hi.z, t1})) continue;
-            if (n.count == 0) {
-                stack[top++] = n.second;
-                stack[top++] = index + 1;
-            } else {
-                for (int i = n.first; i < n.first + n.count; ++i) chord(o, d, t0, t1, i, r.cross);
-            }
-        }
-        std::sort(r.cross.begin(), r.cross.end(), [](const Crossing& a, const Crossing& b) {
-            return a.tIn < b.tIn || (a.tIn == b.tIn && a.shape < b.shape);
-        });
-    }
+    void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const { matter_.chords(o, d, t0, t1, r.cross); }
 
     // collect() and the ray's majorant (detail::chordPieces per chord).
     void prepare(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
         collect(o, d, t0, t1, r);
         r.pieces.clear();
-        for (const Crossing& c : r.cross)
-            detail::chordPieces({c.tIn, c.tOut, c.len, c.tc, 1 - c.b2}, shapes_[c.shape].sigma * noiseBound_, r.breaks,
-                                r.pieces);
+        for (const CloudMatter::Chord& c : r.cross)
+            detail::chordPieces({c.tIn, c.tOut, c.len, c.tc, 1 - c.b2}, matter_.sigma(c.shape) * matter_.noiseBound(),
+                                r.breaks, r.pieces);
         detail::buildMajorant(r.pieces, r.events, r.segs);
         prepareLayers(o, d, t0, t1, r);
     }
@@ -226,57 +136,15 @@ public:
         if (layers_) detail::prepareLayerRay(*layers_, eye_, o, d, t0, t1, r.layers);
     }
 
-    // Extinction (1/m) at o + t d, from the ray's chords: per ellipsoid sigma_i (1 - q)^2, with
-    // noise times max(0, 1 + amp n(x / period + offset_i)) (bounded by noiseBound_).
+    // Extinction (1/m) at o + t d, from the ray's chords (nephele/cloud_matter.hpp).
     double sigmaAt(const Vec3& o, const Vec3& d, double t, const RayData& r) const {
-        double s = 0;
-        glm::vec3 uvw(0.0f);
-        if (amp_ > 0) uvw = glm::vec3((o + t * d) / period_);
-        float e = -1.0f;  // the detail's erosion at the point: read once, and only where there is matter
-        for (const Crossing& c : r.cross) {
-            if (c.tIn > t) break;
-            if (t > c.tOut) continue;
-            const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
-            if (h <= 0) continue;
-            if (detailOn() && e < 0) e = erosionAt(o + t * d);
-            s += matter(shapes_[c.shape], h, uvw, e);
-        }
-        return s;
+        return matter_.extinctionAlong(o, d, t, r.cross);
     }
-
-    // Extinction (1/m) of the ellipsoids at the point x: what sigmaAt gives on any ray through x
-    // (the same terms, with 1 - q computed from x instead of from the chord), for ExtinctionField.
-    double sigmaAtPoint(const Vec3& x) const {
-        if (shapes_.empty()) return 0;
-        double s = 0;
-        glm::vec3 uvw(0.0f);
-        if (amp_ > 0) uvw = glm::vec3(x / period_);
-        const float e = detailOn() ? erosionAt(x) : 0.0f;
-        int stack[64], top = 0;
-        stack[top++] = 0;
-        while (top) {
-            const int index = stack[--top];
-            const Node& n = nodes_[index];
-            if (glm::any(glm::lessThan(x, n.lo)) || glm::any(glm::greaterThan(x, n.hi))) continue;
-            if (n.count == 0) {
-                stack[top++] = n.second;
-                stack[top++] = index + 1;
-                continue;
-            }
-            for (int i = n.first; i < n.first + n.count; ++i) {
-                const Shape& shape = shapes_[i];
-                const Vec3 u = shape.unit * (x - shape.center);
-                const double h = 1 - glm::dot(u, u);  // 1 - q
-                if (h > 0) s += matter(shape, h, uvw, e);
-            }
-        }
-        return s;
-    }
+    // Extinction (1/m) of the ellipsoids at the point x: what sigmaAt gives on any ray through x.
+    double sigmaAtPoint(const Vec3& x) const { return matter_.extinction(x); }
 
     // The world box outside which the ellipsoids hold no matter (lo > hi when there is none).
-    std::pair<Vec3, Vec3> bounds() const {
-        return nodes_.empty() ? std::pair{Vec3(kInf), Vec3(-kInf)} : std::pair{nodes_[0].lo, nodes_[0].hi};
-    }
+    std::pair<Vec3, Vec3> bounds() const { return matter_.bounds(); }
 
     // The first collision: with the ellipsoids' matter, or nearer with the layers' (each sampled
     // in its own medium).
@@ -293,14 +161,7 @@ public:
     }
     double ellipsoidTransmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
         if (varies()) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
-        double tau = 0;
-        for (const Crossing& c : r.cross) {
-            const Shape& s = shapes_[c.shape];
-            // The float closed form of a short segment can round below 0: times a dense medium's
-            // sigma that would be a transmittance of infinity.
-            tau += s.sigma * std::max(0.0f, model::segmentDepth(glm::vec3(s.unit * (o - s.center)), glm::vec3(s.unit * d),
-                                                                float(t0), float(std::min(t1, 1e30))));
-        }
+        const double tau = matter_.smoothDepth(o, d, t0, t1, r.cross);
         return std::exp(-tau);
     }
 
@@ -359,71 +220,11 @@ public:
     }
 
 private:
-    // One ellipsoid's extinction where 1 - q = h > 0: sigma_i phi, phi = h^2 (with the detail
-    // max(1 - q (1 + e)^2, 0)^2, e = erosionAt(x)), with noise times max(0, 1 + amp n(uvw + offset_i))
-    // (uvw = x / period).
-    double matter(const Shape& shape, double h, const glm::vec3& uvw, float e) const {
-        double phi = detailOn() ? erodedProfile(1 - h, e) : h * h;
-        if (amp_ > 0) phi *= std::max(0.0, 1 + amp_ * noise_->sample(uvw + shape.noiseOffset));
-        return shape.sigma * phi;
-    }
-
-    // The detail's erosion e(x) (shaders/detail.glsl) for the world point x, seen from the eye.
-    float erosionAt(const Vec3& x) const { return model::detailErosion(detailVolume(), detail_, glm::vec3(x - eye_)); }
-
-    void chord(const Vec3& o, const Vec3& d, double t0, double t1, int i, std::vector<Crossing>& out) const {
-        const Shape& s = shapes_[i];
-        const Vec3 ou = s.unit * (o - s.center), du = s.unit * d;
-        const double len = glm::length(du);
-        const Vec3 dn = du / len;
-        const double tc = -glm::dot(ou, dn);
-        const Vec3 perp = ou + tc * dn;
-        const double b2 = glm::dot(perp, perp);
-        if (b2 >= 1) return;
-        const double h = std::sqrt(1 - b2);
-        const double tIn = std::max(t0, (tc - h) / len), tOut = std::min(t1, (tc + h) / len);
-        if (tOut > tIn) out.push_back({tIn, tOut, len, tc, b2, i});
-    }
-
-    // Median split on the longest axis of the centres' box.
-    int build(int first, int count) {
-        const int index = int(nodes_.size());
-        nodes_.emplace_back();
-        Vec3 lo(kInf), hi(-kInf), clo(kInf), chi(-kInf);
-        for (int i = first; i < first + count; ++i) {
-            lo = glm::min(lo, shapes_[i].lo);
-            hi = glm::max(hi, shapes_[i].hi);
-            const Vec3 c = 0.5 * (shapes_[i].lo + shapes_[i].hi);
-            clo = glm::min(clo, c);
-            chi = glm::max(chi, c);
-        }
-        nodes_[index].lo = lo;
-        nodes_[index].hi = hi;
-        if (count <= kLeafSize) {
-            nodes_[index].first = first;
-            nodes_[index].count = count;
-            return index;
-        }
-        const Vec3 ext = chi - clo;
-        const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
-        const int half = count / 2;
-        std::nth_element(shapes_.begin() + first, shapes_.begin() + first + half, shapes_.begin() + first + count,
-                         [axis](const Shape& a, const Shape& b) { return a.lo[axis] + a.hi[axis] < b.lo[axis] + b.hi[axis]; });
-        build(first, half);
-        const int second = build(first + half, count - half);
-        nodes_[index].second = second;
-        return index;
-    }
-
     const Scene& scene_;
-    const NoiseVolume* noise_;
     const LayerVolumes* layers_;
     Vec3 eye_;
-    double amp_ = 0, period_ = 1, noiseBound_ = 1;
-    model::DetailParams detail_{};  // erosion 0: the detail is off
+    CloudMatter matter_;  // the ellipsoids' matter, capped at kMaxOpticalDepth, every cloud whole
     Vec3 sunE_{0.0};  // sun irradiance, colour * intensity
-    std::vector<Shape> shapes_;
-    std::vector<Node> nodes_;
 };
 
 // Progress through the host's progress callback (nephele/log.hpp), as rows finish.
@@ -656,6 +457,7 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     k.tag("clouds");
     for (const Cloud& cl : sc.clouds) {
         k.num(std::int64_t(cl.ellipsoids.size()));
+        if (cl.noiseId && m.noise > 0) k.tag("noise-id"), k.num(std::int64_t(cl.noiseId));  // (absent when unused: keys stay)
         for (const Ellipsoid& e : cl.ellipsoids) k.vec(e.center), k.vec(e.radii), k.vec(e.rotationDeg), k.num(e.density);
     }
     k.tag("objects");

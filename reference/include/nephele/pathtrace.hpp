@@ -31,6 +31,7 @@
 
 #include "nephele/api.hpp"
 #include "nephele/camera.hpp"
+#include "nephele/cloud_matter.hpp"  // kMaxOpticalDepth
 #include "nephele/image.hpp"
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"
@@ -53,7 +54,6 @@ class LayerVolumes;  // nephele/layer_volume.hpp
 //   holes into the matter whose crossing costs majorant x length tentative collisions);
 // - free flights use majorants graded towards the ends of optically deep chords, and a step too
 //   short to move the distance in double precision collides where it stands.
-inline constexpr double kMaxOpticalDepth = 1e12;
 inline constexpr double kMaxPathTraceNoise = 1;
 
 struct PathTraceSettings {
