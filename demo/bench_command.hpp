@@ -69,6 +69,18 @@ struct SilhouetteBenchOptions {
 };
 int runSilhouetteBench(const SilhouetteBenchOptions& options);
 
+// `bench --queries`: microseconds per call of SkyRenderer's cloud queries (densityAt, transmittance
+// over 1 and 10 km, insideCloud) on the scenes, beside the path tracer's own field at the same points.
+struct QueryBenchOptions {
+    std::string outDir = "bench-out";  // query_bench.csv, query_bench.md
+    std::string scenesDir = "data/scenes";
+    std::vector<std::string> scenes{"detailed_cumulus.json", "near_and_far.json", "showcase.json"};
+    int points = 2000;            // query points per scene
+    double radius = 3000;         // m: the points' horizontal distance from the camera, at most
+    GlBackend backend = GlBackend::Egl;
+};
+int runQueryBench(const QueryBenchOptions& options);
+
 // `bench --layered`: the layered far field against its floor over the extent and the annulus
 // count N, with the cloud-shadow pass's share and the renderer before its speed work.
 struct LayeredBenchOptions {

@@ -323,6 +323,7 @@ struct BenchArgs {
     std::string gl = "egl", cache;
     bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
     bool silhouette = false;
+    bool queries = false;
     bool grids = false;
     bool quick = false, noCache = false;
     std::string publish;  // --publish DOCS
@@ -356,6 +357,8 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_flag("--flicker", b.flicker, "Instead: frame-to-frame change along camera paths against the exact model");
     bench->add_flag("--silhouette", b.silhouette,
                     "Instead: box-counting dimension of the cumulus silhouettes, detail off and on, from 100 m to 5 km");
+    bench->add_flag("--queries", b.queries,
+                    "Instead: microseconds per call of the host's cloud queries (densityAt, transmittance, insideCloud)");
     bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
     bench->add_flag("--layer-accuracy", b.layerAccuracy,
                     "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
@@ -389,7 +392,7 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
     bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids/--queries: a minimal run (one scene, defaults; for tests)");
     bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 }
 
@@ -408,15 +411,15 @@ int runLayerAccuracyArgs(const BenchArgs& b) {
 int runBenchArgs(BenchArgs& b) {
     b.bo.backend = parseBackend(b.gl);
     if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-            int(b.cruise) + int(b.grids) + int(b.silhouette) > 1) {
-        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale, --cruise and "
-                     "--grids are separate runs; give one\n";
+            int(b.cruise) + int(b.grids) + int(b.silhouette) + int(b.queries) > 1) {
+        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale, --cruise, "
+                     "--grids, --silhouette and --queries are separate runs; give one\n";
         return 2;
     }
     const BenchOptions& bo = b.bo;
     if (!b.publish.empty()) {
         if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-                int(b.cruise) + int(b.grids) > 0) {
+                int(b.cruise) + int(b.grids) + int(b.silhouette) + int(b.queries) > 0) {
             std::cerr << "nephele: bench: --publish runs no bench: it publishes what --out-dir holds; give it alone\n";
             return 2;
         }
@@ -482,6 +485,12 @@ int runBenchArgs(BenchArgs& b) {
         if (b.cmd->count("--frames") > 0) gbo.runs = bo.frames;
         if (b.quick) gbo.scenes = {"single.json"}, gbo.runs = 1;
         return runGridBench(gbo);
+    }
+    if (b.queries) {
+        QueryBenchOptions qo;
+        qo.outDir = bo.outDir, qo.scenesDir = bo.scenesDir, qo.backend = bo.backend;
+        if (b.quick) qo.scenes = {"near_and_far.json"}, qo.points = 200;
+        return runQueryBench(qo);
     }
     if (b.silhouette) {
         SilhouetteBenchOptions so;

@@ -656,6 +656,27 @@ TEST_F(CliTest, SilhouetteBenchMeasuresTheDetail) {
     EXPECT_NE(one.output.find("silhouette dimension "), std::string::npos) << one.output;
 }
 
+// The query bench times every query on points that hold matter (a bench that found none, or
+// timed the empty air, would show a densityAt as cheap as the floor's empty box test).
+TEST_F(CliTest, QueryBenchTimesEveryQuery) {
+    const CliRun r = run("bench --queries --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " + path("q"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream csv(path("q/query_bench.csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line, "scene,ellipsoids,near_clouds,layers,density_us,transmittance_1km_us,transmittance_10km_us,inside_us,"
+                    "mean_depth_m,floor_us");
+    ASSERT_TRUE(std::getline(csv, line)) << r.output;
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string v; std::getline(fields, v, ',');) f.push_back(v);
+    ASSERT_EQ(f.size(), 10u) << line;
+    EXPECT_EQ(f[0], "near_and_far.json");
+    EXPECT_GT(std::stoi(f[2]), 0) << "the near LOD's clouds must be queried";
+    for (int i = 4; i <= 8; ++i) EXPECT_GT(std::stod(f[std::size_t(i)]), 0.0) << "column " << i << ": " << line;
+    EXPECT_NE(r.output.find("| near_and_far.json |"), std::string::npos) << r.output;
+}
+
 // ---- Outputs, ranges and runaway work (issue #14).
 namespace {
 

@@ -13,7 +13,8 @@ set(NEPHELE_CLI_SUITES CliTest HostileInputTest VdbExportTest ScaleBenchTest Gri
 set(NEPHELE_CLI_TESTS HostileFileTest.CommandLineFailsClearlyWithinBoundedMemoryAndTime)
 set(NEPHELE_SANITIZE_SUITES LogTest LimitsTest HostileSceneTest HostileFileTest HostileInputTest HostileNumbersTest
     HostileCumulusTest CigiTest)
-set(NEPHELE_SANITIZE_TESTS)  # GL-state tests: every test whose name has LeavesHostStateUnchanged, HostState or Restored
+set(NEPHELE_SANITIZE_TESTS CloudQueryGLTest.QueriesAreSafeWhileUpdateRuns CloudQueryGLTest.BadQueriesAreRefusedWithTheirReason)
+# and the GL-state tests: every test whose name has LeavesHostStateUnchanged, HostState or Restored
 set(NEPHELE_SLOW_TESTS
   BigSceneGLTest.RaymarchTilesLoseNoCloud
   CliTest.AccuracyBenchWritesCsvChartsAndReadmeSection
@@ -29,8 +30,12 @@ set(NEPHELE_SLOW_TESTS
   CliTest.LayeredBenchWritesCsvChartAndTable
   CliTest.LayeredMethodDrawsTheLayers
   CliTest.MomentCompositeRendersOnTheGpuAndExactly
+  CliTest.QueryBenchTimesEveryQuery
   CliTest.StaleTemporariesOfKilledRunsAreRemovedSafely
   CliTest.WeatherBenchWritesCsvChartAndTable
+  CloudQueryGLTest.LayersAreTheLayerVolumesField
+  CloudQueryGLTest.NearCloudsAreWhatTheFrameDrawsAtTheirWeights
+  CloudQueryGLTest.TransmittanceIsTheFieldsIntegral
   Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/1
   Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/2
   Downsample/LayeredShadowResolutionGLTest.TwoLayersMultiplyTheirShadows/1
@@ -63,8 +68,6 @@ set(NEPHELE_SLOW_TESTS
   GardnerExactTest.MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop
   GardnerExactTest.OrderFlipOfOverlappingEllipsoidsPopsOnlyInPerEllipsoidOrder
   GardnerExactTest.WeightedOrderKeepsOpacityAndDoesNotPop
-  HostileCumulusTest.ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
-  HostileInputTest.CompareHoldsTwoLargestImagesWithinItsBudget
   HostApiGLTest.AChangeOfWindDoesNotJump
   HostApiGLTest.ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone
   HostApiGLTest.ANewSunNeverWaitsForTheCloudsGrids
@@ -76,6 +79,8 @@ set(NEPHELE_SLOW_TESTS
   HostApiGLTest.StitchedChannelsAreTheWideView
   HostApiGLTest.UpdateAndDrawDrawWhatRenderDraws
   HostApiGLTest.ViewportOffsetAndTheHostsDepthTexture
+  HostileCumulusTest.ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
+  HostileInputTest.CompareHoldsTwoLargestImagesWithinItsBudget
   LayerVolumeTest.ExtinctionIsTheLayeredSkysDensityMovedByTheWind
   LayerVolumeTest.LayersTheirTexturesAndTimeAreInTheCacheKey
   LayerVolumeTest.MajorantBoundsTheExtinctionAndCoversAllMatter
@@ -99,6 +104,7 @@ set(NEPHELE_SLOW_TESTS
   LayeredTest.OpticalDepthsPastTheCapAreLitAsIt
   LayeredTest.SkyTablesConserveEnergyInAWhiteFurnace
   LayeredTest.SunTablesHoldOnlyScatteredLightFlowingAwayFromTheSun
+  LightComponentsTest.EachComponentAgainstThePathTracersOwn
   NearLodGLTest.AutoDrawsTheLayerAndTheNearCumulus
   NearLodGLTest.LayersWithoutNearLodAreDrawnAllTheWayIn
   NearLodGLTest.NearAndFarRadianceAgreeAcrossTheBand
@@ -112,7 +118,6 @@ set(NEPHELE_SLOW_TESTS
   NearLodTest.OnlyCellsWithinReachSpawnAndTheyRetire
   NearLodTest.SameCellSameCloudWhateverTheEyePath
   NearLodTest.WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge
-  LightComponentsTest.EachComponentAgainstThePathTracersOwn
   PathTraceTest.ErrorFallsAsOneOverSqrtSpp
   ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
   ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids

@@ -5,11 +5,13 @@
 #include "nephele/gl_state.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/per_view.hpp"
+#include "cloud_field.hpp"
 #include "layer_assets.hpp"
 
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <stdexcept>
 
 namespace nephele {
@@ -48,6 +50,9 @@ struct SkyRenderer::Impl {
     SkyStats draw(const ViewDesc& desc);
     int backgroundJobs() const;
     void waitForBackgroundWork();
+    // Makes the field the cloud queries read from this update's clouds and layers (by CIGI id).
+    void publishField(std::vector<Cloud>& near, const Vec3& eye, const std::vector<std::pair<int, Layer>>& layers);
+    std::shared_ptr<const CloudField> field(const char* call) const;
 
     SkySettings settings_;
     EllipsoidRenderer clouds_;
@@ -63,6 +68,14 @@ struct SkyRenderer::Impl {
     long long updates_ = 0;      // since prepare()
     std::map<int, Vec2> drift_;  // by CIGI layer id: how far its wind has moved it (m)
     PerViewCache<FrameDepth> depths_;
+    // The cloud queries' state: the noise volume and the explicit clouds' matter (made by
+    // prepare()), each layer's last textures (a layer whose new ones are being made is queried
+    // with these, as it is drawn), and the field of the last update, swapped under the mutex.
+    std::shared_ptr<const NoiseVolume> noise_;
+    std::shared_ptr<const CloudMatter> explicitMatter_;
+    std::map<int, CloudField::LayerEntry> queryLayers_;
+    mutable std::mutex fieldMutex_;
+    std::shared_ptr<const CloudField> field_;
 };
 
 SkyRenderer::Impl::Impl(SkySettings settings)
@@ -116,6 +129,14 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
         assets_->modulation(layer.seed);
     }
     assets_->setBackground(true);
+    const NoiseSettings& ns = settings_.ellipsoid.noise;
+    noise_ = std::make_shared<const NoiseVolume>(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed));
+    explicitMatter_ = std::make_shared<const CloudMatter>(scene, noise_.get(), scene.camera.position, kMaxOpticalDepth, true);
+    queryLayers_.clear();
+    std::vector<std::pair<int, Layer>> layers;
+    for (std::size_t i = 0; i < scene.layers.size(); ++i) layers.emplace_back(-1 - int(i), scene.layers[i]);
+    std::vector<Cloud> noNear;
+    publishField(noNear, scene.camera.position, layers);
     clouds_.updateLights(scene, &scene.camera.position);
     clouds_.waitForLights(scene);  // the explicit clouds lit from the first frame
     warmUp(scene);
@@ -132,7 +153,9 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     scene_.sun = weather.sun;
     scene_.sun.direction = glm::normalize(weather.sun.direction);
     scene_.sky = weather.sky;
+    scene_.medium.detail.drift = scene_.medium.detail.wind * time_;  // the detail carried by its wind
     scene_.layers.clear();
+    std::vector<std::pair<int, Layer>> layerIds;
     for (const auto& [id, l] : weather.layers) {
         auto [it, added] = drift_.try_emplace(id, l.layer.windOffset + time_ * l.layer.wind);
         if (!added) it->second += dt * l.layer.wind;
@@ -140,11 +163,13 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
         Layer layer = l.layer;
         layer.windOffset = it->second - time_ * layer.wind;  // layerDrift(layer, time_) == the integrated drift
         scene_.layers.push_back(layer);
+        layerIds.emplace_back(id, layer);
         // Queue what the layer needs (the near LOD and the layered sky use it when it is ready).
         assets_->lighting(lightingParameters(scene_.medium, layer));
         assets_->modulation(layer.seed);
     }
     stats.layers = int(scene_.layers.size());
+    frame_.medium.detail.drift = scene_.medium.detail.drift;
     // The compositor's scene: the explicit clouds (kept, not copied again) and this frame's near ones.
     frame_.sun = scene_.sun;
     frame_.sky = scene_.sky;
@@ -152,6 +177,7 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     frame_.clouds.resize(explicitClouds_);
     // The first update after prepare() makes every cell in reach; later ones spread them.
     std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? settings_.cellsPerUpdate : 0);
+    publishField(near, eye, layerIds);
     frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
     const auto t0 = std::chrono::steady_clock::now();
     stats.lightVolumes = clouds_.updateLights(frame_, &eye);
@@ -198,6 +224,43 @@ void SkyRenderer::Impl::warmUp(const Scene& scene) {
     clouds_.render(scene, view, frame);
 }
 
+void SkyRenderer::Impl::publishField(std::vector<Cloud>& near, const Vec3& eye, const std::vector<std::pair<int, Layer>>& layers) {
+    std::shared_ptr<const CloudMatter> nearMatter;
+    if (!near.empty()) {
+        Scene nearScene;  // the near clouds, borrowed for the matter's making
+        nearScene.medium = scene_.medium;
+        nearScene.clouds = std::move(near);
+        nearMatter = std::make_shared<const CloudMatter>(nearScene, noise_.get(), eye, kMaxOpticalDepth, true);
+        near = std::move(nearScene.clouds);
+    }
+    std::map<int, CloudField::LayerEntry> now;
+    std::vector<CloudField::LayerEntry> entries;
+    for (const auto& [id, layer] : layers) {
+        CloudField::LayerEntry e;
+        e.layer = layer;
+        e.nearLod = layer.nearLod;
+        e.light = assets_->lighting(lightingParameters(scene_.medium, layer));  // nullptr while being made
+        e.modulation = assets_->modulation(layer.seed);
+        if (auto last = queryLayers_.find(id); last != queryLayers_.end()) {
+            if (!e.light) e.light = last->second.light;
+            if (!e.modulation) e.modulation = last->second.modulation;
+        }
+        now[id] = e;
+        entries.push_back(std::move(e));
+    }
+    queryLayers_ = std::move(now);
+    auto field = std::make_shared<const CloudField>(explicitMatter_, std::move(nearMatter), scene_.medium, settings_.layered,
+                                                    std::move(entries), eye, time_);
+    std::lock_guard lock(fieldMutex_);
+    field_ = std::move(field);
+}
+
+std::shared_ptr<const CloudField> SkyRenderer::Impl::field(const char* call) const {
+    std::lock_guard lock(fieldMutex_);
+    if (!field_) throw std::logic_error(std::string("SkyRenderer::") + call + ": call prepare(scene) first");
+    return field_;
+}
+
 int SkyRenderer::Impl::backgroundJobs() const { return assets_->pending(); }
 
 void SkyRenderer::Impl::waitForBackgroundWork() {
@@ -218,6 +281,32 @@ void SkyRenderer::waitForBackgroundWork() { impl_->waitForBackgroundWork(); }
 SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth) {
     return impl_->render(scene, view, framebuffer, timeSeconds, opaqueDepth);
 }
+namespace {
+void checkFinite(const Vec3& v, const char* call, const char* what) {
+    if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
+        throw std::invalid_argument(std::string("SkyRenderer::") + call + ": the " + what + " must be finite");
+}
+}  // namespace
+
+double SkyRenderer::densityAt(const Vec3& point) const {
+    checkFinite(point, "densityAt", "point");
+    return impl_->field("densityAt")->extinction(point);
+}
+
+double SkyRenderer::transmittance(const Vec3& origin, const Vec3& direction, double length) const {
+    checkFinite(origin, "transmittance", "origin");
+    checkFinite(direction, "transmittance", "direction");
+    const double norm = glm::length(direction);
+    if (!(norm > 1e-6)) throw std::invalid_argument("SkyRenderer::transmittance: the direction needs a length > 1e-6");
+    if (!(length >= 0)) throw std::invalid_argument("SkyRenderer::transmittance: the length must be >= 0 m (or infinite)");
+    return impl_->field("transmittance")->transmittance(origin, direction / norm, length);
+}
+
+CloudPresence SkyRenderer::insideCloud(const Vec3& point) const {
+    checkFinite(point, "insideCloud", "point");
+    return impl_->field("insideCloud")->presence(point);
+}
+
 const EllipsoidRenderer& SkyRenderer::compositor() const { return impl_->clouds_; }
 const NearLod* SkyRenderer::nearLod() const { return impl_->nearLod_.get(); }
 

@@ -70,6 +70,18 @@ struct SkyUpdateStats {
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running
 };
 
+// What the clouds hold at a point (SkyRenderer::insideCloud).
+struct CloudPresence {
+    bool inside = false;    // extinction >= kInsideCloudExtinction
+    double extinction = 0;  // 1/m at the point
+    double depth = 0;       // m: how far the nearest point outside is (0 outside; kCloudDepthReach
+                            // when none is that near)
+};
+// Inside a cloud: where the visibility is under 1 km, the meteorological bound of cloud and fog,
+// by Koschmieder's law (visibility = 3.912 / extinction at a contrast threshold of 2%).
+inline constexpr double kInsideCloudExtinction = 3.912 / 1000;  // 1/m
+inline constexpr double kCloudDepthReach = 5000;                 // m: insideCloud looks no further
+
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class SkyRenderer {
 public:
@@ -106,6 +118,25 @@ public:
     // benches; a host never needs to).
     int backgroundJobs() const;
     void waitForBackgroundWork();
+
+    // ---- Cloud queries (docs/embedding.md, "Cloud queries"): the matter of the clouds the last
+    // update() (or prepare()) made, as drawn: the explicit clouds, the near LOD's clouds times
+    // their weights, the layers faded as the layered sky fades them around the eye, the detail
+    // seen from the update's eye. Thread-safe: any thread may call them at any time after
+    // prepare(), also during update(), which makes the next field while they read the last.
+    // CPU only (no GL). Throw std::logic_error before prepare(), std::invalid_argument for a
+    // point or ray that is not finite.
+    // The extinction coefficient at a world point (1/m): medium.extinction times the density.
+    double densityAt(const Vec3& point) const;
+    // The transmittance exp(-tau) along origin + t direction, t in [0, length] (length may be
+    // infinite): closed form per ellipsoid for the smooth field, the noise and the detail by
+    // quadrature along each chord, the layers by steps of at most 20 m.
+    double transmittance(const Vec3& origin, const Vec3& direction, double length) const;
+    // Whether the point is inside a cloud, and how deep: the distance to the nearest point whose
+    // extinction is under kInsideCloudExtinction, searched along 26 directions (the cube's faces,
+    // edges and corners) in radii growing by 15% (at least 2 m), then bisected: within about 10%
+    // (the directions' spacing), and a clear gap thinner than the radii's step may be missed.
+    CloudPresence insideCloud(const Vec3& point) const;
 
     // ---- One synchronous call for one view (the command line, tests): draws every cloud of
     // `scene` over `framebuffer` (as EllipsoidRenderer::render and LayeredRenderer::render:
