@@ -126,23 +126,17 @@ MODEL_FN float chordWeight(int k) { return k == 1 ? 0.44444444f : 0.27777778f; }
 // ellipsoid's unit space, sigma its extinction (1/m). The primitive is monotone on the chord:
 // bisection, 20 halvings (the chord to 1e-6 of its length).
 MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigma, float share) {
-    float len = length(dUnit);
-    vec3 dn = dUnit / len;
-    float tc = -dot(oUnit, dn);
-    vec3 perp = oUnit + tc * dn;
-    float h2 = 1.0f - dot(perp, perp);
-    if (h2 <= 0.0f) return max(tc / len, tStart);
-    float h = sqrt(h2);
-    float u0 = clamp(tStart * len - tc, -h, h);
-    float p0 = chordPrimitive(u0, h2);
-    float whole = (chordPrimitive(h, h2) - p0) / len;  // m of (1 - q)^2: the chord's depth / sigma
+    ChordSpan c = chordBeyond(oUnit, dUnit, tStart);
+    if (c.h2 <= 0.0f) return max(c.tc / c.len, tStart);
+    float p0 = chordPrimitive(c.u0, c.h2);
+    float whole = (chordPrimitive(c.h, c.h2) - p0) / c.len;  // m of (1 - q)^2: the chord's depth / sigma
     float alpha = 1.0f - exp(-sigma * whole);
-    float target = (alpha < 1e-4f ? share * whole : -log(1.0f - share * alpha) / sigma) * len;
-    float lo = u0, hi = h;
+    float target = (alpha < 1e-4f ? share * whole : -log(1.0f - share * alpha) / sigma) * c.len;
+    float lo = c.u0, hi = c.h;
     for (int i = 0; i < 20; ++i) {
         float mid = 0.5f * (lo + hi);
-        if (chordPrimitive(mid, h2) - p0 < target) lo = mid;
+        if (chordPrimitive(mid, c.h2) - p0 < target) lo = mid;
         else hi = mid;
     }
-    return (0.5f * (lo + hi) + tc) / len;
+    return (0.5f * (lo + hi) + c.tc) / c.len;
 }

@@ -156,21 +156,14 @@ MODEL_FN float erodedPiece(float h2, float u0, float u1, float delta) {
 // by the delta read at its middle.
 MODEL_FN float erodedSegmentDepth(DETAIL_TEX tex, DetailParams dp, vec3 oUnit, vec3 dUnit, vec3 d, float tMin,
                                   float tMax, int pieces) {
-    float len = length(dUnit);
-    vec3 dn = dUnit / len;
-    float tc = -dot(oUnit, dn);
-    vec3 perp = oUnit + tc * dn;
-    float h2 = 1.0f - dot(perp, perp);
-    if (h2 <= 0.0f || tMax <= tMin) return 0.0f;
-    float h = sqrt(h2);
-    float u0 = clamp(tMin * len - tc, -h, h);
-    float u1 = clamp(tMax * len - tc, -h, h);
-    float step = (u1 - u0) / float(pieces);
+    ChordSpan c = chordSpan(oUnit, dUnit, tMin, tMax);
+    if (c.h2 <= 0.0f || tMax <= tMin) return 0.0f;
+    float step = (c.u1 - c.u0) / float(pieces);
     float sum = 0.0f;
     for (int i = 0; i < pieces; ++i) {
-        float ua = u0 + float(i) * step;
-        float delta = detailErosion(tex, dp, d * ((tc + ua + 0.5f * step) / len));
-        sum += erodedPiece(h2, ua, ua + step, delta);
+        float ua = c.u0 + float(i) * step;
+        float delta = detailErosion(tex, dp, d * ((c.tc + ua + 0.5f * step) / c.len));
+        sum += erodedPiece(c.h2, ua, ua + step, delta);
     }
-    return max(sum, 0.0f) / len;
+    return max(sum, 0.0f) / c.len;
 }

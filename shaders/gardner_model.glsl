@@ -14,22 +14,48 @@ MODEL_FN float chordPrimitive(float u, float h2) {
     return u * (h2 * h2 - u2 * (0.6666667f * h2 - 0.2f * u2));
 }
 
+// A ray o' + t d' (unit space of an ellipsoid) against the unit sphere, in the unit-space arc
+// length u from the ray's closest approach to the centre: len = |M d| (unit length per metre),
+// tc the closest approach's arc length, h2 = 1 - b^2 with b the impact parameter (<= 0: the
+// ray misses), h = sqrt(max(h2, 0)), and [tMin, tMax] as [u0, u1] clamped to the chord [-h, h].
+// Every closed form along a chord (segmentDepth, shadeDepth, matterDepth, chordSampleDepth,
+// erodedSegmentDepth) starts from it.
+struct ChordSpan {
+    float len;
+    float tc;
+    float h2;
+    float h;
+    float u0;
+    float u1;
+};
+MODEL_FN ChordSpan chordSpan(vec3 oUnit, vec3 dUnit, float tMin, float tMax) {
+    ChordSpan c;
+    c.len = length(dUnit);
+    vec3 dn = dUnit / c.len;
+    c.tc = -dot(oUnit, dn);
+    vec3 perp = oUnit + c.tc * dn;
+    c.h2 = 1.0f - dot(perp, perp);
+    c.h = sqrt(max(c.h2, 0.0f));
+    c.u0 = clamp(tMin * c.len - c.tc, -c.h, c.h);
+    c.u1 = clamp(tMax * c.len - c.tc, -c.h, c.h);
+    return c;
+}
+// The chord beyond tStart: u1 = h.
+MODEL_FN ChordSpan chordBeyond(vec3 oUnit, vec3 dUnit, float tStart) {
+    ChordSpan c = chordSpan(oUnit, dUnit, tStart, tStart);
+    c.u1 = c.h;
+    return c;
+}
+
 // Integral of (1 - q)^2 dt over t in [tMin, tMax] for one ellipsoid, in metres: the
 // ellipsoid's optical depth divided by (extinction * density). Exact and closed form:
 // with u the unit-space distance from the ray's closest approach to the centre and
 // b^2 = 1 - h2 the squared impact parameter, q = b^2 + u^2 and the integrand is (h2 - u^2)^2.
 // Numerically stable far from the ellipsoid (no difference of large polynomials in t).
 MODEL_FN float segmentDepth(vec3 oUnit, vec3 dUnit, float tMin, float tMax) {
-    float len = length(dUnit);             // |M d|: unit-space length per metre
-    vec3 dn = dUnit / len;
-    float tc = -dot(oUnit, dn);            // closest approach, unit-space arc length
-    vec3 perp = oUnit + tc * dn;
-    float h2 = 1.0f - dot(perp, perp);
-    if (h2 <= 0.0f || tMax <= tMin) return 0.0f;
-    float h = sqrt(h2);
-    float u0 = clamp(tMin * len - tc, -h, h);
-    float u1 = clamp(tMax * len - tc, -h, h);
-    return (chordPrimitive(u1, h2) - chordPrimitive(u0, h2)) / len;
+    ChordSpan c = chordSpan(oUnit, dUnit, tMin, tMax);
+    if (c.h2 <= 0.0f || tMax <= tMin) return 0.0f;
+    return (chordPrimitive(c.u1, c.h2) - chordPrimitive(c.u0, c.h2)) / c.len;
 }
 
 // The whole chord: 16/15 (1 - b^2)^(5/2) / |M d|, with radial profile F(b) = (1 - b^2)^(5/2)
@@ -83,13 +109,9 @@ MODEL_FN float opacityInFront(float alpha, float front, float whole) {
 // (tStart: the near plane's distance along the ray when the near plane cuts the ellipsoid,
 // else 0). The per-pixel order and the weighted composite's weights are by this depth.
 MODEL_FN float shadeDepth(vec3 oUnit, vec3 dUnit, float tStart) {
-    float len = length(dUnit);
-    vec3 dn = dUnit / len;
-    float tc = -dot(oUnit, dn);
-    vec3 perp = oUnit + tc * dn;
-    float h = sqrt(max(0.0f, 1.0f - dot(perp, perp)));
-    float tIn = (tc - h) / len, tOut = (tc + h) / len;
-    return min(max(tc / len, max(tIn, tStart)), tOut);
+    ChordSpan c = chordBeyond(oUnit, dUnit, tStart);
+    float tIn = (c.tc - c.h) / c.len, tOut = (c.tc + c.h) / c.len;
+    return min(max(c.tc / c.len, max(tIn, tStart)), tOut);
 }
 
 // The depth along the ray (m) of the centroid of an ellipsoid's matter the eye sees (density
@@ -98,18 +120,12 @@ MODEL_FN float shadeDepth(vec3 oUnit, vec3 dUnit, float tStart) {
 // to the near plane as the eye passes the centre of an ellipsoid it is inside (the matter
 // left is ahead), so weights taken from it change as smoothly as the matter does.
 MODEL_FN float matterDepth(vec3 oUnit, vec3 dUnit, float tStart) {
-    float len = length(dUnit);
-    vec3 dn = dUnit / len;
-    float tc = -dot(oUnit, dn);
-    vec3 perp = oUnit + tc * dn;
-    float h2 = 1.0f - dot(perp, perp);
-    if (h2 <= 0.0f) return max(tc / len, tStart);
-    float h = sqrt(h2);
-    float u0 = clamp(tStart * len - tc, -h, h);
-    float mass = chordPrimitive(h, h2) - chordPrimitive(u0, h2);
-    float a0 = h2 - u0 * u0;
-    float u = mass > 0.0f ? a0 * a0 * a0 / (6.0f * mass) : u0;
-    return max((tc + u) / len, tStart);
+    ChordSpan c = chordBeyond(oUnit, dUnit, tStart);
+    if (c.h2 <= 0.0f) return max(c.tc / c.len, tStart);
+    float mass = chordPrimitive(c.h, c.h2) - chordPrimitive(c.u0, c.h2);
+    float a0 = c.h2 - c.u0 * c.u0;
+    float u = mass > 0.0f ? a0 * a0 * a0 / (6.0f * mass) : c.u0;
+    return max((c.tc + u) / c.len, tStart);
 }
 
 // ---- The weighted, order-independent composite (after McGuire & Bavoil 2013, "Weighted
