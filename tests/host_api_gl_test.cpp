@@ -13,7 +13,14 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <array>
+#include <atomic>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -476,4 +483,56 @@ TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
     const Image after = draw();
     EXPECT_GT(compareImages(during, before, 1.0).meanAbs, 1e-4) << "the new sun's single scattering shows at once";
     EXPECT_GT(compareImages(after, during, 1.0).meanAbs, 1e-5) << "then the new grids";
+}
+
+// prepare() that does not wait (SkySettings::prepareWaits false) returns with the cloud's grid
+// queued; the first frames are lit by stand-ins; the host's onIdle comes on the worker thread,
+// at the priority the settings give it (Low: nice 10), once pending() is 0; the next update
+// takes the grid. A prepare() that waits leaves nothing pending. A grid of 2^22 photons takes
+// seconds on one core, so the stand-in is seen whatever the machine's load.
+TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
+    SkySettings settings = testSettings();
+    settings.ellipsoid.light.size = 32;
+    settings.ellipsoid.light.fitToCloud = false;
+    settings.ellipsoid.light.sunPhotons = settings.ellipsoid.light.skyPhotons = 1 << 22;
+    settings.background.priority = BackgroundSettings::Priority::Low;
+    Scene scene = testScene(64, 48);
+    scene.layers[0].nearLod = false;  // no near clouds: they would spawn once the layer's lighting is made, on stand-ins
+    {
+        SkyRenderer waiting(settings);
+        waiting.prepare(scene);
+        EXPECT_EQ(waiting.pending(), 0);
+        const SkyUpdateStats firstFrame = waiting.update(0, Weather::of(scene), scene.camera.position);
+        EXPECT_EQ(firstFrame.lightStandIns, 0) << "a prepare() that waits lights the first frame with the clouds' own grids";
+    }
+    settings.prepareWaits = false;
+    std::atomic<int> signals{0}, workerNice{-100}, pendingSeen{-1};
+    std::atomic<SkyRenderer*> self{nullptr};
+    settings.background.onIdle = [&] {
+        workerNice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
+        SkyRenderer* s = self.load();
+        const int p = s ? s->pending() : -2;
+        for (int seen = pendingSeen.load(); p > seen && !pendingSeen.compare_exchange_weak(seen, p);) {
+        }
+        ++signals;
+    };
+    SkyRenderer sky(settings);
+    self = &sky;
+    sky.prepare(scene);
+    EXPECT_GT(sky.pending(), 0);
+    const SkyUpdateStats first = sky.update(0, Weather::of(scene), scene.camera.position);
+    EXPECT_GT(first.lightStandIns, 0);
+    for (int i = 0; i < 1200 && signals.load() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    ASSERT_GT(signals.load(), 0) << "no completion signal within 120 s";
+    EXPECT_EQ(pendingSeen.load(), 0) << "a signal came with work pending";
+    EXPECT_EQ(workerNice.load(), 10);
+    EXPECT_EQ(sky.pending(), 0);
+    const SkyUpdateStats later = sky.update(0, Weather::of(scene), scene.camera.position);
+    EXPECT_GE(later.lightVolumes, 1);
+    EXPECT_EQ(later.lightStandIns, 0);
+    self = nullptr;
+
+    SkySettings bad = testSettings();
+    bad.background.threads = 0;
+    EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
 }

@@ -76,6 +76,7 @@ set(NEPHELE_SLOW_TESTS
   HostApiGLTest.CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce
   HostApiGLTest.DrawReportsItsPartsTimesWhenAsked
   HostApiGLTest.EveryDepthConventionGivesTheSameImage
+  HostApiGLTest.PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone
   HostApiGLTest.StitchedChannelsAreTheWideView
   HostApiGLTest.UpdateAndDrawDrawWhatRenderDraws
   HostApiGLTest.ViewportOffsetAndTheHostsDepthTexture

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "nephele/api.hpp"
+#include "nephele/background.hpp"
 #include <algorithm>
 #include <atomic>
 #include <exception>
@@ -37,16 +38,13 @@ private:
 };
 
 // Puts the calling thread (a background worker: the clouds' radiance grids, the layers'
-// lighting) below every normal thread: SCHED_IDLE, which runs only on a core that nothing else
-// wants; where that is refused, nice 19 (per thread on Linux). Measured with bench --weather
-// at 1280x720: with a nice-19 worker busy the far field took 1.5x its median.
-inline void makeThisThreadBackground() {
-#ifdef __linux__
-    sched_param none{};
-    if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &none) != 0)
-        setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 19);
-#endif
-}
+// lighting) where the host's BackgroundSettings say (nephele/background.hpp): its priority (by
+// default SCHED_IDLE, which runs only on a core that nothing else wants; where that is refused,
+// nice 19, per thread on Linux) and its cores. Threads it starts inherit both. Measured with
+// bench --weather at 1280x720: with a nice-19 worker busy the far field took 1.5x its median.
+// Returns the number of cores a job of this thread may use (for ParallelLimit).
+int enterBackground(const BackgroundSettings& settings);
+inline void makeThisThreadBackground() { enterBackground(BackgroundSettings{}); }
 
 template <class F>
 void parallelFor(int n, F&& f) {

@@ -466,6 +466,8 @@ void EllipsoidRenderer::waitForLights(const Scene& scene) {
     impl_->updateLights(settings_, scene, nullptr, true);
 }
 
+int EllipsoidRenderer::pendingLights() const { return impl_->lightCache.pending(); }
+
 RadianceUpdateStats EllipsoidRenderer::lightStats() const { return impl_->lightStats; }
 
 EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {

@@ -94,8 +94,8 @@ void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
 }
 
 void LayerAssets::run() {
-    makeThisThreadBackground();
-    const ParallelLimit oneCore(1);  // the lighting's parallelFor: this thread alone
+    // By default below the frame's threads, the lighting's parallelFor on this thread alone.
+    const ParallelLimit cores(enterBackground(settings_.background));
     std::unique_lock lock(mutex_);
     for (;;) {
         changed_.wait(lock, [&] { return stop_ || !queue_.empty(); });
@@ -106,6 +106,11 @@ void LayerAssets::run() {
         compute(*e, lock);
         --running_;
         changed_.notify_all();
+        if (queue_.empty() && settings_.background.onIdle) {  // told without the lock: it may ask pending()
+            lock.unlock();
+            settings_.background.onIdle();
+            lock.lock();
+        }
     }
 }
 

@@ -63,6 +63,7 @@ ModulationTexture makeModulation(const ModulationSettings& s, unsigned seed) {
 }
 
 void validate(const LayeredSettings& s) {
+    validate(s.background);
     auto bad = [](const std::string& what) { throw std::invalid_argument("layered settings: " + what); };
     if (s.layers < 2 || s.layers > 1024) bad("layers (N) must be 2..1024, got " + std::to_string(s.layers));
     if (!(s.lod0Radius >= 0)) bad("lod0Radius must be >= 0 m");

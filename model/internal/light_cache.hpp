@@ -62,6 +62,9 @@ public:
     // the next update() uses what it made. The waiting thread makes queued grids itself
     // meanwhile, on every core at its own priority: a host that waits wants them now.
     void waitIdle();
+    // Grids queued or being made (thread-safe); at 0 the next update() takes every one made.
+    int pending();
+
 
 private:
     struct Entry {
@@ -80,7 +83,7 @@ private:
     };
     std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s);
     void schedule(std::vector<Job> jobs);
-    void work();
+    void work(BackgroundSettings settings);
     Job takeBest();  // the queue's highest priority; with mutex_ held, the queue not empty
 
     std::unordered_map<std::uint64_t, Entry> entries_;

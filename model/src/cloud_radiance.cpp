@@ -441,6 +441,7 @@ void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
 }
 
 void validate(const RadianceGridSettings& s) {
+    validate(s.backgroundWork);
     if (s.size < 4 || s.size > 128) throw std::invalid_argument("radiance grid size must be 4..128 voxels");
     if (s.sunPhotons < 0 || s.sunPhotons > (1 << 26)) throw std::invalid_argument("radiance grid sunPhotons must be 0..2^26");
     if (s.skyPhotons < 0 || s.skyPhotons > (1 << 26)) throw std::invalid_argument("radiance grid skyPhotons must be 0..2^26");

@@ -204,14 +204,15 @@ void CloudRadianceCache::schedule(std::vector<Job> jobs) {
         if (running_ != 0 && !runningWanted) cancel_ = true;
         std::erase_if(jobs, [&](const Job& j) { return j.key == running_; });
         queue_ = std::move(jobs);
-        if (!queue_.empty() && !worker_.joinable()) worker_ = std::thread([this] { work(); });
+        if (!queue_.empty() && !worker_.joinable())
+            worker_ = std::thread([this, w = queue_.front().settings.backgroundWork] { work(w); });
     }
     wake_.notify_all();
 }
 
-void CloudRadianceCache::work() {
-    makeThisThreadBackground();  // below the frame's threads: the grids come later, the frames stay on time
-    ParallelLimit one(1);  // one core: the other stays the renderer's
+void CloudRadianceCache::work(BackgroundSettings settings) {
+    // By default below the frame's threads, on one core: the grids come later, the frames stay on time.
+    const ParallelLimit cores(enterBackground(settings));
     std::unique_lock lock(mutex_);
     for (;;) {
         wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
@@ -225,7 +226,17 @@ void CloudRadianceCache::work() {
         running_ = 0;
         if (!cancel_ && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
         idle_.notify_all();
+        if (queue_.empty() && settings.onIdle) {  // told without the lock: it may ask pending()
+            lock.unlock();
+            settings.onIdle();
+            lock.lock();
+        }
     }
+}
+
+int CloudRadianceCache::pending() {
+    std::lock_guard lock(mutex_);
+    return int(queue_.size()) + (running_ != 0 ? 1 : 0);
 }
 
 CloudRadianceCache::Job CloudRadianceCache::takeBest() {

@@ -9,6 +9,7 @@
 #include "layer_assets.hpp"
 
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -35,6 +36,33 @@ EllipsoidSettings withTimings(EllipsoidSettings s, bool timings) {
     s.timings = s.timings || timings;
     return s;
 }
+
+// The host's completion signal: each worker calls fire() when it runs dry; the host is told
+// when nothing is pending anywhere. Shared with the workers' settings, so that a worker
+// finishing while the renderer is destroyed finds it closed.
+struct IdleSignal {
+    std::mutex mutex;
+    bool open = true;
+    std::function<void()> host;
+    std::function<int()> pending;
+    void fire() {
+        std::lock_guard lock(mutex);
+        if (open && host && pending && pending() == 0) host();
+    }
+};
+
+// `s` with its background settings handed to both workers, their onIdle routed through `idle`.
+SkySettings withBackground(SkySettings s, const std::shared_ptr<IdleSignal>& idle) {
+    validate(s.background);
+    idle->host = s.background.onIdle;
+    BackgroundSettings worker = s.background;
+    worker.onIdle = [signal = std::weak_ptr<IdleSignal>(idle)] {
+        if (auto sig = signal.lock()) sig->fire();
+    };
+    s.layered.background = worker;
+    s.ellipsoid.light.backgroundWork = worker;
+    return s;
+}
 }  // namespace
 
 // What SkyRenderer holds (sky.hpp): the compositor for the explicit and the near clouds, the
@@ -42,6 +70,7 @@ EllipsoidSettings withTimings(EllipsoidSettings s, bool timings) {
 // API's state between prepare(), update() and draw().
 struct SkyRenderer::Impl {
     explicit Impl(SkySettings settings);
+    ~Impl();
     void makeLayered();
     void warmUp(const Scene& scene);
     SkyStats render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth);
@@ -50,10 +79,12 @@ struct SkyRenderer::Impl {
     SkyStats draw(const ViewDesc& desc);
     int backgroundJobs() const;
     void waitForBackgroundWork();
+    int pending() const { return backgroundJobs() + clouds_.pendingLights(); }
     // Makes the field the cloud queries read from this update's clouds and layers (by CIGI id).
     void publishField(std::vector<Cloud>& near, const Vec3& eye, const std::vector<std::pair<int, Layer>>& layers);
     std::shared_ptr<const CloudField> field(const char* call) const;
 
+    std::shared_ptr<IdleSignal> idle_ = std::make_shared<IdleSignal>();
     SkySettings settings_;
     EllipsoidRenderer clouds_;
     std::shared_ptr<LayerAssets> assets_;
@@ -79,7 +110,7 @@ struct SkyRenderer::Impl {
 };
 
 SkyRenderer::Impl::Impl(SkySettings settings)
-    : settings_(std::move(settings)),
+    : settings_(withBackground(std::move(settings), idle_)),
       clouds_(withTimings(settings_.ellipsoid, settings_.timings)),
       assets_(std::make_shared<LayerAssets>(settings_.layered)) {
     validate(settings_.layered);
@@ -87,6 +118,12 @@ SkyRenderer::Impl::Impl(SkySettings settings)
     if (settings_.cellsPerUpdate < 0) throw std::invalid_argument("SkySettings::cellsPerUpdate must be >= 0");
     nearLod_ = std::make_unique<NearLod>(settings_.nearLod, settings_.layered);
     nearLod_->shareAssets(assets_);
+    idle_->pending = [this] { return pending(); };
+}
+
+SkyRenderer::Impl::~Impl() {
+    std::lock_guard lock(idle_->mutex);  // a worker's signal from now on finds it closed
+    idle_->open = false;
 }
 
 void SkyRenderer::Impl::makeLayered() {
@@ -117,13 +154,17 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     makeLayered();
     layered_->prepare();
     scene_ = scene;
+    // The sun as update() takes it (normalised), so that the first update finds the grids made
+    // here (a grid's key holds the sun's direction to the last bit).
+    scene_.sun.direction = glm::normalize(scene.sun.direction);
     explicitClouds_ = scene.clouds.size();
-    frame_ = scene;
+    frame_ = scene_;
     time_ = 0;
     drift_.clear();
     updates_ = 0;
-    // The layers' lighting and modulation, made now (the one wait); later changes in the background.
-    assets_->setBackground(false);
+    // The layers' lighting and modulation, made now (the one wait) or queued; later changes in
+    // the background.
+    assets_->setBackground(!settings_.prepareWaits);
     for (const Layer& layer : scene.layers) {
         assets_->lighting(lightingParameters(scene.medium, layer));
         assets_->modulation(layer.seed);
@@ -137,9 +178,9 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     for (std::size_t i = 0; i < scene.layers.size(); ++i) layers.emplace_back(-1 - int(i), scene.layers[i]);
     std::vector<Cloud> noNear;
     publishField(noNear, scene.camera.position, layers);
-    clouds_.updateLights(scene, &scene.camera.position);
-    clouds_.waitForLights(scene);  // the explicit clouds lit from the first frame
-    warmUp(scene);
+    clouds_.updateLights(scene_, &scene.camera.position);
+    if (settings_.prepareWaits) clouds_.waitForLights(scene_);  // the explicit clouds lit from the first frame
+    warmUp(scene_);
     prepared_ = true;
 }
 
@@ -277,6 +318,7 @@ SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3
 SkyStats SkyRenderer::draw(const ViewDesc& view) { return impl_->draw(view); }
 double SkyRenderer::time() const { return impl_->time_; }
 int SkyRenderer::backgroundJobs() const { return impl_->backgroundJobs(); }
+int SkyRenderer::pending() const { return impl_->pending(); }
 void SkyRenderer::waitForBackgroundWork() { impl_->waitForBackgroundWork(); }
 SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth) {
     return impl_->render(scene, view, framebuffer, timeSeconds, opaqueDepth);

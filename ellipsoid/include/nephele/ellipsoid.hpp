@@ -230,6 +230,9 @@ public:
     void waitForLights(const Scene& scene);
     // The last light update's figures: grids pending on the worker, stand-ins, over budget.
     RadianceUpdateStats lightStats() const;
+    // Grids queued or being made on the worker now (thread-safe: any thread may ask); at 0 the
+    // next updateLights() takes every grid made.
+    int pendingLights() const;
 
     // Debug views of the last render (a host's tools: `nephele fly`). The tiles, and the atlas:
     // a GL_TEXTURE_2D_ARRAY of atlasSize() with a layer per pass (at least the last frame's

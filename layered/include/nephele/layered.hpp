@@ -46,6 +46,7 @@
 #pragma once
 
 #include "nephele/api.hpp"
+#include "nephele/background.hpp"
 #include "nephele/camera.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gl.hpp"
@@ -204,6 +205,7 @@ struct LayeredSettings {
                                   // GL): layers of the same thickness (and medium) share a volume, of the same
                                   // seed a modulation; a scene whose distinct ones need more is refused
                                   // (ResourceError) before anything is made. 1..65536
+    BackgroundSettings background;  // how the worker that makes them in the background runs (SkySettings::background)
 };
 // Throws std::invalid_argument naming the setting.
 void validate(const LayeredSettings& settings);

@@ -35,6 +35,7 @@
 #pragma once
 
 #include "nephele/api.hpp"
+#include "nephele/background.hpp"
 #include "nephele/scene.hpp"
 
 #include <atomic>
@@ -67,6 +68,9 @@ struct RadianceGridSettings {
     // Make missing grids on a worker thread, a stand-in lighting the cloud meanwhile, instead of
     // before the frame (a host's frame loop; SkyRenderer::update() always does).
     bool background = false;
+    // How that worker runs (its priority, cores and the cores of a job; nephele/background.hpp):
+    // taken from the settings that start it.
+    BackgroundSettings backgroundWork;
 };
 
 // What an update of the clouds' grids did (model/internal/light_cache.hpp; EllipsoidRenderer::lightStats).

@@ -49,6 +49,16 @@ struct SkySettings {
     // Near-LOD cells update() makes at most after the first (nearest first); 0: every cell in
     // reach, as render() (a recorded flight that must equal `render --time`).
     int cellsPerUpdate = kCellsPerUpdate;
+    // The background workers (the clouds' radiance grids, the layers' lighting and modulation):
+    // priority, cores, cores per job and the host's completion signal (nephele/background.hpp).
+    // Replaces layered.background and ellipsoid.light.backgroundWork. onIdle is called, on a
+    // worker thread, when a worker runs dry and pending() is 0.
+    BackgroundSettings background;
+    // true: prepare() makes the layers' lighting and the explicit clouds' grids before it
+    // returns (the first frame is lit as the last). false: it queues them and returns once the
+    // shaders are built; until they are ready the clouds are lit by stand-ins and a layer with
+    // no lighting yet is not drawn (pending() says how much is left).
+    bool prepareWaits = true;
 };
 
 struct SkyStats {
@@ -118,6 +128,10 @@ public:
     // benches; a host never needs to).
     int backgroundJobs() const;
     void waitForBackgroundWork();
+    // All background work not yet done: the layers' jobs and the clouds' grids, queued or
+    // running. Thread-safe. At 0 (SkySettings::background.onIdle tells when), the next update()
+    // takes every grid made and draws every layer with its own lighting.
+    int pending() const;
 
     // ---- Cloud queries (docs/embedding.md, "Cloud queries"): the matter of the clouds the last
     // update() (or prepare()) made, as drawn: the explicit clouds, the near LOD's clouds times

@@ -1,0 +1,89 @@
+// The host's background settings (nephele/background.hpp) as a worker thread applies them:
+// its priority, its cores and the cores of its jobs, and the settings' checks.
+#include "nephele/background.hpp"
+
+#include "parallel.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <stdexcept>
+#include <thread>
+
+using namespace nephele;
+
+namespace {
+
+struct ThreadState {
+    int policy = -1, nice = -100, jobCores = 0, cpus = 0;
+    bool onlyCpu0 = false;
+};
+
+// What a fresh thread looks like after enterBackground(s).
+ThreadState applyOnAThread(const BackgroundSettings& s) {
+    ThreadState out;
+    std::thread t([&] {
+        out.jobCores = enterBackground(s);
+        out.policy = sched_getscheduler(0);
+        errno = 0;
+        out.nice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        sched_getaffinity(0, sizeof set, &set);
+        out.cpus = CPU_COUNT(&set);
+        out.onlyCpu0 = CPU_ISSET(0, &set) && out.cpus == 1;
+    });
+    t.join();
+    return out;
+}
+
+}  // namespace
+
+// The default puts the worker on SCHED_IDLE (or nice 19 where refused), one core per job, any
+// core; Low is nice 10; Normal keeps the starting thread's priority; cpus pins it.
+TEST(BackgroundTest, AWorkerTakesThePriorityAndCoresItIsGiven) {
+    const int parentNice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
+    const ThreadState idle = applyOnAThread(BackgroundSettings{});
+    EXPECT_TRUE(idle.policy == SCHED_IDLE || idle.nice == 19) << idle.policy << " " << idle.nice;
+    EXPECT_EQ(idle.jobCores, 1);
+
+    BackgroundSettings low;
+    low.priority = BackgroundSettings::Priority::Low;
+    low.threads = 3;
+    low.cpus = {0};
+    const ThreadState l = applyOnAThread(low);
+    EXPECT_EQ(l.policy, SCHED_OTHER);
+    EXPECT_EQ(l.nice, std::max(parentNice, 10));
+    EXPECT_EQ(l.jobCores, 3);
+    EXPECT_TRUE(l.onlyCpu0) << l.cpus << " cores";
+
+    BackgroundSettings normal;
+    normal.priority = BackgroundSettings::Priority::Normal;
+    const ThreadState n = applyOnAThread(normal);
+    EXPECT_EQ(n.policy, SCHED_OTHER);
+    EXPECT_EQ(n.nice, parentNice);
+    EXPECT_GE(n.cpus, 1);
+}
+
+TEST(BackgroundTest, BadSettingsAreNamed) {
+    BackgroundSettings s;
+    EXPECT_NO_THROW(validate(s));
+    s.threads = 0;
+    EXPECT_THROW(validate(s), std::invalid_argument);
+    s.threads = 257;
+    EXPECT_THROW(validate(s), std::invalid_argument);
+    s.threads = 2;
+    s.cpus = {0, 1024};
+    try {
+        validate(s);
+        ADD_FAILURE() << "a core past 1023 passed";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("cpus"), std::string::npos) << e.what();
+    }
+    s.cpus = {-1};
+    EXPECT_THROW(validate(s), std::invalid_argument);
+}
