@@ -150,6 +150,14 @@ int run(const std::string& scenePath, const std::string& out, int w, int h) {
             sky.draw(v);
         }
     }
+    // The cloud queries (any thread, no GL): what a sensor along the view sees through, and
+    // the matter at the heart of the scene's first cloud.
+    const double seen = sky.transmittance(cam.position, cam.direction, 20000);
+    if (!(seen >= 0 && seen <= 1)) throw std::runtime_error("the cloud queries gave a transmittance outside [0, 1]");
+    if (!scene.clouds.empty() && !scene.clouds[0].ellipsoids.empty() && scene.clouds[0].ellipsoids[0].density > 0 &&
+        !(sky.densityAt(scene.clouds[0].ellipsoids[0].center) > 0))
+        throw std::runtime_error("the cloud queries found no matter at the heart of the first cloud");
+    std::fprintf(stderr, "nephele_host: transmittance along the view over 20 km: %.3f\n", seen);
     const nephele::Image image = readFrame(frame);
     nephele::writePfm(out, nephele::channels(image, 0, 3));
     if (glGetError() != GL_NO_ERROR) throw std::runtime_error("a GL error in the host's frame");
