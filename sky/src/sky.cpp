@@ -175,7 +175,7 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     explicitMatter_ = std::make_shared<const CloudMatter>(scene, noise_.get(), scene.camera.position, kMaxOpticalDepth, true);
     queryLayers_.clear();
     std::vector<std::pair<int, Layer>> layers;
-    for (std::size_t i = 0; i < scene.layers.size(); ++i) layers.emplace_back(-1 - int(i), scene.layers[i]);
+    for (std::size_t i = 0; i < scene.layers.size(); ++i) layers.emplace_back(cigiLayerId(int(i)), scene.layers[i]);  // as Weather::of
     std::vector<Cloud> noNear;
     publishField(noNear, scene.camera.position, layers);
     clouds_.updateLights(scene_, &scene.camera.position);
