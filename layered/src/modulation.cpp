@@ -14,6 +14,7 @@ namespace nephele {
 
 namespace {
 double smoothstep(double e0, double e1, double x) {
+    if (!(e1 > e0)) return x < e0 ? 0.0 : 1.0;  // a step (a rim of no width)
     const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
     return t * t * (3 - 2 * t);
 }
@@ -83,6 +84,10 @@ double nearFade(const LayeredSettings& s, double horizontal) {
     if (horizontal < s.nearRadius) return 0;
     if (s.blendBand <= 0) return 1;
     return smoothstep(s.nearRadius, s.nearRadius + s.blendBand, horizontal);
+}
+
+double rimFade(const Layer& layer, double extentFade, double horizontal) {
+    return 1 - smoothstep(layer.extent * (1 - extentFade), layer.extent, horizontal);
 }
 
 namespace {

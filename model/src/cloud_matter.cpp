@@ -163,13 +163,6 @@ double CloudMatter::smoothDepth(const Vec3& o, const Vec3& d, double t0, double 
                                                         float(t0), float(std::min(t1, 1e30))));
 }
 
-double CloudMatter::chordExtinction(const Vec3& o, const Vec3& d, double t, const Chord& c, const DetailFrame& frame) const {
-    const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
-    if (h <= 0) return 0;
-    const glm::vec3 uvw = amp_ > 0 ? glm::vec3((o + t * d) / period_) : glm::vec3(0.0f);
-    return matter(shapes_[std::size_t(c.shape)], h, uvw, detailOn() ? erosionAt(o + t * d, frame) : 0.0f);
-}
-
 double CloudMatter::chordSmooth(double t, const Chord& c) const {
     const double u = t * c.len - c.tc, h = 1 - c.b2 - u * u;  // 1 - q
     return h > 0 ? shapes_[std::size_t(c.shape)].sigma * h * h : 0.0;

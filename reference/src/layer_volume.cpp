@@ -1,6 +1,8 @@
 // The layers as volumes for the path tracer (nephele/layer_volume.hpp).
 #include "nephele/layer_volume.hpp"
 
+#include "layer_geometry.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -16,12 +18,6 @@ constexpr int kCellTexels = 8;  // modulation texels per coarse majorant cell an
 // scenes with rendered layers only (pathtrace.cpp's kVersion is left to the cloud-only references).
 constexpr std::uint32_t kLayerKeyVersion = 1;
 
-double smoothstep(double e0, double e1, double x) {
-    if (!(e1 > e0)) return x < e0 ? 0.0 : 1.0;
-    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
-    return t * t * (3 - 2 * t);
-}
-
 // The smallest r that a bilinear lookup inside each coarse cell can read: the cell's texels
 // and a border of one (GL_LINEAR reads floor(x - 0.5) and the next texel), wrapped.
 std::vector<float> thresholdMinima(const ModulationTexture& m, int cells) {
@@ -36,29 +32,6 @@ std::vector<float> thresholdMinima(const ModulationTexture& m, int cells) {
             out[std::size_t(cj) * cells + ci] = lo;
         }
     return out;
-}
-
-// The interval of t where o + t d lies in the slab z in [lo, hi] and within `radius` of `c`
-// horizontally, intersected with [t0, t1]; false when empty.
-bool clipToLayer(const Vec3& o, const Vec3& d, double lo, double hi, const Vec3& c, double radius, double& t0, double& t1) {
-    if (std::fabs(d.z) < 1e-12) {
-        if (o.z < lo || o.z > hi) return false;
-    } else {
-        double a = (lo - o.z) / d.z, b = (hi - o.z) / d.z;
-        if (a > b) std::swap(a, b);
-        t0 = std::max(t0, a), t1 = std::min(t1, b);
-    }
-    const Vec2 p(o.x - c.x, o.y - c.y), h(d.x, d.y);
-    const double qa = glm::dot(h, h), qb = glm::dot(p, h), qc = glm::dot(p, p) - radius * radius;
-    if (qa < 1e-24) {
-        if (qc > 0) return false;
-    } else {
-        const double disc = qb * qb - qa * qc;
-        if (disc < 0) return false;
-        const double s = std::sqrt(disc);
-        t0 = std::max(t0, (-qb - s) / qa), t1 = std::min(t1, (-qb + s) / qa);
-    }
-    return t1 > t0;
 }
 
 class KeyBytes {
@@ -139,7 +112,7 @@ double LayerVolumes::extinction(const Vec3& p, const Vec3& eye) const {
         if (h > l.extent) continue;
         // Cheap test first, as the shader: eq. (16) is 0 wherever r >= C (A <= 1).
         if (layerModulation(l, e.modulation, modulationSettings_, p.x, p.y, time_) <= 0) continue;
-        const double fade = 1 - smoothstep(l.extent * (1 - extentFade_), l.extent, h);
+        const double fade = rimFade(l, extentFade_, h);
         if (fade > 0) sigma += extinction_ * fade * layerDensity(l, e.modulation, modulationSettings_, e.light, p, time_);
     }
     return sigma;

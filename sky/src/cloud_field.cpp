@@ -1,6 +1,8 @@
 // The clouds of one update() as a field the host can query (cloud_field.hpp).
 #include "cloud_field.hpp"
 
+#include "layer_geometry.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -19,12 +21,6 @@ constexpr double kDepthFirstRadius = 2;  // m
 constexpr double kDepthGrowth = 0.15;    // each radius 15% beyond the last (at least kDepthFirstRadius)
 constexpr int kDepthBisections = 10;
 
-double smoothstep(double e0, double e1, double x) {
-    if (!(e1 > e0)) return x < e0 ? 0.0 : 1.0;
-    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
-    return t * t * (3 - 2 * t);
-}
-
 // The directions insideCloud looks along: the cube's 6 faces, 12 edges and 8 corners.
 std::array<Vec3, 26> searchDirections() {
     std::array<Vec3, 26> out{};
@@ -36,29 +32,6 @@ std::array<Vec3, 26> searchDirections() {
     return out;
 }
 
-// The interval of t in [t0, t1] where o + t d lies in the slab z in [lo, hi] and within `radius`
-// of `c` horizontally; false when empty.
-bool clipToSlab(const Vec3& o, const Vec3& d, double lo, double hi, const Vec3& c, double radius, double& t0, double& t1) {
-    if (std::fabs(d.z) < 1e-12) {
-        if (o.z < lo || o.z > hi) return false;
-    } else {
-        double a = (lo - o.z) / d.z, b = (hi - o.z) / d.z;
-        if (a > b) std::swap(a, b);
-        t0 = std::max(t0, a), t1 = std::min(t1, b);
-    }
-    const Vec2 p(o.x - c.x, o.y - c.y), h(d.x, d.y);
-    const double qa = glm::dot(h, h), qb = glm::dot(p, h), qc = glm::dot(p, p) - radius * radius;
-    if (qa < 1e-24) {
-        if (qc > 0) return false;
-    } else {
-        const double disc = qb * qb - qa * qc;
-        if (disc < 0) return false;
-        const double s = std::sqrt(disc);
-        t0 = std::max(t0, (-qb - s) / qa), t1 = std::min(t1, (-qb + s) / qa);
-    }
-    return t1 > t0;
-}
-
 }  // namespace
 
 CloudField::CloudField(std::shared_ptr<const CloudMatter> explicitClouds, std::shared_ptr<const CloudMatter> nearClouds,
@@ -68,7 +41,6 @@ CloudField::CloudField(std::shared_ptr<const CloudMatter> explicitClouds, std::s
       near_(std::move(nearClouds)),
       noiseScale_(medium.noise > 0 ? medium.noiseScale : 0),
       extinctionPerDensity_(medium.extinction),
-      modulation_(layered.modulation),
       layered_(layered),
       layers_(std::move(layers)),
       eye_(eye),
@@ -85,11 +57,11 @@ double CloudField::layerExtinction(const LayerEntry& e, const Vec3& p) const {
     if (p.z < l.base || p.z > l.base + l.thickness) return 0;
     const double h = glm::length(Vec2(p.x - eye_.x, p.y - eye_.y));
     if (h > l.extent) return 0;
-    double fade = 1 - smoothstep(l.extent * (1 - layered_.extentFade), l.extent, h);
+    double fade = rimFade(l, layered_.extentFade, h);
     if (e.nearLod) fade *= nearFade(layered_, h);
     // Cheap test first, as the shader: eq. (16) is 0 wherever r >= C (A <= 1).
-    if (!(fade > 0) || layerModulation(l, *e.modulation, modulation_, p.x, p.y, time_) <= 0) return 0;
-    return extinctionPerDensity_ * fade * layerDensity(l, *e.modulation, modulation_, *e.light, p, time_);
+    if (!(fade > 0) || layerModulation(l, *e.modulation, layered_.modulation, p.x, p.y, time_) <= 0) return 0;
+    return extinctionPerDensity_ * fade * layerDensity(l, *e.modulation, layered_.modulation, *e.light, p, time_);
 }
 
 double CloudField::extinction(const Vec3& p) const {
@@ -140,7 +112,7 @@ double CloudField::cloudDepth(const CloudMatter& matter, const Vec3& o, const Ve
 
 double CloudField::layerDepth(const LayerEntry& e, const Vec3& o, const Vec3& d, double length) const {
     double t0 = 0, t1 = length;
-    if (!clipToSlab(o, d, e.layer.base, e.layer.base + e.layer.thickness, eye_, e.layer.extent, t0, t1)) return 0;
+    if (!clipToLayer(o, d, e.layer.base, e.layer.base + e.layer.thickness, eye_, e.layer.extent, t0, t1)) return 0;
     const int n = int(std::clamp(std::ceil((t1 - t0) / kLayerStep), 1.0, double(kLayerMaxSteps)));
     const double dt = (t1 - t0) / n;
     double tau = 0;

@@ -8,9 +8,8 @@
 //   distance from the eye: what the eye sees of it);
 // - each layer's, as the layered sky draws it: medium.extinction * layerDensity(x, t) (eq. 16,
 //   wind at the update's time), times nearFade(h) for a layer with near_lod (the near clouds
-//   stand in for it near the eye), times the rim fade 1 - smoothstep(extent (1 - f), extent, h),
-//   h the horizontal distance of x from the eye, f LayeredSettings::extentFade (as LayerVolumes
-//   and the path tracer have it).
+//   stand in for it near the eye), times rimFade(h) (LayeredSettings::extentFade), h the
+//   horizontal distance of x from the eye (as LayerVolumes and the path tracer have it).
 #pragma once
 
 #include "nephele/cloud_matter.hpp"
@@ -50,7 +49,6 @@ private:
     CloudMatter::DetailFrame detail_;
     double noiseScale_ = 0;
     double extinctionPerDensity_ = 0;
-    ModulationSettings modulation_;
     LayeredSettings layered_;
     std::vector<LayerEntry> layers_;
     Vec3 eye_{0.0};

@@ -217,6 +217,10 @@ inline Vec2 layerDrift(const Layer& layer, double t) { return layer.windOffset +
 // from the eye: 0 within nearRadius, smoothstep across the blend band, 1 beyond (the shader
 // multiplies every fragment's optical depth by it).
 double nearFade(const LayeredSettings& settings, double horizontal);
+// The layer's fade at its rim, at horizontal distance `horizontal` (m) from the eye: 1 -
+// smoothstep(extent (1 - extentFade), extent, horizontal) (LayeredSettings::extentFade), as the
+// shader fades the layer's fragments; 0 beyond the extent.
+double rimFade(const Layer& layer, double extentFade, double horizontal);
 // The layer's modulation at world (x, y) (m) and time t (s): eq. (16) with the 3D texture's
 // alpha at its peak (1), i.e. D * max(C - r, 0), with r read as the shader reads it (wind
 // included). > 0 where the layer has cloud; the near LOD spawns ellipsoid clouds there.

@@ -79,9 +79,7 @@ public:
     double smoothDepth(const Vec3& o, const Vec3& d, double t0, double t1, const std::vector<Chord>& chords) const;
     // The same for one chord, over [t0, t1].
     double smoothDepth(const Vec3& o, const Vec3& d, double t0, double t1, const Chord& chord) const;
-    // The chord's own ellipsoid's extinction at o + t d (one term of extinctionAlong's sum), and
-    // its smooth part sigma_i w_i (1 - q)^2 there.
-    double chordExtinction(const Vec3& o, const Vec3& d, double t, const Chord& chord, const DetailFrame& frame) const;
+    // The chord's own ellipsoid's smooth extinction sigma_i w_i (1 - q)^2 at o + t d.
     double chordSmooth(double t, const Chord& chord) const;
 
     // sigma_i w_i of one ellipsoid (1/m), and a bound of the noise factor N_i (1 without noise).
