@@ -412,23 +412,27 @@ auto listOf(F read, const Limit* limit = nullptr) {
 
 // ---------------------------------------------------------------- objects
 
-// Optimal-string-alignment distance (edits, with transpositions) between two keys.
+// Optimal-string-alignment distance (edits, with transpositions) between two keys, three rows
+// of the table at a time.
 size_t editDistance(std::string_view a, std::string_view b) {
-    std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
-    for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
-    for (size_t k = 0; k <= b.size(); ++k) d[0][k] = k;
-    for (size_t i = 1; i <= a.size(); ++i)
+    std::vector<size_t> before(b.size() + 1), last(b.size() + 1), row(b.size() + 1);
+    for (size_t k = 0; k <= b.size(); ++k) last[k] = k;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        row[0] = i;
         for (size_t k = 1; k <= b.size(); ++k) {
-            d[i][k] = std::min({d[i - 1][k] + 1, d[i][k - 1] + 1, d[i - 1][k - 1] + (a[i - 1] != b[k - 1])});
-            if (i > 1 && k > 1 && a[i - 1] == b[k - 2] && a[i - 2] == b[k - 1])
-                d[i][k] = std::min(d[i][k], d[i - 2][k - 2] + 1);
+            row[k] = std::min({last[k] + 1, row[k - 1] + 1, last[k - 1] + (a[i - 1] != b[k - 1])});
+            if (i > 1 && k > 1 && a[i - 1] == b[k - 2] && a[i - 2] == b[k - 1]) row[k] = std::min(row[k], before[k - 2] + 1);
         }
-    return d[a.size()][b.size()];
+        std::swap(before, last);
+        std::swap(last, row);
+    }
+    return last[b.size()];
 }
 
 // " (did you mean 'fov_y_deg'?)" for a close known key: a few edits away, or (with
 // `subsequences`) the typed key is a subsequence of it ("fovy" -> "fov_y_deg", "dir" -> "direction");
-// underscores and case aside.
+// underscores and case aside. The distance is only computed where the lengths allow a close
+// one, so a key of megabytes costs a pass over it, not a table of its length times each name's.
 std::string didYouMean(const std::string& key, const std::vector<std::string>& known, bool subsequences = true) {
     auto squash = [](std::string s) {
         std::erase(s, '_');
@@ -445,9 +449,17 @@ std::string didYouMean(const std::string& key, const std::vector<std::string>& k
     size_t bestDistance = 0;
     for (const std::string& candidate : known) {
         const std::string c = squash(candidate);
-        const size_t d = editDistance(k, c);
-        const bool close = d <= std::max<size_t>(1, std::max(k.size(), c.size()) / 3) ||
-                           (subsequences && k.size() >= 3 && subsequence(k, c));
+        const size_t allowed = std::max<size_t>(1, std::max(k.size(), c.size()) / 3);
+        const size_t apart = k.size() > c.size() ? k.size() - c.size() : c.size() - k.size();
+        size_t d = 0;
+        bool close = false;
+        if (subsequences && k.size() >= 3 && subsequence(k, c)) {
+            d = apart;  // the insertions that make `c`: no fewer edits can
+            close = true;
+        } else if (apart <= allowed) {  // the distance is at least `apart`
+            d = editDistance(k, c);
+            close = d <= allowed;
+        }
         if (close && (!best || d < bestDistance)) best = &candidate, bestDistance = d;
     }
     return best ? " (did you mean " + inQuotes(*best) + "?)" : "";
