@@ -52,7 +52,8 @@ std::vector<Vec3> pointsAround(const Scene& s, const Vec3& eye, double radius, i
     std::uniform_real_distribution<double> u(-1, 1), z(lo, hi);
     std::vector<Vec3> out;
     while (int(out.size()) < n) {
-        const Vec2 h(u(rng), u(rng));
+        const double hx = u(rng), hy = u(rng);  // one by one: a call's arguments come in the compiler's order
+        const Vec2 h(hx, hy);
         if (glm::length(h) <= 1) out.push_back(Vec3(eye.x + radius * h.x, eye.y + radius * h.y, z(rng)));
     }
     return out;
@@ -94,7 +95,10 @@ int runQueryBench(const QueryBenchOptions& o) {
             std::vector<Vec3> dirs;
             std::mt19937 rng(9);
             std::normal_distribution<double> g;
-            for (int i = 0; i < o.points; ++i) dirs.push_back(glm::normalize(Vec3(g(rng), g(rng), 0.3 * g(rng))));
+            for (int i = 0; i < o.points; ++i) {
+                const double x = g(rng), y = g(rng), z = g(rng);  // one by one, as above
+                dirs.push_back(glm::normalize(Vec3(x, y, 0.3 * z)));
+            }
             const NoiseVolume noise = makeNoiseVolume(NoiseSettings{}.size, NoiseSettings{}.cells, NoiseSettings{}.octaves,
                                                       NoiseSettings{}.seed);
             const ExtinctionField field(scene, &noise, nullptr, eye);

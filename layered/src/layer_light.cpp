@@ -59,7 +59,10 @@ struct Source {
     double flux() const { return kind == Sun ? mu : kind == SkyZenith ? 2 * kPi / 3 : kPi; }
     void emit(const ThresholdMedium& m, Rng& rng, Vec3& x, Vec3& w) const {
         const double phi = 2 * kPi * rng.uniform();
-        x = Vec3(m.period * rng.uniform(), m.period * rng.uniform(), kind == Ground ? 0.0 : m.height);
+        // Drawn one by one: the order of a call's arguments is the compiler's (GCC's right to left
+        // is kept, so that Clang's build draws the same photons).
+        const double y = rng.uniform();
+        x = Vec3(m.period * rng.uniform(), m.period * y, kind == Ground ? 0.0 : m.height);
         double cz;  // |w.z|: the sun's elevation; cosine-weighted (radiance 1); weighted by cos^2 (radiance d.z)
         if (kind == Sun) cz = mu;
         else if (kind == SkyZenith) cz = std::cbrt(rng.uniform());
@@ -138,7 +141,8 @@ std::vector<double> extinctionPerNode(const std::vector<ThresholdMedium>& media,
         Rng rng = Rng::fromState(0xC0FFEEull + std::uint64_t(b));
         const double volume = m.period * m.period * m.height / (double(batches) * 4096);
         for (int k = 0; k < 4096; ++k) {
-            const Vec3 x(m.period * rng.uniform(), m.period * rng.uniform(), m.height * rng.uniform());
+            const double z = rng.uniform(), y = rng.uniform();  // one by one, as in emit()
+            const Vec3 x(m.period * rng.uniform(), m.period * y, m.height * z);
             const double s = m.sigma(x);
             if (s > 0) deposit(grid, bins, m.coords(x), glm::dvec4(s * volume, 0, 0, 0));
         }

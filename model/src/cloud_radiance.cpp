@@ -243,7 +243,10 @@ void traceSun(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
         talliesMany[b].assign(g.sigma.size(), glm::vec4(0.0f));
         for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
             Vec3 x, w = beam.beam.travel;
-            if (!beam.launch(g, (j % side + rng.uniform()) / side, (j / side + rng.uniform()) / side, x)) continue;
+            // Drawn one by one: a call's arguments are evaluated in the compiler's order (GCC's
+            // right to left is kept, so that Clang's build traces the same photons).
+            const double v = (j / side + rng.uniform()) / side, u = (j % side + rng.uniform()) / side;
+            if (!beam.launch(g, u, v, x)) continue;
             if (!flight(g, x, w, rng, [](std::size_t, double) {})) continue;
             double weight = power;
             for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
@@ -291,7 +294,8 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
             Vec3 w(sz * std::cos(phi), sz * std::sin(phi), cz);
             const Launcher beam(g, w);
             Vec3 x;
-            if (!beam.launch(g, rng.uniform(), rng.uniform(), x)) continue;
+            const double v = rng.uniform(), u = rng.uniform();  // one by one, as above
+            if (!beam.launch(g, u, v, x)) continue;
             // Radiance L from a direction of solid angle 4 pi / total through the square.
             Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * kPi * beam.areaAcross / total);
             for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
