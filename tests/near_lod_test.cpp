@@ -2,6 +2,7 @@
 // clouds lie, wind, and the weights across the blend band.
 #include "nephele/near_lod.hpp"
 
+#include "../layered/internal/layer_assets.hpp"
 #include "layered_test_util.hpp"
 
 #include <gtest/gtest.h>
@@ -43,9 +44,20 @@ bool sameCloud(const Cloud& a, const Cloud& b) {
     return true;
 }
 
+// One LayerAssets for every NearLod of the test: the layer's lighting volume (photons traced
+// through it, most of the CPU of a first update) is made once per coverage, not once per NearLod.
+const std::shared_ptr<LayerAssets>& assets() {
+    static const auto shared = std::make_shared<LayerAssets>(layeredSettings());
+    return shared;
+}
+NearLod& sharing(NearLod& lod) {
+    lod.shareAssets(assets());
+    return lod;
+}
+
 // The layer's lighting volume, as NearLod makes it (no cache folder: computed).
-LightingVolume layerLight(const Scene& scene) {
-    return precomputeLighting(layeredSettings().lighting, lightingParameters(scene.medium, scene.layers[0]));
+std::shared_ptr<const LightingVolume> layerLight(const Scene& scene) {
+    return assets()->lighting(lightingParameters(scene.medium, scene.layers[0]));
 }
 
 using Key = std::tuple<int, std::int64_t, std::int64_t>;
@@ -60,13 +72,15 @@ std::set<Key> keys(const NearLod& lod) {
 TEST(NearLodTest, SameCellSameCloudWhateverTheEyePath) {
     const Scene scene = layerScene();
     NearLod a({}, layeredSettings()), b({}, layeredSettings());
+    sharing(a), sharing(b);
     // a comes from the west in 300 m steps, b from the north-east in 700 m steps; both end at the origin.
     for (int k = 20; k >= 0; --k) a.update(scene, Vec3(-300.0 * k, 0, 1000), 0);
     for (int k = 12; k >= 0; --k) b.update(scene, Vec3(500.0 * k, 500.0 * k, 1000), 0);
     ASSERT_EQ(keys(a), keys(b));
     const auto ca = a.cells(), cb = b.cells();
     int clouds = 0;
-    const LightingVolume light = layerLight(scene);
+    const auto lightHeld = layerLight(scene);
+    const LightingVolume& light = *lightHeld;
     const ModulationTexture modulation = makeModulation(layeredSettings().modulation, 3);
     for (std::size_t k = 0; k < ca.size(); ++k) {
         EXPECT_TRUE(sameCloud(ca[k]->cloud, cb[k]->cloud)) << ca[k]->cloud.name;
@@ -83,6 +97,7 @@ TEST(NearLodTest, OnlyCellsWithinReachSpawnAndTheyRetire) {
     const Scene scene = layerScene();
     const NearLodSettings ns;
     NearLod lod(ns, layeredSettings());
+    sharing(lod);
     const double reach = kNear + kBand;
     NearLodStats st;
     lod.update(scene, Vec3(123, -456, 500), 0, &st);
@@ -91,7 +106,8 @@ TEST(NearLodTest, OnlyCellsWithinReachSpawnAndTheyRetire) {
     // Every cell within reach and no other: check a wider grid of spawn points.
     const auto have = keys(lod);
     const auto modulation = makeModulation(layeredSettings().modulation, 3);
-    const LightingVolume light = layerLight(scene);
+    const auto lightHeld = layerLight(scene);
+    const LightingVolume& light = *lightHeld;
     int inside = 0;
     for (std::int64_t j = -8; j <= 8; ++j)
         for (std::int64_t i = -8; i <= 8; ++i) {
@@ -117,6 +133,7 @@ TEST(NearLodTest, CloudsLieInTheLayerWhereItHasCloud) {
     const Vec2 wind(6, 2);
     const Scene scene = layerScene(wind);
     NearLod lod({}, layeredSettings());
+    sharing(lod);
     const auto modulation = makeModulation(layeredSettings().modulation, 3);
     for (double t : {0.0, 250.0}) {
         NearLodStats st;
@@ -160,6 +177,7 @@ TEST(NearLodTest, CloudsDriftWithTheWind) {
     const Vec2 wind(6, 2);
     const Scene scene = layerScene(wind);
     NearLod lod({}, layeredSettings());
+    sharing(lod);
     // The eye moves with the wind: the same cells, each cloud moved by dt * wind exactly.
     const std::vector<Cloud> c0 = lod.update(scene, Vec3(0, 0, 1000), 0);
     const std::vector<Cloud> c1 = lod.update(scene, Vec3(Vec2(0.0) + 100.0 * wind, 1000), 100);
@@ -186,14 +204,15 @@ TEST(NearLodTest, CloudsDriftWithTheWind) {
     }
     NearLodSettings alone;
     alone.tiledLight = false;
-    for (const Cloud& c : NearLod(alone, layeredSettings()).update(scene, Vec3(0, 0, 1000), 0)) EXPECT_FALSE(c.tiled());
+    NearLod lone(alone, layeredSettings());
+    for (const Cloud& c : sharing(lone).update(scene, Vec3(0, 0, 1000), 0)) EXPECT_FALSE(c.tiled());
 }
 
 TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {
     const Scene scene = layerScene();
     const LayeredSettings ls = layeredSettings();
     NearLod lod({}, ls);
-    lod.update(scene, Vec3(0, 0, 1000), 0);
+    sharing(lod).update(scene, Vec3(0, 0, 1000), 0);
     const NearCell* cell = nullptr;
     for (const NearCell* c : lod.cells())
         if (!c->cloud.ellipsoids.empty()) cell = c;
@@ -201,6 +220,7 @@ TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {
     // Put the eye at distance d (east) of that cell's spawn point; read that cloud's weight.
     auto weightAt = [&](double d) {
         NearLod probe({}, ls);
+        sharing(probe);
         const Vec3 eye(cell->spawn.x + d, cell->spawn.y, 1000);
         for (const Cloud& c : probe.update(scene, eye, 0))
             if (c.name == cell->cloud.name) return c.weight;
@@ -218,6 +238,7 @@ TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {
 TEST(NearLodTest, LayersWithoutNearLodSpawnNothing) {
     Scene scene = layerScene(Vec2(0.0), false);
     NearLod lod({}, layeredSettings());
+    sharing(lod);
     NearLodStats st;
     EXPECT_TRUE(lod.update(scene, Vec3(0, 0, 1000), 0, &st).empty());
     EXPECT_EQ(st.cells, 0);
@@ -241,6 +262,7 @@ TEST(NearLodTest, ABudgetRemakesAChangedLayerNearestFirstKeepingTheOldCloudsMean
     Scene scene = layerScene();
     const Vec3 eye(0, 0, 1000);
     NearLod lod({}, layeredSettings()), unbounded({}, layeredSettings());
+    sharing(lod), sharing(unbounded);
     NearLodStats st;
     lod.update(scene, eye, 0, &st);  // no budget: every cell in reach
     const int cells = st.cells;
@@ -256,7 +278,8 @@ TEST(NearLodTest, ABudgetRemakesAChangedLayerNearestFirstKeepingTheOldCloudsMean
     for (const NearCell* c : lod.cells()) distances.push_back(glm::length(c->spawn));
     std::sort(distances.begin(), distances.end());
     const ModulationTexture modulation = makeModulation(layeredSettings().modulation, scene.layers[0].seed);
-    const LightingVolume light = layerLight(scene);
+    const auto lightHeld = layerLight(scene);
+    const LightingVolume& light = *lightHeld;
     int nearestFresh = 0, fartherStale = 0;
     for (const NearCell* c : lod.cells()) {
         const NearCell fresh = makeNearCell(scene, 0, c->i, c->j, {}, modulation, layeredSettings().modulation, light);
@@ -345,9 +368,11 @@ TEST(NearLodTest, NearCloudsCarryTheLayersOpticalDepth) {
         LayeredSettings ls = layeredSettings();
         ls.nearRadius = 3000, ls.blendBand = 100;  // every ray below within the near radius
         NearLod lod({}, ls);
+        sharing(lod);
         const Vec3 eye(0, 0, kBase - 100);
         const std::vector<Cloud> clouds = lod.update(scene, eye, 0);
-        const LightingVolume light = layerLight(scene);
+        const auto lightHeld = layerLight(scene);
+        const LightingVolume& light = *lightHeld;
         const ModulationTexture modulation = makeModulation(ls.modulation, scene.layers[0].seed);
         const Layer& layer = scene.layers[0];
         const double extinction = scene.medium.extinction;
@@ -387,7 +412,8 @@ TEST(NearLodTest, ColumnsAreShakenOffTheirGrid) {
         ns.columnJitter = jitter;
         std::vector<double> out;
         const double w = ns.cellSize / ns.columns;
-        for (const Cloud& c : NearLod(ns, layeredSettings()).update(scene, Vec3(0, 0, 1000), 0))
+        NearLod lod(ns, layeredSettings());
+        for (const Cloud& c : sharing(lod).update(scene, Vec3(0, 0, 1000), 0))
             for (const Ellipsoid& e : c.ellipsoids)
                 for (int k = 0; k < 2; ++k) {
                     const double f = e.center[k] / w - 0.5;  // column centres at (m + 0.5) w
