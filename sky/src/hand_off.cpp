@@ -5,6 +5,8 @@
 #include "nephele/near_lod.hpp"
 #include "nephele/sky.hpp"
 
+#include "layer_assets.hpp"
+
 #include <cmath>
 
 namespace nephele {
@@ -36,6 +38,9 @@ HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettin
     LayeredSettings nearSettings = layered;
     nearSettings.nearRadius = reach, nearSettings.blendBand = 0;
     NearLod nearLod(NearLodSettings{}, nearSettings);
+    // One lighting volume and modulation texture for both, as SkyRenderer shares them.
+    const auto assets = std::make_shared<LayerAssets>(layered);
+    nearLod.shareAssets(assets);
     const std::vector<Cloud> near = nearLod.update(scene, view.eye, 0);
     EllipsoidRenderer compositor(compositorSettings);
     const Image nearOnly = drawOver(scene, view, opaque, [&](GLuint fb) { compositor.render(withNearClouds(scene, near), view, fb, false); });
@@ -44,6 +49,7 @@ HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettin
     LayeredSettings cutSettings = layered;
     cutSettings.extentFade = 0, cutSettings.nearRadius = 0, cutSettings.blendBand = 0;
     LayeredRenderer cutSky(cutSettings);
+    cutSky.shareAssets(assets);
     const Image layerOnly = drawOver(cut, view, opaque, [&](GLuint fb) { cutSky.render(cut, view, fb, 0); });
     const Layer& l = scene.layers.front();
     const double top = l.base + l.thickness;
