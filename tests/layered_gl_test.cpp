@@ -2,6 +2,7 @@
 // the layer, wind, lightning, grazing-view gaps, and the host's GL state.
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
+#include "temp_dir.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
@@ -48,7 +49,12 @@ struct Result {
     ModulationTexture modulation;
 };
 
-Result render(const Scene& scene, const LayeredSettings& settings, double t = 0) {
+Result render(const Scene& scene, const LayeredSettings& given, double t = 0) {
+    // One lighting cache for the test's renders (unless it names its own): the layer's photons
+    // are traced once per medium and thickness, not once per render (most of these tests' CPU).
+    static const test::TempDir cache("nephele_layered_gl_");
+    LayeredSettings settings = given;
+    if (settings.cacheDir.empty()) settings.cacheDir = cache.dir().string();
     const View view = makeView(scene.camera);
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());
