@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The fuzz smoke: builds the libFuzzer targets of the input readers (clang, ASan + UBSan) and
 # runs each on the kept corpus (tests/fuzz/corpus/) and the shipped scenes, meshes and images
-# for SECONDS (default 20; four targets, about 80 s in all). Exits non-zero on a crash, a
+# for SECONDS each (default 20; five targets; CI gives 10). Exits non-zero on a crash, a
 # sanitizer report, a timeout or an out-of-memory, leaving the input in BUILD/fuzz-artifacts/.
 #   tests/fuzz/smoke.sh [SECONDS] [BUILD]     (BUILD default: build-fuzz in the checkout)
 # New inputs go to a temporary folder: the kept corpus changes only by hand (see docs/testing.md).
