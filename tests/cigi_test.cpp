@@ -5,7 +5,10 @@
 // opcodes, wrong sizes, no IG Control first, a bad byte-swap magic. Last, `nephele ig` on loopback.
 #include "cli_run.hpp"
 #include "nephele/cigi.hpp"
+#include "nephele/geodetic.hpp"
+#include "nephele/layer_volume.hpp"
 #include "nephele/log.hpp"
+#include "nephele/scene.hpp"
 
 #include <gtest/gtest.h>
 
@@ -754,6 +757,89 @@ TEST(CigiIgTest, AnswersThreeFramesWithAdvancingStartOfFrame) {
         EXPECT_TRUE(std::filesystem::exists(record + name)) << name;
     }
     EXPECT_NE(run.output.find("3 frames drawn"), std::string::npos) << run.output;
+}
+
+// Environmental Conditions Requests are answered with the cloud water at the point: the
+// extinction the cloud queries give there (the layer's, 6-9 km from the eye: no near LOD, no rim),
+// as liquid water in 10 um droplets, for the layer whose slab holds the point and 0 for the others
+// and outside every slab. The expected value is the path tracer's layer field (LayerVolumes) at
+// the same point and time; the request travels as latitude, longitude and altitude about --origin.
+TEST(CigiIgTest, AerosolAnswersAreTheCloudWaterAtThePoint) {
+    const std::string file = std::string(NEPHELE_SCENES) + "/layer_flight.json";
+    const nephele::Scene scene = nephele::loadScene(file);
+    const double t = 2 / 60.0;  // frame 2, no timestamp: the host frame number at 60 Hz
+    const nephele::Vec3 eye = nephele::cameraAt(scene, t).position;
+    const nephele::LayerVolumes field(scene, nephele::LayeredSettings{}, t);
+    const nephele::Layer& layer = scene.layers.at(0);
+    // The densest of a ring of points in the layer: the answer must be the field's, not 0.
+    nephele::Vec3 dense(0.0);
+    double densest = 0;
+    for (int k = 0; k < 720; ++k) {
+        const double a = k * 0.5 * 3.14159265358979 / 180, r = 6000 + 3000 * ((k * 7) % 11) / 10.0;
+        const nephele::Vec3 p = eye + nephele::Vec3(r * std::cos(a), r * std::sin(a), 0);
+        const nephele::Vec3 q(p.x, p.y, layer.base + 0.4 * layer.thickness);
+        if (const double s = field.extinction(q, eye); s > densest) densest = s, dense = q;
+    }
+    ASSERT_GT(densest, 1e-3);
+    const nephele::Geodetic origin{47.5, 8.5, 400};  // --origin
+    const nephele::EnuFrame enu(origin);
+    auto request = [&](std::uint8_t id, const nephele::Vec3& p) {
+        const nephele::Geodetic g = enu.enuToGeodetic(p);
+        EnvironmentalConditionsRequest r;
+        r.requestType = 8;
+        r.requestId = id;
+        r.latitude = g.latitudeDeg, r.longitude = g.longitudeDeg, r.altitude = g.heightM;
+        return r;
+    };
+    const int port = freePort();
+    const std::string args = "ig " + file + " --width 32 --height 18 --port " + std::to_string(port) +
+                             " --headless --frames 2 --timeout 30 --origin 47.5,8.5,400";
+    auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
+    HostSocket host(1000);
+    std::vector<IgPacket> answers;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
+    for (std::uint32_t frame = 1; frame <= 2 && std::chrono::steady_clock::now() < deadline;) {
+        DatagramWriter w(ByteOrder::BigEndian);
+        IgControl igc;
+        igc.hostFrameNumber = frame;
+        w.add(igc);
+        if (frame == 2) {
+            w.add(request(1, dense));
+            w.add(request(2, dense + nephele::Vec3(0, 0, layer.thickness)));  // above the slab
+        }
+        host.send(w.bytes(), port);
+        const auto d = parseIgDatagram(host.receive());
+        if (!d || d->startOfFrame.lastHostFrameNumber != frame) continue;
+        if (frame == 2) answers = d->packets;
+        ++frame;
+    }
+    const nephele::test::BoundedRun run = ig.get();
+    EXPECT_EQ(run.code, 0) << run.output;
+    std::map<int, double> water;  // by request id: layer 1's answer
+    for (const IgPacket& p : answers)
+        if (const auto* a = std::get_if<AerosolConcentrationResponse>(&p)) {
+            EXPECT_EQ(a->layerId, 1);  // the scene's one layer
+            water[a->requestId] = a->aerosolConcentration;
+        }
+    ASSERT_EQ(water.size(), 2u) << run.output;
+    const double expected = nephele::liquidWaterFromExtinction(densest, nephele::kCumulusDropletRadius);
+    std::printf("[ figure ] cloud water at the point: %.6g g/m^3 answered, %.6g expected (extinction %.4g /m)\n", water[1],
+                expected, densest);
+    // The float of the packet, and the drift summed frame by frame against wind x t: 1e-3.
+    EXPECT_NEAR(water[1], expected, 1e-3 * expected + 1e-7);
+    EXPECT_EQ(water[2], 0.0);
+}
+
+TEST(CigiIgTest, ABadOriginIsRefusedBeforeAnyWork) {
+    for (const char* origin : {"91,0,0", "47.5,8.5", "47.5,nan,0", "1,2,3x", "0,0,200000"}) {
+        const nephele::test::BoundedRun run = nephele::test::runBounded(
+            "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --port " + std::to_string(freePort()) +
+                " --headless --origin " + origin,
+            4096, 60);
+        EXPECT_EQ(run.code, 2) << origin << "\n" << run.output;
+        EXPECT_NE(run.output.find("--origin"), std::string::npos) << run.output;
+        EXPECT_EQ(run.output.find("listening"), std::string::npos) << run.output;
+    }
 }
 
 TEST(CigiIgTest, TimesOutBeforeItsFramesWithExit1) {

@@ -17,6 +17,7 @@ set(NEPHELE_SANITIZE_TESTS CloudQueryGLTest.QueriesAreSafeWhileUpdateRuns CloudQ
 # and the GL-state tests: every test whose name has LeavesHostStateUnchanged, HostState or Restored
 set(NEPHELE_SLOW_TESTS
   BigSceneGLTest.RaymarchTilesLoseNoCloud
+  CigiIgTest.AerosolAnswersAreTheCloudWaterAtThePoint
   CliTest.AccuracyBenchWritesCsvChartsAndReadmeSection
   CliTest.BadArgumentsExit2AndWriteNothing
   CliTest.ChannelFlagsFrameTheCameraAndAreValidated

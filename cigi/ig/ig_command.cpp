@@ -3,7 +3,9 @@
 #include "output_files.hpp"
 
 #include "nephele/cigi.hpp"
+#include "nephele/geodetic.hpp"
 #include "nephele/gl.hpp"
+#include "nephele/host_view.hpp"
 #include "nephele/log.hpp"
 #include "nephele/weather.hpp"
 
@@ -22,6 +24,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 
 namespace nephele::cli {
@@ -89,8 +92,8 @@ struct IgState {
     ChannelOptions view;  // the frustum and yaw/pitch offsets drawn
     double yaw = 0, pitch = 0;
     cigi::AtmosphereControl atmosphere;
-    std::map<int, float> aerosol;  // by layer id: the last Weather Control's Aerosol Concentration
-    std::set<std::string> said;    // messages given once
+    std::optional<EnuFrame> frame;  // the scene's frame (--origin): a request's latitude, longitude, altitude
+    std::set<std::string> said;     // messages given once
 
     void once(const std::string& message) {
         if (said.insert(message).second) logMessage(LogLevel::Warning, "nephele ig: " + message);
@@ -111,7 +114,6 @@ struct IgState {
         c.windDirection = p.windDirection;
         try {
             weather.apply(c);
-            aerosol[p.layerId] = p.aerosolConcentration;
         } catch (const std::invalid_argument& e) {
             once(std::string(e.what()) + " (packet ignored)");
         }
@@ -150,9 +152,12 @@ struct IgState {
         }
     }
 
-    // Environmental Conditions Request: the global atmosphere, and each cloud layer's aerosol
-    // concentration where the point is inside the layer (0 elsewhere).
-    void answer(const cigi::EnvironmentalConditionsRequest& r, cigi::DatagramWriter& out) {
+    // Environmental Conditions Request: the global atmosphere, and per enabled cloud layer the
+    // liquid water content (g/m^3) of the clouds at the request's point when it lies in that
+    // layer's slab (0 elsewhere): the extinction the cloud queries give there, in droplets of
+    // kCumulusDropletRadius (docs/cigi.md). The point is converted into the scene's frame
+    // (--origin); the host's Aerosol Concentration values are not echoed.
+    void answer(const cigi::EnvironmentalConditionsRequest& r, const SkyRenderer& sky, cigi::DatagramWriter& out) {
         if (r.requestType & 4) {
             cigi::WeatherConditionsResponse w;
             w.requestId = r.requestId;
@@ -166,14 +171,23 @@ struct IgState {
             out.add(w);
         }
         if (r.requestType & 8) {
+            double water = 0;
+            Vec3 point(0.0);
+            bool placed = false;
+            try {
+                point = frame->geodeticToEnu(Geodetic{r.latitude, r.longitude, r.altitude});
+                water = liquidWaterFromExtinction(sky.densityAt(point), kCumulusDropletRadius);
+                placed = true;
+            } catch (const std::invalid_argument& e) {
+                once(std::string("Environmental Conditions Request: ") + e.what() + " (answered with no cloud water)");
+            }
             for (const auto& [id, l] : weather.layers) {
                 if (!l.enabled) continue;
                 cigi::AerosolConcentrationResponse a;
                 a.requestId = r.requestId;
                 a.layerId = static_cast<std::uint8_t>(id);
-                const bool inside = r.altitude >= l.layer.base && r.altitude <= l.layer.base + l.layer.thickness;
-                const auto it = aerosol.find(id);
-                a.aerosolConcentration = inside && it != aerosol.end() ? it->second : 0.0f;
+                const bool inside = placed && point.z >= l.layer.base && point.z <= l.layer.base + l.layer.thickness;
+                a.aerosolConcentration = inside ? static_cast<float>(water) : 0.0f;
                 out.add(a);
             }
         }
@@ -194,7 +208,25 @@ void addIgOptions(CLI::App* cmd, IgOptions& o) {
     cmd->add_option("--timeout", o.timeout, "Stop after this many seconds without a datagram")
         ->check(CLI::Range(0.01, 86400.0))
         ->capture_default_str();
+    cmd->add_option("--origin", o.origin,
+                    "LAT,LON,HEIGHT: the WGS84 point (degrees, degrees, m) of the scene's (0, 0, 0), its x east, y north, "
+                    "z up; the host's geodetic positions are taken into this frame")
+        ->capture_default_str();
 }
+
+namespace {
+// "LAT,LON,HEIGHT" as --origin takes it.
+Geodetic parseOrigin(const std::string& text) {
+    double v[3];
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3)
+        throw UsageError("--origin must be LAT,LON,HEIGHT (three numbers separated by commas), got '" + text + "'");
+    if (!(std::abs(v[0]) <= 90) || !std::isfinite(v[1]) || !(std::abs(v[2]) <= 100000))
+        throw UsageError("--origin: latitude in [-90, 90] degrees, a finite longitude and a height within 100 km, got '" +
+                         text + "'");
+    return Geodetic{v[0], v[1], v[2]};
+}
+}  // namespace
 
 int runIg(const IgOptions& o) {
     IgState s;
@@ -214,6 +246,7 @@ int runIg(const IgOptions& o) {
         applySize(s.scene, o.render);
         checkFrameMemory(s.scene, o.render);
         s.weather = Weather::of(s.scene);
+        s.frame.emplace(parseOrigin(o.origin));
         s.channel = o.channel;
         const Camera& cam = s.scene.camera;
         const Frustum f = symmetricFrustum(cam.fovYDeg, double(cam.width) / cam.height);
@@ -226,6 +259,7 @@ int runIg(const IgOptions& o) {
         gl::setChecks(true);
         opaque = std::make_unique<OpaquePass>();
         sky = std::make_unique<SkyRenderer>(SkySettings{o.render.layered, o.render.nearLod, o.render.ellipsoid});
+        sky->prepare(s.scene);  // the one wait: shaders, the layers' lighting, the clouds' grids
         target = std::make_unique<FrameTarget>(cam.width, cam.height);
     } catch (const std::exception& e) {
         return reportError(e, "starting nephele ig");
@@ -279,15 +313,28 @@ int runIg(const IgOptions& o) {
                 // The frame's time: the host's timestamp when valid, else its frame number at 60 Hz, so
                 // that every channel of one host frame draws the same instant.
                 const double t = igc.timestampValid ? igc.timestamp * 1e-5 : igc.hostFrameNumber / 60.0;
-                s.scene.sun = s.weather.sun;
+                s.scene.sun = s.weather.sun;  // the opaque pass's light, and a rewind's prepare()
+                s.scene.sky = s.weather.sky;
                 s.scene.layers = s.weather.enabledLayers();
                 context->makeCurrent();
                 Camera camera = cameraAt(s.scene, t);
                 camera.width = s.scene.camera.width;
                 camera.height = s.scene.camera.height;
                 const View view = channelView(camera, s.view);
+                // The host's clock drives the sky's; one that runs back (a host restarting its
+                // frame numbers) starts the sky again at that time.
+                if (t < sky->time() - 1e-6) {
+                    sky->prepare(s.scene);
+                    sky->update(t, s.weather, camera.position);
+                } else {
+                    sky->update(t - sky->time(), s.weather, camera.position);
+                }
+                // Every channel must draw the same light for one host frame, and each IG process
+                // makes its own: what a weather change queued is waited for here, so a change that
+                // needs a new lighting volume still costs the frame it lands in.
+                sky->waitForBackgroundWork();
                 opaque->draw(s.scene, view, target->framebuffer());
-                sky->render(s.scene, view, target->framebuffer(), t, !s.scene.objects.empty());
+                sky->draw(viewDescOf(view, target->framebuffer(), !s.scene.objects.empty()));
                 if (!o.record.empty()) {
                     char name[64];
                     std::snprintf(name, sizeof name, "host-frame-%010u.pfm", igc.hostFrameNumber);
@@ -307,7 +354,7 @@ int runIg(const IgOptions& o) {
                     s.once("more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
                     break;
                 }
-                s.answer(*r, reply);
+                s.answer(*r, *sky, reply);
             }
             cigi::StartOfFrame sof;
             sof.databaseNumber = static_cast<std::int8_t>(igc.databaseNumber > 0 ? igc.databaseNumber : 0);

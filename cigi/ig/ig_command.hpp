@@ -1,7 +1,9 @@
 // `nephele ig`: one display channel of a CIGI 3.3 image generator over UDP (docs/cigi.md).
 // Each datagram from the host is one frame: its packets are applied, the channel is drawn
-// (headless) and a Start of Frame goes back to the sender with the IG's frame counter and the
-// host frame number it answers.
+// (headless) with the host API (SkyRenderer's prepare once, then update and draw per frame,
+// waiting for what the update queued, so that every channel draws the same light) and a Start of Frame goes back to the sender with the IG's
+// frame counter and the host frame number it answers, followed by the answers to the frame's
+// Environmental Conditions Requests (the cloud water at the point, from the cloud queries).
 #pragma once
 
 #include "render_command.hpp"
@@ -23,9 +25,10 @@ struct IgOptions {
     std::string record;    // a folder: one PFM per rendered frame, named by host frame number
     long long frames = 0;  // stop after this many frames (0: no limit)
     double timeout = 10;   // seconds without a datagram: stop
+    std::string origin = "0,0,0";  // LAT,LON,HEIGHT: the geodetic point of the scene's (0, 0, 0)
 };
 
-// Adds --address, --port, --channel, --headless, --record, --frames, --timeout to `cmd`.
+// Adds --address, --port, --channel, --headless, --record, --frames, --timeout, --origin to `cmd`.
 void addIgOptions(CLI::App* cmd, IgOptions& o);
 
 // Runs the loop; returns the exit code: 0 after --frames frames or at the receive timeout

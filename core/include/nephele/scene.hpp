@@ -78,6 +78,11 @@ inline constexpr double meanExtinctionFromWater(double lwcGramsPerCubicMetre, do
 inline constexpr double extinctionFromWater(double lwcGramsPerCubicMetre, double reffMicrometres) {
     return meanExtinctionFromWater(lwcGramsPerCubicMetre, reffMicrometres) / kProfileMean;
 }
+// The liquid water content (g/m^3) at a point of extinction `extinction` (1/m) in droplets of
+// effective radius reff: the same relation, point by point (LWC = 2 rho_w r_eff sigma / 3).
+inline constexpr double liquidWaterFromExtinction(double extinction, double reffMicrometres) {
+    return 2.0 * kWaterDensity * reffMicrometres * 1e-6 * extinction / 3.0;
+}
 
 // The matter of a cumulus generator with "medium": "cumulus": liquid water content
 // kCumulusLiquidWater (g/m^3, on average over the volume the cloud fills) in droplets of
