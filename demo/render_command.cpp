@@ -15,6 +15,7 @@
 #include <optional>
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -215,6 +216,17 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
     return FrameRenderer(o).render(scene, o.time);
 }
 
+namespace {
+// A name that says the other format is refused: the file would hold bytes its name belies
+// (-o x.pfm wrote a PNG under that name).
+void checkFormatName(const std::string& path, const char* flag, const char* wrong, const char* writes, const char* instead) {
+    std::string tail = path.size() >= 4 ? path.substr(path.size() - 4) : path;
+    for (char& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (tail == wrong)
+        throw UsageError(std::string(flag) + " writes " + writes + ", but '" + path + "' is named " + wrong + " (" + instead + ")");
+}
+}  // namespace
+
 int runRender(const RenderOptions& o) {
     Scene scene;
     Frame frame;
@@ -229,6 +241,10 @@ int runRender(const RenderOptions& o) {
         if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
         files.checkPaths();
         files.refuseInput(o.scene, "scene file");
+        checkFormatName(o.output, "-o", ".pfm", "a PNG", "--pfm writes linear float RGB");
+        checkFormatName(o.alpha, "--alpha", ".pfm", "a PNG", "--pfm writes linear float RGB");
+        checkFormatName(o.densityAlpha, "--density-alpha", ".pfm", "a PNG", "--pfm writes linear float RGB");
+        checkFormatName(o.pfm, "--pfm", ".png", "a PFM", "-o writes the PNG");
         scene = loadScene(o.scene);
         applySize(scene, o);
         checkFrameMemory(scene, o);

@@ -120,6 +120,22 @@ TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
     expectNoOutputs({"good.json"});
 }
 
+// -o x.pfm wrote a PNG under that name, and --pfm x.png a PFM: a name that says the other format
+// is refused before any work, naming the flag.
+TEST_F(CliTest, AnOutputNamedForTheOtherFormatIsRefused) {
+    const std::string scene = write("good.json", kGood);
+    for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+             {" -o " + path("x.pfm"), "-o writes a PNG"},
+             {" -o " + path("x.PFM"), "-o writes a PNG"},
+             {" -o " + path("x.png") + " --alpha " + path("a.pfm"), "--alpha writes a PNG"},
+             {" -o " + path("x.png") + " --pfm " + path("y.png"), "--pfm writes a PFM"}}) {
+        const CliRun r = run("render " + scene + args);
+        EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(flag), std::string::npos) << r.output;
+    }
+    expectNoOutputs({"good.json"});
+}
+
 TEST_F(CliTest, LayeredMethodDrawsTheLayers) {
     const std::string scene = write("layers.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0.3]},
       "layers": [{"base": 2000, "thickness": 400}]})");
