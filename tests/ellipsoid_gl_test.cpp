@@ -13,6 +13,7 @@
 // density field's closed form (OpacityFollowsTheDensityField).
 #include "cloud_light_textures.hpp"
 #include "gl_test_util.hpp"
+#include "layered_test_util.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"
@@ -290,11 +291,9 @@ TEST_F(EllipsoidGLTest, SeveralPassesGiveTheSameImageAsOne) {
 
 TEST_F(EllipsoidGLTest, PassesStayWithinTheirBudget) {
     const Scene scene = sharedScene("field1000.json", 320);
-    EllipsoidSettings roomy;
-    // The atlas is what this measures, not the light: radiance grids of 8^3 voxels and 4096
-    // photons instead of the 1000 clouds' full grids (most of the test's CPU, twice).
-    roomy.light.size = 8;
-    roomy.light.sunPhotons = roomy.light.skyPhotons = 4096;
+    // The atlas is what this measures, not the light: small radiance grids instead of the 1000
+    // clouds' full grids (most of the test's CPU, twice).
+    const EllipsoidSettings roomy = test::withSmallGrids();
     EllipsoidSettings s = roomy;
     s.atlasMegabytes = 1;  // 320x180 half floats: 0.44 MB a layer, so at most 2 passes
     const Gpu g = renderGpu(scene, s);
@@ -403,9 +402,7 @@ TEST_F(EllipsoidGLTest, PolygonGeometryPerEllipsoidDrawsGiveTheSameImage) {
 // Constant draw calls: the instanced path's count does not grow with the ellipsoid count.
 TEST_F(EllipsoidGLTest, DrawCallsDoNotGrowWithEllipsoids) {
     const Scene few = sharedScene("single.json"), many = sharedScene("field1000.json", 320);
-    EllipsoidSettings s;  // small radiance grids: the draws are what this counts, not the light
-    s.light.size = 8;
-    s.light.sunPhotons = s.light.skyPhotons = 4096;
+    const EllipsoidSettings s = test::withSmallGrids();  // the draws are what this counts, not the light
     const Gpu a = renderGpu(few, s), b = renderGpu(many, s);
     ASSERT_GT(b.stats.visible, 500);
     // Per pass: one draw per mesh level (at most 3) and one colour-matrix draw; one composite.

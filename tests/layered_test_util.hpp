@@ -19,13 +19,20 @@ inline LayeredSettings smallLayered(int modulationSize = 128, int lightingSide =
     return withSmallTextures(LayeredSettings{}, modulationSize, lightingSide);
 }
 
-// SkyRenderer's settings (auto's) with small textures, and radiance grids of 8^3 voxels and 4096
-// photons (the light's accuracy is not what these tests measure).
+// `s` with radiance grids of 8^3 voxels and 4096 photons, for tests that do not measure the
+// clouds' light (a full grid per cloud is most of their CPU).
+inline EllipsoidSettings withSmallGrids(EllipsoidSettings s = {}) {
+    s.light.size = 8;
+    s.light.sunPhotons = s.light.skyPhotons = 4096;
+    return s;
+}
+
+// SkyRenderer's settings (auto's) with small textures and small radiance grids (the light's
+// accuracy is not what these tests measure).
 inline SkySettings smallSky() {
     SkySettings s;
     s.layered = withSmallTextures(s.layered);
-    s.ellipsoid.light.size = 8;
-    s.ellipsoid.light.sunPhotons = s.ellipsoid.light.skyPhotons = 4096;
+    s.ellipsoid = withSmallGrids(s.ellipsoid);
     return s;
 }
 

@@ -45,14 +45,9 @@ LayeredSettings testLayered(double nearRadius = 2000, double blendBand = 1500) {
     return s;
 }
 
-EllipsoidSettings testEllipsoid() {
-    EllipsoidSettings s;
-    // Each spawned cell's cumulus gets a radiance grid: keep them cheap (the light's accuracy is
-    // not what these tests measure).
-    s.light.size = 8;
-    s.light.sunPhotons = s.light.skyPhotons = 4096;
-    return s;
-}
+// Each spawned cell's cumulus gets a radiance grid: keep them cheap (the light's accuracy is not
+// what these tests measure).
+EllipsoidSettings testEllipsoid() { return test::withSmallGrids(); }
 
 // The test layer seen from `eye`, looking `pitchDeg` up and `headingDeg` from +x towards +y.
 Scene layerScene(const Vec3& eye, double pitchDeg, int width, int height, double headingDeg = 0) {
