@@ -16,6 +16,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -322,13 +323,9 @@ int runIg(const IgOptions& o) {
                 camera.height = s.scene.camera.height;
                 const View view = channelView(camera, s.view);
                 // The host's clock drives the sky's; one that runs back (a host restarting its
-                // frame numbers) starts the sky again at that time.
-                if (t < sky->time() - 1e-6) {
-                    sky->prepare(s.scene);
-                    sky->update(t, s.weather, camera.position);
-                } else {
-                    sky->update(t - sky->time(), s.weather, camera.position);
-                }
+                // frame numbers) starts the sky again (prepare() sets its time to 0).
+                if (t < sky->time() - 1e-6) sky->prepare(s.scene);
+                sky->update(std::max(0.0, t - sky->time()), s.weather, camera.position);
                 // Every channel must draw the same light for one host frame, and each IG process
                 // makes its own: what a weather change queued is waited for here, so a change that
                 // needs a new lighting volume still costs the frame it lands in.
