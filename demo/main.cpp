@@ -474,7 +474,10 @@ int runBenchArgs(BenchArgs& b) {
     if (b.scale) {
         ScaleBenchOptions& sbo = b.sbo;
         sbo.outDir = bo.outDir, sbo.backend = bo.backend;
-        if (b.quick) sbo.counts = {16, 160}, sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+        if (b.quick) {  // --scale-counts given with it wins
+            if (b.cmd->count("--scale-counts") == 0) sbo.counts = {16, 160};
+            sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
+        }
         if (widthGiven) sbo.width = bo.width;
         if (heightGiven) sbo.height = bo.height;
         return runScaleBench(sbo);

@@ -620,7 +620,10 @@ TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
 // `bench --flicker` on the approach from 5 km into a cumulus, at a toy size: the compositor's
 // frame-to-frame change is the exact model's to within a small margin (no popping).
 TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
-    const CliRun r = run("bench --flicker --quick --width 48 --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
+    // Under the sanitizers at 32 px (the CPU reference is most of the time): in release the
+    // same index there as at 48 px, to 0.00004.
+    const std::string width = test::kSanitized ? "32" : "48";
+    const CliRun r = run("bench --flicker --quick --width " + width + " --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
                          path("flk"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* f : {"flicker.csv", "flicker_series.csv", "flicker.md", "flicker.png"})
@@ -636,8 +639,9 @@ TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
         std::stringstream fields(line);
         std::string f;
         for (int k = 0; k < 8; ++k) std::getline(fields, f, ',');
-        // Measured -0.0007 at 48 px: the tiles' resampling slightly smooths the change. 0.003 is
-        // an eighth of the mean change itself (0.024): a pop of a whole tile would exceed it.
+        // Measured -0.0013 to -0.0004 at 48 px (every composite and reuse setting): the tiles'
+        // resampling slightly smooths the change. 0.003 is a fifth of the mean change itself
+        // (0.016): a pop of a whole tile would exceed it.
         EXPECT_LT(std::fabs(std::stod(f)), 0.003) << line;
     }
     EXPECT_TRUE(found);

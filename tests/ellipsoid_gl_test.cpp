@@ -14,6 +14,7 @@
 #include "cloud_light_textures.hpp"
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
+#include "test_build.hpp"
 
 #include "nephele/camera.hpp"
 #include "nephele/ellipsoid.hpp"
@@ -143,9 +144,14 @@ TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
 TEST_F(EllipsoidGLTest, WeightedCompositeMatchesGardnerExactWeighted) {
     const double kWeightedBound = 45.0;
     std::vector<std::pair<std::string, Scene>> scenes;
-    for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"})
-        scenes.push_back({name, sharedScene(name)});
-    for (double t : {5.0, 8.5}) scenes.push_back({"flythrough t=" + std::to_string(t).substr(0, 3), flythroughAt(t)});
+    // Under the sanitizers the same code on two of the views: outside the cloud and inside it
+    // (most of the test's CPU is the exact model's).
+    const std::vector<const char*> names = test::kSanitized ? std::vector<const char*>{"cumulus27.json"}
+                                                            : std::vector<const char*>{"single.json", "two_clouds.json", "cumulus27.json",
+                                                                                       "flythrough.json", "example.json"};
+    for (const char* name : names) scenes.push_back({name, sharedScene(name)});
+    for (double t : test::kSanitized ? std::vector<double>{5.0} : std::vector<double>{5.0, 8.5})
+        scenes.push_back({"flythrough t=" + std::to_string(t).substr(0, 3), flythroughAt(t)});
     for (const auto& [name, scene] : scenes)
         expectCompositeMatchesExact(name, scene, CompositeOrder::Weighted, "weighted", kWeightedBound);
 }
@@ -176,7 +182,8 @@ TEST_F(EllipsoidGLTest, WeightedCompositeKeepsTheBackToFrontOpacity) {
     scenes.push_back({"flythrough t=8.5", flythroughAt(8.5)});
     for (const auto& [name, scene] : scenes)
         for (FlyThrough mode : {FlyThrough::Fraction, FlyThrough::Stencil}) {
-            EllipsoidSettings weighted = weightedSettings(), backToFront;
+            // Small radiance grids: the light is not in the opacity.
+            EllipsoidSettings weighted = test::withSmallGrids(weightedSettings()), backToFront = test::withSmallGrids();
             weighted.flyThrough = backToFront.flyThrough = mode;
             const Image a = channels(renderGpu(scene, weighted).rgba, 3, 1);
             const Image b = channels(renderGpu(scene, backToFront).rgba, 3, 1);
