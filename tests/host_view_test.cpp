@@ -1,14 +1,16 @@
 // The host API without GL: views from a host's matrices (any frustum and depth convention),
 // display channels (off-axis frusta, rotations about the eye) and their projection of
-// ellipsoids, and the CIGI-shaped weather.
+// ellipsoids, and the CIGI-shaped weather and its transitions.
 #include "nephele/host_view.hpp"
 #include "nephele/projection.hpp"
 #include "nephele/weather.hpp"
+#include "weather_blend.hpp"
 
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -287,4 +289,124 @@ TEST(WeatherTest, ValidateNamesTheLayerAndTheField) {
     w = Weather::of(s);
     w.sun.direction = Vec3(0.0);
     EXPECT_THROW(w.validate(), std::invalid_argument);
+}
+
+// ---- Transitions (blendWeather, weather_blend.hpp): what SkyRenderer::update shows between two weathers.
+namespace {
+Weather twoLayers() {
+    Scene s;
+    Layer a;
+    a.base = 1000, a.thickness = 300, a.coverage = 0.4, a.density = 0.8, a.wind = Vec2(4, 0), a.seed = 3;
+    Layer b = a;
+    b.base = 4000, b.thickness = 200, b.seed = 9;
+    s.layers = {a, b};
+    s.sun.direction = glm::normalize(Vec3(1, 0, 1));
+    return Weather::of(s);
+}
+}  // namespace
+
+TEST(WeatherTest, BlendMovesEachFieldLinearlyAndEndsAtTheTarget) {
+    const Weather from = twoLayers();
+    Weather to = from;
+    Layer& l = to.layers.at(1).layer;
+    l.coverage = 0.8, l.density = 0.4, l.base = 1400, l.thickness = 500, l.extent = 10000, l.wind = Vec2(-4, 8), l.seed = 7;
+    to.sun.intensity = 1, to.sun.color = Vec3(1, 0.5, 0.25);
+    to.sky.zenith = Vec3(0.3);
+    const Weather half = blendWeather(from, to, 0.5);
+    const Layer& h = half.layers.at(1).layer;
+    EXPECT_DOUBLE_EQ(h.coverage, 0.6);
+    EXPECT_DOUBLE_EQ(h.density, 0.6);
+    EXPECT_DOUBLE_EQ(h.base, 1200);
+    EXPECT_DOUBLE_EQ(h.thickness, 400);
+    EXPECT_DOUBLE_EQ(h.extent, 15000);
+    EXPECT_EQ(h.wind, Vec2(0, 4));
+    EXPECT_EQ(h.seed, 7u);  // the pattern's identity: the target's at once
+    EXPECT_DOUBLE_EQ(h.lightingThickness, 500);  // lit for the thickness it goes to: one volume per change
+    EXPECT_DOUBLE_EQ(half.sun.intensity, 2);
+    EXPECT_EQ(half.sun.color, Vec3(1, 0.75, 0.625));
+    EXPECT_LT(glm::length(half.sky.zenith - (from.sky.zenith + Vec3(0.3)) * 0.5), 1e-12);
+    // What does not change stays bit for bit (cells and grids are keyed on exact values).
+    EXPECT_TRUE(half.layers.at(2).layer.coverage == from.layers.at(2).layer.coverage);
+    EXPECT_EQ(half.sun.direction, to.sun.direction);
+    // The ends: s = 0 is `from` in every continuous field, s >= 1 is `to` exactly.
+    const Weather start = blendWeather(from, to, 0);
+    EXPECT_DOUBLE_EQ(start.layers.at(1).layer.coverage, 0.4);
+    EXPECT_DOUBLE_EQ(start.layers.at(1).layer.base, 1000);
+    EXPECT_TRUE(blendWeather(from, to, 1).sameAs(to));
+    EXPECT_TRUE(blendWeather(from, to, 7).sameAs(to));
+}
+
+TEST(WeatherTest, NewLayersFadeInAndDisabledOnesFadeOut) {
+    Weather from = twoLayers();
+    from.layers.at(2).enabled = false;
+    Weather to = twoLayers();
+    to.layers.at(1).enabled = false;
+    for (double s : {0.0, 0.25, 0.5, 0.75}) {
+        const Weather w = blendWeather(from, to, s);
+        ASSERT_TRUE(w.layers.at(1).enabled) << s;  // fading out: from's layer, density x (1 - s)
+        EXPECT_NEAR(w.layers.at(1).layer.density, 0.8 * (1 - s), 1e-12) << s;
+        EXPECT_DOUBLE_EQ(w.layers.at(1).layer.coverage, 0.4) << s;
+        ASSERT_TRUE(w.layers.at(2).enabled) << s;  // fading in: to's layer, density x s
+        EXPECT_NEAR(w.layers.at(2).layer.density, 0.8 * s, 1e-12) << s;
+        EXPECT_DOUBLE_EQ(w.layers.at(2).layer.base, 4000) << s;
+    }
+    const Weather end = blendWeather(from, to, 1);
+    EXPECT_FALSE(end.layers.at(1).enabled);
+    EXPECT_TRUE(end.layers.at(2).enabled);
+    EXPECT_DOUBLE_EQ(end.layers.at(2).layer.density, 0.8);
+}
+
+TEST(WeatherTest, TheSunTurnsAlongTheGreatCircleAtAConstantRate) {
+    Weather from = twoLayers(), to = from;
+    from.sun.direction = Vec3(1, 0, 0);
+    to.sun.direction = Vec3(0, 0, 2);  // not normalised: the host's; the way is still the great circle
+    double last = 0;
+    for (int k = 1; k <= 8; ++k) {
+        const double s = k / 8.0;
+        const Vec3 d = blendWeather(from, to, s).sun.direction;
+        const double angle = std::acos(std::clamp(glm::dot(glm::normalize(d), Vec3(1, 0, 0)), -1.0, 1.0));
+        EXPECT_NEAR(glm::length(d), s < 1 ? 1.0 : 2.0, 1e-12) << s;
+        EXPECT_NEAR(angle - last, 3.14159265358979 / 2 / 8, 1e-9) << s;  // the same turn every step
+        EXPECT_NEAR(d.y, 0, 1e-12) << s;                                 // in the plane of the two
+        last = angle;
+    }
+    to.sun.direction = Vec3(-1, 0, 0);  // opposite: some great circle, still a unit vector half way
+    EXPECT_NEAR(glm::length(blendWeather(from, to, 0.5).sun.direction), 1.0, 1e-12);
+    EXPECT_NEAR(glm::dot(blendWeather(from, to, 0.5).sun.direction, Vec3(1, 0, 0)), 0.0, 1e-9);
+}
+
+TEST(WeatherTest, ARetargetStartsFromWhatIsShown) {
+    const Weather a = twoLayers();
+    Weather b = a, c = a;
+    b.layers.at(1).layer.coverage = 0.8;
+    b.layers.at(2).enabled = false;
+    c.layers.at(1).layer.coverage = 0.2;
+    const ShownWeather mid = blendShown(shownOf(a), b, 0.5);  // layer 2 half faded out
+    EXPECT_DOUBLE_EQ(mid.layers.at(2).fade, 0.5);
+    const ShownWeather again = blendShown(mid, c, 0);  // the new transition's first frame: where it was
+    EXPECT_DOUBLE_EQ(again.layers.at(1).layer.coverage, mid.layers.at(1).layer.coverage);
+    EXPECT_DOUBLE_EQ(again.layers.at(2).fade, 0.5);
+    const ShownWeather on = blendShown(mid, c, 0.5);  // layer 2 back on: from its fade to 1
+    EXPECT_DOUBLE_EQ(on.layers.at(2).fade, 0.75);
+    EXPECT_DOUBLE_EQ(on.layers.at(1).layer.coverage, 0.4);
+}
+
+TEST(WeatherTest, ABadTransitionTimeIsRefusedByName) {
+    Weather w = twoLayers();
+    EXPECT_NO_THROW(w.validate());
+    for (double bad : {-1.0, double(INFINITY), double(NAN)}) {
+        w.transitionSeconds = bad;
+        try {
+            w.validate();
+            ADD_FAILURE() << "transitionSeconds " << bad << " passed";
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find("transitionSeconds"), std::string::npos) << e.what();
+        }
+    }
+    w.transitionSeconds = 2.5;
+    EXPECT_NO_THROW(w.validate());
+    Weather other = twoLayers();
+    EXPECT_TRUE(w.sameAs(other));  // a change of the transition time alone is no change of weather
+    other.layers.at(2).layer.coverage = 0.41;
+    EXPECT_FALSE(w.sameAs(other));
 }

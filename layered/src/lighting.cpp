@@ -318,7 +318,7 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
 }
 
 LightingParameters lightingParameters(const Medium& medium, const Layer& layer) {
-    return {medium.extinction, medium.albedo, medium.hgG, layer.thickness};
+    return {medium.extinction, medium.albedo, medium.hgG, layer.lightingThickness > 0 ? layer.lightingThickness : layer.thickness};
 }
 
 LightingVolume lightingCached(const LightingSettings& s, const LightingParameters& p, const std::string& cacheDir) {

@@ -51,12 +51,14 @@ struct Sun {
     Vec3 direction = glm::normalize(Vec3(0.3, 0.2, 0.93));  // unit, towards the sun
     Vec3 color{1.0};
     double intensity = 3.0;  // a white Lambertian plane facing the sun reflects color*intensity/pi
+    bool operator==(const Sun&) const = default;
 };
 
 struct Sky {
     Vec3 zenith{0.10, 0.22, 0.55};
     Vec3 horizon{0.40, 0.50, 0.65};
     Vec3 ground{0.12, 0.12, 0.10};
+    bool operator==(const Sky&) const = default;
 };
 
 // Cloud matter given physically (data/scene-format.md, "medium"): the extinction coefficient at
@@ -203,6 +205,7 @@ struct GenerateStats {
 struct CityGlow {
     Vec3 color{1.0, 0.6, 0.3};
     double strength = 1.0;  // >= 0
+    bool operator==(const CityGlow&) const = default;
 };
 
 struct Layer {
@@ -219,6 +222,11 @@ struct Layer {
     // at time t it has moved by windOffset + t * wind (SkyRenderer::update keeps that continuous
     // when the wind changes).
     Vec2 windOffset{0.0};
+    // Set in code, never read from a scene file: the thickness (m) its lighting volume is made
+    // for, when not its own (0: its own). A weather transition ramps the thickness but lights the
+    // layer for the thickness it ramps to, so that one volume is made per change, not one a frame.
+    double lightingThickness = 0.0;
+    bool operator==(const Layer&) const = default;
 };
 
 struct Skylight {

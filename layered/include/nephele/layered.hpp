@@ -159,6 +159,7 @@ LightingVolume precomputeLighting(const LightingSettings& settings, const Lighti
 // cacheDir "" = no cache.
 LightingVolume lightingCached(const LightingSettings& settings, const LightingParameters& parameters,
                               const std::string& cacheDir);
+// The layer's lighting key: the medium and its thickness (Layer::lightingThickness when set).
 LightingParameters lightingParameters(const Medium& medium, const Layer& layer);
 
 // ---------------------------------------------------------------------------------------

@@ -61,6 +61,10 @@ struct Weather {
     Sun sun;
     Sky sky;
     std::map<int, CloudLayer> layers;  // by CIGI layer id; drawn in this order when enabled
+    // The time (s, >= 0) SkyRenderer::update takes to go from what it shows to this weather when
+    // it differs from the last one given (a change of transitionSeconds alone is no change):
+    // 0 applies it in the frame it is given. See blendWeather and docs/embedding.md, "Transitions".
+    double transitionSeconds = 0;
 
     // The scene's sun, sky and layers (ids cigiLayerId(0), cigiLayerId(1), ...).
     static Weather of(const Scene& scene);
@@ -73,9 +77,22 @@ struct Weather {
     std::vector<Layer> enabledLayers() const;
     // Throws std::invalid_argument naming the layer id and the field for what a scene file
     // could not hold (thickness or extent <= 0, coverage or density outside [0, 1], a non-finite
-    // base or wind) or a sun direction that is not a direction. SkyRenderer::update calls it.
+    // base or wind), a sun direction that is not a direction or a transitionSeconds that is
+    // negative or not finite. SkyRenderer::update calls it.
     void validate() const;
+    // The same sun, sky and layers (transitionSeconds aside): what makes update() start a transition.
+    bool sameAs(const Weather& other) const;
 };
+
+// The weather a transition shows at s in [0, 1] of its way from `from` to `to` (s >= 1: `to`
+// itself). Continuous quantities move linearly: each layer's coverage, density, base,
+// thickness, extent and wind vector, the sun's intensity and colour and the sky's colours; the
+// sun's direction turns along the great circle at a constant rate. The rest is the pattern's
+// identity and takes `to`'s at once: a layer's seed, near LOD flag and city glow. A layer
+// enabled in `to` only fades in (`to`'s layer, density x s); one enabled in `from` only fades
+// out (`from`'s, density x (1 - s)), disabled at s = 1. While s < 1 a layer present in `to` is
+// lit for `to`'s thickness (Layer::lightingThickness): one lighting volume per change.
+Weather blendWeather(const Weather& from, const Weather& to, double s);
 
 }  // namespace nephele
 NEPHELE_API_END
