@@ -36,6 +36,13 @@ public:
     // failure of a job (std::exception of lightingCached or makeModulation).
     std::shared_ptr<const LightingVolume> lighting(const LightingParameters& parameters);
     std::shared_ptr<const ModulationTexture> modulation(unsigned seed);
+    // As lighting() / modulation(), but while the job runs the nearest made instead of nullptr:
+    // the volume whose parameters differ least (relative differences of the medium's extinction,
+    // albedo and phase and of the thickness), the texture used last. nullptr only while nothing
+    // of its kind is made. A layer is thus drawn from its first frame (a new layer of a
+    // transition fades in with the light of another thickness) and never withheld.
+    std::shared_ptr<const LightingVolume> nearestLighting(const LightingParameters& parameters);
+    std::shared_ptr<const ModulationTexture> nearestModulation(unsigned seed);
 
     int pending() const;  // jobs queued or running
     void wait();          // blocks until no job is left

@@ -3,6 +3,7 @@
 #include "parallel.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace nephele {
 
@@ -124,6 +125,30 @@ std::shared_ptr<const ModulationTexture> LayerAssets::modulation(unsigned seed) 
     const std::shared_ptr<Entry> e = request(false, {}, seed);
     std::lock_guard lock(mutex_);
     return e->done ? e->texture : nullptr;
+}
+
+std::shared_ptr<const LightingVolume> LayerAssets::nearestLighting(const LightingParameters& p) {
+    if (auto exact = lighting(p)) return exact;
+    auto relative = [](double a, double b) { return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-12}); };
+    std::lock_guard lock(mutex_);
+    std::shared_ptr<const LightingVolume> best;
+    double bestDistance = 0;
+    for (const auto& e : entries_) {
+        if (!e->isLight || !e->done) continue;
+        const LightingParameters& q = e->parameters;
+        const double d = relative(p.extinction, q.extinction) + relative(p.albedo, q.albedo) + relative(p.csG, q.csG) +
+                         relative(p.thickness, q.thickness);
+        if (!best || d < bestDistance) best = e->light, bestDistance = d;
+    }
+    return best;
+}
+
+std::shared_ptr<const ModulationTexture> LayerAssets::nearestModulation(unsigned seed) {
+    if (auto exact = modulation(seed)) return exact;
+    std::lock_guard lock(mutex_);
+    for (auto e = entries_.rbegin(); e != entries_.rend(); ++e)  // most recently used first
+        if (!(*e)->isLight && (*e)->done) return (*e)->texture;
+    return nullptr;
 }
 
 int LayerAssets::pending() const {

@@ -171,6 +171,7 @@ struct NearLod::Job {
     double distance = 0;  // of the spawn point from the eye (m): nearest first
     int layer = 0;
     std::int64_t i = 0, j = 0;
+    int behind = 1;       // changes of the layer since the cell was made: most first
 };
 
 NearLod::NearLod(NearLodSettings settings, LayeredSettings layered)
@@ -189,8 +190,9 @@ void NearLod::refreshLayer(const Scene& scene, int li, const Vec3& eye, double t
     const double r = reach(layered_), size = settings_.cellSize, jit = settings_.jitter;
     const LayerCache::Made made{layer.seed, layer.base, layer.coverage, layer.density,
                                 lightingParameters(scene.medium, layer)};
-    std::shared_ptr<const ModulationTexture> modulation = assets_->modulation(layer.seed);
-    std::shared_ptr<const LightingVolume> light = assets_->lighting(made.lightKey);
+    // While the layer's own data is made, the nearest made (as the layered sky draws it).
+    std::shared_ptr<const ModulationTexture> modulation = assets_->nearestModulation(layer.seed);
+    std::shared_ptr<const LightingVolume> light = assets_->nearestLighting(made.lightKey);
     const bool ready = modulation && light;  // else: the cells stay as they are, none is made
     if (ready && (!(made == c.made) || modulation != c.modulation || light != c.light)) {
         c.made = made, c.modulation = std::move(modulation), c.light = std::move(light);
@@ -211,13 +213,20 @@ void NearLod::refreshLayer(const Scene& scene, int li, const Vec3& eye, double t
                 next.emplace(old->first, std::move(old->second));
                 c.cells.erase(old);
             }
-            if (c.light && (!have || next[{i, j}].version != c.version)) jobs.push_back({distance, li, i, j});
+            // A new cell counts as one change behind: after one change the cells due are made
+            // nearest first; while a layer keeps changing (a weather transition) the cells made
+            // longest ago go first, so that each is made again in turn.
+            const int behind = have ? c.version - next[{i, j}].version : 1;
+            if (c.light && behind != 0) jobs.push_back({distance, li, i, j, behind});
         }
     st.retired += int(c.cells.size());
     c.cells = std::move(next);
 }
 
-std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats, int maxCells) {
+std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats, int maxCells,
+                                   const std::vector<double>& fades) {
+    if (!fades.empty() && fades.size() != scene.layers.size())
+        throw std::invalid_argument("NearLod::update: one fade per layer, or none");
     NearLodStats st;
     const std::size_t before = layers_.size();
     for (std::size_t li = scene.layers.size(); li < before; ++li) st.retired += int(layers_[li]->cells.size());
@@ -233,7 +242,8 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
         refreshLayer(scene, int(li), eye, t, jobs, st);
     }
     // The cells due, nearest first, as many as the budget allows.
-    std::stable_sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) { return a.distance < b.distance; });
+    std::stable_sort(jobs.begin(), jobs.end(),
+                     [](const Job& a, const Job& b) { return a.behind != b.behind ? a.behind > b.behind : a.distance < b.distance; });
     const std::size_t budget = maxCells > 0 ? std::size_t(maxCells) : jobs.size();
     for (std::size_t k = 0; k < std::min(budget, jobs.size()); ++k) {
         const Job& job = jobs[k];
@@ -250,12 +260,13 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
         const Layer& layer = scene.layers[li];
         const Vec2 drift = layerDrift(layer, t);
         const Vec2 e = Vec2(eye.x, eye.y) - drift;
+        const double fade = fades.empty() ? 1.0 : fades[li];
         for (const auto& [ij, made] : layers_[li]->cells) {
             const NearCell& cell = made.cell;
             ++st.cells;
             if (cell.cloud.ellipsoids.empty()) continue;
             Cloud cloud = cell.cloud;
-            cloud.weight = 1 - nearFade(layered_, glm::length(cell.spawn - e));
+            cloud.weight = (1 - nearFade(layered_, glm::length(cell.spawn - e))) * fade;
             for (Ellipsoid& el : cloud.ellipsoids) el.center += Vec3(drift, 0.0);
             if (cloud.tiled()) cloud.tileMin += drift, cloud.tileMax += drift;
             ++st.clouds;

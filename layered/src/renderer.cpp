@@ -390,13 +390,19 @@ void checkLayerBudget(const Scene& scene, const LayeredSettings& s) {
 }  // namespace
 
 // The slot's textures for the layer: new ones when LayerAssets has newer data for it (at once,
-// or when its background job is done: until then the slot keeps what it had).
+// or when its background job is done: until then the nearest made, LayerAssets::nearestLighting,
+// which for a changed layer is the volume it had and for a new one the light of the nearest
+// thickness, so that no layer is withheld while its own is made).
 void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const Layer& layer, const LayeredSettings&,
                                        LayeredStats& stats) {
-    std::shared_ptr<const LightingVolume> light = assets->lighting(lightingParameters(scene.medium, layer));
-    if (!light) stats.pendingLayers += 1;  // its job runs: drawn with the volume it had, if any
+    const LightingParameters key = lightingParameters(scene.medium, layer);
+    std::shared_ptr<const LightingVolume> light = assets->lighting(key);
+    if (!light) {
+        stats.pendingLayers += 1;  // its job runs
+        light = assets->nearestLighting(key);
+    }
     if (light && (!r.light || r.light->data != light)) r.light = shareTexture(lightPool, std::move(light), uploadLighting, stats.uploads);
-    std::shared_ptr<const ModulationTexture> modulation = assets->modulation(layer.seed);
+    std::shared_ptr<const ModulationTexture> modulation = assets->nearestModulation(layer.seed);
     if (modulation && (!r.modulation || r.modulation->data != modulation))
         r.modulation = shareTexture(modulationPool, std::move(modulation), uploadModulation, stats.uploads);
     if (r.light) {  // the light tables of this frame's sun and sky (cheap: bins x bins nodes)

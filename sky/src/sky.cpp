@@ -7,6 +7,7 @@
 #include "nephele/per_view.hpp"
 #include "cloud_field.hpp"
 #include "layer_assets.hpp"
+#include "weather_blend.hpp"
 
 #include <chrono>
 #include <functional>
@@ -98,6 +99,13 @@ struct SkyRenderer::Impl {
     double time_ = 0;
     long long updates_ = 0;      // since prepare()
     std::map<int, Vec2> drift_;  // by CIGI layer id: how far its wind has moved it (m)
+    // The weather transition: what is shown, where the transition started (what was shown then),
+    // the weather it goes to (the last one given) and the time since it started.
+    ShownWeather shown_, from_;
+    Weather target_;
+    double elapsed_ = 0;
+    Scene nearScene_;             // the near LOD's layers: each at its own density, its clouds' weights
+    std::vector<double> fades_;   // times its fade (the far field draws density x fade)
     PerViewCache<FrameDepth> depths_;
     // The cloud queries' state: the noise volume and the explicit clouds' matter (made by
     // prepare()), each layer's last textures (a layer whose new ones are being made is queried
@@ -162,6 +170,11 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     time_ = 0;
     drift_.clear();
     updates_ = 0;
+    target_ = Weather::of(scene);
+    shown_ = from_ = shownOf(target_);
+    elapsed_ = 0;
+    nearScene_ = Scene{};
+    nearScene_.medium = scene.medium;
     // The layers' lighting and modulation, made now (the one wait) or queued; later changes in
     // the background.
     assets_->setBackground(!settings_.prepareWaits);
@@ -190,22 +203,45 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     weather.validate();
     SkyUpdateStats stats;
     time_ += dt;
-    // The layers: each one's drift integrated with the wind it has now (continuous when it changes).
-    scene_.sun = weather.sun;
-    scene_.sun.direction = glm::normalize(weather.sun.direction);
-    scene_.sky = weather.sky;
+    // A weather unlike the last starts a transition from what is shown now (mid-way of another
+    // one included: the frames stay continuous); its transitionSeconds says how long it takes.
+    if (!weather.sameAs(target_)) {
+        from_ = shown_;
+        target_ = weather;
+        elapsed_ = 0;
+    } else {
+        elapsed_ += dt;
+    }
+    const double duration = target_.transitionSeconds;
+    stats.transition = duration > 0 ? std::min(elapsed_ / duration, 1.0) : 1.0;
+    shown_ = blendShown(from_, target_, stats.transition);
+    scene_.sun = shown_.sun;
+    scene_.sun.direction = glm::normalize(shown_.sun.direction);
+    scene_.sky = shown_.sky;
     scene_.medium.detail.drift = scene_.medium.detail.wind * time_;  // the detail carried by its wind
+    // The layers: each one's drift integrated with the wind it has now (continuous when it
+    // changes), a disabled one's too, so that it comes back where its wind has taken it.
+    auto drift = [&](int id, const Layer& layer) -> const Vec2& {
+        auto [it, added] = drift_.try_emplace(id, layer.windOffset + time_ * layer.wind);
+        if (!added) it->second += dt * layer.wind;
+        return it->second;
+    };
+    for (const auto& [id, l] : target_.layers)
+        if (!shown_.layers.count(id)) drift(id, l.layer);
     scene_.layers.clear();
+    nearScene_.layers.clear();
+    fades_.clear();
     std::vector<std::pair<int, Layer>> layerIds;
-    for (const auto& [id, l] : weather.layers) {
-        auto [it, added] = drift_.try_emplace(id, l.layer.windOffset + time_ * l.layer.wind);
-        if (!added) it->second += dt * l.layer.wind;
-        if (!l.enabled) continue;
-        Layer layer = l.layer;
-        layer.windOffset = it->second - time_ * layer.wind;  // layerDrift(layer, time_) == the integrated drift
+    for (const auto& [id, shown] : shown_.layers) {
+        Layer layer = shown.layer;
+        layer.windOffset = drift(id, layer) - time_ * layer.wind;  // layerDrift(layer, time_) == the integrated drift
+        nearScene_.layers.push_back(layer);
+        fades_.push_back(shown.fade);
+        layer = farLayer({layer, shown.fade});
         scene_.layers.push_back(layer);
         layerIds.emplace_back(id, layer);
-        // Queue what the layer needs (the near LOD and the layered sky use it when it is ready).
+        // Queue what the layer needs (the near LOD and the layered sky use it when it is ready);
+        // mid-transition its lighting is that of the thickness it goes to (Layer::lightingThickness).
         assets_->lighting(lightingParameters(scene_.medium, layer));
         assets_->modulation(layer.seed);
     }
@@ -217,7 +253,8 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     frame_.layers = scene_.layers;
     frame_.clouds.resize(explicitClouds_);
     // The first update after prepare() makes every cell in reach; later ones spread them.
-    std::vector<Cloud> near = nearLod_->update(scene_, eye, time_, &stats.nearLod, updates_++ > 0 ? settings_.cellsPerUpdate : 0);
+    std::vector<Cloud> near = nearLod_->update(nearScene_, eye, time_, &stats.nearLod,
+                                               updates_++ > 0 ? settings_.cellsPerUpdate : 0, fades_);
     publishField(near, eye, layerIds);
     frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
     const auto t0 = std::chrono::steady_clock::now();
@@ -286,6 +323,9 @@ void SkyRenderer::Impl::publishField(std::vector<Cloud>& near, const Vec3& eye, 
             if (!e.light) e.light = last->second.light;
             if (!e.modulation) e.modulation = last->second.modulation;
         }
+        // A new layer, as the layered sky draws it: with the nearest made.
+        if (!e.light) e.light = assets_->nearestLighting(lightingParameters(scene_.medium, layer));
+        if (!e.modulation) e.modulation = assets_->nearestModulation(layer.seed);
         now[id] = e;
         entries.push_back(std::move(e));
     }

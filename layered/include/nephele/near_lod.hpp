@@ -30,7 +30,8 @@
 //   dropped (retired) when they leave it; a cell is generated once while it stays near. When
 //   the layer changes (seed, base, coverage, density, or its lighting volume: the medium or the
 //   thickness), its cells are made again; given a budget (update's maxCells), at most that
-//   many cells are made per update, nearest first, and the others keep their old cloud until their turn
+//   many cells are made per update, nearest first (those made the most changes ago before them),
+//   and the others keep their old cloud until their turn
 //   (a cell that is new is drawn from its turn on: it enters at the reach, where its weight is 0).
 // - Weights: a cloud's Cloud::weight (the fraction of its optical depth the eye sees) is
 //   1 - nearFade(d), d the horizontal distance of its spawn point from the eye, while the
@@ -139,10 +140,12 @@ public:
     // The near clouds of the scene's near_lod layers for the eye at time t (world, wind
     // applied), weights set (Cloud::weight) and noise ids stable per cell; spawns the cells
     // that came within reach and retires those that left it. Clouds are ordered by (layer, i, j).
-    // maxCells > 0: at most that many cells are made in this call, nearest first (the rest
-    // next time: NearLodStats::pending); 0: all that are due.
+    // maxCells > 0: at most that many cells are made in this call, those made the most changes of
+    // the layer ago first, then nearest first (the rest next time: NearLodStats::pending); 0: all that are due.
+    // `fades` (empty, or one per scene layer in [0, 1]) multiplies each layer's clouds' weights:
+    // a layer fading in or out of a weather transition, its cells made once at its own density.
     std::vector<Cloud> update(const Scene& scene, const Vec3& eye, double t, NearLodStats* stats = nullptr,
-                              int maxCells = 0);
+                              int maxCells = 0, const std::vector<double>& fades = {});
     // The cells cached now (after the last update), ordered by (layer, i, j).
     std::vector<const NearCell*> cells() const;
     // Takes the layers' lighting volumes and modulation textures from `assets` (SkyRenderer's,

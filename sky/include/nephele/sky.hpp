@@ -56,8 +56,9 @@ struct SkySettings {
     BackgroundSettings background;
     // true: prepare() makes the layers' lighting and the explicit clouds' grids before it
     // returns (the first frame is lit as the last). false: it queues them and returns once the
-    // shaders are built; until they are ready the clouds are lit by stand-ins and a layer with
-    // no lighting yet is not drawn (pending() says how much is left).
+    // shaders are built; until they are ready the clouds are lit by stand-ins and the layers are
+    // drawn with the nearest lighting volume made, none before the first (pending() says how
+    // much is left).
     bool prepareWaits = true;
 };
 
@@ -78,6 +79,9 @@ struct SkyUpdateStats {
     double lightMs = 0;    // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
     int layers = 0;        // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running
+    // The weather transition's progress, 0..1: the share of the way from what was shown when the
+    // last new weather came to it (Weather::transitionSeconds); 1 when it is done.
+    double transition = 1;
 };
 
 // What the clouds hold at a point (SkyRenderer::insideCloud).
@@ -110,10 +114,13 @@ public:
     void prepare(const Scene& scene);
     // Once per frame, before the channels draw: advances the time by dtSeconds (>= 0: wind,
     // lightning), takes the weather (sun, sky, cloud layers by CIGI layer id; a layer's drift is
-    // integrated, so a change of wind moves its pattern on from where it is), updates the near
-    // LOD around `eye` (the first update after prepare() makes all its cells; later ones at most
-    // kCellsPerUpdate, nearest first) and the clouds' light volumes, and queues what a changed
-    // layer needs on the worker thread (until it is done, the layer is drawn with the lighting it had).
+    // integrated, so a change of wind moves its pattern on from where it is; a weather unlike the
+    // last one given starts a transition of weather.transitionSeconds from what is shown now, see
+    // blendWeather and SkyUpdateStats::transition), updates the near LOD around `eye` (the first
+    // update after prepare() makes all its cells; later ones at most kCellsPerUpdate, nearest
+    // first) and the clouds' light volumes, and queues what a changed layer needs on the worker
+    // thread (one lighting volume per change, the target's; until it is done, the layer is drawn
+    // with the nearest volume made: the one it had, or for a new layer another thickness's).
     // Throws std::logic_error before prepare(), std::invalid_argument for a bad dt or weather
     // (Weather::validate).
     SkyUpdateStats update(double dtSeconds, const Weather& weather, const Vec3& eye);
