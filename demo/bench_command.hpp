@@ -104,6 +104,7 @@ struct WeatherBenchOptions {
     int frames = 240;             // frames of the flight
     double fps = 30;              // frames per second of simulated time
     double speed = 60;            // m/s along the scene camera's heading
+    double transition = 2;        // s, each change's Weather::transitionSeconds (0: at once)
     int width = 1280, height = 720;
     bool quick = false;           // 24 frames, small lighting volumes (for tests)
     GlBackend backend = GlBackend::Egl;

@@ -389,6 +389,9 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
         ->check(within(1, 1 << 20))
         ->capture_default_str();
     bench->add_option("--fps", b.flo.fps, "--flicker, --weather, --cruise: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
+    bench->add_option("--transition", b.wbo.transition, "--weather: seconds each weather change ramps over (Weather::transitionSeconds; 0: at once)")
+        ->check(within(0, 3600))
+        ->capture_default_str();
     bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
     bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");

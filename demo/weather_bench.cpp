@@ -1,6 +1,7 @@
 // `nephele bench --weather`: a flight through near_and_far.json while the weather changes the
-// way a host's CIGI packets change it (coverage, base, thickness, wind, the sun), frame by
-// frame: SkyRenderer's host API (update once a frame, draw) against the one-call render() of
+// way a host's CIGI packets change it (coverage, base, thickness, wind, the sun, a second layer
+// on and off), each change ramping over --transition seconds, frame by frame: SkyRenderer's
+// host API (update once a frame, draw) against the one-call render() of
 // before, each frame of the two taking turns so that a busy machine slows both alike. The
 // target: the worst frame at most 1.5 times the median frame.
 #include "bench_command.hpp"
@@ -55,7 +56,8 @@ Sun sunAt(double azimuthDeg, double elevationDeg) {
     return s;
 }
 
-// The sweep: one change of each kind, then two at once, spread over the flight.
+// The sweep: one change of each kind (a second layer on with the wind's change, off with the
+// sun's last), then two at once, spread over the flight.
 std::vector<WeatherEvent> sweep(int frames) {
     auto at = [&](double f) { return std::max(1, int(std::lround(f * frames))); };
     auto layer = [](auto change) {
@@ -69,14 +71,26 @@ std::vector<WeatherEvent> sweep(int frames) {
         {at(0.1), "coverage 60% -> 75%", layer([](CloudLayerControl& c) { c.coverage = 75; })},
         {at(0.2), "base 2500 -> 2300 m", layer([](CloudLayerControl& c) { c.baseElevation = 2300; })},
         {at(0.3), "thickness 600 -> 800 m", layer([](CloudLayerControl& c) { c.thickness = 800; })},
-        {at(0.4), "wind 6 m/s -> 15 m/s from 200 deg", layer([](CloudLayerControl& c) {
+        {at(0.4), "wind 6 m/s -> 15 m/s from 200 deg, and layer 2 on: altocumulus 40% at 4000 m, 300 m thick",
+         [](Weather& w) {
+             CloudLayerControl c = controlOf(w);
              c.horizontalWindSpeed = 15, c.windDirection = 200;
-         })},
+             w.apply(c);
+             CloudLayerControl second;
+             second.layerId = 2;
+             second.cloudType = CigiCloudType::Altocumulus;
+             second.coverage = 40, second.baseElevation = 4000, second.thickness = 300;
+             second.horizontalWindSpeed = 8, second.windDirection = 250;
+             w.apply(second);
+         }},
         {at(0.5), "sun azimuth 56 -> 80 deg, elevation 68 -> 40 deg", [](Weather& w) { w.sun = sunAt(80, 40); }},
         {at(0.65), "coverage 45% and thickness 500 m", layer([](CloudLayerControl& c) {
              c.coverage = 45, c.thickness = 500;
          })},
-        {at(0.8), "sun elevation 40 -> 25 deg", [](Weather& w) { w.sun = sunAt(90, 25); }},
+        {at(0.8), "sun elevation 40 -> 25 deg, and layer 2 off", [](Weather& w) {
+             w.sun = sunAt(90, 25);
+             w.layers.at(2).enabled = false;
+         }},
     };
 }
 
@@ -102,6 +116,7 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
     OpaquePass opaque;
     host.prepare(scene);
     Weather weather = Weather::of(scene);
+    weather.transitionSeconds = o.transition;
     Scene old = scene;  // what render() draws: the same weather applied to a scene
     const std::vector<WeatherEvent> events = sweep(frames);
     const double dt = 1.0 / o.fps;
@@ -145,7 +160,7 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
     std::ostringstream csv;
     csv << "frame,ms,update_ms,draw_ms,before_ms,light_grids_finished,light_grids_pending,light_stand_ins,light_ms,"
            "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,tiles_ms,"
-           "composite_ms,passes,visible,event\n";
+           "composite_ms,passes,visible,transition,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs) << ","
@@ -154,7 +169,8 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << f.update.nearLod.generated << ","
             << f.update.nearLod.pending << "," << f.update.backgroundJobs << "," << f.uploads << "," << f.pendingLayers << ","
             << f.beforeLightVolumes << "," << fmt("%.3f", f.farFieldMs) << "," << fmt("%.3f", f.tilesMs) << ","
-            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << ",\"" << f.event << "\"\n";
+            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << "," << fmt("%.3f", f.update.transition)
+            << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }
@@ -183,7 +199,9 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
     md << "Measured by `nephele bench --weather` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
        << ": " << frames.size() << " frames of a flight through near_and_far.json (" << fmt("%.0f", o.speed)
        << " m/s along its heading, " << fmt("%.0f", o.fps)
-       << " frames per second of simulated time) while the weather changes as below. A frame is SkyRenderer::update + "
+       << " frames per second of simulated time) while the weather changes as below, each change ramping over "
+       << fmt("%.1f", o.transition) << " s (Weather::transitionSeconds; a change during a ramp starts a new one from "
+          "what is shown). A frame is SkyRenderer::update + "
           "draw of one channel, wall time to glFinish (the host's sky is drawn before the clock starts; the draw's parts "
           "are timed, a glFinish between them); before = the "
           "same frames with the one-call SkyRenderer::render of before, the same weather applied to its scene; the two "

@@ -213,6 +213,11 @@ void addIgOptions(CLI::App* cmd, IgOptions& o) {
                     "LAT,LON,HEIGHT: the WGS84 point (degrees, degrees, m) of the scene's (0, 0, 0), its x east, y north, "
                     "z up; the host's geodetic positions are taken into this frame")
         ->capture_default_str();
+    cmd->add_option("--transition", o.transition,
+                    "Seconds over which a Weather Control change ramps (coverage, base, thickness, wind, a layer on "
+                    "or off); 0: at once, as the host sent it (for a host that ramps the weather itself)")
+        ->check(CLI::Range(0.0, 3600.0))
+        ->capture_default_str();
 }
 
 namespace {
@@ -247,6 +252,7 @@ int runIg(const IgOptions& o) {
         applySize(s.scene, o.render);
         checkFrameMemory(s.scene, o.render);
         s.weather = Weather::of(s.scene);
+        s.weather.transitionSeconds = o.transition;
         s.frame.emplace(parseOrigin(o.origin));
         s.channel = o.channel;
         const Camera& cam = s.scene.camera;

@@ -26,9 +26,14 @@ struct IgOptions {
     long long frames = 0;  // stop after this many frames (0: no limit)
     double timeout = 10;   // seconds without a datagram: stop
     std::string origin = "0,0,0";  // LAT,LON,HEIGHT: the geodetic point of the scene's (0, 0, 0)
+    // Seconds a Weather Control change takes (Weather::transitionSeconds). 0: at once, what the
+    // host sent: CIGI 3.3's Weather Control carries no transition time, and a host that ramps
+    // the weather itself, packet by packet, would see a nonzero default lag behind its ramp.
+    double transition = 0;
 };
 
-// Adds --address, --port, --channel, --headless, --record, --frames, --timeout, --origin to `cmd`.
+// Adds --address, --port, --channel, --headless, --record, --frames, --timeout, --origin,
+// --transition to `cmd`.
 void addIgOptions(CLI::App* cmd, IgOptions& o);
 
 // Runs the loop; returns the exit code: 0 after --frames frames or at the receive timeout

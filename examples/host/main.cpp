@@ -128,6 +128,7 @@ int run(const std::string& scenePath, const std::string& out, int w, int h) {
     nephele::SkyRenderer sky;
     sky.prepare(scene);
     nephele::Weather weather = nephele::Weather::of(scene);
+    weather.transitionSeconds = 2.0 / 30;  // a change ramps over two frames (a real IG: seconds)
     const Frame frame = makeFrame(2 * w, h);
     const nephele::Camera& cam = scene.camera;
     const glm::dmat4 view = glm::lookAt(cam.position, cam.position + cam.direction, cam.up);
