@@ -96,24 +96,47 @@ bool monotonic(double start, const std::vector<double>& v, int sign, double slac
     return true;
 }
 
+// A host drawing `scene` with its weather: prepared, one frame of the scene's own weather
+// updated; step() is the next frame of `weather`, drawn.
+struct Host {
+    Scene scene;
+    SkyRenderer sky;
+    FrameTarget target;
+    Weather weather;
+    Host(const Scene& s, const SkySettings& settings)
+        : scene(s), sky(settings), target(s.camera.width, s.camera.height), weather(Weather::of(s)) {
+        sky.prepare(scene);
+        sky.update(kDt, weather, scene.camera.position);
+    }
+    Frame frame() { return draw(sky, scene, target); }
+    Frame step(SkyUpdateStats* update = nullptr) {
+        const SkyUpdateStats u = sky.update(kDt, weather, scene.camera.position);
+        if (update) *update = u;
+        return frame();
+    }
+    // The opacity of `frames` frames; by default to the end of a kRamp transition (ten steps
+    // of 0.1 s sum to just under 1 s: one frame more).
+    Ramp ramp(int frames = kRampFrames + 2) {
+        Ramp r;
+        for (int k = 0; k < frames; ++k) {
+            SkyUpdateStats u;
+            r.opacity.push_back(step(&u).opacity);
+            r.updates.push_back(u);
+        }
+        return r;
+    }
+};
+
 // A coverage change 0.35 -> 0.7 over kRamp, frame by frame.
 Ramp coverageRamp(bool nearLod, int cellsPerUpdate, double transition) {
-    const Scene scene = layerScene(nearLod);
-    SkyRenderer sky(settings(cellsPerUpdate));
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    Ramp r;
-    for (int k = 0; k < 3; ++k) sky.update(kDt, w, scene.camera.position);
-    sky.waitForBackgroundWork();
-    sky.update(kDt, w, scene.camera.position);
-    r.start = draw(sky, scene, target).opacity;
-    w.layers.at(1).layer.coverage = 0.7;
-    w.transitionSeconds = transition;
-    for (int k = 0; k <= kRampFrames + 1; ++k) {
-        r.updates.push_back(sky.update(kDt, w, scene.camera.position));
-        r.opacity.push_back(draw(sky, scene, target).opacity);
-    }
+    Host h(layerScene(nearLod), settings(cellsPerUpdate));
+    for (int k = 0; k < 2; ++k) h.step();
+    h.sky.waitForBackgroundWork();
+    const double start = h.step().opacity;
+    h.weather.layers.at(1).layer.coverage = 0.7;
+    h.weather.transitionSeconds = transition;
+    Ramp r = h.ramp();
+    r.start = start;
     return r;
 }
 
@@ -213,24 +236,20 @@ TEST_F(TransitionGLTest, ARampEndsWhereTheChangeAtOnceIsAndZeroSecondsIsAtOnce) 
 TEST_F(TransitionGLTest, ANewLayerFadesInWhileItsLightingIsMade) {
     Scene scene = layerScene(false);
     scene.layers[0].coverage = 0;  // invisible, but its lighting is made: the nearest there is
-    SkyRenderer sky(slowLighting());
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    sky.update(kDt, w, scene.camera.position);
-    EXPECT_EQ(draw(sky, scene, target).opacity, 0.0);
+    Host h(scene, slowLighting());
+    EXPECT_EQ(h.frame().opacity, 0.0);
     CloudLayerControl c;
     c.layerId = 2, c.cloudType = CigiCloudType::Cumulus, c.coverage = 60, c.baseElevation = 1600, c.thickness = 300;
-    w.apply(c);
-    w.layers.at(2).layer.nearLod = false;  // the far field alone: cumulus would be near clouds over the eye
-    w.transitionSeconds = kRamp;
+    h.weather.apply(c);
+    h.weather.layers.at(2).layer.nearLod = false;  // the far field alone: cumulus would be near clouds over the eye
+    h.weather.transitionSeconds = kRamp;
     std::vector<double> opacity;
     int mostJobs = 0;
     bool drawnWhileWaiting = false;
     for (int k = 0; k <= kRampFrames; ++k) {
-        const SkyUpdateStats u = sky.update(kDt, w, scene.camera.position);
+        SkyUpdateStats u;
+        const Frame f = h.step(&u);
         mostJobs = std::max(mostJobs, u.backgroundJobs);
-        const Frame f = draw(sky, scene, target);
         opacity.push_back(f.opacity);
         if (k >= 1 && f.stats.layered.pendingLayers > 0 && f.opacity > 0) drawnWhileWaiting = true;
     }
@@ -279,21 +298,12 @@ TEST_F(TransitionGLTest, ANewLayersNearCloudsFadeInWithIt) {
 
 // A layer disabled with a transition fades out (density x (1 - s)) and is gone at its end.
 TEST_F(TransitionGLTest, ADisabledLayerFadesOut) {
-    const Scene scene = layerScene(false);
-    SkyRenderer sky(settings());
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    sky.update(kDt, w, scene.camera.position);
-    const double start = draw(sky, scene, target).opacity;
+    Host h(layerScene(false), settings());
+    const double start = h.frame().opacity;
     ASSERT_GT(start, 0.1);
-    w.layers.at(1).enabled = false;
-    w.transitionSeconds = kRamp;
-    std::vector<double> opacity;
-    for (int k = 0; k <= kRampFrames + 1; ++k) {  // ten steps of 0.1 s sum to just under 1 s
-        sky.update(kDt, w, scene.camera.position);
-        opacity.push_back(draw(sky, scene, target).opacity);
-    }
+    h.weather.layers.at(1).enabled = false;
+    h.weather.transitionSeconds = kRamp;
+    const std::vector<double> opacity = h.ramp().opacity;
     EXPECT_TRUE(monotonic(start, opacity, -1, 1e-4));
     EXPECT_NEAR(opacity[0], start, 1e-6);
     EXPECT_GT(opacity[kRampFrames / 2], 0.2 * start);  // half way, half the matter: still there
@@ -303,70 +313,44 @@ TEST_F(TransitionGLTest, ADisabledLayerFadesOut) {
 
 // A new weather mid-way starts its own ramp from what is shown: no jump at the retarget.
 TEST_F(TransitionGLTest, ANewWeatherMidwayStartsFromWhatIsShown) {
-    const Scene scene = layerScene(false);
-    SkyRenderer sky(settings());
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    sky.update(kDt, w, scene.camera.position);
-    const double start = draw(sky, scene, target).opacity;
-    w.layers.at(1).layer.coverage = 0.7;
-    w.transitionSeconds = kRamp;
-    std::vector<double> up;
-    for (int k = 0; k <= kRampFrames / 2; ++k) {
-        sky.update(kDt, w, scene.camera.position);
-        up.push_back(draw(sky, scene, target).opacity);
-    }
-    const double full = up.back() - start;  // half the way up
-    ASSERT_GT(full, 0.04);
-    w.layers.at(1).layer.coverage = 0.2;
-    std::vector<double> down;
-    for (int k = 0; k <= kRampFrames; ++k) {
-        const SkyUpdateStats u = sky.update(kDt, w, scene.camera.position);
-        if (k == 0) {
-            EXPECT_EQ(u.transition, 0.0);
-        }
-        down.push_back(draw(sky, scene, target).opacity);
-    }
-    EXPECT_NEAR(down[0], up.back(), 1e-6) << "the retarget jumped";
-    EXPECT_TRUE(monotonic(up.back(), down, -1, 1e-4));
-    EXPECT_LT(down.back(), start);
+    Host h(layerScene(false), settings());
+    const double start = h.frame().opacity;
+    h.weather.layers.at(1).layer.coverage = 0.7;
+    h.weather.transitionSeconds = kRamp;
+    const double halfway = h.ramp(kRampFrames / 2 + 1).opacity.back();
+    ASSERT_GT(halfway - start, 0.04);
+    h.weather.layers.at(1).layer.coverage = 0.2;
+    const Ramp down = h.ramp();
+    EXPECT_EQ(down.updates[0].transition, 0.0);
+    EXPECT_NEAR(down.opacity[0], halfway, 1e-6) << "the retarget jumped";
+    EXPECT_TRUE(monotonic(halfway, down.opacity, -1, 1e-4));
+    EXPECT_LT(down.opacity.back(), start);
 }
 
 // A thickness change needs a new lighting volume: one job for the target's thickness, not one
 // per frame of the ramp (each frame's thickness is new). The volume takes about 0.3 s, the
 // frames a few ms: jobs a frame would pile up.
 TEST_F(TransitionGLTest, AThicknessRampQueuesOneLightingJob) {
-    const Scene scene = layerScene(false);
-    SkyRenderer sky(slowLighting());
-    FrameTarget target(scene.camera.width, scene.camera.height);
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    sky.update(kDt, w, scene.camera.position);
-    w.layers.at(1).layer.thickness = 900;
-    w.transitionSeconds = kRamp;
+    Host h(layerScene(false), slowLighting());
+    h.weather.layers.at(1).layer.thickness = 900;
+    h.weather.transitionSeconds = kRamp;
     int mostJobs = 0, mostPending = 0;
-    std::vector<double> opacity;
     for (int k = 0; k <= kRampFrames; ++k) {
-        const SkyUpdateStats u = sky.update(kDt, w, scene.camera.position);
+        SkyUpdateStats u;
+        EXPECT_GT(h.step(&u).opacity, 0.05) << k;  // drawn all along
         mostJobs = std::max(mostJobs, u.backgroundJobs);
-        mostPending = std::max(mostPending, sky.backgroundJobs());
-        opacity.push_back(draw(sky, scene, target).opacity);  // drawn all along
+        mostPending = std::max(mostPending, h.sky.backgroundJobs());
     }
     EXPECT_LE(mostJobs, 1);
     EXPECT_LE(mostPending, 1);
-    for (double o : opacity) EXPECT_GT(o, 0.05);
 }
 
 // transitionSeconds must be a finite number >= 0: update() refuses one that is not, by name.
 TEST_F(TransitionGLTest, ABadTransitionTimeIsRefusedByName) {
-    const Scene scene = layerScene(false);
-    SkyRenderer sky(settings());
-    sky.prepare(scene);
-    Weather w = Weather::of(scene);
-    w.transitionSeconds = -2;
+    Host h(layerScene(false), settings());
+    h.weather.transitionSeconds = -2;
     try {
-        sky.update(kDt, w, scene.camera.position);
+        h.step();
         ADD_FAILURE() << "a negative transition time passed";
     } catch (const std::invalid_argument& e) {
         EXPECT_NE(std::string(e.what()).find("transitionSeconds"), std::string::npos) << e.what();
