@@ -261,6 +261,25 @@ TEST_F(TransitionGLTest, ANewLayerFadesInWhileItsLightingIsMade) {
     EXPECT_LE(mostJobs, 2) << "jobs queued a frame: a lighting volume per frame?";
 }
 
+// The near LOD does not wait for a new cumulus layer's lighting either: its cells are made with
+// the nearest volume made (the other layer's thickness) from the first frame of the ramp, and
+// made again with its own when that is ready.
+TEST_F(TransitionGLTest, ANewLayersNearCloudsAreMadeWhileItsLightingIsMade) {
+    Scene scene = layerScene(true);
+    scene.layers[0].coverage = 0;  // no near cloud of its own, but its lighting is made
+    SkySettings s = slowLighting();
+    s.cellsPerUpdate = 0;
+    Host h(scene, s);
+    CloudLayerControl c;
+    c.layerId = 2, c.cloudType = CigiCloudType::Cumulus, c.coverage = 60, c.baseElevation = 1600, c.thickness = 300;
+    h.weather.apply(c);
+    h.weather.transitionSeconds = kRamp;
+    SkyUpdateStats first;
+    h.step(&first);
+    ASSERT_GT(first.backgroundJobs, 0) << "the lighting was made before the first frame: the test needs it pending";
+    EXPECT_GT(first.nearLod.clouds, 0) << "no near cloud while the new layer's lighting is made";
+}
+
 // A new near_lod layer's near clouds fade in with it: their cells made once at the layer's own
 // density, their weights times the fade, so the matter they hold near the eye (what densityAt
 // reads: the near clouds times their weights; the far field leaves the near disc to them) is
