@@ -4,6 +4,8 @@
 // without a stall (the last good lighting meanwhile) and without a jump of the wind's drift.
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
+#include "temp_dir.hpp"
+#include "test_build.hpp"
 
 #include "nephele/gl_state.hpp"
 #include "nephele/host_view.hpp"
@@ -348,7 +350,10 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     const View view = makeView(scene.camera);
     SkySettings settings = testSettings();
     settings.layered.lighting = LightingSettings{};  // the paper's 256 x 256 x 32: a job of 0.3 s or more
-    settings.layered.cacheDir = "";                  // computed, never loaded
+    // Computed, never loaded: an empty folder of the test's own (the renderer for the thicker
+    // layer below then loads the volume this one's job made instead of tracing it again).
+    const test::TempDir cache("nephele_layer_change_");
+    settings.layered.cacheDir = cache.dir().string();
     SkyRenderer sky(settings);
     sky.prepare(scene);
     Weather weather = Weather::of(scene);
@@ -494,7 +499,9 @@ TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
     SkySettings settings = testSettings();
     settings.ellipsoid.light.size = 32;
     settings.ellipsoid.light.fitToCloud = false;
-    settings.ellipsoid.light.sunPhotons = settings.ellipsoid.light.skyPhotons = 1 << 22;
+    // Grids that take long enough to be pending after prepare() and at the first update; the
+    // sanitizers' build traces about four times slower.
+    settings.ellipsoid.light.sunPhotons = settings.ellipsoid.light.skyPhotons = test::kSanitized ? 1 << 20 : 1 << 22;
     settings.background.priority = BackgroundSettings::Priority::Low;
     Scene scene = testScene(64, 48);
     scene.layers[0].nearLod = false;  // no near clouds: they would spawn once the layer's lighting is made, on stand-ins

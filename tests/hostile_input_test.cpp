@@ -342,9 +342,10 @@ TEST(HostileCumulusTest, ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
     }
     std::cout << "radiance grid: " << few.ellipsoids.size() << " ellipsoids " << cpu[0] << " s CPU, "
               << many.ellipsoids.size() << " ellipsoids " << cpu[1] << " s CPU\n";
-    if (!test::kSanitized)
+    if (!test::kSanitized) {
         EXPECT_LT(cpu[1], 13 * cpu[0]) << few.ellipsoids.size() << " ellipsoids: " << cpu[0] << " s; " << many.ellipsoids.size()
-                                  << ": " << cpu[1] << " s";
+                                       << ": " << cpu[1] << " s";
+    }
 }
 
 // ---------------------------------------------------------------- 5. long output names

@@ -51,11 +51,12 @@ struct Result {
 };
 
 Result render(const Scene& scene, const LayeredSettings& given, double t = 0) {
-    // One lighting cache for the test's renders (unless it names its own): the layer's photons
-    // are traced once per medium and thickness, not once per render (most of these tests' CPU).
+    // One lighting cache for the renders (unless the test names its own): the layer's photons
+    // are traced once per medium and thickness, not once per render (most of these tests' CPU);
+    // under ctest once per run.
     static const test::TempDir cache("nephele_layered_gl_");
     LayeredSettings settings = given;
-    if (settings.cacheDir.empty()) settings.cacheDir = cache.dir().string();
+    if (settings.cacheDir.empty()) settings.cacheDir = test::runCacheDirOr(cache.dir().string());
     const View view = makeView(scene.camera);
     FrameTarget target(scene.camera.width, scene.camera.height);
     OpaquePass().draw(scene, view, target.framebuffer());

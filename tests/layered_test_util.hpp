@@ -6,7 +6,21 @@
 #include "nephele/layered.hpp"
 #include "nephele/sky.hpp"
 
+#include <cstdlib>
+#include <string>
+
 namespace nephele::test {
+
+// The layers' lighting cache shared by every test of one ctest run: NEPHELE_TEST_CACHE, which
+// tests/CMakeLists.txt sets and empties before the run (the fixture TestCacheReset), so that a
+// lighting volume is traced once per run and never comes from an earlier build. "" when a test
+// binary runs by hand: the test then keeps its own.
+inline std::string runCacheDir() {
+    const char* dir = std::getenv("NEPHELE_TEST_CACHE");
+    return dir && *dir ? dir : "";
+}
+// The run's cache, else `own` (the test's own folder).
+inline std::string runCacheDirOr(const std::string& own) { return runCacheDir().empty() ? own : runCacheDir(); }
 
 // `s` with a lighting volume of `lightingSide` x `lightingSide` x 8 texels (the default
 // 256 x 256 x 32) and a modulation texture of `modulationSize`^2 (the default 512^2).

@@ -292,7 +292,7 @@ void forEachHandOff(const std::function<void(const char*, double, const HandOff&
                     std::initializer_list<double> coverages = {0.3, 0.6, 0.9}) {
     const test::TempDir cache("nephele_hand_off_");
     LayeredSettings ls = testLayered();
-    ls.cacheDir = cache.dir().string();  // one lighting volume per coverage, not per eye
+    ls.cacheDir = test::runCacheDirOr(cache.dir().string());  // one lighting volume per coverage, not per eye
     for (const HandOffEye& c : kHandOffEyes)
         for (double coverage : coverages) {
             const HandOff h = handOff(c, coverage, ls);
@@ -338,7 +338,7 @@ TEST_F(NearLodGLTest, NearAndFarRadianceAgreeAcrossTheBand) {
     constexpr double kMeanTolerance = 0.05, kViewTolerance = 0.20;
     const test::TempDir cache("nephele_hand_off_");
     LayeredSettings ls;  // the default textures and photons
-    ls.cacheDir = cache.dir().string();  // one lighting volume per coverage
+    ls.cacheDir = test::runCacheDirOr(cache.dir().string());  // one lighting volume per coverage
     // Under the sanitizers, which check the same code, the middle coverage only.
     const std::vector<double> coverages = test::kSanitized ? std::vector<double>{0.6} : std::vector<double>{0.3, 0.6, 0.9};
     for (const HandOffEye& e : kHandOffEyes)

@@ -32,6 +32,7 @@ LayeredSettings layeredSettings() {
     // lighting volume (its period stays 8 km).
     LayeredSettings s = test::smallLayered(128, 64);
     s.nearRadius = kNear, s.blendBand = kBand;
+    s.cacheDir = test::runCacheDir();  // under ctest, each coverage's lighting traced once per run
     return s;
 }
 
@@ -55,7 +56,7 @@ NearLod& sharing(NearLod& lod) {
     return lod;
 }
 
-// The layer's lighting volume, as NearLod makes it (no cache folder: computed).
+// The layer's lighting volume, as NearLod makes it.
 std::shared_ptr<const LightingVolume> layerLight(const Scene& scene) {
     return assets()->lighting(lightingParameters(scene.medium, scene.layers[0]));
 }
