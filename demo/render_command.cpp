@@ -171,7 +171,7 @@ Frame FrameRenderer::render(const Scene& sceneIn, double time) {
     Frame frame;
     if (options_.method == Method::GardnerExact) {
         rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder, model::kWeightExponent,
-                                  options_.ellipsoid.light);
+                                  options_.ellipsoid.light, &exactLight_);
     } else if (options_.method == Method::Pathtrace) {
         PathTraceSettings ps = options_.pathtrace;
         ps.progress = ::isatty(2) != 0;

@@ -96,6 +96,7 @@ private:
     std::unique_ptr<LayeredRenderer> layered_;
     std::unique_ptr<SkyRenderer> sky_;  // auto
     NoiseVolume noise_;
+    ExactLight exactLight_;  // gardner-exact: the clouds' grids, kept across the frames of a path
 };
 
 // Applies --width/--height/--scale to the scene camera (UsageError if out of range).

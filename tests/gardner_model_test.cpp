@@ -319,11 +319,12 @@ struct FlipFrames {
     Scene scene = loadScene(std::string(NEPHELE_SCENES) + "/flythrough.json");
     NoiseSettings ns;
     NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    mutable ExactLight light;  // the clouds' grids, made once for every frame
     Image at(double t, CompositeOrder order) const {
         Camera c = cameraAt(scene, t);
         c.width = 64;
         c.height = 48;
-        return renderGardnerExact(scene, makeView(c), noise, ns, order);
+        return renderGardnerExact(scene, makeView(c), noise, ns, order, model::kWeightExponent, {}, &light);
     }
     // An order-independent `order` across the flip (8.25 -> 8.5 s): its excess change over the
     // per-pixel order's, and whole-ellipsoid order's (the pop); its opacity must be back to
@@ -390,6 +391,40 @@ TEST(GardnerModelTest, CompositeWeightIsAScaleFreePowerOfDepth) {
     EXPECT_NEAR(model::matterDepth(o, d, 0.0f), 3.0f, 1e-5f);
     EXPECT_GT(model::matterDepth(o, d, 3.5f), 3.5f);
     EXPECT_LT(model::matterDepth(o, d, 3.5f), 4.0f);
+}
+
+// The grids an ExactLight keeps light a frame exactly as grids made for it would: after the sun
+// turns, the medium thickens or the cloud moves, the kept light is the scene's as it is now (a
+// key that missed one of them would draw the old light: the images would differ).
+TEST(GardnerExactTest, KeptLightIsTheLightOfTheSceneAsItIsNow) {
+    const NoiseSettings ns;
+    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    Scene scene = loadScene(std::string(NEPHELE_SCENES) + "/single.json");
+    scene.camera.width = 32, scene.camera.height = 24;
+    ExactLight kept;
+    auto render = [&](const Scene& s, ExactLight* light) {
+        return renderGardnerExact(s, makeView(s.camera), noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent, {},
+                                  light);
+    };
+    const Image first = render(scene, &kept);
+    EXPECT_TRUE(first.pixels == render(scene, nullptr).pixels);
+    EXPECT_TRUE(first.pixels == render(scene, &kept).pixels);
+    Scene turned = scene;
+    turned.sun.direction = glm::normalize(Vec3(-1, 0.5, 0.3));
+    Scene thicker = scene;
+    thicker.medium.extinction *= 3;
+    Scene moved = scene;  // the cloud and the camera 500 m east: the same view of a moved cloud
+    for (Ellipsoid& e : moved.clouds[0].ellipsoids) e.center += Vec3(500, 0, 0);
+    moved.camera.position += Vec3(500, 0, 0);
+    for (const auto& [name, changed] : {std::pair{"sun turned", turned}, std::pair{"medium thicker", thicker},
+                                        std::pair{"cloud moved", moved}}) {
+        render(scene, &kept);  // the kept light is the first scene's again
+        const Image withKept = render(changed, &kept), fresh = render(changed, nullptr);
+        EXPECT_TRUE(withKept.pixels == fresh.pixels) << name << ": " << meanDifference(withKept, fresh, 0, 3);
+        if (std::string(name) != "cloud moved") {
+            EXPECT_GT(meanDifference(fresh, first, 0, 3), 1e-3) << name;
+        }
+    }
 }
 
 // The weighted composite's exact model: the opacity of the back-to-front order, one

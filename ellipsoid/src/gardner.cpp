@@ -6,6 +6,7 @@
 #include "nephele/gardner_model.hpp"
 #include "prepared_clouds.hpp"
 #include "nephele/opaque.hpp"
+#include "light_cache.hpp"
 #include "parallel.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
@@ -144,14 +145,27 @@ RayRange rayRange(const Scene& scene, const View& view, const Vec3& d) {
 
 }  // namespace
 
+const std::vector<CloudRadiance>& ExactLight::grids(const Scene& scene, const RadianceGridSettings& settings) {
+    keys_.resize(scene.clouds.size());
+    grids_.resize(scene.clouds.size());
+    for (std::size_t i = 0; i < scene.clouds.size(); ++i) {
+        const Cloud& cloud = scene.clouds[i];
+        const Key key{radianceGridKey(scene, cloud, settings), cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center};
+        if (grids_[i].size > 0 && keys_[i] == key) continue;
+        grids_[i] = computeCloudRadiance(scene, cloud, settings);
+        keys_[i] = key;
+    }
+    return grids_;
+}
+
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noiseVolume,
                          const NoiseSettings& noiseSettings, CompositeOrder order, float weightExponent,
-                         const RadianceGridSettings& lightSettings) {
+                         const RadianceGridSettings& lightSettings, ExactLight* kept) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     const float amp = float(scene.medium.noise);
     const glm::vec3 sunIrradiance(scene.sun.color * scene.sun.intensity);
-    std::vector<CloudRadiance> grids;
-    for (const Cloud& cloud : scene.clouds) grids.push_back(computeCloudRadiance(scene, cloud, lightSettings));
+    ExactLight once;
+    const std::vector<CloudRadiance>& grids = (kept ? *kept : once).grids(scene, lightSettings);
     std::vector<glm::vec3> chroma;  // per prepared ellipsoid
     for (const PreparedEllipsoid& p : prepared.ellipsoids) chroma.push_back(ellipsoidSkyChroma(grids[p.cloud], p.shape));
     const model::DetailParams detail = scene.medium.detail.on() ? detailParams(scene.medium.detail, view.eye) : model::DetailParams{};

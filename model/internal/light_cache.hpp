@@ -43,6 +43,11 @@ struct PlacedRadiance {
     }
 };
 
+// What a cloud's grid depends on, as one number: the cloud's shape relative to its first
+// ellipsoid, the sun's direction, the sky, the medium and the settings (the cache's own key; a
+// translated cloud has the same key, its grid moved with it).
+std::uint64_t radianceGridKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings);
+
 class CloudRadianceCache {
 public:
     CloudRadianceCache() = default;

@@ -51,6 +51,10 @@ double overlap(const Vec3& loA, const Vec3& extA, const Vec3& loB, const Vec3& e
 
 }  // namespace
 
+std::uint64_t radianceGridKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings) {
+    return lightKey(scene, shapeKey(cloud, settings));
+}
+
 CloudRadianceCache::~CloudRadianceCache() {
     {
         std::lock_guard lock(mutex_);

@@ -18,6 +18,7 @@
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"
 
+#include <cstdint>
 #include <vector>
 
 NEPHELE_API_BEGIN
@@ -42,11 +43,30 @@ namespace nephele {
 // nearly the per-pixel order, and continuous, so it cannot pop either.
 // Opacity is the same in every order ("over" of opacities commutes); only colour differs.
 enum class CompositeOrder { PerEllipsoid, PerPixel, Weighted, Moments };
+// The clouds' radiance grids renderGardnerExact lights with, kept between its calls: a cloud's
+// grid is made again only when its shape, its place, the sun's direction, the sky, the medium or
+// the settings change (so the frames of a camera path over still clouds make them once).
+class ExactLight {
+public:
+    // One grid per scene cloud, made with `settings` where the kept one does not fit.
+    const std::vector<CloudRadiance>& grids(const Scene& scene, const RadianceGridSettings& settings);
+
+private:
+    struct Key {
+        std::uint64_t light = 0;  // radianceGridKey
+        Vec3 anchor{0.0};         // the cloud's first ellipsoid's centre (m): the grid's place
+        bool operator==(const Key&) const = default;
+    };
+    std::vector<Key> keys_;
+    std::vector<CloudRadiance> grids_;
+};
+
 // The clouds' radiance grids are computed with `light` (as the compositor's, so that the two
-// agree).
+// agree), or taken from `kept` when given and still valid.
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noise,
                          const NoiseSettings& noiseSettings, CompositeOrder order = CompositeOrder::PerEllipsoid,
-                         float weightExponent = model::kWeightExponent, const RadianceGridSettings& light = {});
+                         float weightExponent = model::kWeightExponent, const RadianceGridSettings& light = {},
+                         ExactLight* kept = nullptr);
 
 // The physics: per pixel 1 - exp(-sum of the ellipsoids' optical depths) along the ray
 // (closed form per ellipsoid), up to the nearest opaque object. Grey image.
