@@ -61,6 +61,10 @@ std::string fmt(const char* f, double v) {
     return buf;
 }
 
+void useQuickLighting(LightingSettings& lighting) {
+    lighting.width = lighting.height = 64, lighting.depth = 8, lighting.photons = 1 << 11;
+}
+
 std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,
                                const View& view, const std::vector<std::function<void()>>& methods) {
     using Clock = std::chrono::steady_clock;

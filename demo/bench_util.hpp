@@ -3,6 +3,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/layered.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/scene.hpp"
 
@@ -18,6 +19,9 @@ std::string utcNow();  // "2026-11-22 04:17 UTC"
 std::string machineLine(const std::string& glRenderer);
 double median(std::vector<double> v);
 std::string fmt(const char* printfFormat, double v);
+// A --quick run's layer lighting (for tests: every part exercised, the lighting coarse):
+// 64 x 64 x 8 texels, 2^11 photons.
+void useQuickLighting(LightingSettings& lighting);
 
 // Median wall times (ms) of `frames` frames per method after two warm-up rounds, each
 // finished with glFinish, the sky and objects drawn before the clock starts. The methods

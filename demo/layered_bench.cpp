@@ -72,6 +72,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
     // band, tiles that last.
     LayeredSettings ls = autoLayeredSettings();
     ls.cacheDir = o.cacheDir;
+    if (o.quick) useQuickLighting(ls.lighting);
     LayeredRenderer far(ls);
     NearLod nearLod(NearLodSettings{}, ls);
     EllipsoidRenderer near(autoEllipsoidSettings());
@@ -133,6 +134,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
             LayeredSettings s;
             s.layers = n;
             s.cacheDir = o.cacheDir;
+            if (o.quick) useQuickLighting(s.lighting);
             current[n] = std::make_unique<LayeredRenderer>(s);
             LayeredSettings ns = s;
             ns.shadows = false;

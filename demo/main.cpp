@@ -395,7 +395,7 @@ void addBenchOptions(CLI::App* bench, BenchArgs& b) {
     bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
         ->check(kPath);
     bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids/--queries: a minimal run (one scene, defaults; for tests)");
+    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids/--queries: a minimal run (one scene, defaults; --layered and --weather with a coarse layer lighting; for tests)");
     bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
 }
 
