@@ -349,7 +349,7 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     scene.layers[0].nearLod = false;
     const View view = makeView(scene.camera);
     SkySettings settings = testSettings();
-    settings.layered.lighting = LightingSettings{};  // the paper's 256 x 256 x 32: a job of 0.3 s or more
+    settings.layered.lighting = test::busyLighting();  // the paper's 256 x 256 x 32: a job of 0.3 s or more
     // Computed, never loaded: an empty folder of the test's own (the renderer for the thicker
     // layer below then loads the volume this one's job made instead of tracing it again).
     const test::TempDir cache("nephele_layer_change_");

@@ -5,6 +5,7 @@
 
 #include "nephele/layered.hpp"
 #include "nephele/sky.hpp"
+#include "test_build.hpp"
 
 #include <cstdlib>
 #include <string>
@@ -22,10 +23,22 @@ inline std::string runCacheDir() {
 // The run's cache, else `own` (the test's own folder).
 inline std::string runCacheDirOr(const std::string& own) { return runCacheDir().empty() ? own : runCacheDir(); }
 
+// The library's default lighting volume (256 x 256 x 32 texels, 2^13 photons: about 0.3 s in
+// release), for tests whose job must still be running in the frames right after the change that
+// queued it. Under the sanitizers, where every part of it is several times slower, with 2^11
+// photons: still over a second.
+inline LightingSettings busyLighting() {
+    LightingSettings l;
+    if (kSanitized) l.photons = 1 << 11;
+    return l;
+}
+
 // `s` with a lighting volume of `lightingSide` x `lightingSide` x 8 texels (the default
-// 256 x 256 x 32) and a modulation texture of `modulationSize`^2 (the default 512^2).
+// 256 x 256 x 32) traced with 2^11 photons (the default 2^13: the photons are most of a
+// volume's time, and the light's noise is not what these tests measure) and a modulation
+// texture of `modulationSize`^2 (the default 512^2).
 inline LayeredSettings withSmallTextures(LayeredSettings s, int modulationSize = 128, int lightingSide = 32) {
-    s.lighting.width = s.lighting.height = lightingSide, s.lighting.depth = 8;
+    s.lighting.width = s.lighting.height = lightingSide, s.lighting.depth = 8, s.lighting.photons = 1 << 11;
     s.modulation.size = modulationSize;
     return s;
 }

@@ -44,11 +44,11 @@ SkySettings settings(int cellsPerUpdate = kCellsPerUpdate) {
     return s;
 }
 
-// The layer lit as the library's default: a volume takes about 0.3 s to make, so that a job is
-// still running in the frames right after the change that queued it.
+// The layer lit as the library's default (test::busyLighting): a job is still running in the
+// frames right after the change that queued it.
 SkySettings slowLighting() {
     SkySettings s = settings();
-    s.layered.lighting = LayeredSettings{}.lighting;
+    s.layered.lighting = test::busyLighting();
     return s;
 }
 
