@@ -6,7 +6,7 @@
 #   gl        nephele_gltests: a GL context (EGL, OSMesa, or GLFW under Xvfb);
 #   sanitize  what the sanitizers exist for: hostile input, the log, the host's GL state;
 #   slow      over 3 s under the sanitizers (clang -O1, ctest -j2, 2026-12-02 to -04): the
-#             sanitize test preset leaves these out (CMakePresets.json), sanitize-full runs them.
+#             sanitize-rest-quick test preset leaves these out (CMakePresets.json).
 # A name listed here that no executable has is an error (tests/CMakeLists.txt checks it).
 
 set(NEPHELE_CLI_SUITES CliTest HostileInputTest VdbExportTest ScaleBenchTest GridBenchTest CigiIgTest FlyCliTest)
