@@ -364,6 +364,51 @@ TEST_F(TransitionGLTest, AThicknessRampQueuesOneLightingJob) {
     EXPECT_LE(mostPending, 1);
 }
 
+// A sun ramp lights the clouds for the sun it goes to: each cloud's radiance grid is made once
+// for the change, not once a frame (every frame's sun is new, and a grid a frame never finishes
+// while the sun moves). With the worker waited for after each update, the whole ramp makes one
+// grid per cloud (measured 2; without the target's lighting 20, two a frame from the second),
+// and its last frame is that of a renderer that started with the new sun. (A grid finished but
+// not yet taken is not made again by a channel's draw: before that, 3 in some runs.)
+TEST_F(TransitionGLTest, ASunRampMakesEachCloudsGridOnce) {
+    Scene scene = layerScene(false);
+    scene.layers.clear();
+    for (double y : {-400.0, 400.0}) {  // two shapes (a translated cloud shares its grid)
+        Cloud c;
+        Ellipsoid e;
+        e.center = Vec3(2000, y, 1700), e.radii = y < 0 ? Vec3(300, 300, 200) : Vec3(250, 350, 180);
+        c.ellipsoids.push_back(e);
+        scene.clouds.push_back(c);
+    }
+    scene.sun.direction = glm::normalize(Vec3(1, 0.3, 0.8));
+    Scene turned = scene;
+    turned.sun.direction = glm::normalize(Vec3(-0.5, 0.5, 0.6));
+    Host h(scene, settings());
+    for (int k = 0; k < 3; ++k) {  // whatever the first updates queued, made and taken
+        h.sky.waitForBackgroundWork();
+        h.step();
+    }
+    ASSERT_GT(h.frame().opacity, 0.01) << "the clouds must be in view";
+    h.weather.sun.direction = turned.sun.direction;
+    h.weather.transitionSeconds = kRamp;
+    int made = 0;
+    std::string perFrame;  // grids taken by each update
+    Frame last;
+    for (int k = 0; k <= kRampFrames + 1; ++k) {
+        SkyUpdateStats u;
+        last = h.step(&u);
+        made += u.lightVolumes;
+        perFrame += " " + std::to_string(u.lightVolumes);
+        h.sky.waitForBackgroundWork();
+    }
+    EXPECT_EQ(made, 2) << "grids taken frame by frame:" << perFrame;
+    Host fresh(turned, settings());
+    fresh.sky.waitForBackgroundWork();
+    fresh.step();
+    const Frame expected = fresh.frame();
+    EXPECT_LT(compareImages(last.image, expected.image, 1.0).meanAbs, 1e-5) << "the ramp did not end in the new sun's light";
+}
+
 // transitionSeconds must be a finite number >= 0: update() refuses one that is not, by name.
 TEST_F(TransitionGLTest, ABadTransitionTimeIsRefusedByName) {
     Host h(layerScene(false), settings());

@@ -474,9 +474,17 @@ int radianceGridSize(const Scene& scene, const Cloud& cloud, const RadianceGridS
     return std::min(n, s.size);
 }
 
-CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings,
+Scene lightSources(const Scene& scene) {
+    Scene s;
+    s.sun = scene.sun, s.sky = scene.sky, s.medium = scene.medium;
+    if (scene.lighting) s.sun.direction = scene.lighting->sunDirection, s.sky = scene.lighting->sky;
+    return s;
+}
+
+CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, const RadianceGridSettings& settings,
                                    const std::atomic<bool>* cancel) {
     validate(settings);
+    const Scene scene = lightSources(sceneIn);  // what lights the grid (Scene::lighting)
     const auto start = std::chrono::steady_clock::now();
     RadianceGridSettings s = settings;
     s.size = radianceGridSize(scene, cloud, settings);

@@ -13,7 +13,8 @@ namespace nephele {
 namespace {
 
 // What a grid depends on besides the cloud's shape: the sun's direction, the sky, the medium.
-void addLight(Fingerprint& f, const Scene& scene) {
+void addLight(Fingerprint& f, const Scene& sceneIn) {
+    const Scene scene = lightSources(sceneIn);  // Scene::lighting when set
     f.add(scene.sun.direction).add(scene.sky.zenith).add(scene.sky.horizon).add(scene.sky.ground);
     f.addMedium(scene.medium);
 }
@@ -77,8 +78,7 @@ std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene
     const std::uint64_t key = f.value();
     if (auto it = templates_.find(key); it != templates_.end()) return it->second;
     if (templates_.size() > 64) templates_.clear();  // suns of long ago
-    Scene sphere;
-    sphere.sun = scene.sun, sphere.sky = scene.sky, sphere.medium = scene.medium;
+    Scene sphere = lightSources(scene);
     Cloud c;
     Ellipsoid e;
     e.radii = Vec3(100.0);
@@ -174,7 +174,7 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
             ++stats.overBudget;
         } else if (missing.insert(w.key).second) {
             Job job{w.key, w.shape, w.priority, Scene{}, s};
-            job.scene.sun = scene.sun, job.scene.sky = scene.sky, job.scene.medium = scene.medium;
+            job.scene = lightSources(scene);
             job.scene.clouds = {scene.clouds[i]};
             jobs.push_back(std::move(job));
         }
@@ -207,6 +207,11 @@ void CloudRadianceCache::schedule(std::vector<Job> jobs) {
             std::any_of(jobs.begin(), jobs.end(), [&](const Job& j) { return j.key == running_; });
         if (running_ != 0 && !runningWanted) cancel_ = true;
         std::erase_if(jobs, [&](const Job& j) { return j.key == running_; });
+        // A grid finished but not yet taken (a channel's draw does not take them: the host's next
+        // update does) is not made again.
+        std::erase_if(jobs, [&](const Job& j) {
+            return std::any_of(finished_.begin(), finished_.end(), [&](const Finished& f) { return f.key == j.key; });
+        });
         queue_ = std::move(jobs);
         if (!queue_.empty() && !worker_.joinable())
             worker_ = std::thread([this, w = queue_.front().settings.backgroundWork] { work(w); });

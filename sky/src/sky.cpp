@@ -250,6 +250,15 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     // The compositor's scene: the explicit clouds (kept, not copied again) and this frame's near ones.
     frame_.sun = scene_.sun;
     frame_.sky = scene_.sky;
+    // Mid-transition the clouds' grids are made for the sun and sky it goes to: one grid per
+    // cloud and change (a grid a frame would never finish while the sun moves). What it goes to is
+    // what the last frame of the ramp shows, to the bit, so that its key is the ramp's.
+    if (stats.transition < 1) {
+        const ShownWeather end = blendShown(from_, target_, 1.0);
+        frame_.lighting = Scene::Lighting{glm::normalize(end.sun.direction), end.sky};
+    } else {
+        frame_.lighting.reset();
+    }
     frame_.layers = scene_.layers;
     frame_.clouds.resize(explicitClouds_);
     // The first update after prepare() makes every cell in reach; later ones spread them.

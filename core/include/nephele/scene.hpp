@@ -272,6 +272,17 @@ struct Scene {
     std::vector<Lightning> lightning;
     std::vector<Object> objects;
     std::vector<Keyframe> path;
+    // Set in code, never read from a scene file: the sun direction (unit) and the sky the
+    // clouds' radiance grids are made for, when not the scene's own (computeCloudRadiance and
+    // their cache key read it). A weather transition lights the clouds for the sun and sky it
+    // goes to, so that a cloud's grid is made once per change, not once a frame (as
+    // Layer::lightingThickness does for the layers); the sun's single scattering follows the
+    // ramp frame by frame.
+    struct Lighting {
+        Vec3 sunDirection{0, 0, 1};
+        Sky sky;
+    };
+    std::optional<Lighting> lighting;
 };
 
 // Loads and validates a scene file. Throws SceneError (never renders from a bad scene).
