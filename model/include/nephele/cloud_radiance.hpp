@@ -137,13 +137,14 @@ void cloudBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 // (Cloud::tiled) its tile across.
 void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi);
 
+// The sun, sky and medium a cloud's grid is lit by: the scene's own, with Scene::lighting's sun
+// direction and sky when it is set (no clouds, layers or objects).
+Scene lightSources(const Scene& scene);
+
 // The grid of `cloud` for the scene's sun, sky and medium, radianceGridSize() voxels per side
 // with the photons scaled to its cross-section. Deterministic for a seed, whatever
 // the thread count. An empty cloud gives a 1 m box with no light. With `cancel`, the work
 // stops soon after *cancel becomes true and the grid returned is incomplete (size 0).
-// The sun, sky and medium a cloud's grid is lit by: the scene's own, with Scene::lighting's sun
-// direction and sky when it is set (no clouds, layers or objects).
-Scene lightSources(const Scene& scene);
 CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings = {},
                                    const std::atomic<bool>* cancel = nullptr);
 
