@@ -38,13 +38,9 @@ vec3 objectIrradiance(vec3 p, vec3 n) {
     float sunDiffuse = 0.0, transmittance = 1.0;
     for (int c = 0; c < cloudCount; ++c) {
         vec3 lo = cloudLightBoxes[3 * c].xyz, extent = 1.0 / cloudLightBoxes[3 * c + 1].xyz;
-        // The sun's transmittance through this cloud: its grid's value where the ray towards
-        // the sun enters the box (the cloud's matter is all inside it), 1 if the ray misses.
-        vec3 t0 = (lo - p) * invS, t1 = (lo + extent - p) * invS;
-        vec3 tNear = min(t0, t1), tFar = max(t0, t1);
-        float tIn = max(max(tNear.x, tNear.y), max(tNear.z, 0.0));
-        float tOut = min(tFar.x, min(tFar.y, tFar.z));
-        if (tIn <= tOut) transmittance *= textureLod(lightSunTransmittance, lightTexels(c, p + tIn * s).sun, 0.0).r;
+        // The sun's transmittance through this cloud (boxEntry), 1 if the ray misses its box.
+        float tIn = boxEntry(p, invS, lo, lo + extent);
+        if (tIn >= 0.0) transmittance *= textureLod(lightSunTransmittance, lightTexels(c, p + tIn * s).sun, 0.0).r;
         // Its diffuse light, faded away from the box.
         float outside = length(p - clamp(p, lo, lo + extent));
         float fade = gridFade(outside, (extent.x + extent.y + extent.z) / 6.0);

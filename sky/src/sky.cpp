@@ -389,6 +389,15 @@ CloudPresence SkyRenderer::insideCloud(const Vec3& point) const {
     return impl_->field("insideCloud")->presence(point);
 }
 
+SurfaceLight SkyRenderer::lightAt(const Vec3& point, const Vec3& normal) const {
+    if (!impl_->prepared_) throw std::logic_error("SkyRenderer::lightAt: call prepare() first");
+    checkFinite(point, "lightAt", "point");
+    checkFinite(normal, "lightAt", "normal");
+    const double norm = glm::length(normal);
+    if (!(norm > 1e-6)) throw std::invalid_argument("SkyRenderer::lightAt: the normal needs a length > 1e-6");
+    return impl_->clouds_.lightAt(impl_->frame_, point, normal / norm);
+}
+
 const EllipsoidRenderer& SkyRenderer::compositor() const { return impl_->clouds_; }
 const NearLod* SkyRenderer::nearLod() const { return impl_->nearLod_.get(); }
 

@@ -201,6 +201,14 @@ struct TileDebug {
     int pass = 0;                    // atlas layer
 };
 
+// The light falling on a surface (W/m^2 per unit of the scene's radiance scale, linear RGB): what
+// a host lights its own aircraft by. A Lambertian surface of albedo a sends a / pi * (sun +
+// diffuse) (data/scene-format.md, object_light "all"; docs/light.md, "Objects lit by the clouds").
+struct SurfaceLight {
+    Vec3 sun{0.0};      // the sun's irradiance through the clouds: E_sun max(n.s, 0) T_sun
+    Vec3 diffuse{0.0};  // the sky's, the ground's and the clouds' light, from the clouds' grids
+};
+
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class EllipsoidRenderer {
 public:
@@ -233,6 +241,13 @@ public:
     // Grids queued or being made on the worker now (thread-safe: any thread may ask); at 0 the
     // next updateLights() takes every grid made.
     int pendingLights() const;
+
+    // The light on a surface at world `point` of unit `normal` from `scene`'s sun, sky and
+    // clouds, by the grids of the last render() or updateLights() of that scene: what the
+    // compositor lights objects by (object_light "all"). CPU only; call it from the thread that
+    // renders, not during a render() or updateLights(). Before any grid is made, the open sky and
+    // the unshadowed sun.
+    SurfaceLight lightAt(const Scene& scene, const Vec3& point, const Vec3& normal) const;
 
     // Debug views of the last render (a host's tools: `nephele fly`). The tiles, and the atlas:
     // a GL_TEXTURE_2D_ARRAY of atlasSize() with a layer per pass (at least the last frame's
