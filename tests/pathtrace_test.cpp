@@ -302,14 +302,20 @@ TEST(PathTraceTest, ObjectInsideACloudIsSeenThroughTheMatterInFront) {
     EXPECT_GT(open.at(4, 4, 3), image.at(4, 4, 3) + 0.05);
 }
 
+// A 9x9 image from `position` along `direction` of the smooth field (noise 0): the objects' tests.
+static Scene nineByNine(const Vec3& position, const Vec3& direction) {
+    Scene scene;
+    scene.camera.position = position;
+    scene.camera.direction = glm::normalize(direction);
+    scene.camera.width = scene.camera.height = 9;
+    scene.medium.noise = 0;
+    return scene;
+}
+
 TEST(PathTraceTest, CloudShadowsAnObject) {
     // A box lit from above, a cloud between it and the sun, a camera that sees the box's top
     // face without looking through the cloud: the face's radiance is lambert * T_sun exactly.
-    Scene scene;
-    scene.camera.position = {0, -300, 150};
-    scene.camera.direction = glm::normalize(Vec3(0, 300, -140));
-    scene.camera.width = scene.camera.height = 9;
-    scene.medium.noise = 0;
+    Scene scene = nineByNine({0, -300, 150}, {0, 300, -140});
     scene.sun.direction = glm::normalize(Vec3(0.1, 0.2, 1));
     Object box;
     box.size = {100, 100, 20};
@@ -337,11 +343,7 @@ TEST(PathTraceTest, ObjectsLitByAllLightReflectAUniformSkyTimesTheirAlbedo) {
     // object's every bounce reaches the sky, so each path through a surface carries albedo * L
     // exactly (the cosine sampling's weight is the albedo), whatever the normal; with "sun"
     // the same object is black (no sun, no ambient term).
-    Scene scene;
-    scene.camera.position = {0, -30, 8};
-    scene.camera.direction = glm::normalize(Vec3(0, 30, -6));
-    scene.camera.width = scene.camera.height = 9;
-    scene.medium.noise = 0;
+    Scene scene = nineByNine({0, -30, 8}, {0, 30, -6});
     scene.sun.intensity = 0;
     const Vec3 L(0.3, 0.5, 0.7);
     scene.sky.zenith = scene.sky.horizon = scene.sky.ground = L;
