@@ -132,8 +132,8 @@ set(NEPHELE_SLOW_TESTS
   RaymarchGLTest.RadianceMatchesTheLightModelIntegratedOnTheCpu
   RaymarchGLTest.RendersAreDeterministic
   ScaleBenchTest.QuickRunWritesPhasesAndExponents
-  Scenes/ObjectLightGLTest.CompositorLightsObjectsAsThePathTracer/aircraft_edge
-  Scenes/ObjectLightGLTest.CompositorLightsObjectsAsThePathTracer/aircraft_shadow
+  Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_edge
+  Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_shadow
   TileReuseGLTest.AMovingCameraStaysCloseToFreshTiles
   TileReuseGLTest.AStillCameraRendersNothingAfterTheFirstFrame
   TileReuseGLTest.ASunChangeRendersEveryTileAgainWithinTheBudget

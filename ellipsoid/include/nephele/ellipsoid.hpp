@@ -201,14 +201,6 @@ struct TileDebug {
     int pass = 0;                    // atlas layer
 };
 
-// The light falling on a surface (W/m^2 per unit of the scene's radiance scale, linear RGB): what
-// a host lights its own aircraft by. A Lambertian surface of albedo a sends a / pi * (sun +
-// diffuse) (data/scene-format.md, object_light "all"; docs/light.md, "Objects lit by the clouds").
-struct SurfaceLight {
-    Vec3 sun{0.0};      // the sun's irradiance through the clouds: E_sun max(n.s, 0) T_sun
-    Vec3 diffuse{0.0};  // the sky's, the ground's and the clouds' light, from the clouds' grids
-};
-
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class EllipsoidRenderer {
 public:
