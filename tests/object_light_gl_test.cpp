@@ -150,6 +150,46 @@ TEST_F(ObjectLightHostGLTest, SkyRendererLightsAHostsAircraftByTheClouds) {
     EXPECT_THROW(sky.lightAt(Vec3(std::nan(""), 0, 0), Vec3(0, 0, 1)), std::invalid_argument);
 }
 
+// Lighting the objects changes nothing else: every pixel that is not an object's is the same
+// with object_light "all" as with "sun" (the lit pass restores the state the cloud passes after
+// it start from), and the host's GL state comes back, for the compositor and the ray-marcher.
+TEST_F(ObjectLightHostGLTest, LitObjectsLeaveTheCloudsAndTheHostStateUnchanged) {
+    Scene scene = test::sharedScene("aircraft_edge.json", 64);
+    const View view = makeView(scene.camera);
+    const Image allCompositor = fastMethod<EllipsoidRenderer>(scene, view);
+    const Image allMarcher = fastMethod<RaymarchRenderer>(scene, view);
+    scene.objectLight = ObjectLight::Sun;
+    const Image sunCompositor = fastMethod<EllipsoidRenderer>(scene, view);
+    const Image sunMarcher = fastMethod<RaymarchRenderer>(scene, view);
+    int others = 0;
+    for (int y = 0; y < view.camera.height; ++y)
+        for (int x = 0; x < view.camera.width; ++x) {
+            // Not an object, nor next to one (the rasteriser's coverage of an edge pixel).
+            bool clear = true;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx)
+                    clear = clear && !intersectObjects(scene, view.eye, view.rayDirection(x + dx + 0.5, y + dy + 0.5), 0,
+                                                       view.camera.farClip);
+            if (!clear) continue;
+            ++others;
+            for (int k = 0; k < 4; ++k) {
+                ASSERT_EQ(allCompositor.at(x, y, k), sunCompositor.at(x, y, k)) << "compositor, pixel " << x << ", " << y;
+                ASSERT_EQ(allMarcher.at(x, y, k), sunMarcher.at(x, y, k)) << "ray-marcher, pixel " << x << ", " << y;
+            }
+        }
+    EXPECT_GT(others, 2000);
+    scene.objectLight = ObjectLight::All;
+    FrameTarget target(view.camera.width, view.camera.height);
+    OpaquePass().draw(scene, view, target.framebuffer());
+    EllipsoidRenderer clouds;
+    RaymarchRenderer marcher;
+    const test::HostileGlState hostile;
+    test::expectStateUnchanged([&](int) {
+        clouds.render(scene, view, target.framebuffer(), true);
+        marcher.render(scene, view, target.framebuffer(), true);
+    });
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, ObjectLightGLTest, ::testing::Values("aircraft_edge.json", "aircraft_shadow.json"),
                          [](const ::testing::TestParamInfo<const char*>& p) {  // the scene's name without .json
                              const std::string name = p.param;

@@ -120,6 +120,7 @@ set(NEPHELE_SLOW_TESTS
   NearLodTest.OnlyCellsWithinReachSpawnAndTheyRetire
   NearLodTest.SameCellSameCloudWhateverTheEyePath
   NearLodTest.WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge
+  ObjectLightHostGLTest.LitObjectsLeaveTheCloudsAndTheHostStateUnchanged
   PathTraceTest.ErrorFallsAsOneOverSqrtSpp
   ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
   ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids
