@@ -5,6 +5,7 @@
 #include "nephele/ellipsoid.hpp"
 #include "nephele/pathtrace.hpp"
 #include "nephele/raymarch.hpp"
+#include "nephele/host_view.hpp"
 #include "nephele/sky.hpp"
 
 #include <algorithm>
@@ -148,6 +149,22 @@ TEST_F(ObjectLightHostGLTest, SkyRendererLightsAHostsAircraftByTheClouds) {
     EXPECT_GT(sphere.diffuse.g, 0.1);
     EXPECT_THROW(sky.lightAt(Vec3(0.0), Vec3(0.0)), std::invalid_argument);
     EXPECT_THROW(sky.lightAt(Vec3(std::nan(""), 0, 0), Vec3(0, 0, 1)), std::invalid_argument);
+    // The host draws its own objects: the scene's are not drawn into its frame, lit or not (a
+    // frame whose objects were drawn sun-lit keeps them so).
+    const View view = makeView(scene.camera);
+    FrameTarget target(view.camera.width, view.camera.height);
+    Scene sunLit = scene;
+    sunLit.objectLight = ObjectLight::Sun;
+    OpaquePass().draw(sunLit, view, target.framebuffer());
+    sky.draw(viewDescOf(view, target.framebuffer()));
+    const Image drawn = target.readColor();
+    SkyRenderer plain;
+    plain.prepare(sunLit);
+    plain.waitForBackgroundWork();
+    plain.update(0, Weather::of(sunLit), scene.camera.position);
+    OpaquePass().draw(sunLit, view, target.framebuffer());
+    plain.draw(viewDescOf(view, target.framebuffer()));
+    EXPECT_TRUE(drawn.pixels == target.readColor().pixels);
 }
 
 // Lighting the objects changes nothing else: every pixel that is not an object's is the same

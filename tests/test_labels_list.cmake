@@ -121,6 +121,7 @@ set(NEPHELE_SLOW_TESTS
   NearLodTest.SameCellSameCloudWhateverTheEyePath
   NearLodTest.WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge
   ObjectLightHostGLTest.LitObjectsLeaveTheCloudsAndTheHostStateUnchanged
+  ObjectLightHostGLTest.SkyRendererLightsAHostsAircraftByTheClouds
   PathTraceTest.ErrorFallsAsOneOverSqrtSpp
   ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
   ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids

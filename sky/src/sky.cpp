@@ -166,6 +166,9 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     // here (a grid's key holds the sun's direction to the last bit).
     scene_.sun.direction = glm::normalize(scene.sun.direction);
     explicitClouds_ = scene.clouds.size();
+    // The host draws its own objects (the scene's are not drawn; with object_light "all" the
+    // compositor would draw them again, lit): lightAt() gives it their light.
+    scene_.objects.clear();
     frame_ = scene_;
     time_ = 0;
     drift_.clear();
