@@ -140,3 +140,82 @@ MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigm
     }
     return (0.5f * (lo + hi) + c.tc) / c.len;
 }
+
+// ---- Objects lit by the clouds (object_light "all", data/scene-format.md; docs/light.md,
+// "Objects lit by the clouds"). A Lambertian surface of unit normal n at a point x reflects
+// albedo / pi times the irradiance E(n) = integral of L_i(x, w) max(n . w, 0) dw over the
+// directions w the light comes from. The grids hold the light by its harmonics in the direction
+// it travels, v = -w: L(v) = phi0 / 4 pi + 3 / (4 pi) phi1 . v + c20 Y20(v) (+ higher bands). The
+// clamped cosine keeps of band l the factor A_l: A0 = pi, A1 = 2 pi / 3, A2 = pi / 4 (Ramamoorthi
+// and Hanrahan 2001), so E(n) = pi phi0 / 4 pi - 2 pi / 3 * 3 / (4 pi) phi1 . n + pi / 4 c20 Y20(n)
+// (band 1 odd: travelling along -n is arriving from n), that is
+//   E(n) = phi0 / 4 - phi1 . n / 2 + (pi / 4) c20 Y20(n).
+// Checks: uniform radiance L (phi0 = 4 pi L, phi1 = 0, c20 = 0): E = pi L; a beam of irradiance E0
+// onto the surface (phi0 = E0, phi1 = -E0 n): 3/4 E0 from bands 0 and 1, 17/16 E0 with band 2.
+// Clamped at 0 (a truncated series can dip below it where little light comes).
+MODEL_FN float harmonicIrradiance(float phi0, vec3 phi1, float c20, vec3 n) {
+    float y20 = 0.3153916f * (3.0f * n.z * n.z - 1.0f);
+    return max(0.25f * phi0 - 0.5f * dot(phi1, n) + 0.7853982f * c20 * y20, 0.0f);
+}
+
+// The irradiance of a Henyey-Greenstein lobe (J_few's shape: fluence phi0, net flux phi1, mean
+// cosine |phi1| / phi0 about m = phi1 / |phi1|), to band 2: its band-l coefficients are phi0 (2l +
+// 1) / (4 pi) g^l P_l(v . m), so E(n) = phi0 (1/4 - g (m . n) / 2 + 5/16 g^2 P2(m . n)), P2(c) =
+// (3 c^2 - 1) / 2. Band 2 matters for a sharp lobe: a beam onto the surface gets 17/16 of its
+// irradiance with it, 3/4 without; a beam along the surface 0.09 with it, 0.25 without (exact: 0).
+MODEL_FN float lobeIrradiance(vec4 lobe, vec3 n) {
+    float phi0 = lobe.w;
+    vec3 phi1 = vec3(lobe.x, lobe.y, lobe.z);
+    float f = length(phi1);
+    if (phi0 <= 0.0f) return 0.0f;
+    float c = f > 1e-6f * phi0 ? dot(phi1, n) / f : 0.0f;
+    float g = min(f / phi0, 1.0f);
+    return max(phi0 * (0.25f - 0.5f * g * c + 0.15625f * g * g * (3.0f * c * c - 1.0f)), 0.0f);
+}
+
+// One cloud's grid at a point, as an object's light: (the irradiance of the sun's light scattered
+// in the cloud per unit of the sun's irradiance, the luminance irradiance of the sky's and the
+// ground's light there, seen through the cloud and scattered by it); texels as lightScalars().
+MODEL_FN vec2 gridIrradiance(vec4 sunFew, vec4 sunMany, vec4 skyTau, vec4 skyFlux, vec3 n) {
+    float sun = lobeIrradiance(sunFew, n) + harmonicIrradiance(sunMany.w, vec3(sunMany.x, sunMany.y, sunMany.z), 0.0f, n);
+    float skyPhi0 = dot(vec3(skyTau.x, skyTau.y, skyTau.z), kLuminance);
+    float sky = harmonicIrradiance(skyPhi0, vec3(skyFlux.x, skyFlux.y, skyFlux.z), skyFlux.w, n);
+    return vec2(sun, sky);
+}
+
+// The open sky's irradiance (no cloud) on unit normal n, in closed form from the format's sky
+// (horizon + (zenith - horizon) max(w.z, 0) above, ground below): a uniform upper hemisphere
+// gives pi (1 + n.z) / 2, the lower pi (1 - n.z) / 2, and the integral of max(w.z, 0) max(w . n, 0)
+// over the sphere is 2/3 ((pi - a) cos a + sin a), a the angle between n and the zenith
+// (2 pi / 3 facing up, 2/3 sideways, 0 facing down).
+MODEL_FN vec3 openSkyIrradiance(vec3 zenith, vec3 horizon, vec3 ground, vec3 n) {
+    float c = clamp(n.z, -1.0f, 1.0f);
+    float a = acos(c);
+    float lobe = 0.6666667f * ((kLightPi - a) * c + sqrt(max(1.0f - c * c, 0.0f)));
+    return horizon * (0.5f * kLightPi * (1.0f + c)) + (zenith - horizon) * lobe + ground * (0.5f * kLightPi * (1.0f - c));
+}
+
+// How much of a cloud's grid (its light there minus the open sky's) an object at `outside` m
+// from the grid's box keeps: 1 inside the box, then (R / (R + outside))^2, R half the box's mean
+// side: the solid angle of a body of radius R seen from R + outside from its centre, relative to
+// that at its surface. The grid holds the light inside its box only; outside, its edge's light
+// fades as the cloud shrinks in the sky (an approximation: the light at the edge stands for the
+// cloud's whole glow).
+MODEL_FN float gridFade(float outside, float radius) {
+    float k = radius / (radius + max(outside, 0.0f));
+    return k * k;
+}
+
+// Where the ray p + t s (t >= 0) enters the box [lo, hi], or -1 if it misses it; invS = 1 / s
+// with s's zero components nudged off zero (no infinity times zero). A cloud's grid holds all
+// its matter, so the grid's sun transmittance where the ray towards the sun enters it is the
+// transmittance from p, wherever p is.
+MODEL_FN float boxEntry(vec3 p, vec3 invS, vec3 lo, vec3 hi) {
+    vec3 t0 = (lo - p) * invS;
+    vec3 t1 = (hi - p) * invS;
+    vec3 tNear = min(t0, t1);
+    vec3 tFar = max(t0, t1);
+    float tIn = max(max(tNear.x, tNear.y), max(tNear.z, 0.0f));
+    float tOut = min(tFar.x, min(tFar.y, tFar.z));
+    return tIn <= tOut ? tIn : -1.0f;
+}

@@ -302,14 +302,20 @@ TEST(PathTraceTest, ObjectInsideACloudIsSeenThroughTheMatterInFront) {
     EXPECT_GT(open.at(4, 4, 3), image.at(4, 4, 3) + 0.05);
 }
 
+// A 9x9 image from `position` along `direction` of the smooth field (noise 0): the objects' tests.
+static Scene nineByNine(const Vec3& position, const Vec3& direction) {
+    Scene scene;
+    scene.camera.position = position;
+    scene.camera.direction = glm::normalize(direction);
+    scene.camera.width = scene.camera.height = 9;
+    scene.medium.noise = 0;
+    return scene;
+}
+
 TEST(PathTraceTest, CloudShadowsAnObject) {
     // A box lit from above, a cloud between it and the sun, a camera that sees the box's top
     // face without looking through the cloud: the face's radiance is lambert * T_sun exactly.
-    Scene scene;
-    scene.camera.position = {0, -300, 150};
-    scene.camera.direction = glm::normalize(Vec3(0, 300, -140));
-    scene.camera.width = scene.camera.height = 9;
-    scene.medium.noise = 0;
+    Scene scene = nineByNine({0, -300, 150}, {0, 300, -140});
     scene.sun.direction = glm::normalize(Vec3(0.1, 0.2, 1));
     Object box;
     box.size = {100, 100, 20};
@@ -330,6 +336,38 @@ TEST(PathTraceTest, CloudShadowsAnObject) {
     EXPECT_NEAR(shaded.at(4, 4, 0), lambert * tSun, 1e-5);
     EXPECT_LT(tSun, 0.5);
     EXPECT_EQ(shaded.at(4, 4, 3), 0.0f);  // the camera does not look through the cloud
+}
+
+TEST(PathTraceTest, ObjectsLitByAllLightReflectAUniformSkyTimesTheirAlbedo) {
+    // object_light "all" under a sky and ground of one radiance L, no sun, no cloud: a convex
+    // object's every bounce reaches the sky, so each path through a surface carries albedo * L
+    // exactly (the cosine sampling's weight is the albedo), whatever the normal; with "sun"
+    // the same object is black (no sun, no ambient term).
+    Scene scene = nineByNine({0, -30, 8}, {0, 30, -6});
+    scene.sun.intensity = 0;
+    const Vec3 L(0.3, 0.5, 0.7);
+    scene.sky.zenith = scene.sky.horizon = scene.sky.ground = L;
+    Object sphere;
+    sphere.type = Object::Type::Sphere;
+    sphere.center = {0, 0, 2};
+    sphere.radius = 12;
+    sphere.color = {0.8, 0.4, 0.2};
+    scene.objects.push_back(sphere);
+    const View view = makeView(scene.camera);
+    const Image sunOnly = renderPathTraced(scene, view, {.spp = 2}, nullptr);
+    scene.objectLight = ObjectLight::All;
+    const Image all = renderPathTraced(scene, view, {.spp = 2}, nullptr);
+    int hits = 0;
+    for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 9; ++x) {
+            if (!intersectObjects(scene, view.eye, view.rayDirection(x + 0.5, y + 0.5), 0, 1e9)) continue;
+            ++hits;
+            for (int k = 0; k < 3; ++k) {
+                EXPECT_EQ(sunOnly.at(x, y, k), 0.0f);
+                EXPECT_NEAR(all.at(x, y, k), sphere.color[k] * L[k], 1e-6) << "pixel " << x << ", " << y;
+            }
+        }
+    EXPECT_GT(hits, 20);
 }
 
 TEST(PathTraceTest, NoisePathIsUnbiasedOnAConstantVolume) {
@@ -434,6 +472,7 @@ TEST(PathTraceTest, CacheHitsAndMisses) {
         {"medium", [](Scene& c, PathTraceSettings&) { c.medium.hgG = 0.8; }},
         {"ellipsoid", [](Scene& c, PathTraceSettings&) { c.clouds[0].ellipsoids[0].radii.y = 151; }},
         {"object", [](Scene& c, PathTraceSettings&) { c.objects[0].color.b = 0.9; }},
+        {"object_light", [](Scene& c, PathTraceSettings&) { c.objectLight = ObjectLight::All; }},
     };
     std::uint64_t expected = before + 1;
     for (const auto& [what, change] : changes) {

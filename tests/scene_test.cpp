@@ -158,7 +158,15 @@ TEST(SceneLoaderTest, MinimalSceneGetsEveryDefault) {
     EXPECT_FALSE(s.skylight.has_value());
     EXPECT_TRUE(s.lightning.empty());
     EXPECT_TRUE(s.objects.empty());
+    EXPECT_EQ(s.objectLight, ObjectLight::Sun);
     EXPECT_TRUE(s.path.empty());
+}
+
+TEST(SceneLoaderTest, ObjectLightIsSunOrAll) {
+    EXPECT_EQ(parseScene(scene(R"("object_light": "sun")"), "t.json").objectLight, ObjectLight::Sun);
+    EXPECT_EQ(parseScene(scene(R"("object_light": "all")"), "t.json").objectLight, ObjectLight::All);
+    EXPECT_TRUE(failsAt(scene(R"("object_light": "ambient")"), "object_light", "must be one of 'sun', 'all', got 'ambient'"));
+    EXPECT_TRUE(failsAt(scene(R"("object_light": true)"), "object_light"));
 }
 
 TEST(SceneLoaderTest, NestedDefaults) {

@@ -120,6 +120,8 @@ set(NEPHELE_SLOW_TESTS
   NearLodTest.OnlyCellsWithinReachSpawnAndTheyRetire
   NearLodTest.SameCellSameCloudWhateverTheEyePath
   NearLodTest.WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge
+  ObjectLightHostGLTest.LitObjectsLeaveTheCloudsAndTheHostStateUnchanged
+  ObjectLightHostGLTest.SkyRendererLightsAHostsAircraftByTheClouds
   PathTraceTest.ErrorFallsAsOneOverSqrtSpp
   ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
   ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids
@@ -132,6 +134,8 @@ set(NEPHELE_SLOW_TESTS
   RaymarchGLTest.RadianceMatchesTheLightModelIntegratedOnTheCpu
   RaymarchGLTest.RendersAreDeterministic
   ScaleBenchTest.QuickRunWritesPhasesAndExponents
+  Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_edge
+  Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_shadow
   TileReuseGLTest.AMovingCameraStaysCloseToFreshTiles
   TileReuseGLTest.AStillCameraRendersNothingAfterTheFirstFrame
   TileReuseGLTest.ASunChangeRendersEveryTileAgainWithinTheBudget

@@ -82,11 +82,46 @@ OpaquePass::OpaquePass() {
     sphereProgram_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}},
                                     "#define SPHERE 1\n");
     empty_ = VertexArray::create();
+    checkAlways("creating the opaque pass");
+}
+
+ObjectMeshes::ObjectMeshes() {
     std::vector<float> v;
     std::vector<unsigned> idx;
     cube(v, idx);
     box_ = makeIndexedMesh(v, idx, 2);  // position, normal
-    checkAlways("creating the opaque pass");
+    checkAlways("creating the objects' meshes");
+}
+
+void ObjectMeshes::draw(const Scene& scene, const View& view, const Program& box, const Program& sphereProgram) const {
+    glEnable(GL_CULL_FACE);
+    glFrontFace(GL_CCW);
+    glBindVertexArray(box_.vao.id());
+    // Camera-relative: the eye is the origin, so float precision holds far from (0,0,0).
+    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
+    const glm::mat4 viewProjection = toFloat(view.projectionMatrix * viewRotation);
+    for (const Program* p : {&box, &sphereProgram}) p->set("viewProjection", viewProjection);
+    for (const Object& o : scene.objects) {
+        const bool sphere = o.type == Object::Type::Sphere;
+        const Program& p = sphere ? sphereProgram : box;
+        const glm::dmat3 r = sphere ? glm::dmat3(1.0) : rotationFromDegrees(o.rotationDeg);
+        const Vec3 size = sphere ? Vec3(2.0 * o.radius) : o.size;
+        glm::dmat4 model = glm::translate(glm::dmat4(1.0), o.center - view.eye) * glm::dmat4(r);
+        model = glm::scale(model, size);
+        p.set("model", toFloat(model));
+        p.set("normalMatrix", glm::mat3(r));
+        p.set("albedo", glm::vec3(o.color));
+        if (sphere) {
+            p.set("sphereCenter", glm::vec3(o.center - view.eye));
+            p.set("sphereRadius", float(o.radius));
+        }
+        // A sphere's box is drawn by its back faces so that it still covers the sphere
+        // when the eye is inside the box.
+        glCullFace(sphere ? GL_FRONT : GL_BACK);
+        glUseProgram(p.id());
+        glDrawElements(GL_TRIANGLES, box_.indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    check("drawing the opaque objects");
 }
 
 void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) const {
@@ -123,39 +158,12 @@ void OpaquePass::draw(const Scene& scene, const View& view, GLuint framebuffer) 
     if (scene.objects.empty()) return;
     frameDepthTest(view);
     glDepthMask(GL_TRUE);
-    glEnable(GL_CULL_FACE);
-    glFrontFace(GL_CCW);
-    glBindVertexArray(box_.vao.id());
-    // Camera-relative: the eye is the origin, so float precision holds far from (0,0,0).
-    const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
-    const glm::mat4 viewProjection = toFloat(view.projectionMatrix * viewRotation);
     const glm::vec3 sunRadiance(scene.sun.color * scene.sun.intensity / std::numbers::pi);
     for (const Program* p : {&object_, &sphereProgram_}) {
-        p->set("viewProjection", viewProjection);
         p->set("sunDirection", glm::vec3(scene.sun.direction));
         p->set("sunRadiance", sunRadiance);
     }
-    for (const Object& o : scene.objects) {
-        const bool sphere = o.type == Object::Type::Sphere;
-        const Program& p = sphere ? sphereProgram_ : object_;
-        const glm::dmat3 r = sphere ? glm::dmat3(1.0) : rotationFromDegrees(o.rotationDeg);
-        const Vec3 size = sphere ? Vec3(2.0 * o.radius) : o.size;
-        glm::dmat4 model = glm::translate(glm::dmat4(1.0), o.center - view.eye) * glm::dmat4(r);
-        model = glm::scale(model, size);
-        p.set("model", toFloat(model));
-        p.set("normalMatrix", glm::mat3(r));
-        p.set("albedo", glm::vec3(o.color));
-        if (sphere) {
-            p.set("sphereCenter", glm::vec3(o.center - view.eye));
-            p.set("sphereRadius", float(o.radius));
-        }
-        // A sphere's box is drawn by its back faces so that it still covers the sphere
-        // when the eye is inside the box.
-        glCullFace(sphere ? GL_FRONT : GL_BACK);
-        glUseProgram(p.id());
-        glDrawElements(GL_TRIANGLES, box_.indexCount, GL_UNSIGNED_INT, nullptr);
-    }
-    check("drawing the opaque objects");
+    objects_.draw(scene, view, object_, sphereProgram_);
 }
 
 }  // namespace nephele

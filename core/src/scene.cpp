@@ -829,6 +829,8 @@ Object readObject(const json& j, const Path& p) {
     return b;
 }
 
+constexpr std::pair<std::string_view, ObjectLight> kObjectLights[] = {{"sun", ObjectLight::Sun}, {"all", ObjectLight::All}};
+
 Keyframe readKeyframe(const json& j, const Path& p) {
     Obj o(j, p);
     Keyframe k;
@@ -901,6 +903,7 @@ Scene readScene(const json& j, const std::string& file) {
     if (const json* light = o.find("skylight")) s.skylight = readSkylight(*light, o.at("skylight"));
     o.opt("lightning", s.lightning, listOf(readLightning, &limits::kLightningFlashes));
     o.opt("objects", s.objects, listOf(readObject, &limits::kObjects));
+    o.opt("object_light", s.objectLight, choice<ObjectLight>(kObjectLights));
     o.opt("path", s.path, listOf(readKeyframe, &limits::kKeyframes));
     for (size_t i = 1; i < s.path.size(); ++i)
         if (!(s.path[i].t > s.path[i - 1].t))

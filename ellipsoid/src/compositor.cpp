@@ -490,6 +490,13 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
     stats.lightUploads = std::exchange(m.lightUploads, 0);
     stats.lightPending = m.lightStats.pending;
     stats.lightStandIns = m.lightStats.standIns;
+    // Objects lit by the clouds are drawn before the clouds over them. They need the frame's
+    // depth (the objects' own, drawn by OpaquePass) to be drawn again in place.
+    if (scene.objectLight == ObjectLight::All && !scene.objects.empty() && frame.hasDepth) {
+        // The plan stopped before the light: the clouds out of view still shade and light them.
+        if (stats.visible == 0) m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
+        m.drawLitObjects(scene, view, frame);
+    }
     if (plan.order.empty() && plan.impostors.empty()) {
         m.lastTiles.clear();
         stats.tilesMs = timer.lap();

@@ -9,6 +9,7 @@
 #include "nephele/gardner_model.hpp"
 #include "prepared_clouds.hpp"
 #include "nephele/frame_depth.hpp"
+#include "object_light_pass.hpp"
 #include "cloud_impostors.hpp"
 #include "cloud_light_textures.hpp"
 #include "detail_texture.hpp"
@@ -118,6 +119,11 @@ struct EllipsoidRenderer::Impl {
     Buffer tiles, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0;
     std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
+
+    // object_light "all": the scene's objects drawn again over their own depth, lit by the sun
+    // through the clouds, the sky and the clouds' grids (object_pass.cpp).
+    ObjectLightPass objectLight;
+    void drawLitObjects(const Scene& scene, const View& view, const HostFrame& frame);
 
     int lightUploads = 0;    // grids uploaded since the last render (stats)
     int lightsComputed = 0;  // grids made since the last render (stats)

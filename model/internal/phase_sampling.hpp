@@ -68,5 +68,17 @@ inline Vec3 sampleHg(const Vec3& w, double g, Rng& rng) {
     return glm::normalize(sn * std::cos(phi) * u + sn * std::sin(phi) * v + c * w);
 }
 
+// A direction about unit n with the density cos(theta) / pi (Malley's method: a uniform point on
+// the unit disc lifted onto the hemisphere), what a Lambertian surface's light is sampled by.
+// Draws two numbers from rng.uniform().
+template <class Rng>
+inline Vec3 sampleCosine(const Vec3& n, Rng& rng) {
+    const double r = std::sqrt(rng.uniform()), phi = 2 * std::numbers::pi * rng.uniform();
+    const double z = std::sqrt(std::max(0.0, 1 - r * r));
+    Vec3 u, v;
+    basis(n, u, v);
+    return glm::normalize(r * std::cos(phi) * u + r * std::sin(phi) * v + z * n);
+}
+
 }  // namespace nephele::detail
 NEPHELE_API_END

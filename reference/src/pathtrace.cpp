@@ -53,6 +53,7 @@ using detail::MajorantPiece;
 using detail::MajorantSegment;
 using detail::hgPhase;
 using detail::Pcg32;
+using detail::sampleCosine;
 using detail::sampleHg;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -200,10 +201,23 @@ public:
         for (int vertex = 0;; ++vertex) {
             const double t = deltaTrack(o, d, *ray, rng);
             if (t == detail::kNoCollision) {  // the path leaves the medium: an object, or the sky
-                if (vertex < firstBounce) return radiance;
-                radiance += beta * (hit ? surfaceRadiance(o + hit->distance * d, *hit, ws.shadow, rng)
-                                        : skyRadiance(scene_.sky, d));
-                return radiance;
+                if (!hit) return vertex < firstBounce ? radiance : radiance + beta * skyRadiance(scene_.sky, d);
+                const Vec3 x = o + hit->distance * d;
+                if (vertex >= firstBounce) radiance += beta * surfaceRadiance(x, *hit, ws.shadow, rng);
+                // object_light "all": the object is a Lambertian receiver of every light, so the
+                // path goes on from the surface in a cosine-distributed direction (the Lambert
+                // BRDF albedo / pi times the cosine over that pdf, cos / pi, leaves the albedo as
+                // the throughput) and collects the sky's, the ground's and the clouds' light.
+                if (scene_.objectLight != ObjectLight::All || vertex >= maxBounces) return radiance;
+                beta *= hit->albedo;
+                if (beta == Vec3(0.0)) return radiance;
+                d = sampleCosine(hit->normal, rng);
+                const double eps = 1e-7 * (1 + glm::length(x));  // m, past the surface's round-off
+                o = x + eps * hit->normal;
+                hit = intersectObjects(scene_, o, d, eps, kInf);
+                prepare(o, d, 0, hit ? hit->distance : kInf, ws.secondary);
+                ray = &ws.secondary;
+                continue;
             }
             const Vec3 x = o + t * d;
             beta *= m.albedo;  // sigma_s / sigma_t
@@ -465,6 +479,7 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
         k.num(std::int64_t(o.type)), k.vec(o.center), k.vec(o.rotationDeg), k.vec(o.color);
         if (o.type == Object::Type::Box) k.vec(o.size); else k.num(o.radius);
     }
+    if (sc.objectLight != ObjectLight::Sun) k.tag("object-light-all");  // (absent by default: the keys of before stay valid)
     if (s.layers && !s.layers->empty()) {  // only rendered layers change the image
         k.tag("layers");
         const std::string layers = s.layers->key();

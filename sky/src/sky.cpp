@@ -166,6 +166,9 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     // here (a grid's key holds the sun's direction to the last bit).
     scene_.sun.direction = glm::normalize(scene.sun.direction);
     explicitClouds_ = scene.clouds.size();
+    // The host draws its own objects (the scene's are not drawn; with object_light "all" the
+    // compositor would draw them again, lit): lightAt() gives it their light.
+    scene_.objects.clear();
     frame_ = scene_;
     time_ = 0;
     drift_.clear();
@@ -396,6 +399,15 @@ double SkyRenderer::transmittance(const Vec3& origin, const Vec3& direction, dou
 CloudPresence SkyRenderer::insideCloud(const Vec3& point) const {
     checkFinite(point, "insideCloud", "point");
     return impl_->field("insideCloud")->presence(point);
+}
+
+SurfaceLight SkyRenderer::lightAt(const Vec3& point, const Vec3& normal) const {
+    if (!impl_->prepared_) throw std::logic_error("SkyRenderer::lightAt: call prepare() first");
+    checkFinite(point, "lightAt", "point");
+    checkFinite(normal, "lightAt", "normal");
+    const double norm = glm::length(normal);
+    if (!(norm > 1e-6)) throw std::invalid_argument("SkyRenderer::lightAt: the normal needs a length > 1e-6");
+    return impl_->clouds_.lightAt(impl_->frame_, point, normal / norm);
 }
 
 const EllipsoidRenderer& SkyRenderer::compositor() const { return impl_->clouds_; }

@@ -3,6 +3,7 @@
 
 #include "cloud_light_textures.hpp"
 #include "detail_texture.hpp"
+#include "object_light_pass.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner_model.hpp"
 #include "nephele/gl_state.hpp"
@@ -153,6 +154,7 @@ struct RaymarchRenderer::Impl {
     int noiseOctaves = 0;
     CloudRadianceCache lightCache;      // the clouds' radiance grids
     CloudLightTextures lightTextures;   // ... on the GPU
+    ObjectLightPass objectLight;        // object_light "all"
     DetailTexture detail;               // medium.detail's texture
     Buffer ellipsoids, clouds, tileFirst, tileClouds;
     std::size_t ellipsoidCapacity = 0, cloudCapacity = 0, tileFirstCapacity = 0, tileCloudCapacity = 0;
@@ -205,7 +207,10 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const auto start = std::chrono::steady_clock::now();
     stats.clouds = int(scene.clouds.size());
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
-    if (stats.ellipsoids == 0) return stats;
+    // object_light "all": the objects are drawn again lit by the clouds (and the sky: also
+    // without clouds) before the clouds are marched over them.
+    const bool litObjects = scene.objectLight == ObjectLight::All && !scene.objects.empty() && opaqueDepth;
+    if (stats.ellipsoids == 0 && !litObjects) return stats;
     const Medium& medium = scene.medium;
     const double kappa = std::max(medium.noise, 0.0);
 
@@ -218,6 +223,13 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     stats.lightStandIns = lightStats.standIns;
     m.lightTextures.update(light);
     m.lightTextures.setBoxes(light, view.eye);
+    if (litObjects) {
+        HostFrame lit;
+        lit.framebuffer = framebuffer;
+        lit.hasDepth = true;
+        m.objectLight.draw(scene, view, lit, m.lightTextures, light);
+    }
+    if (stats.ellipsoids == 0) return stats;
 
     // ---- This frame's data, camera-relative (float precision stays at the eye).
     std::vector<GpuEllipsoid> ells;

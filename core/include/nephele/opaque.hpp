@@ -36,6 +36,20 @@ private:
     gl::Framebuffer fbo_;
 };
 
+// The scene's boxes and spheres, drawn by a pair of programs of object.vert and object.frag (the
+// second with SPHERE defined): OpaquePass's, lit by the sun, and the compositor's, lit by the
+// clouds too (object_light "all"). Needs a current context.
+class ObjectMeshes {
+public:
+    ObjectMeshes();
+    // Draws every object of `scene` into the bound frame with the depth test already set, each
+    // program's per-view uniforms (viewProjection and the light's) set by the caller.
+    void draw(const Scene& scene, const View& view, const Program& box, const Program& sphere) const;
+
+private:
+    gl::IndexedMesh box_;
+};
+
 class OpaquePass {
 public:
     OpaquePass();  // builds shaders and meshes in the current context
@@ -47,7 +61,7 @@ public:
 private:
     Program sky_, object_, sphereProgram_;
     gl::VertexArray empty_;
-    gl::IndexedMesh box_;
+    ObjectMeshes objects_;
 };
 
 // ---- CPU reference: the same formulas, per ray, in double precision.

@@ -252,6 +252,12 @@ struct Object {
     Vec3 color{0.5};          // linear albedo
 };
 
+// What lights the scene's opaque objects (the top-level key "object_light"): Sun, the format's
+// default, is Lambert under the sun alone (the path tracer shadows it by the clouds); All makes
+// them Lambertian receivers of all light: the sun through the clouds and the diffuse light of
+// the sky, the ground and the clouds (data/scene-format.md, "object_light").
+enum class ObjectLight { Sun, All };
+
 struct Keyframe {
     double t = 0.0;           // s, strictly increasing along the path
     Vec3 position{0.0};
@@ -271,6 +277,7 @@ struct Scene {
     std::optional<Skylight> skylight;
     std::vector<Lightning> lightning;
     std::vector<Object> objects;
+    ObjectLight objectLight = ObjectLight::Sun;
     std::vector<Keyframe> path;
     // Set in code, never read from a scene file: the sun direction (unit) and the sky the
     // clouds' radiance grids are made for, when not the scene's own (computeCloudRadiance and

@@ -234,6 +234,13 @@ public:
     // next updateLights() takes every grid made.
     int pendingLights() const;
 
+    // The light on a surface at world `point` of unit `normal` from `scene`'s sun, sky and
+    // clouds, by the grids of the last render() or updateLights() of that scene: what the
+    // compositor lights objects by (object_light "all"). CPU only; call it from the thread that
+    // renders, not during a render() or updateLights(). Before any grid is made, the open sky and
+    // the unshadowed sun.
+    SurfaceLight lightAt(const Scene& scene, const Vec3& point, const Vec3& normal) const;
+
     // Debug views of the last render (a host's tools: `nephele fly`). The tiles, and the atlas:
     // a GL_TEXTURE_2D_ARRAY of atlasSize() with a layer per pass (at least the last frame's
     // passes; rgba = the tile pass's terms, see the top of this file; 0 before the first tile).

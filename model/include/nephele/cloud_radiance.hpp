@@ -157,5 +157,13 @@ struct RadianceSample {
 };
 RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world);
 
+// The light falling on a surface (W/m^2 per unit of the scene's radiance scale, linear RGB): what
+// a host lights its own aircraft by. A Lambertian surface of albedo a sends a / pi * (sun +
+// diffuse) (data/scene-format.md, object_light "all"; docs/light.md, "Objects lit by the clouds").
+struct SurfaceLight {
+    Vec3 sun{0.0};      // the sun's irradiance through the clouds: E_sun max(n.s, 0) T_sun
+    Vec3 diffuse{0.0};  // the sky's, the ground's and the clouds' light, from the clouds' grids
+};
+
 }  // namespace nephele
 NEPHELE_API_END

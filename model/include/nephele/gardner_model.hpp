@@ -10,6 +10,7 @@
 NEPHELE_API_BEGIN
 namespace nephele::model {
 using glm::clamp;
+using glm::acos;
 using glm::dot;
 using glm::exp;
 using glm::log;

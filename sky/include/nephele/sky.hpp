@@ -159,6 +159,15 @@ public:
     // (the directions' spacing), and a clear gap thinner than the radii's step may be missed.
     CloudPresence insideCloud(const Vec3& point) const;
 
+    // The light on a host's surface at world `point` with outward `normal` (any length > 1e-6):
+    // the sun's irradiance through the clouds and the diffuse light of the sky, the ground and
+    // the clouds, as the compositor lights a scene's objects with object_light "all"
+    // (docs/embedding.md, "Lighting the aircraft"). From the clouds' grids of the last update():
+    // call it on the thread that calls update() and draw(), between them (not thread-safe, unlike
+    // the queries above). Throws std::logic_error before prepare(), std::invalid_argument for a
+    // point or normal that is not finite or a normal too short.
+    SurfaceLight lightAt(const Vec3& point, const Vec3& normal) const;
+
     // ---- One synchronous call for one view (the command line, tests): draws every cloud of
     // `scene` over `framebuffer` (as EllipsoidRenderer::render and LayeredRenderer::render:
     // colour attachment 0 rgb = radiance, a = cloud opacity; the opaque objects' depth in its
