@@ -15,7 +15,12 @@
 // defined: llvmpipe runs every instruction of a shader, so a dynamically indexed sampler
 // array and a loop sized by a uniform cost more than the unrolled count).
 #include "view_frame.glsl"
-const int kShadowLayers = 4;
+// The array size is the C++ side's (kMaxShadowLayers, core/internal/reduced_target.hpp), given
+// by the programs that include this file.
+#ifndef SHADOW_SLOTS
+#error "SHADOW_SLOTS: build with shadowSlotsDefine() (core/internal/reduced_target.hpp)"
+#endif
+const int kShadowLayers = SHADOW_SLOTS;
 uniform int shadowLayerCount;               // 0..kShadowLayers
 uniform sampler2D shadowModulation[kShadowLayers];  // r = threshold
 uniform vec2 shadowUvModEye[kShadowLayers];  // fract((eye.xy - t wind) / modulationPeriod)

@@ -24,7 +24,9 @@ layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };
 // from raymarch.cpp's binning of the boxes' projections): tile t's are
 // tileClouds[tileFirst[t] .. tileFirst[t + 1]); the first tileFirst[0] entries are the clouds
 // every pixel tests (boxes that reach behind the near plane).
-#define RM_TILE 16
+#ifndef RM_TILE  // raymarch.cpp's kTile, given when it builds the program
+#error "RM_TILE: build with raymarch.cpp's defines"
+#endif
 // (Bindings 5 and 6: 3 is cloud_light_grid.glsl's boxes; raymarch.cpp binds these two.)
 layout(std430, binding = 5) readonly buffer RmTileFirst { int tileFirst[]; };
 layout(std430, binding = 6) readonly buffer RmTileClouds { int tileClouds[]; };

@@ -9,6 +9,8 @@
 #include "nephele/per_view.hpp"
 #include "nephele/shader.hpp"
 
+#include <string>
+
 NEPHELE_API_BEGIN
 namespace nephele {
 
@@ -18,6 +20,11 @@ namespace nephele {
 // layers are computed wherever any pixel of the block sees past the objects); the upsampling
 // takes, per full-resolution pixel, the bilinear neighbours whose block depth matches its own
 // (nearest-depth upsampling), so that an object's silhouette stays sharp.
+// The layers one shadow pass (or one fused upsampling) shadows at most: the size of the sampler
+// and uniform arrays of shaders/layered_shadow.glsl, given to it as SHADOW_SLOTS.
+inline constexpr int kMaxShadowLayers = 4;
+inline std::string shadowSlotsDefine() { return "#define SHADOW_SLOTS " + std::to_string(kMaxShadowLayers) + "\n"; }
+
 class ReducedTarget {
 public:
     ReducedTarget();  // builds its shaders in the current context
@@ -52,7 +59,7 @@ private:
         gl::Framebuffer fbo;
         gl::Framebuffer colorOnly;  // resume()'s: the colour alone
     };
-    Program reduce_, upsample_[5][2];
+    Program reduce_, upsample_[kMaxShadowLayers + 1][2];
     gl::VertexArray empty_;
     PerViewCache<Target> targets_;
     Target* current_ = nullptr;  // begin()'s

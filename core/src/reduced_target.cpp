@@ -13,17 +13,18 @@ ReducedTarget::ReducedTarget() {
 }
 
 const Program& ReducedTarget::program(int shadowLayers, bool depth) {
-    if (shadowLayers < 0 || shadowLayers > 4) throw std::invalid_argument("ReducedTarget: shadowLayers must be 0..4");
+    if (shadowLayers < 0 || shadowLayers > kMaxShadowLayers)
+        throw std::invalid_argument("ReducedTarget: shadowLayers must be 0.." + std::to_string(kMaxShadowLayers));
     Program& p = upsample_[shadowLayers][depth ? 1 : 0];
     if (p.id() == 0)
         p = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "reduced_upsample.frag"}},
-                           "#define SHADOW_LAYERS " + std::to_string(shadowLayers) + "\n" +
+                           shadowSlotsDefine() + "#define SHADOW_LAYERS " + std::to_string(shadowLayers) + "\n" +
                                (depth ? "" : "#define NO_DEPTH 1\n"));
     return p;
 }
 
 void ReducedTarget::prepare() {
-    for (int layers = 0; layers <= 4; ++layers) program(layers, true), program(layers, false);
+    for (int layers = 0; layers <= kMaxShadowLayers; ++layers) program(layers, true), program(layers, false);
 }
 
 glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view, int divisor) {

@@ -10,7 +10,8 @@ namespace nephele {
 using namespace gl;
 
 ShadowPass::ShadowPass() {
-    program_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_shadow.frag"}});
+    program_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "layered_shadow.frag"}},
+                              shadowSlotsDefine());
     empty_ = VertexArray::create();
 }
 

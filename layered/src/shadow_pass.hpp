@@ -5,6 +5,7 @@
 #include "nephele/frame_depth.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/shader.hpp"
+#include "reduced_target.hpp"
 
 #include <vector>
 
@@ -19,7 +20,7 @@ namespace nephele {
 // kShadowLayers (4) shadowing layers. Sky pixels are multiplied by 1.
 class ShadowPass {
 public:
-    static constexpr int kLayersPerPass = 4;  // kShadowLayers in shaders/layered_shadow.glsl
+    static constexpr int kLayersPerPass = kMaxShadowLayers;  // kShadowLayers in shaders/layered_shadow.glsl
     static constexpr int kFirstUnit = 3;      // texture units kFirstUnit.. hold the layers' modulation
 
     ShadowPass();  // builds its shader in the current context

@@ -45,6 +45,8 @@ void put(float* out, const Vec3& v, double w = 0) {
 }
 
 
+constexpr int kTile = 16;  // pixels; the shader's RM_TILE, given when raymarch.frag is built
+
 // The clouds' boxes binned to screen tiles of kTile x kTile pixels (RM_TILE in
 // shaders/raymarch_data.glsl): a pixel tests only the clouds of its tile, not all of them
 // (with 6250 clouds at 1280x720 the per-pixel loop over every box was 90% of the frame).
@@ -81,7 +83,6 @@ double angleToView(const View& view, const Vec3& s) {
 }
 
 TileBins binClouds(const std::vector<std::pair<Vec3, Vec3>>& boxes, const View& view) {
-    constexpr int kTile = 16;
     const int w = view.camera.width, h = view.camera.height;
     const int tilesX = (w + kTile - 1) / kTile, tilesY = (h + kTile - 1) / kTile;
     struct Rect {
@@ -177,7 +178,8 @@ void validate(const RaymarchSettings& s) {
 RaymarchRenderer::RaymarchRenderer(const RaymarchSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
     validate(s);
     Impl& m = *impl_;
-    m.march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}});
+    m.march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}},
+                             "#define RM_TILE " + std::to_string(kTile) + "\n");
     m.empty = VertexArray::create();
     if (s.downsample > 1) m.reduced = std::make_unique<ReducedTarget>();
     checkAlways("creating the ray-marcher");
