@@ -26,7 +26,7 @@ inline std::string runCacheDirOr(const std::string& own) { return runCacheDir().
 // The library's default lighting volume (256 x 256 x 32 texels, 2^13 photons: about 0.3 s in
 // release), for tests whose job must still be running in the frames right after the change that
 // queued it. Under the sanitizers, where every part of it is several times slower, with 2^11
-// photons: still over a second.
+// photons: still running then (the tests that use it assert that it is).
 inline LightingSettings busyLighting() {
     LightingSettings l;
     if (kSanitized) l.photons = 1 << 11;
