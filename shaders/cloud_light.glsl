@@ -206,16 +206,20 @@ MODEL_FN float gridFade(float outside, float radius) {
     return k * k;
 }
 
-// Where the ray p + t s (t >= 0) enters the box [lo, hi], or -1 if it misses it; invS = 1 / s
-// with s's zero components nudged off zero (no infinity times zero). A cloud's grid holds all
-// its matter, so the grid's sun transmittance where the ray towards the sun enters it is the
-// transmittance from p, wherever p is.
+// Smits' slab test of the ray t d from the origin against the box [lo, hi]: the ray's [t0, t1]
+// inside it (empty when t0 > t1); invDir = 1 / d with d's zero components nudged off zero (no
+// infinity times zero).
+MODEL_FN vec2 boxSlab(vec3 lo, vec3 hi, vec3 invDir) {
+    vec3 a = lo * invDir, b = hi * invDir;
+    vec3 tLo = min(a, b), tHi = max(a, b);
+    return vec2(max(max(tLo.x, tLo.y), tLo.z), min(min(tHi.x, tHi.y), tHi.z));
+}
+
+// Where the ray p + t s (t >= 0) enters the box [lo, hi], or -1 if it misses it (boxSlab; invS
+// as its invDir). A cloud's grid holds all its matter, so the grid's sun transmittance where the
+// ray towards the sun enters it is the transmittance from p, wherever p is.
 MODEL_FN float boxEntry(vec3 p, vec3 invS, vec3 lo, vec3 hi) {
-    vec3 t0 = (lo - p) * invS;
-    vec3 t1 = (hi - p) * invS;
-    vec3 tNear = min(t0, t1);
-    vec3 tFar = max(t0, t1);
-    float tIn = max(max(tNear.x, tNear.y), max(tNear.z, 0.0f));
-    float tOut = min(tFar.x, min(tFar.y, tFar.z));
-    return tIn <= tOut ? tIn : -1.0f;
+    vec2 t = boxSlab(lo - p, hi - p, invS);
+    float tIn = max(t.x, 0.0f);
+    return tIn <= t.y ? tIn : -1.0f;
 }

@@ -194,13 +194,6 @@ void marchCloud(RmCloud c, float tMin, float tMax) {
     }
 }
 
-// Smits' slab test against a camera-relative box: the ray's [t0, t1] inside it.
-vec2 slab(vec3 lo, vec3 hi, vec3 invDir) {
-    vec3 a = lo * invDir, b = hi * invDir;
-    vec3 tLo = min(a, b), tHi = max(a, b);
-    return vec2(max(max(tLo.x, tLo.y), tLo.z), min(min(tHi.x, tHi.y), tHi.z));
-}
-
 void main() {
     dir = normalize(rayCentre + ndc.x * rightScaled + ndc.y * upScaled);
     float cosF = dot(dir, forward);
@@ -229,7 +222,7 @@ void main() {
         bool more = false;
         for (int k = 0; k < count; ++k) {
             int c = tileClouds[k < everywhere ? k : first + k - everywhere];
-            vec2 t = slab(clouds[c].boxMin.xyz, clouds[c].boxMax.xyz, invDir);
+            vec2 t = boxSlab(clouds[c].boxMin.xyz, clouds[c].boxMax.xyz, invDir);  // camera-relative box
             t.x = max(t.x, tStart);
             t.y = min(t.y, tEnd);
             if (t.x >= t.y) continue;
