@@ -100,6 +100,9 @@ struct FrameTime {
     int uploads = 0, pendingLayers = 0, beforeLightVolumes = 0;
     double farFieldMs = 0, tilesMs = 0, compositeMs = 0;
     int passes = 0, visible = 0;
+    int tilesRendered = 0, tilesMust = 0, lightUploads = 0, impostorsRendered = 0;  // what a slow tile pass did
+    double tileMegapixels = 0, planMs = 0;
+    bool atlasGrown = false;
     std::string event;
 };
 
@@ -147,6 +150,10 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         ft.uploads = st.layered.uploads, ft.pendingLayers = st.layered.pendingLayers;
         ft.farFieldMs = st.farFieldMs, ft.tilesMs = st.ellipsoids.tilesMs, ft.compositeMs = st.ellipsoids.compositeMs;
         ft.passes = st.ellipsoids.passes, ft.visible = st.ellipsoids.visible;
+        ft.tilesRendered = st.ellipsoids.tilesRendered, ft.lightUploads = st.ellipsoids.lightUploads;
+        ft.atlasGrown = st.ellipsoids.atlasGrown;
+        ft.tilesMust = st.ellipsoids.tilesMust, ft.impostorsRendered = st.ellipsoids.impostorsRendered;
+        ft.tileMegapixels = 1e-6 * double(st.ellipsoids.tilePixelsRendered), ft.planMs = st.ellipsoids.planMs;
         opaque.draw(old, view, target.framebuffer());
         gl::glFinish();
         t0 = Clock::now();
@@ -163,7 +170,7 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
     std::ostringstream csv;
     csv << "frame,ms,update_ms,draw_ms,before_ms,light_grids_finished,light_grids_pending,light_stand_ins,light_ms,"
            "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,tiles_ms,"
-           "composite_ms,passes,visible,transition,event\n";
+           "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_uploads,atlas_grown,transition,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs) << ","
@@ -172,7 +179,9 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << f.update.nearLod.generated << ","
             << f.update.nearLod.pending << "," << f.update.backgroundJobs << "," << f.uploads << "," << f.pendingLayers << ","
             << f.beforeLightVolumes << "," << fmt("%.3f", f.farFieldMs) << "," << fmt("%.3f", f.tilesMs) << ","
-            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << "," << fmt("%.3f", f.update.transition)
+            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << "," << f.tilesRendered << "," << f.tilesMust << ","
+            << fmt("%.4f", f.tileMegapixels) << "," << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << ","
+            << f.lightUploads << "," << int(f.atlasGrown) << "," << fmt("%.3f", f.update.transition)
             << ",\"" << f.event << "\"\n";
     }
     return csv.str();

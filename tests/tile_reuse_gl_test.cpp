@@ -147,6 +147,35 @@ TEST_F(TileReuseGLTest, ASunChangeRendersEveryTileAgainWithinTheBudget) {
     EXPECT_GE(db(last, want), 60);
 }
 
+// Tiles with no image (a cloud new in view) are rendered whatever the budget, and they spend
+// it: in a frame where they alone fill it, of the tiles a new sun made stale only the worst is
+// rendered, the rest wait for the next frames. So a frame never adds a budget's worth of stale
+// tiles on top of the new ones, and the frames stay even.
+TEST_F(TileReuseGLTest, NewTilesSpendTheBudgetBeforeStaleOnes) {
+    Scene scene = nearCumulus();
+    Cloud second = scene.clouds[0];
+    const Vec3 side = glm::normalize(glm::cross(scene.camera.direction, scene.camera.up));
+    for (Ellipsoid& e : second.ellipsoids) e.center += side * 250.0 - scene.camera.direction * 200.0;
+    Scene both = scene;
+    both.clouds.push_back(second);
+    both.sun.direction = glm::normalize(Vec3(-0.6, 0.3, 0.5));
+    // The budget: a quarter of the new cloud's tile pixels (several stale tiles' worth).
+    Flight probe(reuseOn(), scene);
+    probe.frame(scene, scene.camera);
+    const std::int64_t firstPixels = probe.last.tilePixels;
+    probe.frame(both, both.camera);
+    const double newPixels = double(probe.last.tilePixels - firstPixels);
+    ASSERT_GT(newPixels, 0);
+    EllipsoidSettings s = reuseOn();
+    s.reuseBudget = 0.25 * newPixels / (scene.camera.width * scene.camera.height);
+    Flight f(s, scene);
+    f.frame(scene, scene.camera);
+    f.frame(both, both.camera);
+    ASSERT_GT(f.last.tilesMust, 5);
+    ASSERT_GT(f.last.visible - f.last.tilesMust, 5);  // the first cloud's tiles, all stale
+    EXPECT_EQ(f.last.tilesRendered, f.last.tilesMust + 1) << "must " << f.last.tilesMust;
+}
+
 // The wind moves a cloud and the eye flies with it: nothing changes in the tiles (medium.noise
 // 0, so no noise drifts through them), every tile is reused, moved with its cloud: the frame
 // is the first one. Tiles left where they were would sit 60 m off.

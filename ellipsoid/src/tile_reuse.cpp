@@ -164,22 +164,24 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     }
 
     // The frame's re-renders: every tile without a usable image, then the stale ones worst
-    // first within the budget.
-    // The worst is taken even when it alone is over the budget (a tile larger than the budget
-    // would wait for ever); the others while the budget lasts, strictly worst first.
+    // first within what the budget has left after those (so that a frame with many new tiles
+    // does not also catch up on stale ones: the frames stay even).
+    // The worst stale one is taken even when it alone is over the budget (a tile larger than
+    // the budget would wait for ever); the others while the budget lasts, strictly worst first.
     const double budget = s.budget * double(s.frameWidth) * double(s.frameHeight);
     double spent = 0;
     std::vector<int> render;
     std::vector<int> stale;
     for (const Candidate& c : cands) {
-        if (c.must) render.push_back(c.index), ++out.must;
+        if (c.must) render.push_back(c.index), ++out.must, spent += double(c.need) * c.need;
         else if (c.error >= 1) stale.push_back(c.index);
     }
     std::stable_sort(stale.begin(), stale.end(), [&](int a, int b) { return cands[a].error > cands[b].error; });
+    bool first = true;
     for (int i : stale) {
         const double px = double(cands[i].need) * cands[i].need;
-        if (s.budget <= 0 || (spent > 0 && spent + px > budget)) break;
-        spent += px;
+        if (s.budget <= 0 || (!first && spent + px > budget)) break;
+        spent += px, first = false;
         render.push_back(i);
     }
     std::vector<char> isFresh(n, 0);

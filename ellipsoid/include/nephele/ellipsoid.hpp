@@ -109,8 +109,9 @@ struct EllipsoidSettings {
     // it through the noise; also reached when the sun's phase towards the eye or the extinction
     // (a near-LOD cloud fading) has changed by more than 3%, or the tile is magnified past its
     // size. Stale tiles are rendered again worst first within reuseBudget x the frame's pixels
-    // of tile area a frame (the worst one always; 0: none), so that no frame stalls when
-    // everything changes at once; a tile whose light changed (a new sun, a new grid) ranks above
+    // of tile area a frame, what the tiles that must be rendered (below) take counted first
+    // (the worst stale one always; 0: none), so that no frame stalls when everything changes
+    // at once or a cloud comes into view; a tile whose light changed (a new sun, a new grid) ranks above
     // the others and waits its turn. Always rendered, whatever the budget: tiles with nothing in
     // the atlas yet (new in view, a new shape), tiles cut by the near plane or with more of them
     // in view than they hold, and tiles whose error reached 6 x the threshold.
