@@ -34,8 +34,8 @@ struct Reference {
     int traced = 0;                 // path-traced images computed (not from the cache)
 };
 // The scattering orders the reference's main pieces hold; the orders past it, up to
-// PathTraceSettings' maxBounces, are traced apart (makeReference). 32 was the path tracer's
-// whole default until 2026-12-03, so the pieces cached before are the main pieces now.
+// PathTraceSettings' maxBounces, are traced apart (makeReference). 32 keeps the reference
+// cache's pieces traced with 32 bounces valid as main pieces.
 inline constexpr int kReferenceBounces = 32;
 
 struct ReferenceSettings {

@@ -139,15 +139,12 @@ MODEL_FN float matterDepth(vec3 oUnit, vec3 dUnit, float tStart) {
 // eye's position: nothing can flip). tRef, one per frame below every shading depth
 // (weightReferenceDepth in gardner.cpp), keeps w in (0, 1]; the floor keeps the sums above
 // zero in float (RGBA32F accumulation), reached only at t > tRef * 1e30^(1/k).
-const float kWeightExponent = 3.0f;  // k, chosen by measurement: see the README ("composite order")
+const float kWeightExponent = 3.0f;  // k, chosen against the exact model (docs/compositor.md, "Why these constants")
 // tRef is at least this (m): matter nearer than it weighs alike. Without it, the moment the eye
-// enters an ellipsoid its matter, then metres away, outweighed everything behind it a
-// thousandfold whatever its opacity, and the colour jumped in one frame (approach.json's max
-// flicker excess +0.038, back to front +0.013). Measured (flicker bench, max excess on
-// flythrough / approach): 0 m +0.022 / +0.038, 30 m +0.021 / +0.032, 100 m +0.010 / +0.013,
-// 300 m +0.010 / +0.008; inside at the order flip (flythrough t = 8.5 s) 41.1, 34.5 and
-// 28.2 dB from the per-pixel order (back to front 26.0). Views from outside (every shading
-// depth beyond it) do not change. About a cumulus puff's radius.
+// enters an ellipsoid its matter, then metres away, outweighs everything behind it a
+// thousandfold whatever its opacity, and the colour jumps in one frame. Views from outside
+// (every shading depth beyond it) do not change. About a cumulus puff's radius; the flicker
+// bench chose it (docs/compositor.md).
 const float kWeightNearDepth = 100.0f;
 MODEL_FN float compositeWeight(float tShade, float tRef, float exponent) {
     return max(pow(tRef / max(tShade, tRef), exponent), 1e-30f);

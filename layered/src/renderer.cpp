@@ -272,8 +272,8 @@ LayeredRenderer::~LayeredRenderer() = default;
 void LayeredRenderer::prepare() {
     HostStateScope scope;
     impl_->reduced.prepare();
-    // llvmpipe builds its mipmap generation per texture kind at the first use: 150 ms for the
-    // lighting volume's (measured), then 6 ms per refill. Build both kinds now.
+    // llvmpipe builds its mipmap generation per texture kind at its first use, a stall of a
+    // frame, then reuses it for every refill. Build both kinds now, in prepare().
     for (const auto& [target, format] : {std::pair{GL_TEXTURE_3D, GL_RGBA8}, std::pair{GL_TEXTURE_2D, GL_RGBA32F}}) {
         Texture t = Texture::create(target);
         if (target == GL_TEXTURE_3D) glTextureStorage3D(t.id(), 2, format, 2, 2, 2);

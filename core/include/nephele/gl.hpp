@@ -46,8 +46,8 @@ const char* errorName(GLenum error);
 // Wall time of GL work by part, for the timings a host asks for (SkySettings::timings):
 // lap() waits for the GL work issued so far (glFinish) and returns the milliseconds since
 // the previous lap (or construction). Off, lap() returns 0 and never waits. GL timer
-// queries are no use here: on llvmpipe GL_TIME_ELAPSED reported 0.4-1.7 ms for an opaque
-// pass that took 12 ms to finish (and 10^6 ms for the first query).
+// queries are no use here: llvmpipe's GL_TIME_ELAPSED leaves out the work a pass hands to
+// its rasterizer threads, a fraction of what the pass takes to finish.
 class PartTimer {
 public:
     explicit PartTimer(bool on);
