@@ -6,6 +6,7 @@
 #include "nephele/api.hpp"
 #include "nephele/layered.hpp"
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -21,7 +22,7 @@ namespace nephele {
 class LayerAssets {
 public:
     explicit LayerAssets(LayeredSettings settings);
-    ~LayerAssets();  // stops the worker after the job in progress
+    ~LayerAssets();  // stops the worker; the job in progress is cancelled (its photon trace stops soon)
     LayerAssets(const LayerAssets&) = delete;
     LayerAssets& operator=(const LayerAssets&) = delete;
 
@@ -76,6 +77,7 @@ private:
     double computeMs_ = 0;
     std::exception_ptr error_;
     bool stop_ = false;
+    std::atomic<bool> cancel_{false};  // set by the destructor: the running job stops soon
     std::thread worker_;
 };
 

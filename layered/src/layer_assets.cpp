@@ -19,6 +19,7 @@ LayerAssets::~LayerAssets() {
         stop_ = true;
         queue_.clear();
     }
+    cancel_ = true;  // a host closing down does not wait for a lighting volume it will not draw
     changed_.notify_all();
     if (worker_.joinable()) worker_.join();
 }
@@ -76,9 +77,14 @@ void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
     std::exception_ptr error;
     try {
         if (isLight)
-            light = std::make_shared<const LightingVolume>(lightingCached(settings_.lighting, parameters, settings_.cacheDir));
+            light = std::make_shared<const LightingVolume>(
+                lightingCached(settings_.lighting, parameters, settings_.cacheDir, &cancel_));
         else
             texture = std::make_shared<const ModulationTexture>(makeModulation(settings_.modulation, seed));
+    } catch (const LightingCancelled&) {
+        lock.lock();
+        e.queued = false;
+        return;
     } catch (...) {
         error = std::current_exception();
     }

@@ -104,10 +104,13 @@ void tracePhoton(const ThresholdMedium& m, const Source& source, double albedo, 
 struct Scores {
     std::vector<glm::dvec4> few, many;
 };
-Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v, std::uint64_t seed) {
+// With `cancel` set, the batches not yet begun are skipped and LightingCancelled thrown.
+Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v, std::uint64_t seed,
+                   const std::atomic<bool>* cancel) {
     const int bins = v.settings.tableBins, batches = std::max(1, v.settings.photons / kBatch);
     std::vector<Scores> perBatch(std::size_t(batches) * media.size());
     parallelFor(int(perBatch.size()), [&](int b) {
+        if (cancel && *cancel) return;
         const ThresholdMedium& m = media[std::size_t(b) / batches];
         std::vector<glm::dvec4>& few = perBatch[std::size_t(b)].few;
         std::vector<glm::dvec4>& many = perBatch[std::size_t(b)].many;
@@ -122,6 +125,7 @@ Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& sour
                                     weight * glm::dvec4(1, w.x, w.z, y20));
                         });
     });
+    if (cancel && *cancel) throw LightingCancelled();
     Scores sum{std::vector<glm::dvec4>(std::size_t(bins) * bins, glm::dvec4(0.0)), {}};
     sum.many = sum.few;
     for (const Scores& batch : perBatch)  // in order: the same sum whatever the thread count
@@ -179,7 +183,7 @@ void fillUnreached(std::vector<glm::vec4>& table, std::vector<bool> reached, int
 
 }  // namespace
 
-LayerLightTables traceLayerLight(const LightingVolume& v) {
+LayerLightTables traceLayerLight(const LightingVolume& v, const std::atomic<bool>* cancel) {
     const LightingSettings& s = v.settings;
     const LightingParameters& p = v.parameters;
     double peak = 0;
@@ -220,13 +224,13 @@ LayerLightTables traceLayerLight(const LightingVolume& v) {
     // The sun's tables in its two parts, the sky's whole.
     for (std::size_t k = 0; k < t.sunMu.size(); ++k) {
         const Source sun{Source::Sun, t.sunMu[k]};
-        const Scores scores = traceSource(media, sun, v, 17 + k);
+        const Scores scores = traceSource(media, sun, v, 17 + k, cancel);
         write(sun, scores.few, &t.sun[k * nodes]), write(sun, scores.many, &t.sunMany[k * nodes]);
     }
     const Source::Kind bases[3] = {Source::SkyUniform, Source::SkyZenith, Source::Ground};
     for (int b = 0; b < 3; ++b) {
         const Source sky{bases[b]};
-        Scores scores = traceSource(media, sky, v, 101 + std::uint64_t(b));
+        Scores scores = traceSource(media, sky, v, 101 + std::uint64_t(b), cancel);
         for (std::size_t n = 0; n < nodes; ++n) scores.few[n] += scores.many[n];
         write(sky, scores.few, &t.sky[std::size_t(b) * nodes]);
     }

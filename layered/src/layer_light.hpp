@@ -24,7 +24,7 @@ inline constexpr float kLayerSunMu[] = {0.05f, 0.25f, 0.5f, 0.75f, 1.0f};
 // Traces the volume's photons (LightingSettings::photons per source and threshold; the sun from
 // each elevation of kLayerSunMu along +x, and the three sky bases) through its density at the
 // thresholds 0.25, 0.5 and 0.75 with D = 1 and the medium's albedo and phase. Deterministic.
-LayerLightTables traceLayerLight(const LightingVolume& volume);
+LayerLightTables traceLayerLight(const LightingVolume& volume, const std::atomic<bool>* cancel = nullptr);
 
 // The three tables of one frame (bins x bins, node (i, j) at i + j bins), as the shader reads
 // them (layerSource() in shaders/layer_light.glsl): sun = (phi0, phi1 along the sun's horizontal

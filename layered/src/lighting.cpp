@@ -210,7 +210,7 @@ double lightingExtinction(const LightingParameters& p) {
     return std::min(p.extinction, kMaxLightingOpticalDepth / p.thickness);
 }
 
-LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p) {
+LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p, const std::atomic<bool>* cancel) {
     checkSettings(s, p);
     requireMemory("the " + std::to_string(s.width) + "x" + std::to_string(s.height) + "x" + std::to_string(s.depth) +
                       " layered lighting volume",
@@ -223,7 +223,7 @@ LightingVolume precomputeLighting(const LightingSettings& s, const LightingParam
     v.texels.assign(density.size() * 4, 0);
     for (std::size_t i = 0; i < density.size(); ++i) v.texels[i * 4 + 3] = density[i];
     columnKnots(v, density);
-    v.tables = traceLayerLight(v);
+    v.tables = traceLayerLight(v, cancel);
     v.precomputeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return v;
 }
@@ -321,8 +321,9 @@ LightingParameters lightingParameters(const Medium& medium, const Layer& layer) 
     return {medium.extinction, medium.albedo, medium.hgG, layer.lightingThickness > 0 ? layer.lightingThickness : layer.thickness};
 }
 
-LightingVolume lightingCached(const LightingSettings& s, const LightingParameters& p, const std::string& cacheDir) {
-    if (cacheDir.empty()) return precomputeLighting(s, p);
+LightingVolume lightingCached(const LightingSettings& s, const LightingParameters& p, const std::string& cacheDir,
+                              const std::atomic<bool>* cancel) {
+    if (cacheDir.empty()) return precomputeLighting(s, p, cancel);
     checkSettings(s, p);
     Fingerprint f;
     f.add(s.width).add(s.height).add(s.depth).add(s.tilePeriod).add(s.octaves).add(s.cells).add(s.seed).add(s.photons);
@@ -339,7 +340,7 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
             logMessage(LogLevel::Warning, std::string("ignoring the cached lighting volume, computing it again: ") + e.what());
         }
     }
-    LightingVolume v = precomputeLighting(s, p);
+    LightingVolume v = precomputeLighting(s, p, cancel);
     std::filesystem::create_directories(cacheDir, ec);
     const std::string why = cache::write(file, serialise(v));
     if (!why.empty()) logMessage(LogLevel::Warning, "could not cache the lighting volume in " + cacheDir + ": " + why);

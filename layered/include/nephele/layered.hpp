@@ -52,6 +52,7 @@
 #include "nephele/gl.hpp"
 #include "nephele/scene.hpp"
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -152,13 +153,20 @@ std::uint64_t lightingBytes(const LightingSettings& settings);
 // the photons, not with the optical depth: past extinction x thickness 1000 a layer is lit as
 // one at 1000 (dark inside either way). Throws std::invalid_argument for bad
 // settings, ResourceError (nephele/resources.hpp) when lightingBytes() is more than the
-// memory available.
-LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters);
+// memory available. With `cancel`, the photon trace stops soon after *cancel becomes true
+// and LightingCancelled is thrown (nothing is returned or cached).
+LightingVolume precomputeLighting(const LightingSettings& settings, const LightingParameters& parameters,
+                                  const std::atomic<bool>* cancel = nullptr);
 // The same through a cache folder (created if missing): loaded when a file of the same
 // parameters is there, else computed and saved (a failed save only warns through the log callback, nephele/log.hpp).
 // cacheDir "" = no cache.
 LightingVolume lightingCached(const LightingSettings& settings, const LightingParameters& parameters,
-                              const std::string& cacheDir);
+                              const std::string& cacheDir, const std::atomic<bool>* cancel = nullptr);
+// What precomputeLighting and lightingCached throw when their `cancel` was set.
+class LightingCancelled : public std::runtime_error {
+public:
+    LightingCancelled() : std::runtime_error("the layer's lighting was cancelled") {}
+};
 // The layer's lighting key: the medium and its thickness (Layer::lightingThickness when set).
 LightingParameters lightingParameters(const Medium& medium, const Layer& layer);
 
