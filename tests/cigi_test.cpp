@@ -27,6 +27,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <limits>
 #include <map>
@@ -817,6 +818,28 @@ int freePort() {
     return ntohs(a.sin_port);
 }
 
+// Drives one IG on `port` through `frames` (host frame numbers) in lock step: each frame's
+// datagram (IG Control, then what `packets` adds) is resent every second until a Start of Frame
+// names it (the IG may still be starting), for 200 s at most. The answers, in order.
+std::vector<IgDatagram> driveIg(int port, const std::vector<std::uint32_t>& frames,
+                                const std::function<void(std::uint32_t, DatagramWriter&)>& packets) {
+    HostSocket host(1000);
+    std::vector<IgDatagram> answers;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
+    while (answers.size() < frames.size() && std::chrono::steady_clock::now() < deadline) {
+        const std::uint32_t frame = frames[answers.size()];
+        DatagramWriter w(ByteOrder::BigEndian);
+        IgControl igc;
+        igc.hostFrameNumber = frame;
+        w.add(igc);
+        packets(frame, w);
+        host.send(w.bytes(), port);
+        if (auto d = parseIgDatagram(host.receive()); d && d->startOfFrame.lastHostFrameNumber == frame)
+            answers.push_back(std::move(*d));
+    }
+    return answers;
+}
+
 }  // namespace
 
 // `nephele ig` as one channel of a host on loopback: three host frames, each answered by a
@@ -919,24 +942,12 @@ TEST(CigiIgTest, AerosolAnswersAreTheCloudWaterAtThePoint) {
     const std::string args = "ig " + file + " --width 32 --height 18 --port " + std::to_string(port) +
                              " --headless --frames 2 --timeout 30 --origin 47.5,8.5,400";
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
-    HostSocket host(1000);
-    std::vector<IgPacket> answers;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
-    for (std::uint32_t frame = 1; frame <= 2 && std::chrono::steady_clock::now() < deadline;) {
-        DatagramWriter w(ByteOrder::BigEndian);
-        IgControl igc;
-        igc.hostFrameNumber = frame;
-        w.add(igc);
-        if (frame == 2) {
-            w.add(request(1, dense));
-            w.add(request(2, dense + nephele::Vec3(0, 0, layer.thickness)));  // above the slab
-        }
-        host.send(w.bytes(), port);
-        const auto d = parseIgDatagram(host.receive());
-        if (!d || d->startOfFrame.lastHostFrameNumber != frame) continue;
-        if (frame == 2) answers = d->packets;
-        ++frame;
-    }
+    const std::vector<IgDatagram> frames = driveIg(port, {1, 2}, [&](std::uint32_t frame, DatagramWriter& w) {
+        if (frame != 2) return;
+        w.add(request(1, dense));
+        w.add(request(2, dense + nephele::Vec3(0, 0, layer.thickness)));  // above the slab
+    });
+    const std::vector<IgPacket> answers = frames.size() == 2 ? frames[1].packets : std::vector<IgPacket>{};
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     std::map<int, double> water;  // by request id: layer 1's answer
@@ -1204,14 +1215,7 @@ TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
     };
     const float pitch = float(std::atan(0.35) * 180 / 3.14159265358979323846);  // the scene camera's
     const nephele::Vec3 eye(0, 0, 800), ahead = eye + 30.0 * glm::normalize(nephele::Vec3(0, 1, 0.35));
-    HostSocket host(1000);
-    int answered = 0;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
-    for (std::uint32_t frame = 1; frame <= 5 && std::chrono::steady_clock::now() < deadline;) {
-        DatagramWriter w(ByteOrder::BigEndian);
-        IgControl igc;
-        igc.hostFrameNumber = frame;
-        w.add(igc);
+    const std::size_t answered = driveIg(port, {1, 2, 3, 4, 5}, [&](std::uint32_t frame, DatagramWriter& w) {
         if (frame >= 2) w.add(entity(0, eye, 0, frame == 3 ? -30.0f : pitch));
         if (frame >= 4) w.add(entity(5, ahead, 90, 0));
         if (frame == 5) {
@@ -1220,15 +1224,10 @@ TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
             c.sunEnable = c.dateTimeValid = true;
             w.add(c);
         }
-        host.send(w.bytes(), port);
-        const auto d = parseIgDatagram(host.receive());
-        if (!d || d->startOfFrame.lastHostFrameNumber != frame) continue;
-        ++answered;
-        ++frame;
-    }
+    }).size();
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
-    ASSERT_EQ(answered, 5) << run.output;
+    ASSERT_EQ(answered, 5u) << run.output;
     std::map<int, nephele::Image> f;
     for (std::uint32_t k = 1; k <= 5; ++k) f[int(k)] = displayedRgb(recordedFrame(record, k));
     auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
@@ -1282,20 +1281,10 @@ TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
         w.thickness = 400;
         return w;
     };
-    HostSocket host(1000);
-    std::size_t answered = 0;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
-    while (answered < frames.size() && std::chrono::steady_clock::now() < deadline) {
-        DatagramWriter w(ByteOrder::BigEndian);
-        IgControl igc;
-        igc.hostFrameNumber = frames[answered];
-        w.add(igc);
+    const std::size_t answered = driveIg(port, frames, [&](std::uint32_t, DatagramWriter& w) {
         w.add(layer(1, false));
         w.add(layer(3, true));
-        host.send(w.bytes(), port);
-        const auto d = parseIgDatagram(host.receive());
-        if (d && d->startOfFrame.lastHostFrameNumber == frames[answered]) ++answered;
-    }
+    }).size();
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     ASSERT_EQ(answered, frames.size()) << run.output;
