@@ -1042,9 +1042,9 @@ nephele::Image columns(const nephele::Image& a, int x0, int width) {
 }  // namespace
 
 // Three `nephele ig` processes as three channels of one wide view (adjacent off-axis frusta from
-// View Definition), a fourth drawing the whole view at three times the width, and a fifth drawing
-// the middle channel with --transition 0; the host sends all of them the same IG Control and
-// Weather Control each frame, in lock step (frame N+1 once every IG answered N). The weather
+// View Definition) and a fourth drawing the whole view at three times the width; the host sends
+// all of them the same IG Control and Weather Control each frame, in lock step (frame N+1 once
+// every IG answered N). The weather
 // changes in frame 2 (coverage 30 % -> 70 %), ramped over 3 frames (--transition 0.05 at the
 // 60 Hz of host frame numbers): frames 3 and 4 are mid-ramp.
 TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
@@ -1068,7 +1068,6 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
     std::vector<Ig> igs;
     for (int ch = 0; ch < 3; ++ch) igs.push_back({ch, kSize, 0.05, -0.75f + 0.5f * ch, -0.25f + 0.5f * ch});
     igs.push_back({3, 3 * kSize, 0.05, -0.75f, 0.75f});  // the wide view
-    igs.push_back({1, kSize, 0.0, -0.25f, 0.25f});      // the middle channel, the change at once
     for (Ig& ig : igs) {
         ig.port = freePort();
         ig.record = dir + "/ig" + std::to_string(&ig - igs.data());
@@ -1148,7 +1147,7 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
     // upsampling clamps at a channel's edge where the wide view has the neighbour's pixels.
     // HostApiGLTest.StitchedChannelsAreTheWideView measures that in one process well below the
     // issue's bound, 1/255 mean in display values over the 16 px band centred on each seam.
-    std::map<std::uint32_t, nephele::Image> middle, middleAtOnce;
+    std::map<std::uint32_t, nephele::Image> middle;
     for (std::uint32_t f = 1; f <= kFrames; ++f) {
         const nephele::Image wide = displayedRgb(recordedFrame(igs[3].record, f));
         for (int seam : {kSize, 2 * kSize}) {
@@ -1164,10 +1163,10 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
             EXPECT_LE(d, 1.0 / 255) << "frame " << f << ", seam at " << seam;
         }
         middle[f] = displayedRgb(recordedFrame(igs[1].record, f));
-        middleAtOnce[f] = displayedRgb(recordedFrame(igs[4].record, f));
     }
-    // The ramp: frame 2 shows the weather before (s = 0 in the frame of the change), frame 5 the
-    // weather after; frames 3 and 4 lie strictly between, each closer to the end it is nearer.
+    // The ramp: frame 2 shows the weather before (s = 0 in the frame of the change), where
+    // --transition 0 would show the weather after; frame 5 shows the weather after; frames 3 and
+    // 4 lie strictly between, each closer to the end it is nearer.
     auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
     const double change = distance(middle[2], middle[5]);
     std::printf("[ figure ] the change: %.2f/255 mean; frame 3: %.2f/255 from before, %.2f/255 from after; frame 4: "
@@ -1183,10 +1182,6 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
         EXPECT_LT(distance(middle[f], middle[5]), change) << "frame " << f;
     }
     EXPECT_LT(distance(middle[3], middle[2]), distance(middle[4], middle[2]));
-    // --transition 0 draws the weather after from the frame of the change on: mid-ramp differs.
-    EXPECT_LE(distance(middleAtOnce[2], middle[5]), 0.1 / 255);
-    EXPECT_GT(distance(middleAtOnce[3], middle[3]), 0.1 * change);
-    EXPECT_LE(distance(middleAtOnce[5], middle[5]), 0.1 / 255);
 }
 
 // The ownship's Entity Control is the eye, another active entity is drawn as a box, and Celestial
@@ -1254,21 +1249,20 @@ TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
 
 // A host whose frame numbers run back (it restarted) makes the IG start its sky again. The
 // layers keep the ids the host gave them: layer 1 off and layer 3 on draw after the rewind what
-// they drew before it, with no ramp (--transition 0.1 s, 6 frames) from a layer numbered by its
+// they drew before it, with no ramp (--transition 0.05 s, 3 frames) from a layer numbered by its
 // place in the list (3 would be 1 there) to the same layer under its own id.
 TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
     const std::string dir = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-rewind";
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     const std::string scene = writeStaticScene(dir), record = dir + "/frames";
-    // Frames 11-18: the change from the scene's layer 1 to layer 3 ramps in and is done by 17;
-    // then 1-4, the rewind, 4 being mid-way of a 6-frame ramp had one started at 1.
-    std::vector<std::uint32_t> frames;
-    for (std::uint32_t f = 11; f <= 18; ++f) frames.push_back(f);
-    for (std::uint32_t f = 1; f <= 4; ++f) frames.push_back(f);
+    // Frames 11-15: the change from the scene's layer 1 to layer 3 ramps in and is done by 14;
+    // then 1-3, the rewind, 2 and 3 being a third and two thirds of the way of a 3-frame ramp had
+    // one started at 1.
+    const std::vector<std::uint32_t> frames{11, 12, 13, 14, 15, 1, 2, 3};
     const int port = freePort();
     const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " + std::to_string(port) +
-                             " --headless --frames " + std::to_string(frames.size()) + " --timeout 30 --transition 0.1 --record " +
+                             " --headless --frames " + std::to_string(frames.size()) + " --timeout 30 --transition 0.05 --record " +
                              record;
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
     auto layer = [](std::uint8_t id, bool on) {
@@ -1288,10 +1282,10 @@ TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     ASSERT_EQ(answered, frames.size()) << run.output;
-    const nephele::Image steady = displayedRgb(recordedFrame(record, 18));
+    const nephele::Image steady = displayedRgb(recordedFrame(record, 15));
     const nephele::Image ramped = displayedRgb(recordedFrame(record, 12));  // one frame into the first ramp
     EXPECT_GT(nephele::compareImages(ramped, steady, 1.0).meanAbs, 1.0 / 255) << "the weather change should show";
-    for (std::uint32_t f = 1; f <= 4; ++f) {
+    for (std::uint32_t f = 1; f <= 3; ++f) {
         const double d = nephele::compareImages(displayedRgb(recordedFrame(record, f)), steady, 1.0).meanAbs;
         std::printf("[ figure ] frame %u after the rewind: %.4f/255 mean from the steady frame\n", f, d * 255);
         // The same weather at another instant of a static scene: the same frame, to float noise.
