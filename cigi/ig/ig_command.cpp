@@ -152,7 +152,8 @@ struct IgState {
         } catch (const std::invalid_argument& e) {
             once(std::string(e.what()) + " (packet ignored)");
         }
-        if (p.ephemerisModelEnable) once("Celestial Sphere Control: the sun moves with the host's date and time only (no ephemeris clock of the IG's own)");
+        if (p.ephemerisModelEnable)
+            once("Celestial Sphere Control: the sun moves with the host's date and time only (no ephemeris clock of the IG's own)");
         if (p.moonEnable || p.starFieldEnable) once("Celestial Sphere Control: the moon and the stars are not drawn");
     }
 
@@ -372,7 +373,7 @@ int runIg(const IgOptions& o) {
                 else if (auto* c = std::get_if<cigi::ViewControl>(&p)) s.apply(*c);
                 else if (auto* a = std::get_if<cigi::AtmosphereControl>(&p)) s.atmosphere = *a;
                 else if (auto* r = std::get_if<cigi::EnvironmentalConditionsRequest>(&p)) requests.push_back(r);
-                else if (auto* c = std::get_if<cigi::CelestialSphereControl>(&p)) s.apply(*c);
+                else if (auto* cs = std::get_if<cigi::CelestialSphereControl>(&p)) s.apply(*cs);
                 else if (auto* e = std::get_if<cigi::EntityControl>(&p)) s.apply(*e);
             }
             const bool operate = igc.igMode == cigi::IgMode::Operate || igc.igMode == cigi::IgMode::Debug;
