@@ -2,10 +2,14 @@
 // the standard's layout (docs/cigi.md's tables), independently of the codec's own writer, in both
 // byte orders; each must decode to its fields and the writer must produce exactly those bytes.
 // Then malformed datagrams: truncated at every length, size bytes 0 and past the end, unknown
-// opcodes, wrong sizes, no IG Control first, a bad byte-swap magic. Last, `nephele ig` on loopback.
+// opcodes, wrong sizes, no IG Control first, a bad byte-swap magic. Last, `nephele ig` on loopback:
+// one channel, then three channels of one wide view through a weather transition.
 #include "cli_run.hpp"
 #include "nephele/cigi.hpp"
+#include "nephele/cigi_scene.hpp"
+#include "nephele/generate.hpp"
 #include "nephele/geodetic.hpp"
+#include "nephele/image.hpp"
 #include "nephele/layer_volume.hpp"
 #include "nephele/log.hpp"
 #include "nephele/scene.hpp"
@@ -17,10 +21,15 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <future>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -652,6 +661,122 @@ TEST(CigiTest, PacketsOfTheOtherSideAreSkipped) {
 
 namespace {
 
+// A packet as `nephele ig` gets it: written by the codec, read back from the datagram.
+template <class P>
+P throughTheCodec(const P& packet) {
+    DatagramWriter w(ByteOrder::LittleEndian);
+    w.add(IgControl{});
+    w.add(packet);
+    const auto d = parseHostDatagram(w.bytes());
+    EXPECT_TRUE(d.has_value());
+    if (!d || d->packets.size() != 1 || !std::holds_alternative<P>(d->packets[0])) {
+        ADD_FAILURE() << "the packet did not come back";
+        return packet;
+    }
+    return std::get<P>(d->packets[0]);
+}
+
+CelestialSphereControl celestial(std::uint32_t date, int hour, int minute, bool valid = true, bool sun = true) {
+    CelestialSphereControl c;
+    c.date = date;
+    c.hour = std::uint8_t(hour), c.minute = std::uint8_t(minute);
+    c.dateTimeValid = valid;
+    c.sunEnable = sun;
+    return throughTheCodec(c);
+}
+
+double elevationDeg(const nephele::Vec3& direction) { return std::asin(direction.z) * 180 / 3.14159265358979323846; }
+
+}  // namespace
+
+// Celestial Sphere Control's date (MMDDYYYY) and time (UTC) at --origin's latitude and
+// longitude light the scene as nephele::daylight does; its flags say what is applied.
+TEST(CigiTest, CelestialSphereControlSetsTheSunOfItsDateAndTime) {
+    // Toulouse, 21 June 2026 18:30 UTC (the docs/embedding.md example): the daylight of that instant.
+    const double lat = 43.6045, lon = 1.4440;
+    CelestialLight day;
+    const CelestialLight evening = applyCelestial(celestial(6212026, 18, 30), lat, lon, day);
+    const nephele::Daylight expected = nephele::daylight(nephele::UtcTime{2026, 6, 21, 18, 30, 0}, lat, lon);
+    EXPECT_EQ(evening.sun, expected.sun);
+    EXPECT_EQ(evening.sky, expected.sky);
+    EXPECT_EQ(day.sun, expected.sun);  // the light the next packets start from
+    // The decimal date read as MMDDYYYY, not DDMMYYYY or YYYYMMDD: the equinox (20 March) at noon
+    // UTC on the equator at Greenwich has the sun within 3 degrees of the zenith (declination
+    // -0.1, equation of time -7.5 min: 1.9 degrees of hour angle); at midnight it is down.
+    EXPECT_GT(elevationDeg(applyCelestial(celestial(3202026, 12, 0), 0, 0, day).sun.direction), 87.0);
+    const CelestialLight midnight = applyCelestial(celestial(3202026, 0, 0), 0, 0, day);
+    EXPECT_LT(elevationDeg(midnight.sun.direction), -80.0);
+    EXPECT_EQ(midnight.sun.intensity, 0.0);
+    // 1 January (01012026, written 1012026) at 10:00 UTC in Toulouse: a low winter sun. By hand:
+    // declination -23.0, equation of time -3.4 min, so hour angle -29.4 and elevation 18.1
+    // (geometric; refraction adds 0.05).
+    EXPECT_NEAR(elevationDeg(applyCelestial(celestial(1012026, 10, 0), lat, lon, day).sun.direction), 18.15, 0.2);
+    // Date/Time Valid clear: the light stays what it was; Sun Enable clear: no sunlight, the sky's stays.
+    day = {};
+    const CelestialLight unchanged = applyCelestial(celestial(6212026, 18, 30, false), lat, lon, day);
+    EXPECT_EQ(unchanged.sun, nephele::Sun{});
+    const CelestialLight off = applyCelestial(celestial(6212026, 12, 0, true, false), lat, lon, day);
+    EXPECT_EQ(off.sun.intensity, 0.0);
+    EXPECT_GT(day.sun.intensity, 1.0);  // noon in June: the sun is there, only switched off
+    EXPECT_EQ(off.sky, day.sky);
+    EXPECT_GT(applyCelestial(celestial(6212026, 12, 0, false, true), lat, lon, day).sun.intensity, 1.0);  // on again
+    // Out of range: named, and the light kept.
+    const CelestialLight before = day;
+    for (const auto& [date, field] : std::vector<std::pair<std::uint32_t, std::string>>{
+             {13012026, "month"}, {2302026, "day"}, {6211500, "year"}}) {
+        try {
+            applyCelestial(celestial(date, 12, 0), lat, lon, day);
+            ADD_FAILURE() << date << " accepted";
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+        }
+        EXPECT_EQ(day.sun, before.sun);
+    }
+    EXPECT_THROW(applyCelestial(celestial(6212026, 24, 0), lat, lon, day), std::invalid_argument);
+}
+
+// Entity Control's geodetic position and attitude, in the scene's east-north-up frame (--origin).
+TEST(CigiTest, EntityControlIsAPoseInTheScenesFrame) {
+    const nephele::EnuFrame frame(nephele::Geodetic{47.5, 8.5, 400});
+    auto pose = [&](double lat, double lon, double alt, float yaw, float pitch, float roll) {
+        EntityControl e;
+        e.entityState = 1;
+        e.latitude = lat, e.longitude = lon, e.altitude = alt;
+        e.yaw = yaw, e.pitch = pitch, e.roll = roll;
+        return entityPose(throughTheCodec(e), frame);
+    };
+    auto near = [](const nephele::Vec3& a, const nephele::Vec3& b, double tolerance) {
+        return glm::length(a - b) <= tolerance;
+    };
+    const double s30 = 0.5, c30 = std::sqrt(3.0) / 2;
+    // 1 km above the origin: the heading clockwise from north, the pitch nose up, the roll right wing down.
+    const EntityPose level = pose(47.5, 8.5, 1400, 0, 0, 0);
+    EXPECT_TRUE(near(level.position, {0, 0, 1000}, 1e-6)) << level.position.x << " " << level.position.y << " " << level.position.z;
+    EXPECT_TRUE(near(level.forward, {0, 1, 0}, 1e-9));
+    EXPECT_TRUE(near(level.up, {0, 0, 1}, 1e-9));
+    EXPECT_TRUE(near(pose(47.5, 8.5, 1400, 90, 0, 0).forward, {1, 0, 0}, 1e-6));
+    const EntityPose climbing = pose(47.5, 8.5, 1400, 0, 30, 0);
+    EXPECT_TRUE(near(climbing.forward, {0, c30, s30}, 1e-6));
+    EXPECT_TRUE(near(climbing.up, {0, -s30, c30}, 1e-6));
+    const EntityPose rolled = pose(47.5, 8.5, 1400, 0, 0, 30);
+    EXPECT_TRUE(near(rolled.forward, {0, 1, 0}, 1e-6));
+    EXPECT_TRUE(near(rolled.up, {s30, 0, c30}, 1e-6));  // the top leans towards the right wing (east)
+    // 0.1 degree north (11.1 km): level there is 0.1 degree nose down in the origin's axes.
+    const EntityPose north = pose(47.6, 8.5, 400, 0, 0, 0);
+    EXPECT_NEAR(north.position.y, 11120, 15);
+    EXPECT_NEAR(north.forward.z, -std::sin(0.1 * 3.14159265358979323846 / 180), 2e-5);
+    // The box drawn for another entity: its length along the nose, its height along the top.
+    const nephele::Object box = entityBox(climbing);
+    const glm::dmat3 r = nephele::rotationFromDegrees(box.rotationDeg);
+    EXPECT_TRUE(near(r * nephele::Vec3(0, 1, 0), climbing.forward, 1e-9));
+    EXPECT_TRUE(near(r * nephele::Vec3(0, 0, 1), climbing.up, 1e-9));
+    EXPECT_EQ(box.center, climbing.position);
+    EXPECT_THROW(pose(91, 0, 0, 0, 0, 0), std::invalid_argument);
+    EXPECT_THROW(pose(0, 0, 0, std::numeric_limits<float>::quiet_NaN(), 0, 0), std::invalid_argument);
+}
+
+namespace {
+
 // A host's UDP socket on 127.0.0.1, its receive bounded by `timeoutMs`.
 struct HostSocket {
     int fd = -1;
@@ -691,6 +816,28 @@ int freePort() {
     ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
     ::close(fd);
     return ntohs(a.sin_port);
+}
+
+// Drives one IG on `port` through `frames` (host frame numbers) in lock step: each frame's
+// datagram (IG Control, then what `packets` adds) is resent every second until a Start of Frame
+// names it (the IG may still be starting), for 200 s at most. The answers, in order.
+std::vector<IgDatagram> driveIg(int port, const std::vector<std::uint32_t>& frames,
+                                const std::function<void(std::uint32_t, DatagramWriter&)>& packets) {
+    HostSocket host(1000);
+    std::vector<IgDatagram> answers;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
+    while (answers.size() < frames.size() && std::chrono::steady_clock::now() < deadline) {
+        const std::uint32_t frame = frames[answers.size()];
+        DatagramWriter w(ByteOrder::BigEndian);
+        IgControl igc;
+        igc.hostFrameNumber = frame;
+        w.add(igc);
+        packets(frame, w);
+        host.send(w.bytes(), port);
+        if (auto d = parseIgDatagram(host.receive()); d && d->startOfFrame.lastHostFrameNumber == frame)
+            answers.push_back(std::move(*d));
+    }
+    return answers;
 }
 
 }  // namespace
@@ -795,24 +942,12 @@ TEST(CigiIgTest, AerosolAnswersAreTheCloudWaterAtThePoint) {
     const std::string args = "ig " + file + " --width 32 --height 18 --port " + std::to_string(port) +
                              " --headless --frames 2 --timeout 30 --origin 47.5,8.5,400";
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
-    HostSocket host(1000);
-    std::vector<IgPacket> answers;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(200);
-    for (std::uint32_t frame = 1; frame <= 2 && std::chrono::steady_clock::now() < deadline;) {
-        DatagramWriter w(ByteOrder::BigEndian);
-        IgControl igc;
-        igc.hostFrameNumber = frame;
-        w.add(igc);
-        if (frame == 2) {
-            w.add(request(1, dense));
-            w.add(request(2, dense + nephele::Vec3(0, 0, layer.thickness)));  // above the slab
-        }
-        host.send(w.bytes(), port);
-        const auto d = parseIgDatagram(host.receive());
-        if (!d || d->startOfFrame.lastHostFrameNumber != frame) continue;
-        if (frame == 2) answers = d->packets;
-        ++frame;
-    }
+    const std::vector<IgDatagram> frames = driveIg(port, {1, 2}, [&](std::uint32_t frame, DatagramWriter& w) {
+        if (frame != 2) return;
+        w.add(request(1, dense));
+        w.add(request(2, dense + nephele::Vec3(0, 0, layer.thickness)));  // above the slab
+    });
+    const std::vector<IgPacket> answers = frames.size() == 2 ? frames[1].packets : std::vector<IgPacket>{};
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     std::map<int, double> water;  // by request id: layer 1's answer
@@ -849,4 +984,311 @@ TEST(CigiIgTest, TimesOutBeforeItsFramesWithExit1) {
         4096, 120);
     EXPECT_EQ(run.code, 1) << run.output;
     EXPECT_NE(run.output.find("no datagram from the host for 0.5 s after 0 of 2 frames"), std::string::npos) << run.output;
+}
+
+namespace {
+
+// The host frame numbers an IG drew, from its --record folder.
+std::vector<std::uint32_t> recordedFrames(const std::string& folder) {
+    std::vector<std::uint32_t> frames;
+    for (const auto& e : std::filesystem::directory_iterator(folder)) {
+        unsigned f = 0;
+        if (std::sscanf(e.path().filename().string().c_str(), "host-frame-%u.pfm", &f) == 1) frames.push_back(f);
+    }
+    std::sort(frames.begin(), frames.end());
+    return frames;
+}
+
+nephele::Image recordedFrame(const std::string& folder, std::uint32_t frame) {
+    char name[64];
+    std::snprintf(name, sizeof name, "/host-frame-%010u.pfm", frame);
+    return nephele::readPfm(folder + name);
+}
+
+// What a viewer sees of a recorded frame: sRGB, 0..1 (the 1/255 bounds are of 8-bit display values).
+nephele::Image displayedRgb(nephele::Image linear) {
+    for (float& v : linear.pixels) v = nephele::linearToSrgb(v);
+    return linear;
+}
+
+// A small static scene for the IG tests (no wind, no camera path, no near LOD): the eye 800 m up
+// looking north 19.3 degrees above the horizon at a layer 1500-1900 m up, 30 % covered.
+std::string writeStaticScene(const std::string& dir) {
+    const std::string scene = dir + "/scene.json";
+    std::FILE* f = std::fopen(scene.c_str(), "w");
+    if (!f) return scene;
+    std::fputs(R"({"cloudscene": 1, "camera": {"position": [0, 0, 800], "direction": [0, 1, 0.35]},
+  "sun": {"direction": [0.5, 0.4, 0.77]},
+  "layers": [{"base": 1500, "thickness": 400, "coverage": 0.3, "density": 0.8, "seed": 1, "near_lod": false}]})",
+               f);
+    std::fclose(f);
+    return scene;
+}
+
+double meanOf(const nephele::Image& a) {
+    double sum = 0;
+    for (float v : a.pixels) sum += v;
+    return sum / double(a.pixels.size());
+}
+
+nephele::Image columns(const nephele::Image& a, int x0, int width) {
+    nephele::Image out(width, a.height, a.channels);
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < width; ++x)
+            for (int k = 0; k < a.channels; ++k) out.at(x, y, k) = a.at(x0 + x, y, k);
+    return out;
+}
+
+}  // namespace
+
+// Three `nephele ig` processes as three channels of one wide view (adjacent off-axis frusta from
+// View Definition) and a fourth drawing the whole view at three times the width; the host sends
+// all of them the same IG Control and Weather Control each frame, in lock step (frame N+1 once
+// every IG answered N). The weather
+// changes in frame 2 (coverage 30 % -> 70 %), ramped over 3 frames (--transition 0.05 at the
+// 60 Hz of host frame numbers): frames 3 and 4 are mid-ramp.
+TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
+    const std::string dir = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-channels";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    // Static: each frame differs from the last by the weather ramp alone. The layer is what
+    // frame 1's Weather Control says (coverage 30 %; cloud type Other1 keeps the scene's density):
+    // no change, no ramp, in frame 1.
+    const std::string scene = writeStaticScene(dir);
+    constexpr int kFrames = 5, kSize = 48;
+    struct Ig {
+        int channel, width;
+        double transition;
+        float left, right;  // tangents of the frustum's edges
+        int port = 0;
+        std::string record;
+        std::future<nephele::test::BoundedRun> run;
+        std::map<std::uint32_t, StartOfFrame> answers;
+    };
+    std::vector<Ig> igs;
+    for (int ch = 0; ch < 3; ++ch) igs.push_back({ch, kSize, 0.05, -0.75f + 0.5f * ch, -0.25f + 0.5f * ch});
+    igs.push_back({3, 3 * kSize, 0.05, -0.75f, 0.75f});  // the wide view
+    for (Ig& ig : igs) {
+        ig.port = freePort();
+        ig.record = dir + "/ig" + std::to_string(&ig - igs.data());
+        const std::string args = "ig " + scene + " --width " + std::to_string(ig.width) + " --height " + std::to_string(kSize) +
+                                 " --light-size 64x64x16 --port " + std::to_string(ig.port) + " --channel " +
+                                 std::to_string(ig.channel) + " --headless --frames " + std::to_string(kFrames) +
+                                 " --timeout 30 --transition " + std::to_string(ig.transition) + " --record " + ig.record;
+        ig.run = std::async(std::launch::async, [args] { return nephele::test::runBounded(args, 4096, 300); });
+    }
+    auto weather = [](float coverage) {
+        WeatherControl w;
+        w.layerId = 1;
+        w.weatherEnable = true;
+        w.cloudType = 11;  // Other1: the layer's own density
+        w.coverage = coverage;
+        w.baseElevation = 1500;
+        w.thickness = 400;
+        return w;
+    };
+    auto degrees = [](float tangent) { return float(std::atan(double(tangent)) * 180 / 3.14159265358979323846); };
+    HostSocket host(1000);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
+    for (std::uint32_t frame = 1; frame <= kFrames && std::chrono::steady_clock::now() < deadline;) {
+        // Every IG that has not answered this frame gets it (again: one still starting may have
+        // missed it); answers are told apart by the port they come from.
+        for (Ig& ig : igs) {
+            if (ig.answers.count(frame)) continue;
+            DatagramWriter w(ByteOrder::BigEndian);
+            IgControl igc;
+            igc.hostFrameNumber = frame;
+            w.add(igc);
+            ViewDefinition v;
+            v.viewId = std::uint16_t(ig.channel);
+            v.leftEnable = v.rightEnable = v.bottomEnable = v.topEnable = true;
+            v.left = degrees(ig.left), v.right = degrees(ig.right), v.bottom = degrees(-0.25f), v.top = degrees(0.25f);
+            w.add(v);
+            w.add(weather(frame >= 2 ? 70.0f : 30.0f));
+            host.send(w.bytes(), ig.port);
+        }
+        for (std::size_t waiting = 1; waiting > 0 && std::chrono::steady_clock::now() < deadline;) {
+            sockaddr_in from{};
+            socklen_t len = sizeof from;
+            std::vector<std::uint8_t> b(65536);
+            const ssize_t n = ::recvfrom(host.fd, b.data(), b.size(), 0, reinterpret_cast<sockaddr*>(&from), &len);
+            if (n <= 0) break;  // a second without an answer: send again
+            b.resize(std::size_t(n));
+            if (const auto d = parseIgDatagram(b))
+                for (Ig& ig : igs)
+                    if (ig.port == ntohs(from.sin_port)) ig.answers[d->startOfFrame.lastHostFrameNumber] = d->startOfFrame;
+            waiting = 0;
+            for (const Ig& ig : igs) waiting += ig.answers.count(frame) ? 0 : 1;
+        }
+        bool all = true;
+        for (const Ig& ig : igs) all = all && ig.answers.count(frame);
+        if (all) ++frame;
+    }
+    for (Ig& ig : igs) {
+        const nephele::test::BoundedRun run = ig.run.get();
+        EXPECT_EQ(run.code, 0) << run.output;
+    }
+    // (c) Each IG's Start of Frame counter advances by one per host frame, naming that frame.
+    std::vector<std::uint32_t> all(kFrames);
+    for (int f = 0; f < kFrames; ++f) all[f] = std::uint32_t(f + 1);
+    for (const Ig& ig : igs) {
+        ASSERT_EQ(ig.answers.size(), std::size_t(kFrames)) << "IG on port " << ig.port;
+        for (const auto& [host, sof] : ig.answers) {
+            EXPECT_EQ(sof.igFrameNumber, host) << "IG on port " << ig.port;
+            EXPECT_EQ(sof.igMode, IgMode::Operate);
+        }
+        // (b) Every IG drew the same host frames: all of them, once each.
+        EXPECT_EQ(recordedFrames(ig.record), all) << ig.record;
+    }
+    if (HasFailure()) return;
+    // (a) The channels side by side are the wide view, frame by frame through the ramp. Each IG
+    // draws the same instant (host frame / 60 s) and weather, and the layered sky's lighting is
+    // waited for, so what differs is at the image borders alone: the half-resolution layers'
+    // upsampling clamps at a channel's edge where the wide view has the neighbour's pixels.
+    // HostApiGLTest.StitchedChannelsAreTheWideView measures that in one process well below the
+    // issue's bound, 1/255 mean in display values over the 16 px band centred on each seam.
+    std::map<std::uint32_t, nephele::Image> middle;
+    for (std::uint32_t f = 1; f <= kFrames; ++f) {
+        const nephele::Image wide = displayedRgb(recordedFrame(igs[3].record, f));
+        for (int seam : {kSize, 2 * kSize}) {
+            nephele::Image stitched(16, kSize, 3);
+            const nephele::Image left = displayedRgb(recordedFrame(igs[seam / kSize - 1].record, f));
+            const nephele::Image right = displayedRgb(recordedFrame(igs[seam / kSize].record, f));
+            for (int y = 0; y < kSize; ++y)
+                for (int x = 0; x < 16; ++x)
+                    for (int k = 0; k < 3; ++k)
+                        stitched.at(x, y, k) = x < 8 ? left.at(kSize - 8 + x, y, k) : right.at(x - 8, y, k);
+            const double d = nephele::compareImages(stitched, columns(wide, seam - 8, 16), 1.0).meanAbs;
+            std::printf("[ figure ] frame %u, seam at %d px: %.3f/255 mean\n", f, seam, d * 255);
+            EXPECT_LE(d, 1.0 / 255) << "frame " << f << ", seam at " << seam;
+        }
+        middle[f] = displayedRgb(recordedFrame(igs[1].record, f));
+    }
+    // The ramp: frame 2 shows the weather before (s = 0 in the frame of the change), where
+    // --transition 0 would show the weather after; frame 5 shows the weather after; frames 3 and
+    // 4 lie strictly between, each closer to the end it is nearer.
+    auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
+    const double change = distance(middle[2], middle[5]);
+    std::printf("[ figure ] the change: %.2f/255 mean; frame 3: %.2f/255 from before, %.2f/255 from after; frame 4: "
+                "%.2f/255, %.2f/255\n",
+                change * 255, distance(middle[3], middle[2]) * 255, distance(middle[3], middle[5]) * 255,
+                distance(middle[4], middle[2]) * 255, distance(middle[4], middle[5]) * 255);
+    EXPECT_GT(change, 5.0 / 255) << "coverage 30 % -> 70 % should change the view";
+    EXPECT_LE(distance(middle[1], middle[2]), 0.1 / 255) << "frame 2 is the ramp's start: the weather before";
+    for (std::uint32_t f : {3u, 4u}) {
+        EXPECT_GT(distance(middle[f], middle[2]), 0.1 * change) << "frame " << f;
+        EXPECT_GT(distance(middle[f], middle[5]), 0.1 * change) << "frame " << f;
+        EXPECT_LT(distance(middle[f], middle[2]), change) << "frame " << f;
+        EXPECT_LT(distance(middle[f], middle[5]), change) << "frame " << f;
+    }
+    EXPECT_LT(distance(middle[3], middle[2]), distance(middle[4], middle[2]));
+}
+
+// The ownship's Entity Control is the eye, another active entity is drawn as a box, and Celestial
+// Sphere Control's date and time light the frame: one IG, five host frames.
+//   1: no entity: the scene camera;  2: entity 0 where the scene camera is, looking where it looks;
+//   3: entity 0 pitched 30 degrees down;  4: as 2, with entity 5 (active) 30 m ahead of the eye;
+//   5: as 4, at midnight of 21 June UTC at the --origin (the sun 19 degrees down: night).
+TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
+    const std::string dir = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-entities";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string scene = writeStaticScene(dir), record = dir + "/frames";
+    const nephele::EnuFrame enu(nephele::Geodetic{47.5, 8.5, 400});
+    const int port = freePort();
+    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " + std::to_string(port) +
+                             " --headless --frames 5 --timeout 30 --origin 47.5,8.5,400 --record " + record;
+    auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
+    auto entity = [&](std::uint16_t id, const nephele::Vec3& at, float yaw, float pitch) {
+        const nephele::Geodetic g = enu.enuToGeodetic(at);
+        EntityControl e;
+        e.entityId = id;
+        e.entityState = 1;
+        e.latitude = g.latitudeDeg, e.longitude = g.longitudeDeg, e.altitude = g.heightM;
+        e.yaw = yaw, e.pitch = pitch;
+        return e;
+    };
+    const float pitch = float(std::atan(0.35) * 180 / 3.14159265358979323846);  // the scene camera's
+    const nephele::Vec3 eye(0, 0, 800), ahead = eye + 30.0 * glm::normalize(nephele::Vec3(0, 1, 0.35));
+    const std::size_t answered = driveIg(port, {1, 2, 3, 4, 5}, [&](std::uint32_t frame, DatagramWriter& w) {
+        if (frame >= 2) w.add(entity(0, eye, 0, frame == 3 ? -30.0f : pitch));
+        if (frame >= 4) w.add(entity(5, ahead, 90, 0));
+        if (frame == 5) {
+            CelestialSphereControl c;
+            c.date = 6212026, c.hour = 23, c.minute = 26;  // 00:00 local solar time at 8.5 E
+            c.sunEnable = c.dateTimeValid = true;
+            w.add(c);
+        }
+    }).size();
+    const nephele::test::BoundedRun run = ig.get();
+    EXPECT_EQ(run.code, 0) << run.output;
+    ASSERT_EQ(answered, 5u) << run.output;
+    std::map<int, nephele::Image> f;
+    for (std::uint32_t k = 1; k <= 5; ++k) f[int(k)] = displayedRgb(recordedFrame(record, k));
+    auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
+    std::printf("[ figure ] entity eye vs scene camera %.3f/255; pitched down %.1f/255; mean brightness day %.3f, night %.4f\n",
+                distance(f[1], f[2]) * 255, distance(f[1], f[3]) * 255, meanOf(f[4]), meanOf(f[5]));
+    // The eye placed and aimed by the host where the scene's camera is: the same frame (the
+    // pitch a float of the packet, 1e-6 degree: far below a pixel).
+    EXPECT_LE(distance(f[1], f[2]), 0.5 / 255);
+    EXPECT_GT(distance(f[1], f[3]), 10.0 / 255) << "pitched 30 degrees down, the view should change";
+    // The other entity is drawn ahead: the centre changes, the corners do not.
+    auto pixelDistance = [&](int x, int y) {
+        double d = 0;
+        for (int k = 0; k < 3; ++k) d += std::abs(f[4].at(x, y, k) - f[2].at(x, y, k)) / 3;
+        return d;
+    };
+    EXPECT_GT(pixelDistance(24, 24), 0.05) << "entity 5 should cover the centre";
+    EXPECT_LE(pixelDistance(2, 2) + pixelDistance(45, 45), 1.0 / 255);
+    // Midnight: the sun 19 degrees down, so neither the sun nor the sky lights anything
+    // (astronomical night below -18): black, where the day's sun alone on the clouds would leave
+    // far more than a hundredth of the day's brightness.
+    EXPECT_LT(meanOf(f[5]), 0.01 * meanOf(f[4]));
+    EXPECT_NE(run.output.find("5 frames drawn"), std::string::npos) << run.output;
+}
+
+// A host whose frame numbers run back (it restarted) makes the IG start its sky again. The
+// layers keep the ids the host gave them: layer 1 off and layer 3 on draw after the rewind what
+// they drew before it, with no ramp (--transition 0.05 s, 3 frames) from a layer numbered by its
+// place in the list (3 would be 1 there) to the same layer under its own id.
+TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
+    const std::string dir = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-rewind";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string scene = writeStaticScene(dir), record = dir + "/frames";
+    // Frames 11-15: the change from the scene's layer 1 to layer 3 ramps in and is done by 14;
+    // then 1-3, the rewind, 2 and 3 being a third and two thirds of the way of a 3-frame ramp had
+    // one started at 1.
+    const std::vector<std::uint32_t> frames{11, 12, 13, 14, 15, 1, 2, 3};
+    const int port = freePort();
+    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " + std::to_string(port) +
+                             " --headless --frames " + std::to_string(frames.size()) + " --timeout 30 --transition 0.05 --record " +
+                             record;
+    auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
+    auto layer = [](std::uint8_t id, bool on) {
+        WeatherControl w;
+        w.layerId = id;
+        w.weatherEnable = on;
+        w.cloudType = 11;  // Other1: the layer's density as it is
+        w.coverage = 50;
+        w.baseElevation = 1500;
+        w.thickness = 400;
+        return w;
+    };
+    const std::size_t answered = driveIg(port, frames, [&](std::uint32_t, DatagramWriter& w) {
+        w.add(layer(1, false));
+        w.add(layer(3, true));
+    }).size();
+    const nephele::test::BoundedRun run = ig.get();
+    EXPECT_EQ(run.code, 0) << run.output;
+    ASSERT_EQ(answered, frames.size()) << run.output;
+    const nephele::Image steady = displayedRgb(recordedFrame(record, 15));
+    const nephele::Image ramped = displayedRgb(recordedFrame(record, 12));  // one frame into the first ramp
+    EXPECT_GT(nephele::compareImages(ramped, steady, 1.0).meanAbs, 1.0 / 255) << "the weather change should show";
+    for (std::uint32_t f = 1; f <= 3; ++f) {
+        const double d = nephele::compareImages(displayedRgb(recordedFrame(record, f)), steady, 1.0).meanAbs;
+        std::printf("[ figure ] frame %u after the rewind: %.4f/255 mean from the steady frame\n", f, d * 255);
+        // The same weather at another instant of a static scene: the same frame, to float noise.
+        EXPECT_LE(d, 0.1 / 255) << "frame " << f << " after the rewind";
+    }
 }

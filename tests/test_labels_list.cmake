@@ -18,6 +18,9 @@ set(NEPHELE_SANITIZE_TESTS CloudQueryGLTest.QueriesAreSafeWhileUpdateRuns CloudQ
 set(NEPHELE_SLOW_TESTS
   BigSceneGLTest.RaymarchTilesLoseNoCloud
   CigiIgTest.AerosolAnswersAreTheCloudWaterAtThePoint
+  CigiIgTest.ARewindKeepsTheHostsLayerIds
+  CigiIgTest.EntitiesAndTheSunComeFromTheHost
+  CigiIgTest.ThreeChannelsAreOneWideViewThroughATransition
   CliTest.AccuracyBenchWritesCsvChartsAndReadmeSection
   CliTest.BadArgumentsExit2AndWriteNothing
   CliTest.ChannelFlagsFrameTheCameraAndAreValidated

@@ -3,6 +3,7 @@
 #include "output_files.hpp"
 
 #include "nephele/cigi.hpp"
+#include "nephele/cigi_scene.hpp"
 #include "nephele/geodetic.hpp"
 #include "nephele/gl.hpp"
 #include "nephele/host_view.hpp"
@@ -93,7 +94,15 @@ struct IgState {
     ChannelOptions view;  // the frustum and yaw/pitch offsets drawn
     double yaw = 0, pitch = 0;
     cigi::AtmosphereControl atmosphere;
-    std::optional<EnuFrame> frame;  // the scene's frame (--origin): a request's latitude, longitude, altitude
+    std::optional<EnuFrame> frame;  // the scene's frame (--origin): the host's latitudes, longitudes, altitudes
+    cigi::CelestialLight day;       // the light with the sun on: the scene's, then the last date and time's
+    std::uint16_t eyeEntity = 0;    // the entity the channel's view rides on (View Control's Entity ID)
+    struct Entity {
+        cigi::EntityPose pose;
+        bool active = false;  // Entity State 1: drawn (0 standby and 2 destroyed are not)
+    };
+    std::map<std::uint16_t, Entity> entities;  // the last pose of each entity the host placed
+    std::vector<Object> sceneObjects;          // the starting scene's own objects
     std::set<std::string> said;     // messages given once
 
     void once(const std::string& message) {
@@ -132,8 +141,60 @@ struct IgState {
         setView();
     }
 
+    // Celestial Sphere Control: the date and time's sun and sky at --origin's latitude and
+    // longitude (Date/Time Valid), the sun's light off when Sun Enable is clear.
+    void apply(const cigi::CelestialSphereControl& p) {
+        try {
+            const cigi::CelestialLight light =
+                cigi::applyCelestial(p, frame->origin().latitudeDeg, frame->origin().longitudeDeg, day);
+            weather.sun = light.sun;
+            weather.sky = light.sky;
+        } catch (const std::invalid_argument& e) {
+            once(std::string(e.what()) + " (packet ignored)");
+        }
+        if (p.ephemerisModelEnable)
+            once("Celestial Sphere Control: the sun moves with the host's date and time only (no ephemeris clock of the IG's own)");
+        if (p.moonEnable || p.starFieldEnable) once("Celestial Sphere Control: the moon and the stars are not drawn");
+    }
+
+    // Entity Control: each entity's pose; the one the view rides on is the eye.
+    void apply(const cigi::EntityControl& p) {
+        if (p.attached) {
+            once("Entity Control: entities attached to a parent are not placed (entity " + std::to_string(p.entityId) + ")");
+            return;
+        }
+        try {
+            entities[p.entityId] = {cigi::entityPose(p, *frame), p.entityState == 1};
+        } catch (const std::invalid_argument& e) {
+            once(std::string(e.what()) + " (packet ignored)");
+        }
+    }
+
+    // The eye: the pose of the entity the view rides on once the host has placed it, else the
+    // scene camera's (its `path` at the frame's time).
+    Camera eye(double t) const {
+        Camera camera = cameraAt(scene, t);
+        camera.width = scene.camera.width;
+        camera.height = scene.camera.height;
+        if (const auto e = entities.find(eyeEntity); e != entities.end()) {
+            camera.position = e->second.pose.position;
+            camera.direction = e->second.pose.forward;
+            camera.up = e->second.pose.up;
+        }
+        return camera;
+    }
+
+    // The objects drawn: the scene's, and a box for every active entity but the eye.
+    std::vector<Object> objects() const {
+        std::vector<Object> all = sceneObjects;
+        for (const auto& [id, e] : entities)
+            if (e.active && id != eyeEntity) all.push_back(cigi::entityBox(e.pose));
+        return all;
+    }
+
     void apply(const cigi::ViewControl& p) {
         if (p.viewId != channel) return;
+        eyeEntity = p.entityId;
         if (p.yawEnable) yaw = p.yaw;
         if (p.pitchEnable) pitch = p.pitch;
         if (p.rollEnable || p.xOffsetEnable || p.yOffsetEnable || p.zOffsetEnable)
@@ -254,6 +315,8 @@ int runIg(const IgOptions& o) {
         s.weather = Weather::of(s.scene);
         s.weather.transitionSeconds = o.transition;
         s.frame.emplace(parseOrigin(o.origin));
+        s.day = {s.scene.sun, s.scene.sky};
+        s.sceneObjects = s.scene.objects;
         s.channel = o.channel;
         const Camera& cam = s.scene.camera;
         const Frustum f = symmetricFrustum(cam.fovYDeg, double(cam.width) / cam.height);
@@ -310,10 +373,8 @@ int runIg(const IgOptions& o) {
                 else if (auto* c = std::get_if<cigi::ViewControl>(&p)) s.apply(*c);
                 else if (auto* a = std::get_if<cigi::AtmosphereControl>(&p)) s.atmosphere = *a;
                 else if (auto* r = std::get_if<cigi::EnvironmentalConditionsRequest>(&p)) requests.push_back(r);
-                else if (std::holds_alternative<cigi::CelestialSphereControl>(p))
-                    s.once("Celestial Sphere Control: the sun is the scene's (date and time are not applied yet)");
-                else if (std::holds_alternative<cigi::EntityControl>(p))
-                    s.once("Entity Control: entities are not drawn and the eye is the scene camera's (not applied yet)");
+                else if (auto* cs = std::get_if<cigi::CelestialSphereControl>(&p)) s.apply(*cs);
+                else if (auto* e = std::get_if<cigi::EntityControl>(&p)) s.apply(*e);
             }
             const bool operate = igc.igMode == cigi::IgMode::Operate || igc.igMode == cigi::IgMode::Debug;
             if (operate) {
@@ -324,13 +385,20 @@ int runIg(const IgOptions& o) {
                 s.scene.sky = s.weather.sky;
                 s.scene.layers = s.weather.enabledLayers();
                 context->makeCurrent();
-                Camera camera = cameraAt(s.scene, t);
-                camera.width = s.scene.camera.width;
-                camera.height = s.scene.camera.height;
+                s.scene.objects = s.objects();
+                const Camera camera = s.eye(t);
                 const View view = channelView(camera, s.view);
                 // The host's clock drives the sky's; one that runs back (a host restarting its
-                // frame numbers) starts the sky again (prepare() sets its time to 0).
-                if (t < sky->time() - 1e-6) sky->prepare(s.scene);
+                // frame numbers) starts the sky again (prepare() sets its time to 0). prepare()
+                // numbers the scene's layers 1, 2, 3, 10, ... as Weather::of does, not by the ids
+                // the host gave them: an update at once to the host's weather gives each layer its
+                // id back before the frame's update, which would otherwise ramp from one to the other.
+                if (t < sky->time() - 1e-6) {
+                    sky->prepare(s.scene);
+                    Weather atOnce = s.weather;
+                    atOnce.transitionSeconds = 0;
+                    sky->update(0, atOnce, camera.position);
+                }
                 sky->update(std::max(0.0, t - sky->time()), s.weather, camera.position);
                 // Every channel must draw the same light for one host frame, and each IG process
                 // makes its own: what a weather change queued is waited for here, so a change that
