@@ -965,6 +965,50 @@ TEST(CigiIgTest, AerosolAnswersAreTheCloudWaterAtThePoint) {
     EXPECT_EQ(water[2], 0.0);
 }
 
+// `nephele ig --window` (GLFW, under the suite's Xvfb) draws each host frame into its window:
+// two frames answered, and what the window shows (read back with --record) is the recorded
+// linear frame clamped and sRGB-encoded, pixel for pixel. --headless with --window, or neither,
+// is refused.
+TEST(CigiIgTest, AWindowShowsEachFrame) {
+    const int port = freePort();
+    const std::string record = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-window";
+    std::filesystem::remove_all(record);
+    const std::string scene = std::string(NEPHELE_SCENES) + "/layer_flight.json";
+    const std::string args = "ig " + scene + " --width 48 --height 27 --port " + std::to_string(port) +
+                             " --window --frames 2 --timeout 30 --record " + record;
+    auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
+    const std::vector<IgDatagram> frames = driveIg(port, {1, 2}, [](std::uint32_t, DatagramWriter&) {});
+    const nephele::test::BoundedRun run = ig.get();
+    ASSERT_EQ(run.code, 0) << run.output;
+    EXPECT_EQ(frames.size(), 2u);
+    for (const char* f : {"/host-frame-0000000001.pfm", "/host-frame-0000000002.pfm"}) {
+        const std::string shown = record + "/window-frame-" + std::string(f).substr(12);
+        ASSERT_TRUE(std::filesystem::exists(record + f) && std::filesystem::exists(shown)) << f << "\n" << run.output;
+        const nephele::Image linear = nephele::readPfm(record + f), window = nephele::readPfm(shown);
+        ASSERT_EQ(window.width, linear.width);
+        ASSERT_EQ(window.height, linear.height);
+        double worst = 0, sum = 0, sky = 0;
+        for (int y = 0; y < linear.height; ++y)
+            for (int x = 0; x < linear.width; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const float v = std::clamp(linear.at(x, y, c), 0.0f, 1.0f);
+                    const float srgb = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1 / 2.4f) - 0.055f;
+                    const double d = std::abs(window.at(x, y, c) - srgb) * 255;
+                    worst = std::max(worst, d), sum += d, sky += window.at(x, y, c);
+                }
+        // 8-bit rounding of the window (0.5) plus the float encode of the shader against this
+        // one's: 1 step; an unshown frame (black) or a flipped one is far beyond it.
+        EXPECT_LE(worst, 1.0) << f;
+        EXPECT_GT(sky / (3.0 * linear.width * linear.height), 0.1) << f << ": the window is dark";
+    }
+    for (const char* both : {" --window --headless", ""}) {
+        const nephele::test::BoundedRun bad = nephele::test::runBounded(
+            "ig " + scene + " --port " + std::to_string(freePort()) + both, 4096, 60);
+        EXPECT_EQ(bad.code, 2) << both << "\n" << bad.output;
+        EXPECT_NE(bad.output.find("exactly one of --headless and --window"), std::string::npos) << bad.output;
+    }
+}
+
 TEST(CigiIgTest, ABadOriginIsRefusedBeforeAnyWork) {
     for (const char* origin : {"91,0,0", "47.5,8.5", "47.5,nan,0", "1,2,3x", "0,0,200000"}) {
         const nephele::test::BoundedRun run = nephele::test::runBounded(

@@ -8,9 +8,11 @@
 #include "nephele/gl.hpp"
 #include "nephele/host_view.hpp"
 #include "nephele/log.hpp"
+#include "nephele/shader.hpp"
 #include "nephele/weather.hpp"
 
 #include <CLI/CLI.hpp>
+#include <GLFW/glfw3.h>
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -264,8 +266,11 @@ void addIgOptions(CLI::App* cmd, IgOptions& o) {
     cmd->add_option("--address", o.address, "IPv4 address to bind (0.0.0.0: every interface, for a host on another PC)")
         ->capture_default_str();
     cmd->add_option("--channel", o.channel, "The CIGI View ID this process draws")->check(CLI::Range(0, 65535))->capture_default_str();
-    cmd->add_flag("--headless", o.headless, "Render off-screen (EGL); required: --window is not done yet");
-    cmd->add_option("--record", o.record, "Folder (created if absent) for one PFM per frame, host-frame-NUMBER.pfm");
+    cmd->add_flag("--headless", o.headless, "Render off-screen (EGL, or --gl osmesa)");
+    cmd->add_flag("--window", o.window, "Render and show each frame in a window (GLFW: needs a display)");
+    cmd->add_option("--record", o.record,
+                    "Folder (created if absent) for one PFM per frame, host-frame-NUMBER.pfm (linear); with --window "
+                    "also window-frame-NUMBER.pfm, what the window shows (sRGB / 255)");
     cmd->add_option("--frames", o.frames, "Stop after this many frames (0: no limit)")->check(CLI::Range(0LL, 1000000000LL));
     cmd->add_option("--timeout", o.timeout, "Stop after this many seconds without a datagram")
         ->check(CLI::Range(0.01, 86400.0))
@@ -295,6 +300,47 @@ Geodetic parseOrigin(const std::string& text) {
 }
 }  // namespace
 
+namespace {
+// --window: each frame, the linear float frame onto the window as `nephele fly` shows it
+// (clamped, sRGB-encoded: shaders/fly_present.frag), scaled to the window's framebuffer.
+struct Screen {
+    Program present = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "fly_present.frag"}});
+    gl::VertexArray empty = gl::VertexArray::create();
+    gl::Sampler linear = gl::linearSampler(GL_CLAMP_TO_EDGE);
+    // Shows `frame`; with `shown`, also reads back what the window shows (sRGB values / 255,
+    // row 0 at the top) for --record.
+    void show(const Context& context, const FrameTarget& frame, Image* shown) {
+        int w = 0, h = 0;
+        glfwGetFramebufferSize(context.window(), &w, &h);
+        gl::glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        gl::glViewport(0, 0, w, h);
+        gl::glDisable(GL_BLEND);
+        gl::glDisable(GL_DEPTH_TEST);
+        gl::glUseProgram(present.id());
+        present.set("frame", 0);
+        gl::glBindTextureUnit(0, frame.colorTexture());
+        gl::glBindSampler(0, linear.id());
+        gl::glBindVertexArray(empty.id());
+        gl::glDrawArrays(GL_TRIANGLES, 0, 3);
+        gl::check("showing the frame in the window");
+        if (shown) {
+            std::vector<std::uint8_t> rgba(std::size_t(w) * h * 4);
+            gl::glReadBuffer(GL_BACK);
+            gl::glPixelStorei(GL_PACK_ALIGNMENT, 1);
+            gl::glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+            *shown = Image(w, h, 3);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int c = 0; c < 3; ++c)
+                        shown->at(x, y, c) = rgba[(std::size_t(h - 1 - y) * w + x) * 4 + c] / 255.0f;
+            gl::check("reading the window back for --record");
+        }
+        glfwSwapBuffers(context.window());
+        glfwPollEvents();
+    }
+};
+}  // namespace
+
 int runIg(const IgOptions& o) {
     IgState s;
     std::unique_ptr<Context> context;
@@ -302,8 +348,9 @@ int runIg(const IgOptions& o) {
     std::unique_ptr<OpaquePass> opaque;
     std::unique_ptr<SkyRenderer> sky;
     std::unique_ptr<UdpSocket> socket;
+    std::optional<Screen> screen;  // --window
     try {
-        if (!o.headless) throw UsageError("nephele ig draws off-screen only for now: pass --headless");
+        if (o.headless == o.window) throw UsageError("nephele ig: give exactly one of --headless and --window");
         if (o.render.method != Method::Auto) throw UsageError("nephele ig draws with --method auto only");
         if (!o.record.empty()) {
             std::filesystem::create_directories(o.record);
@@ -324,8 +371,11 @@ int runIg(const IgOptions& o) {
         s.bottom = degrees(std::atan(f.bottom)), s.top = degrees(std::atan(f.top));
         socket = std::make_unique<UdpSocket>(o.address, o.port, o.timeout);
         ContextOptions co;
-        co.backend = o.render.backend;
+        co.backend = o.window ? GlBackend::Glfw : o.render.backend;
+        co.width = cam.width, co.height = cam.height;
+        co.title = "nephele ig: channel " + std::to_string(o.channel);
         context = Context::create(co);
+        if (o.window) screen.emplace();
         gl::setChecks(true);
         opaque = std::make_unique<OpaquePass>();
         sky = std::make_unique<SkyRenderer>(SkySettings{o.render.layered, o.render.nearLod, o.render.ellipsoid});
@@ -406,6 +456,8 @@ int runIg(const IgOptions& o) {
                 sky->waitForBackgroundWork();
                 opaque->draw(s.scene, view, target->framebuffer());
                 sky->draw(viewDescOf(view, target->framebuffer(), !s.scene.objects.empty()));
+                Image shown;
+                if (screen) screen->show(*context, *target, o.record.empty() ? nullptr : &shown);
                 if (!o.record.empty()) {
                     char name[64];
                     std::snprintf(name, sizeof name, "host-frame-%010u.pfm", igc.hostFrameNumber);
@@ -413,10 +465,21 @@ int runIg(const IgOptions& o) {
                     OutputFiles files;
                     files.add((std::filesystem::path(o.record) / name).string(), [&](const std::string& p) { writePfm(p, color); },
                               "--record");
+                    if (screen) {
+                        std::snprintf(name, sizeof name, "window-frame-%010u.pfm", igc.hostFrameNumber);
+                        files.add((std::filesystem::path(o.record) / name).string(),
+                                  [&](const std::string& p) { writePfm(p, shown); }, "--record");
+                    }
                     files.checkPaths();
                     files.commit();
-                } else {
+                } else if (!screen) {
                     gl::glFinish();
+                }
+                if (screen) {
+                    if (glfwWindowShouldClose(context->window())) {
+                        std::cerr << "nephele: ig: the window was closed after " << rendered + 1 << " frames\n";
+                        return 0;
+                    }
                 }
                 ++rendered;
             }

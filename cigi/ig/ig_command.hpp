@@ -22,6 +22,7 @@ struct IgOptions {
     int port = 0;
     int channel = 0;       // the View ID this process draws
     bool headless = false;
+    bool window = false;   // draw into a window too (GLFW), exactly one of the two
     std::string record;    // a folder: one PFM per rendered frame, named by host frame number
     long long frames = 0;  // stop after this many frames (0: no limit)
     double timeout = 10;   // seconds without a datagram: stop
@@ -32,7 +33,7 @@ struct IgOptions {
     double transition = 0;
 };
 
-// Adds --address, --port, --channel, --headless, --record, --frames, --timeout, --origin,
+// Adds --address, --port, --channel, --headless, --window, --record, --frames, --timeout, --origin,
 // --transition to `cmd`.
 void addIgOptions(CLI::App* cmd, IgOptions& o);
 
