@@ -354,3 +354,67 @@ TEST_F(CloudLodGLTest, TheReducedCompositeKeepsToTheFramesDepth) {
     EXPECT_LE(worstEdge * 255, 8.0);
     EXPECT_GE(db(a, b), 60);
 }
+
+namespace {
+
+// Two images as a display shows them (8-bit sRGB): the PSNR (peak 255) and how many steps the
+// first is darker than the second at its darkest pixel (a channel's sum over r, g, b).
+struct Steps {
+    double psnr = 0;
+    int darker = 0;
+};
+Steps stepsOf(const Image& a, const Image& b) {
+    Steps s;
+    double se = 0;
+    const std::size_t n = a.pixels.size() / std::size_t(a.channels);
+    for (std::size_t p = 0; p < n; ++p) {
+        int down = 0;
+        for (int c = 0; c < 3; ++c) {
+            const std::size_t i = p * std::size_t(a.channels) + std::size_t(c);
+            const int d = int(std::lround(255 * linearToSrgb(a.pixels[i]))) - int(std::lround(255 * linearToSrgb(b.pixels[i])));
+            se += double(d) * d;
+            down += std::max(-d, 0);
+        }
+        s.darker = std::max(s.darker, down);
+    }
+    const double mse = se / double(3 * n);
+    s.psnr = mse <= 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 / mse);
+    return s;
+}
+
+}  // namespace
+
+// The cloud LOD's bound (docs/compositor.md, "One impostor per far cloud"): with reuse and the
+// cloud LOD on, as the defaults draw, every frame close (8-bit sRGB, as the cruise bench
+// measures) to the same frame with every tile fresh and the LOD off. The flight closes in on the
+// middle of three clouds from 8 radii (all impostors, about 25 px: their parallax stays under
+// the threshold as they grow) through the switch to its tiles to inside it, at 160x90, 11
+// frames, 250 m a frame. Measured on llvmpipe: worst 58.3 dB, at most 25 steps darker (a pixel's
+// sum over r, g, b; where tiles reused by themselves are magnified). Impostors kept while
+// magnified on screen (issue 37's dark discs): 46.6 dB and 44 steps, the rims of the clouds
+// smeared. The issue's bound is 45 dB at 1280x720; here a cloud's rims are a larger share of
+// the frame, so 52 dB and 36 steps: 6 dB and 11 steps from now, failing on the magnified
+// impostors by 5 dB and 8 steps.
+TEST_F(CloudLodGLTest, DefaultsStayWithinTheBoundOfFreshTilesWithoutTheLod) {
+    Scene scene = threeClouds();
+    scene.camera.width = 160, scene.camera.height = 90;
+    EllipsoidSettings fresh = lod(false);
+    fresh.reuse = false;
+    Flight on(lod(), scene), off(fresh, scene);
+    double worst = 1e9;
+    int darkest = 0, impostors = 0, cheaper = 0;
+    for (int k = 0; k <= 10; ++k) {
+        Camera c = scene.camera;
+        c.position += Vec3(0, 250.0 * k, 0);  // 2500 m from the middle cloud's centre to inside it
+        const Image a = on.frame(scene, c), b = off.frame(scene, c);
+        const Steps s = stepsOf(a, b);
+        if (s.psnr < 52 || s.darker > 36) save("lod_bound_on", a), save("lod_bound_fresh", b);
+        EXPECT_GE(s.psnr, 52) << "frame " << k;
+        worst = std::min(worst, s.psnr), darkest = std::max(darkest, s.darker);
+        impostors += on.last.impostors;
+        cheaper += on.last.tilePixelsRendered < off.last.tilePixelsRendered ? 1 : 0;
+    }
+    EXPECT_LE(darkest, 36) << "worst " << worst << " dB";
+    EXPECT_GT(impostors, 0);          // the far LOD was drawn
+    EXPECT_GT(cheaper, 0);  // and tiles were kept or held smaller than fresh
+}

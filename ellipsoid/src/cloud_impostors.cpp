@@ -21,6 +21,9 @@ using namespace reuse;  // as for tiles: phase, weight, must and light threshold
 // a cloud at the boundary does not switch every frame).
 constexpr double kKeepDistance = 0.9;
 constexpr int kMinImpostor = 8;  // px
+// The share an impostor may be magnified on screen before it is stale (made again within the
+// budget); six times that (kMustError) and it is made again whatever the budget.
+constexpr double kImpostorMagnification = 0.05;
 
 Vec3 quantised(const Vec3& v) { return glm::round(v * 1000.0); }  // mm: the wind moves all alike
 
@@ -131,6 +134,12 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
             k.error = px / s.errorPixels;
             if (L->light == lightKey) k.error = std::max(k.error, std::abs(phase / L->phase - 1) / kPhaseChange);
             k.error = std::max(k.error, std::abs(weight / std::max(L->weight, 1e-9) - 1) / kSigmaChange);
+            // Magnified: its image holds a texel per pixel of the view it was made from, and
+            // reprojected larger it is a blur of the cloud (its rims against the ground and the
+            // sky smeared: dark discs). The parallax above does not see it: a cloud the eye
+            // closes in on grows without moving across the view.
+            const double grown = std::max((rect.z - rect.x) * pxX / L->w, (rect.w - rect.y) * pxY / L->h);
+            k.error = std::max(k.error, (grown - 1) / kImpostorMagnification);
             if (k.error >= kMustError) k.must = true;
             if (L->light != lightKey) k.error = std::max(k.error, kLightChanged + r);
         }
