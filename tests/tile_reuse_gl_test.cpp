@@ -148,9 +148,9 @@ TEST_F(TileReuseGLTest, ASunChangeRendersEveryTileAgainWithinTheBudget) {
 }
 
 // Tiles with no image (a cloud new in view) are rendered whatever the budget, and they spend
-// it: in a frame where they alone fill it, of the tiles a new sun made stale only the worst is
-// rendered, the rest wait for the next frames. So a frame never adds a budget's worth of stale
-// tiles on top of the new ones, and the frames stay even.
+// it: in a frame where they alone fill it, the tiles a new sun made stale get half of it (and
+// the worst one always), the rest wait for the next frames. So a frame never adds a whole
+// budget's worth of stale tiles on top of the new ones, and the frames stay more even.
 TEST_F(TileReuseGLTest, NewTilesSpendTheBudgetBeforeStaleOnes) {
     Scene scene = nearCumulus();
     Cloud second = scene.clouds[0];
@@ -173,7 +173,13 @@ TEST_F(TileReuseGLTest, NewTilesSpendTheBudgetBeforeStaleOnes) {
     f.frame(both, both.camera);
     ASSERT_GT(f.last.tilesMust, 5);
     ASSERT_GT(f.last.visible - f.last.tilesMust, 5);  // the first cloud's tiles, all stale
-    EXPECT_EQ(f.last.tilesRendered, f.last.tilesMust + 1) << "must " << f.last.tilesMust;
+    // The new cloud's tiles are the frame's must ones, at the probe's sizes (the same view).
+    const double stalePixels = double(f.last.tilePixelsRendered) - newPixels;
+    const double budget = s.reuseBudget * scene.camera.width * scene.camera.height;
+    std::printf("stale tile pixels %.0f of a budget of %.0f (%d new tiles, %d rendered)\n", stalePixels, budget,
+                f.last.tilesMust, f.last.tilesRendered);
+    EXPECT_GT(f.last.tilesRendered, f.last.tilesMust);  // the worst stale one at least
+    EXPECT_LE(stalePixels, 0.5 * budget + f.last.maxTile * f.last.maxTile);
 }
 
 // The wind moves a cloud and the eye flies with it: nothing changes in the tiles (medium.noise

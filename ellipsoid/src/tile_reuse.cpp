@@ -164,10 +164,11 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     }
 
     // The frame's re-renders: every tile without a usable image, then the stale ones worst
-    // first within what the budget has left after those (so that a frame with many new tiles
-    // does not also catch up on stale ones: the frames stay even).
-    // The worst stale one is taken even when it alone is over the budget (a tile larger than
-    // the budget would wait for ever); the others while the budget lasts, strictly worst first.
+    // first within what the budget has left after those, but at least half of it (a frame
+    // with many new tiles catches up on fewer stale ones, so the frames stay more even; the
+    // half keeps stale tiles from starving while new ones keep coming, as they do inside a
+    // cloud). The worst stale one is taken even when it alone is over that (a tile larger
+    // than the budget would wait for ever); the others while it lasts, strictly worst first.
     const double budget = s.budget * double(s.frameWidth) * double(s.frameHeight);
     double spent = 0;
     std::vector<int> render;
@@ -177,6 +178,7 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         else if (c.error >= 1) stale.push_back(c.index);
     }
     std::stable_sort(stale.begin(), stale.end(), [&](int a, int b) { return cands[a].error > cands[b].error; });
+    spent = std::min(spent, 0.5 * budget);
     bool first = true;
     for (int i : stale) {
         const double px = double(cands[i].need) * cands[i].need;
