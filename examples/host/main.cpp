@@ -29,6 +29,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -311,7 +312,7 @@ int run(const Options& o) {
         const nephele::Vec3 normal = glm::normalize(eye - aircraft);
         const nephele::SurfaceLight light = sky.lightAt(aircraft, normal);
         const glm::dvec3 sunE = weather.sun.color * weather.sun.intensity * std::max(glm::dot(normal, weather.sun.direction), 0.0);
-        const glm::dvec3 radiance = 0.4 / M_PI * (sunE * sunT + light.diffuse);  // albedo 0.4, Lambertian
+        const glm::dvec3 radiance = 0.4 / std::numbers::pi * (sunE * sunT + light.diffuse);  // albedo 0.4, Lambertian
 
         drawHost(frame, day.sky, cam.nearClip);
         for (nephele::ViewDesc& v : channels) {
