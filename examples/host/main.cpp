@@ -6,7 +6,8 @@
 // a CIGI Weather Control change ramped mid-flight, and the cloud queries and the clouds' light
 // at its own aircraft, flying into a cloud. It writes the last frame to OUT.pfm and exits 1 when
 // something is wrong (the clouds missing, in front of the canopy, the overlay touched, a GL
-// error left, the transition popping, the queries not seeing the cloud), 2 on a bad scene.
+// error left, a warning logged, the transition popping, the queries not seeing the cloud), 2 on a
+// bad scene.
 //
 //   nephele_host SCENE.json OUT.pfm [WIDTH HEIGHT]
 #include "nephele/geodetic.hpp"
