@@ -241,9 +241,6 @@ int run(const Options& o) {
     settings.background.onIdle = [&idle] { idle = true; };
     settings.cellsPerUpdate = nephele::kCellsPerUpdate;
     settings.prepareWaits = false;
-    // Tiles kept across frames (EllipsoidSettings::reuse, on in auto) are drawn over the host's
-    // near geometry once the eye moves (the canopy check fails with it on): off until fixed.
-    settings.ellipsoid.reuse = false;
     nephele::SkyRenderer sky(settings);
     const auto t0 = Clock::now();
     sky.prepare(scene);
