@@ -17,7 +17,7 @@
 flat in int tileIndex;
 flat in vec4 atlasRect;
 in vec2 atlasCoord;
-noperspective in vec2 ndc;
+in vec3 ndcH;                         // the frame's NDC: xy / z (tile_quad.vert)
 uniform sampler2DArray atlasTerms;    // green, blue: the light scalars (sun, sky; encodeLight), alpha: eq. (2)
 #ifdef FUSED
 uniform mat4 colourMatrix;            // red / D -> alpha (what the colour-matrix pass would subtract)
@@ -64,6 +64,7 @@ void main() {
 #if defined(FRACTION) || defined(WEIGHTED)
     // This pixel's ray in the ellipsoid's unit space (as gardner-exact evaluates it).
     Tile t = tiles[tileIndex];
+    vec2 ndc = ndcH.xy / ndcH.z;
     vec3 d = normalize(rayCentre + ndc.x * rightScaled + ndc.y * upScaled);
     float cosF = dot(d, forward);
     vec3 o = t.eyeUnitAc.xyz, du = toUnit(t, d);

@@ -11,7 +11,7 @@ uniform float layer;
 uniform vec4 imageRect;            // texels: x, y, w, h
 uniform float atlasSize;           // texels per side of a layer
 in vec2 texel;
-noperspective in vec2 ndc;
+in vec3 ndcH;                      // the frame's NDC: xy / z
 #ifdef FRACTION
 uniform sampler2D sceneDepth;      // the frame's depth (view_frame.glsl)
 uniform vec3 forward;              // unit view axis
@@ -28,6 +28,7 @@ void main() {
 #ifdef FRACTION
     float z = frameDepthAt(sceneDepth, viewPixel());
     if (isSurface(z)) {
+        vec2 ndc = ndcH.xy / ndcH.z;
         vec3 d = normalize(rayCentre + ndc.x * rightScaled + ndc.y * upScaled);
         float tObj = eyeDepthOf(z) / dot(d, forward);
         float tc = dot(cloudCentre, d);

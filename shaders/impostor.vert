@@ -4,11 +4,11 @@
 uniform mat4 reproject;
 uniform vec4 imageRect;            // texels: x, y of its corner in the atlas layer, w, h
 out vec2 texel;                    // texels in the atlas layer
-noperspective out vec2 ndc;        // the frame's NDC
+out vec3 ndcH;                     // the frame's NDC as x, y, w (xy / w), as tile_quad.vert's
 void main() {
     vec2 corner = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
     vec4 clip = reproject * vec4(corner * 2.0 - 1.0, 0.0, 1.0);
     texel = imageRect.xy + corner * imageRect.zw;
-    ndc = clip.xy / clip.w;
+    ndcH = clip.xyw;
     gl_Position = vec4(clip.xy, 0.0, clip.w);
 }

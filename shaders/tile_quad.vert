@@ -7,7 +7,12 @@ layout(std430, binding = 2) readonly buffer Order { int order[]; };  // composit
 uniform int useOrder;
 flat out int tileIndex;
 out vec2 atlasCoord;               // px in the atlas
-noperspective out vec2 ndc;        // screen NDC (onScreen)
+// Screen NDC (onScreen) as x, y, w, interpolated perspective-correct: the fragment's NDC is
+// xy / w. (A noperspective NDC of a quad whose w varies, a reused tile's, is interpolated anew
+// in screen space at the vertices where the view's edges clip the quad; llvmpipe's is NaN over
+// part of such a quad, and a NaN fraction in front of the host's depth draws the tile whole over
+// near geometry.)
+out vec3 ndcH;
 flat out vec4 atlasRect;           // the tile's x, y, size (px) and layer
 // onScreen: the frame's NDC rectangle the viewport holds (a cloud impostor's pixels while it is
 // made, EllipsoidSettings::cloudLod); the whole view by default.
@@ -26,10 +31,11 @@ void main() {
         // A reused tile: its plane reprojected to this frame (tile_reuse.hpp), the atlas read
         // perspective-correct across it; depth 0 keeps it from the near and far planes.
         vec4 clip = t.reproject * vec4(corner * 2.0 - 1.0, 0.0, 1.0);
-        ndc = clip.xy / clip.w;
+        ndcH = clip.xyw;
         gl_Position = vec4(toTarget(clip.xy, clip.w), 0.0, clip.w);
         return;
     }
-    ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);
+    vec2 ndc = mix(t.screenRect.xy, t.screenRect.zw, corner);
+    ndcH = vec3(ndc, 1.0);
     gl_Position = vec4(onScreen == 1 ? toTarget(ndc, 1.0) : atlasCoord / atlasSize * 2.0 - 1.0, 0.0, 1.0);
 }

@@ -1,7 +1,8 @@
 // The host API of SkyRenderer (prepare, update, draw): it draws what render() draws, display
 // channels stitch into the wide view, every depth convention and viewport place gives the same
 // image, a hostile host state changes nothing and is restored, weather changes are applied
-// without a stall (the last good lighting meanwhile) and without a jump of the wind's drift.
+// without a stall (the last good lighting meanwhile) and without a jump of the wind's drift, and
+// tiles kept across frames stay behind the host's near geometry as the eye moves.
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
 #include "temp_dir.hpp"
@@ -542,4 +543,70 @@ TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
     SkySettings bad = testSettings();
     bad.background.threads = 0;
     EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
+}
+
+// Tiles kept across frames (EllipsoidSettings::reuse) and drawn reprojected after the eye moved
+// stay behind the host's near geometry: a "canopy" 5 m away over the top rows (the host's depth
+// cleared there) shows no cloud, in examples/host's conventions (reversed Z, an infinite far
+// plane, [0, 1] clip depth, a float depth texture without stencil, colour attachment 1, an
+// off-axis channel) and flight (the showcase's cumulus ahead, the eye moving along its view).
+TEST_F(HostApiGLTest, ReusedTilesStayBehindTheHostsNearGeometryAsTheEyeMoves) {
+    constexpr int W = 80, H = 60, kCanopyRows = 8;
+    Scene scene = test::sharedScene("showcase.json", W);
+    scene.layers.clear();
+    scene.objects.clear();
+    Texture color = Texture::create(GL_TEXTURE_2D), depth = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(color.id(), 1, GL_RGBA16F, W, H);
+    glTextureStorage2D(depth.id(), 1, GL_DEPTH_COMPONENT32F, W, H);
+    Framebuffer fbo = Framebuffer::create();
+    glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT1, color.id(), 0);
+    glNamedFramebufferTexture(fbo.id(), GL_DEPTH_ATTACHMENT, depth.id(), 0);
+    glNamedFramebufferDrawBuffer(fbo.id(), GL_COLOR_ATTACHMENT1);
+    ASSERT_EQ(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE));
+    SkySettings settings = testSettings();
+    ASSERT_TRUE(settings.ellipsoid.reuse);
+    SkyRenderer sky(settings);
+    sky.prepare(scene);
+    const double nearClip = scene.camera.nearClip, tanY = std::tan(glm::radians(scene.camera.fovYDeg) / 2);
+    const double tanX = 2 * tanY * W / H;  // the left half of a view twice as wide
+    ViewDesc v;
+    v.projection = glm::dmat4(0.0);
+    v.projection[0][0] = 2 / tanX, v.projection[1][1] = 1 / tanY;
+    v.projection[2][0] = -1, v.projection[2][3] = -1;
+    v.projection[3][2] = nearClip;  // depth = near / distance: 1 at the near plane, 0 at infinity
+    v.depth = {.reversedZ = true, .zeroToOne = true};
+    v.viewport = {0, 0, W, H};
+    v.framebuffer = fbo.id();
+    v.drawBuffer = GL_COLOR_ATTACHMENT1;
+    v.depthTexture = depth.id();
+    const Vec3 heart = scene.clouds[0].ellipsoids[0].center, chase = scene.camera.position - heart;
+    for (int f = 0; f < 3; ++f) {
+        const Vec3 aircraft = heart + (0.3 - 0.03 * f) * chase, eye = aircraft + chase;  // still, then moving
+        v.view = glm::lookAt(eye, aircraft, Vec3(0, 0, 1));
+        sky.update(0.1, Weather::of(scene), eye);
+        sky.waitForBackgroundWork();
+        const float clear[4] = {0, 0, 0, 0}, far = 0, canopy = float(nearClip / 5);
+        glClearNamedFramebufferfv(fbo.id(), GL_COLOR, 1, clear);
+        glClearNamedFramebufferfv(fbo.id(), GL_DEPTH, 0, &far);
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(0, H - kCanopyRows, W, kCanopyRows);
+        glClearNamedFramebufferfv(fbo.id(), GL_DEPTH, 0, &canopy);
+        glDisable(GL_SCISSOR_TEST);
+        glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+        const SkyStats st = sky.draw(v);
+        glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE);
+        std::vector<float> px(std::size_t(W) * H * 4);
+        glGetTextureImage(color.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(px.size() * sizeof(float)), px.data());
+        float overCanopy = 0, below = 0;
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) {
+                float& m = y >= H - kCanopyRows ? overCanopy : below;
+                m = std::max(m, px[(std::size_t(y) * W + x) * 4 + 3]);
+            }
+        EXPECT_EQ(overCanopy, 0.0f) << "frame " << f << ", " << st.ellipsoids.tilesReused << " tiles reused";
+        EXPECT_GT(below, 0.5f) << "frame " << f;
+        if (f > 0) {
+            EXPECT_GT(st.ellipsoids.tilesReused, 0) << "frame " << f;
+        }
+    }
 }

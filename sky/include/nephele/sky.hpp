@@ -162,9 +162,10 @@ public:
     // The light on a host's surface at world `point` with outward `normal` (any length > 1e-6):
     // the sun's irradiance through the clouds and the diffuse light of the sky, the ground and
     // the clouds, as the compositor lights a scene's objects with object_light "all"
-    // (docs/embedding.md, "Lighting the aircraft"). From the clouds' grids of the last update():
-    // call it on the thread that calls update() and draw(), between them (not thread-safe, unlike
-    // the queries above). Throws std::logic_error before prepare(), std::invalid_argument for a
+    // (docs/embedding.md, "Lighting the aircraft"). The sun's shadow in it is the explicit and
+    // near clouds', not the layers' (transmittance() along the sun has both). From the clouds'
+    // grids of the last update(): call it on the thread that calls update() and draw(), between
+    // them (not thread-safe, unlike the queries above). Throws std::logic_error before prepare(), std::invalid_argument for a
     // point or normal that is not finite or a normal too short.
     SurfaceLight lightAt(const Vec3& point, const Vec3& normal) const;
 
