@@ -19,6 +19,17 @@
 
 namespace nephele::fly {
 
+Image readWindow(int w, int h) {
+    Image bottomUp(w, h, 3), image(w, h, 3);
+    gl::glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    gl::glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl::glReadPixels(0, 0, w, h, GL_RGB, GL_FLOAT, bottomUp.pixels.data());
+    gl::checkAlways("reading the window");
+    const std::size_t row = std::size_t(w) * 3;
+    for (int y = 0; y < h; ++y) std::copy_n(bottomUp.pixels.data() + std::size_t(h - 1 - y) * row, row, image.pixels.data() + y * row);
+    return image;
+}
+
 namespace {
 FlyApp::State& stateOf(GLFWwindow* w) { return *static_cast<FlyApp::State*>(glfwGetWindowUserPointer(w)); }
 
@@ -134,16 +145,7 @@ void fly(FlyApp::State& s, double dt) {
 }
 
 // The window's back buffer (already sRGB-encoded) to a PNG.
-void writeWindow(const std::string& png, int w, int h) {
-    Image bottomUp(w, h, 3), image(w, h, 3);
-    gl::glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    gl::glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    gl::glReadPixels(0, 0, w, h, GL_RGB, GL_FLOAT, bottomUp.pixels.data());
-    gl::checkAlways("reading the window");
-    const std::size_t row = std::size_t(w) * 3;
-    for (int y = 0; y < h; ++y) std::copy_n(bottomUp.pixels.data() + std::size_t(h - 1 - y) * row, row, image.pixels.data() + y * row);
-    writePng(png, image, Encoding::Linear);
-}
+void writeWindow(const std::string& png, int w, int h) { writePng(png, readWindow(w, h), Encoding::Linear); }
 
 Camera frameCamera(const FlyApp::State& s, int fw, int fh) {
     Camera c = s.playing ? scriptCamera(s)

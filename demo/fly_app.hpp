@@ -65,4 +65,8 @@ private:
     std::unique_ptr<State> s_;
 };
 
+// The current context's window back buffer, w x h, as it shows (its 8-bit values / 255: sRGB
+// when presented as FlyHost::present does), row 0 at the top.
+Image readWindow(int w, int h);
+
 }  // namespace nephele::fly

@@ -1,5 +1,6 @@
 #include "ig_command.hpp"
 
+#include "fly_app.hpp"
 #include "output_files.hpp"
 
 #include "nephele/cigi.hpp"
@@ -323,18 +324,7 @@ struct Screen {
         gl::glBindVertexArray(empty.id());
         gl::glDrawArrays(GL_TRIANGLES, 0, 3);
         gl::check("showing the frame in the window");
-        if (shown) {
-            std::vector<std::uint8_t> rgba(std::size_t(w) * h * 4);
-            gl::glReadBuffer(GL_BACK);
-            gl::glPixelStorei(GL_PACK_ALIGNMENT, 1);
-            gl::glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-            *shown = Image(w, h, 3);
-            for (int y = 0; y < h; ++y)
-                for (int x = 0; x < w; ++x)
-                    for (int c = 0; c < 3; ++c)
-                        shown->at(x, y, c) = rgba[(std::size_t(h - 1 - y) * w + x) * 4 + c] / 255.0f;
-            gl::check("reading the window back for --record");
-        }
+        if (shown) *shown = fly::readWindow(w, h);
         glfwSwapBuffers(context.window());
         glfwPollEvents();
     }
@@ -475,11 +465,9 @@ int runIg(const IgOptions& o) {
                 } else if (!screen) {
                     gl::glFinish();
                 }
-                if (screen) {
-                    if (glfwWindowShouldClose(context->window())) {
-                        std::cerr << "nephele: ig: the window was closed after " << rendered + 1 << " frames\n";
-                        return 0;
-                    }
+                if (screen && glfwWindowShouldClose(context->window())) {
+                    std::cerr << "nephele: ig: the window was closed after " << rendered + 1 << " frames\n";
+                    return 0;
                 }
                 ++rendered;
             }

@@ -10,11 +10,6 @@
 
 namespace nephele::cigi {
 
-namespace {
-constexpr double kPi = 3.14159265358979323846;
-double rad(double degrees) { return degrees * kPi / 180; }
-}  // namespace
-
 std::optional<UtcTime> celestialTime(const CelestialSphereControl& p) {
     if (!p.dateTimeValid) return std::nullopt;
     UtcTime t;
@@ -50,7 +45,7 @@ EntityPose entityPose(const EntityControl& p, const EnuFrame& frame) {
         throw std::invalid_argument("Entity Control " + std::to_string(p.entityId) + ": roll, pitch and yaw must be finite");
     const Geodetic where{p.latitude, p.longitude, p.altitude};
     const EnuFrame local(where);  // throws for a latitude out of range or a value not finite
-    const double y = rad(p.yaw), q = rad(p.pitch), r = rad(p.roll);
+    const double y = glm::radians(double(p.yaw)), q = glm::radians(double(p.pitch)), r = glm::radians(double(p.roll));
     // In the entity's east-north-up frame: the nose at heading y and elevation q; its right wing
     // level; the top turned about the nose towards the right wing by the roll.
     const Vec3 forward(std::sin(y) * std::cos(q), std::cos(y) * std::cos(q), std::sin(q));
