@@ -40,6 +40,13 @@ double reuse::parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3
     return r * angle + r * std::abs(then / now - 1) * std::min(1.0, radius / now) + drift * r / radius;
 }
 
+double reuse::reshapeMetres(const glm::dmat3& axesThen, const glm::dmat3& axesNow, const Vec3& loThen, const Vec3& loNow,
+                            const Vec3& hiThen, const Vec3& hiNow) {
+    const glm::dmat3 d = axesNow - axesThen;
+    const double surface = std::sqrt(glm::dot(d[0], d[0]) + glm::dot(d[1], d[1]) + glm::dot(d[2], d[2]));  // Frobenius >= spectral
+    return std::max({surface, glm::length(loNow - loThen), glm::length(hiNow - hiThen)});
+}
+
 double reuse::outsidePixels(const glm::dvec4& quad, const ScreenRect& inView, const View& view) {
     const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
     return std::max({(quad.x - inView.x0) * pxX, (inView.x1 - quad.z) * pxX, (quad.y - inView.y0) * pxY,
@@ -68,11 +75,22 @@ bool reprojectImage(const Vec3& eyeFromCentre, const Vec3& centre, const Vec3& r
     return true;
 }
 
-ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
-                          const std::vector<PlacedRadiance>& light, const std::vector<char>& keep) {
-    ReusePlan out;
-    const std::uint64_t frame = ++frame_;
-    const std::size_t n = prepared.ellipsoids.size();
+// One visible ellipsoid's tile this frame: its image's inputs, and whether and how badly its
+// kept image (if any) is stale.
+struct TileReuse::Candidate {
+    int index = 0;
+    std::uint64_t key = 0;
+    std::uint64_t noise = 0, light = 0;
+    Vec3 lightLo{0.0}, lightHi{0.0};
+    int need = 0;        // tile size it would be rendered at now
+    double error = 0;    // >= 1: stale
+    bool must = true;    // no usable image: rendered whatever the budget
+    Live* live = nullptr;
+    glm::dmat4 reproject{1.0};
+    glm::dvec4 rect{0.0};
+};
+
+void TileReuse::beginFrame(const ReuseSettings& s, std::size_t n) {
     if (!allocator_ || allocatedFor_.atlasWidth != s.atlasWidth || allocatedFor_.atlasHeight != s.atlasHeight ||
         allocatedFor_.minTile != s.minTile || allocatedFor_.maxLayers != s.maxLayers) {
         allocator_ = std::make_unique<TileAllocator>(s.atlasWidth, s.atlasHeight, s.minTile, s.maxLayers);
@@ -84,72 +102,72 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
     // layers in use leave room for its tiles four times over.
     limit_ = std::clamp(limit_, s.minTile, s.maxTile);
     if (limit_ < s.maxTile && 4 * allocator_->layersUsed() <= s.budgetLayers) limit_ *= 2;
-    out.maxTile = limit_;
     allocatedFor_ = s;
     fresh_.assign(n, nullptr);
+}
 
+std::vector<TileReuse::Candidate> TileReuse::candidates(const ReuseSettings& s, const Scene& scene, const View& view,
+                                                        const PreparedClouds& prepared,
+                                                        const std::vector<PlacedRadiance>& light) {
     // What a tile's image depends on besides the view.
     const std::uint64_t global = imageInputs(scene, prepared.noisePeriod);
     const glm::dmat4 viewProj = view.projectionMatrix * glm::lookAt(Vec3(0.0), view.forward, view.up);
-
-    struct Candidate {
-        int index;
-        std::uint64_t key;
-        std::uint64_t shape, light;
-        int need;        // tile size it would be rendered at now
-        double error;    // >= 1: stale
-        bool must;       // no usable image: rendered whatever the budget
-        Live* live;
-        glm::dmat4 reproject;
-        glm::dvec4 rect;
-    };
-    auto sizeAt = [&](std::size_t i, int limit) {
-        return tileSizeFor(tileExtent(prepared.ellipsoids[i]), s.minTile, limit);
-    };
+    const std::size_t n = prepared.ellipsoids.size();
     std::vector<Candidate> cands(n);
     std::unordered_map<std::uint64_t, int> ordinal;  // identical keys in one frame (a hostile scene)
     for (std::size_t i = 0; i < n; ++i) {
         const PreparedEllipsoid& e = prepared.ellipsoids[i];
-        const EllipsoidProjection& p = e.projection;
         const Cloud& cloud = scene.clouds[std::size_t(e.cloud)];
         const std::uint64_t id = Fingerprint().add(cloud.noiseId ? cloud.noiseId : std::uint64_t(e.cloud)).add(e.index).value();
-        const std::uint64_t key = Fingerprint().add(id).add(ordinal[id]++).value();
         Candidate& c = cands[i];
-        c.index = int(i), c.key = key;
-        c.shape = Fingerprint().add(e.shape.radii).add(e.unit).add(e.noiseOffset).value();
+        c.index = int(i), c.key = Fingerprint().add(id).add(ordinal[id]++).value();
+        c.noise = Fingerprint().add(e.noiseOffset).value();
         const PlacedRadiance& pl = light[std::size_t(e.cloud)];
-        c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.lo - e.shape.center).add(pl.extent).value();
-        c.need = sizeAt(i, limit_);
-        c.error = 0;
-        c.must = true;
-        auto it = live_.find(key);
+        // The grid itself (its own box tells two grids apart that came to the same address); where
+        // it is placed on the cloud is measured with the shape (staleness()).
+        c.light = Fingerprint().add(global).add(pl.grid.get()).add(pl.grid->boxMin).add(pl.grid->boxExtent).value();
+        c.lightLo = pl.lo - e.shape.center, c.lightHi = pl.lo + pl.extent - e.shape.center;
+        c.need = tileSizeFor(tileExtent(e), s.minTile, limit_);
+        auto it = live_.find(c.key);
         c.live = it == live_.end() ? nullptr : &it->second;
-        if (!c.live || p.crossesNear || !c.live->reusable || c.live->shape != c.shape) continue;
-        Live& L = *c.live;
-        if (!reprojectImage(L.eyeFromCentre, e.shape.center, L.rc, L.rx, L.ry, viewProj, view.eye, c.reproject, c.rect))
-            continue;
-        // Part of what is in view now outside the tile's quad (a tile cut by the view's edge
-        // then): a visible cut, rendered now.
-        if (outsidePixels(c.rect, p.rect, view) > s.errorPixels) continue;
-        c.must = false;
-        const double r = pixelRadiusOf(p);
-        const double rMax = e.shape.maxRadius();
-        const double drift = scene.medium.noise > 0 ? glm::length(e.shape.center - L.centre) : 0.0;
-        const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
-        c.error = px / s.errorPixels;
-        // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
-        if (L.light == c.light)
-            c.error = std::max(c.error, std::abs(sunPhase(e.shape.center, view, scene) / L.phase - 1) / kPhaseChange);
-        c.error = std::max(c.error, std::abs(e.sigma / L.sigma - 1) / kSigmaChange);
-        if (c.error >= kMustError) c.must = true;  // before the light's priority: that one may wait
-        if (c.need > L.place.size) c.error = std::max(c.error, 1.0 + std::log2(double(c.need) / L.place.size));
-        // Two sizes too large: sixteen times the atlas area it needs, rendered again smaller
-        // when the budget allows (its image is still right meanwhile).
-        if (4 * c.need <= L.place.size) c.error = std::max(c.error, 1.0);
-        if (L.light != c.light) c.error = std::max(c.error, kLightChanged + r);
+        staleness(c, s, scene, view, e, viewProj);
     }
+    return cands;
+}
 
-    // Tiles no longer in view give their place back.
+void TileReuse::staleness(Candidate& c, const ReuseSettings& s, const Scene& scene, const View& view,
+                          const PreparedEllipsoid& e, const glm::dmat4& viewProj) const {
+    const EllipsoidProjection& p = e.projection;
+    if (!c.live || p.crossesNear || !c.live->reusable || c.live->noise != c.noise) return;
+    const Live& L = *c.live;
+    if (!reprojectImage(L.eyeFromCentre, e.shape.center, L.rc, L.rx, L.ry, viewProj, view.eye, c.reproject, c.rect))
+        return;
+    const double r = pixelRadiusOf(p);
+    const double rMax = e.shape.maxRadius();
+    const double reshaped = reshapeMetres(L.axes, e.axes, L.lightLo, c.lightLo, L.lightHi, c.lightHi) * r / rMax;
+    // Part of what is in view now outside the tile's quad (a tile cut by the view's edge
+    // then): a visible cut, rendered now. An ellipsoid that grew reaches past its quad by
+    // as much as it grew: that part is the reshape's error, counted below.
+    if (outsidePixels(c.rect, p.rect, view) > s.errorPixels + reshaped) return;
+    c.must = false;
+    const double drift = scene.medium.noise > 0 ? glm::length(e.shape.center - L.centre) : 0.0;
+    const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
+    c.error = (px + reshaped) / s.errorPixels;
+    // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
+    if (L.light == c.light)
+        c.error = std::max(c.error, std::abs(sunPhase(e.shape.center, view, scene) / L.phase - 1) / kPhaseChange);
+    if (c.error >= kMustError) c.must = true;  // before the extinction and the light: those may wait
+    // A changed extinction (a weather ramp, a near-LOD cloud fading) is itself gradual:
+    // stale, caught up worst first within the budget, never rendered whatever the budget.
+    c.error = std::max(c.error, std::abs(e.sigma / L.sigma - 1) / kSigmaChange);
+    if (c.need > L.place.size) c.error = std::max(c.error, 1.0 + std::log2(double(c.need) / L.place.size));
+    // Two sizes too large: sixteen times the atlas area it needs, rendered again smaller
+    // when the budget allows (its image is still right meanwhile).
+    if (4 * c.need <= L.place.size) c.error = std::max(c.error, 1.0);
+    if (L.light != c.light) c.error = std::max(c.error, kLightChanged + r);
+}
+
+void TileReuse::releaseUnseen(const std::vector<Candidate>& cands, const std::vector<char>& keep, std::uint64_t frame) {
     for (const Candidate& c : cands)
         if (c.live) c.live->seen = frame;
     for (auto it = live_.begin(); it != live_.end();) {
@@ -162,19 +180,21 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
             ++it;
         }
     }
+}
 
-    // The frame's re-renders: every tile without a usable image, then the stale ones worst
-    // first within what the budget has left after those, but at least half of it (a frame
-    // with many new tiles catches up on fewer stale ones, so the frames stay more even; the
-    // half keeps stale tiles from starving while new ones keep coming, as they do inside a
-    // cloud). The worst stale one is taken even when it alone is over that (a tile larger
-    // than the budget would wait for ever); the others while it lasts, strictly worst first.
+// The frame's re-renders: every tile without a usable image, then the stale ones worst
+// first within what the budget has left after those, but at least half of it (a frame
+// with many new tiles catches up on fewer stale ones, so the frames stay more even; the
+// half keeps stale tiles from starving while new ones keep coming, as they do inside a
+// cloud). The worst stale one is taken even when it alone is over that (a tile larger
+// than the budget would wait for ever); the others while it lasts, strictly worst first.
+std::vector<int> TileReuse::chooseRenders(const ReuseSettings& s, const std::vector<Candidate>& cands, int& must) {
     const double budget = s.budget * double(s.frameWidth) * double(s.frameHeight);
     double spent = 0;
     std::vector<int> render;
     std::vector<int> stale;
     for (const Candidate& c : cands) {
-        if (c.must) render.push_back(c.index), ++out.must, spent += double(c.need) * c.need;
+        if (c.must) render.push_back(c.index), ++must, spent += double(c.need) * c.need;
         else if (c.error >= 1) stale.push_back(c.index);
     }
     std::stable_sort(stale.begin(), stale.end(), [&](int a, int b) { return cands[a].error > cands[b].error; });
@@ -186,10 +206,12 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         spent += px, first = false;
         render.push_back(i);
     }
-    std::vector<char> isFresh(n, 0);
-    for (int i : render) isFresh[std::size_t(i)] = 1;
+    return render;
+}
 
-    // Places: a re-render of another size moves; then new places, largest first.
+// Places: a re-render of another size moves; then new places, largest first. false: the atlas
+// is too full or too fragmented.
+bool TileReuse::placeRenders(const ReuseSettings& s, std::vector<Candidate>& cands, std::vector<int>& render) {
     for (int i : render) {
         Candidate& c = cands[std::size_t(i)];
         if (c.live && c.live->place.size != c.need) {
@@ -198,61 +220,70 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         }
     }
     std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
-    bool fits = true;
     for (int i : render) {
         Candidate& c = cands[std::size_t(i)];
         if (c.live && c.live->place.pass >= 0) continue;
         const TilePlacement place = allocator_->allocate(c.need);
         if (place.pass < 0 || place.pass >= std::min(s.layers, s.budgetLayers)) {
             if (place.pass >= 0) allocator_->free(place);
-            fits = false;
-            break;
+            return false;
         }
         if (!c.live) c.live = &live_[c.key];
         c.live->place = place;
     }
-    if (!fits) {
-        // The atlas is too full or too fragmented: packed anew, everything rendered (as without
-        // reuse), the largest tiles halved until the memory budget holds.
-        out.reset = true;
-        out.must = int(n);
-        for (Candidate& c : cands) c.live = nullptr;
-        render.clear();
-        for (std::size_t i = 0; i < n; ++i) render.push_back(int(i));
-        std::fill(isFresh.begin(), isFresh.end(), 1);
-        const int fill = std::max(1, int(kRepackFill * s.budgetLayers));
-        for (int limit = s.maxTile;; limit /= 2) {
-            allocator_->clear();
-            live_.clear();
-            for (Candidate& c : cands) c.need = sizeAt(std::size_t(c.index), limit);
-            std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
-            bool all = true;
-            for (int i : render) {
-                Candidate& c = cands[std::size_t(i)];
-                const TilePlacement place = allocator_->allocate(c.need);
-                if (place.pass < 0) {
-                    all = false;
-                    break;
-                }
-                c.live = &live_[c.key];
-                c.live->place = place;
-            }
-            limit_ = out.maxTile = limit;
-            if (all && (allocator_->layersUsed() <= fill || limit <= s.minTile)) break;
-            if (limit <= s.minTile)
-                throw gl::GlError("ellipsoid atlas: " + std::to_string(n) + " visible ellipsoids do not fit " +
-                                  std::to_string(s.maxLayers) + " layers of " + std::to_string(s.atlasWidth) + "x" +
-                                  std::to_string(s.atlasHeight) + " even with " + std::to_string(s.minTile) +
-                                  " px tiles; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
-        }
-    }
+    return true;
+}
 
-    // The plan, and what each fresh tile will be rendered from.
+// The atlas packed anew, everything rendered (as without reuse), the largest tiles halved until
+// the memory budget holds.
+void TileReuse::repack(const ReuseSettings& s, const PreparedClouds& prepared, std::vector<Candidate>& cands,
+                       std::vector<int>& render, ReusePlan& out) {
+    const std::size_t n = cands.size();
+    out.reset = true;
+    out.must = int(n);
+    for (Candidate& c : cands) c.live = nullptr;
+    render.clear();
+    for (std::size_t i = 0; i < n; ++i) render.push_back(int(i));
+    const int fill = std::max(1, int(kRepackFill * s.budgetLayers));
+    for (int limit = s.maxTile;; limit /= 2) {
+        allocator_->clear();
+        live_.clear();
+        for (Candidate& c : cands) c.need = tileSizeFor(tileExtent(prepared.ellipsoids[std::size_t(c.index)]), s.minTile, limit);
+        std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
+        bool all = true;
+        for (int i : render) {
+            Candidate& c = cands[std::size_t(i)];
+            const TilePlacement place = allocator_->allocate(c.need);
+            if (place.pass < 0) {
+                all = false;
+                break;
+            }
+            c.live = &live_[c.key];
+            c.live->place = place;
+        }
+        limit_ = out.maxTile = limit;
+        if (all && (allocator_->layersUsed() <= fill || limit <= s.minTile)) break;
+        if (limit <= s.minTile)
+            throw gl::GlError("ellipsoid atlas: " + std::to_string(n) + " visible ellipsoids do not fit " +
+                              std::to_string(s.maxLayers) + " layers of " + std::to_string(s.atlasWidth) + "x" +
+                              std::to_string(s.atlasHeight) + " even with " + std::to_string(s.minTile) +
+                              " px tiles; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
+    }
+}
+
+// The plan, and what each fresh tile will be rendered from.
+void TileReuse::writePlan(const Scene& scene, const View& view, const PreparedClouds& prepared,
+                          const std::vector<Candidate>& cands, const std::vector<int>& render, std::uint64_t frame,
+                          ReusePlan& out) {
+    const std::size_t n = cands.size();
+    std::vector<char> isFresh(n, 0);
     for (int i : render) {
-        Candidate& c = cands[std::size_t(i)];
+        isFresh[std::size_t(i)] = 1;
+        const Candidate& c = cands[std::size_t(i)];
         const PreparedEllipsoid& e = prepared.ellipsoids[std::size_t(i)];
         Live& L = *c.live;
-        L.shape = c.shape, L.light = c.light, L.sigma = e.sigma;
+        L.noise = c.noise, L.light = c.light, L.sigma = e.sigma;
+        L.axes = e.axes, L.lightLo = c.lightLo, L.lightHi = c.lightHi;
         L.cloud = e.cloud;
         L.reusable = !e.projection.crossesNear;
         L.eyeFromCentre = view.eye - e.shape.center;
@@ -269,6 +300,19 @@ ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View
         out.reproject.push_back(glm::mat4(c.reproject));
         out.screenRect.push_back(glm::vec4(c.rect));
     }
+}
+
+ReusePlan TileReuse::plan(const ReuseSettings& s, const Scene& scene, const View& view, const PreparedClouds& prepared,
+                          const std::vector<PlacedRadiance>& light, const std::vector<char>& keep) {
+    ReusePlan out;
+    const std::uint64_t frame = ++frame_;
+    beginFrame(s, prepared.ellipsoids.size());
+    out.maxTile = limit_;
+    std::vector<Candidate> cands = candidates(s, scene, view, prepared, light);
+    releaseUnseen(cands, keep, frame);  // tiles no longer in view give their place back
+    std::vector<int> render = chooseRenders(s, cands, out.must);
+    if (!placeRenders(s, cands, render)) repack(s, prepared, cands, render, out);
+    writePlan(scene, view, prepared, cands, render, frame, out);
     out.layers = allocator_->layersUsed();
     std::int64_t used = 0;
     for (const auto& [key, t] : live_) used += std::int64_t(t.place.size) * t.place.size;

@@ -29,9 +29,10 @@ namespace reuse {
 constexpr double kPhaseChange = 0.03;
 // The same for the extinction or a cloud's weight (a near-LOD cloud fading in or out).
 constexpr double kSigmaChange = 0.03;
-// An error (but a change of light) of this many times the threshold is made again whatever the
-// budget: the budget spreads work over frames, but never lets an image drift this far (the
-// approach into a cumulus fell to 33 dB from fresh tiles without it, 39.3 dB at 8).
+// An error of the geometry or the phase (not a change of extinction or of light) of this many
+// times the threshold is made again whatever the budget: the budget spreads work over frames,
+// but never lets an image drift this far (the approach into a cumulus fell to 33 dB from fresh
+// tiles without it, 39.3 dB at 8).
 constexpr double kMustError = 6;
 // The priority of an image whose light changed (a new sun, a grid finished): above any
 // geometric error, so that a weather change is caught up first, largest on screen first.
@@ -49,6 +50,12 @@ double sunPhase(const Vec3& centre, const View& view, const Scene& scene);
 // nothing: the reprojection is exact for it. Plus `drift` (m) carried through the world-fixed
 // noise (0 without noise). Pixels.
 double parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius, double drift);
+// How far (m) an ellipsoid's surface and its light grid's box moved relative to its centre since
+// its image was made: the largest displacement of a surface point (the axes' difference, a
+// bound on |(A' - A) u| over unit u) or of a corner of the grid's box. A near-LOD cloud reshaped
+// by a weather ramp changes a little every frame: an error like the parallax, not a new image.
+double reshapeMetres(const glm::dmat3& axesThen, const glm::dmat3& axesNow, const Vec3& loThen, const Vec3& loNow,
+                     const Vec3& hiThen, const Vec3& hiNow);
 // How far (pixels) what is in view now, `inView`, reaches beyond a kept image's reprojected
 // quad (NDC bounds, reprojectImage): more than a threshold is a part come into view.
 double outsidePixels(const glm::dvec4& quad, const ScreenRect& inView, const View& view);
@@ -106,9 +113,11 @@ private:
     struct Live {
         TilePlacement place;         // its atlas place (id unused)
         int cloud = -1;              // scene.clouds index
-        std::uint64_t shape = 0;     // radii, axes, noise offset
+        std::uint64_t noise = 0;     // its noise offset (another one: another image)
+        glm::dmat3 axes{1.0};        // PreparedEllipsoid::axes when rendered
+        Vec3 lightLo{0.0}, lightHi{0.0};  // its cloud's grid box relative to its centre (m)
         double sigma = 0;            // extinction * density * the cloud's weight (1/m)
-        std::uint64_t light = 0;     // the grid, its placement, the sun, the medium
+        std::uint64_t light = 0;     // the grid, the sun, the medium
         Vec3 eyeFromCentre{0.0};     // eye - centre when rendered (m)
         Vec3 centre{0.0};            // m
         double phase = 0;            // the sun's phase towards the eye at its centre
@@ -116,6 +125,22 @@ private:
         std::uint64_t seen = 0;      // the last frame it was visible
         bool reusable = false;       // rendered wholly beyond the near plane (a cut tile cannot be reprojected)
     };
+    struct Candidate;
+    // The phases of plan(), in order.
+    void beginFrame(const ReuseSettings& s, std::size_t n);
+    std::vector<Candidate> candidates(const ReuseSettings& s, const Scene& scene, const View& view,
+                                      const PreparedClouds& prepared, const std::vector<PlacedRadiance>& light);
+    void staleness(Candidate& c, const ReuseSettings& s, const Scene& scene, const View& view, const PreparedEllipsoid& e,
+                   const glm::dmat4& viewProj) const;
+    void releaseUnseen(const std::vector<Candidate>& cands, const std::vector<char>& keep, std::uint64_t frame);
+    static std::vector<int> chooseRenders(const ReuseSettings& s, const std::vector<Candidate>& cands, int& must);
+    bool placeRenders(const ReuseSettings& s, std::vector<Candidate>& cands, std::vector<int>& render);
+    void repack(const ReuseSettings& s, const PreparedClouds& prepared, std::vector<Candidate>& cands,
+                std::vector<int>& render, ReusePlan& out);
+    void writePlan(const Scene& scene, const View& view, const PreparedClouds& prepared,
+                   const std::vector<Candidate>& cands, const std::vector<int>& render, std::uint64_t frame,
+                   ReusePlan& out);
+
     std::unique_ptr<TileAllocator> allocator_;
     ReuseSettings allocatedFor_;
     std::unordered_map<std::uint64_t, Live> live_;
