@@ -26,6 +26,7 @@
 #include <mutex>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 NEPHELE_API_BEGIN
@@ -59,10 +60,10 @@ public:
     // an earlier call (same ellipsoids relative to its first one, same sun direction, sky,
     // medium and settings) keep its grid. Grids no call uses any more are dropped. `eye`
     // (optional) ranks the clouds for the budget and the worker: the largest on screen first.
-    // Without `takeFinished` the worker's new grids wait for a later call (the channels of one
+    // Without `takeFinishedGrids` the worker's new grids wait for a later call (the channels of one
     // frame draw with the same grids).
     std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings, const Vec3* eye = nullptr,
-                                       RadianceUpdateStats* stats = nullptr, bool takeFinished = true);
+                                       RadianceUpdateStats* stats = nullptr, bool takeFinishedGrids = true);
     // Blocks until the worker has nothing left to do (tests, benches, a host's loading screen);
     // the next update() uses what it made. The waiting thread makes queued grids itself
     // meanwhile, on every core at its own priority: a host that waits wants them now.
@@ -86,6 +87,15 @@ private:
         std::uint64_t key = 0;
         Entry entry;
     };
+    struct Want {  // what one scene cloud wants this call
+        std::uint64_t shape = 0, key = 0;
+        Vec3 lo{0.0}, extent{1.0};
+        double priority = 1;
+    };
+    void takeFinished(RadianceUpdateStats& stats);
+    std::vector<Want> wants(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye) const;
+    std::unordered_set<std::uint64_t> owned(const Scene& scene, const RadianceGridSettings& s, const std::vector<Want>& wants,
+                                            const std::vector<std::size_t>& order) const;
     std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s);
     void schedule(std::vector<Job> jobs);
     void work(BackgroundSettings settings);

@@ -93,27 +93,23 @@ std::shared_ptr<const CloudRadiance> CloudRadianceCache::templateFor(const Scene
     return grid;
 }
 
-std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye,
-                                                       RadianceUpdateStats* statsOut, bool takeFinished) {
-    RadianceUpdateStats stats;
-    if (takeFinished) {  // What the worker finished since the last call.
-        std::lock_guard lock(mutex_);
-        for (Finished& f : finished_) {
-            stats.workerMs += f.entry.grid->computeMs;
-            entries_[f.key] = std::move(f.entry);
-            ++stats.computed;
-        }
-        finished_.clear();
+// What the worker finished since the last call, into the kept grids.
+void CloudRadianceCache::takeFinished(RadianceUpdateStats& stats) {
+    std::lock_guard lock(mutex_);
+    for (Finished& f : finished_) {
+        stats.workerMs += f.entry.grid->computeMs;
+        entries_[f.key] = std::move(f.entry);
+        ++stats.computed;
     }
-    const std::size_t n = scene.clouds.size();
-    struct Want {
-        std::uint64_t shape = 0, key = 0;
-        Vec3 lo{0.0}, extent{1.0};
-        double priority = 1;
-    };
-    std::vector<Want> wants(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        Want& w = wants[i];
+    finished_.clear();
+}
+
+// Per scene cloud: its keys, its grid's box, and its rank (its size on screen from `eye`).
+std::vector<CloudRadianceCache::Want> CloudRadianceCache::wants(const Scene& scene, const RadianceGridSettings& s,
+                                                                const Vec3* eye) const {
+    std::vector<Want> out(scene.clouds.size());
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        Want& w = out[i];
         w.shape = shapeKey(scene.clouds[i], s);
         w.key = lightKey(scene, w.shape);
         Vec3 hi;
@@ -126,12 +122,15 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
         }
         if (entries_.count(w.key)) w.priority *= 1.5;  // a kept grid stays kept at the budget's edge
     }
-    // The budget: the grids of the clouds largest on screen (clouds of one shape share one).
-    std::vector<std::size_t> order(n);
-    std::iota(order.begin(), order.end(), std::size_t(0));
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return wants[a].priority > wants[b].priority; });
-    // Past the budget (at least one grid), the clouds smaller on screen keep a stand-in. A kept
-    // grid tells its size; only a missing one's is worked out from its cloud.
+    return out;
+}
+
+// The budget: the grids of the clouds largest on screen (clouds of one shape share one). Past
+// it (at least one grid), the clouds smaller on screen keep a stand-in. A kept grid tells its
+// size; only a missing one's is worked out from its cloud.
+std::unordered_set<std::uint64_t> CloudRadianceCache::owned(const Scene& scene, const RadianceGridSettings& s,
+                                                            const std::vector<Want>& wants,
+                                                            const std::vector<std::size_t>& order) const {
     std::unordered_set<std::uint64_t> own;
     double bytes = 0;
     for (std::size_t i : order) {
@@ -143,6 +142,19 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
         own.insert(wants[i].key);
         bytes += b;
     }
+    return own;
+}
+
+std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye,
+                                                       RadianceUpdateStats* statsOut, bool takeFinishedGrids) {
+    RadianceUpdateStats stats;
+    if (takeFinishedGrids) takeFinished(stats);
+    const std::size_t n = scene.clouds.size();
+    const std::vector<Want> want = wants(scene, s, eye);
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return want[a].priority > want[b].priority; });
+    const std::unordered_set<std::uint64_t> own = owned(scene, s, want, order);
 
     std::unordered_map<std::uint64_t, std::uint64_t> byShape;  // shape -> key of its last grid
     for (const auto& [key, e] : entries_) byShape[e.shape] = key;
@@ -151,18 +163,18 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
     std::vector<Job> jobs;
     std::unordered_set<std::uint64_t> missing;
     for (std::size_t i : order) {
-        const Want& w = wants[i];
+        const Want& w = want[i];
         PlacedRadiance& p = out[i];
         p.lo = w.lo, p.extent = w.extent;
-        const bool owned = own.count(w.key) > 0;
+        const bool isOwned = own.count(w.key) > 0;
         auto exact = used.find(w.key);
-        if (exact == used.end() && owned)
+        if (exact == used.end() && isOwned)
             if (auto it = entries_.find(w.key); it != entries_.end()) exact = used.emplace(w.key, it->second).first;
-        if (exact != used.end() && owned) {
+        if (exact != used.end() && isOwned) {
             p.grid = exact->second.grid;
             continue;
         }
-        if (owned && !s.background) {  // made now
+        if (isOwned && !s.background) {  // made now
             const Entry e{std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, scene.clouds[i], s)), w.shape};
             p.grid = used.emplace(w.key, e).first->second.grid;
             ++stats.computed;
@@ -170,7 +182,7 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
         }
         p.exact = false;
         ++stats.standIns;
-        if (!owned) {
+        if (!isOwned) {
             ++stats.overBudget;
         } else if (missing.insert(w.key).second) {
             Job job{w.key, w.shape, w.priority, Scene{}, s};
@@ -178,9 +190,9 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
             job.scene.clouds = {scene.clouds[i]};
             jobs.push_back(std::move(job));
         }
-        if (auto it = byShape.find(w.shape); it != byShape.end() && owned) {
+        if (auto it = byShape.find(w.shape); it != byShape.end() && isOwned) {
             p.grid = used.emplace(it->second, entries_.at(it->second)).first->second.grid;  // kept while it stands in
-        } else if (i < previous_.size() && owned && previous_[i].grid &&
+        } else if (i < previous_.size() && isOwned && previous_[i].grid &&
                    overlap(previous_[i].lo, previous_[i].extent, w.lo, w.extent) > 0.5) {
             p.grid = previous_[i].grid;
         } else {
