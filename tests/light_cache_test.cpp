@@ -172,6 +172,29 @@ TEST(CloudRadianceCacheTest, TheOldGridServesUntilTheNewOneIsReady) {
     expectSame(after, s, g);
 }
 
+// A near-LOD cloud reshaped by a weather ramp while a cloud before it in scene.clouds goes
+// (a cell out of reach): it keeps its own last grid while its new one is made, found by its
+// noiseId, not the grid of the cloud that now has its index (nor the template).
+TEST(CloudRadianceCacheTest, AReshapedCloudKeepsItsOwnGridWhenCloudsBeforeItGo) {
+    CloudRadianceCache cache;
+    Scene s = twoClouds();
+    s.clouds[0].noiseId = 11, s.clouds[1].noiseId = 23;
+    s.clouds[1].ellipsoids = s.clouds[0].ellipsoids;  // about the same box, so that either overlaps the other's
+    for (Ellipsoid& e : s.clouds[1].ellipsoids) e.center += Vec3(60, 0, 0), e.radii *= 1.05;
+    RadianceGridSettings g = cheap();
+    const auto before = cache.update(s, g);
+    ASSERT_NE(before[0].grid, before[1].grid);
+    g.background = true;
+    Scene next = s;
+    next.clouds.erase(next.clouds.begin());
+    for (Ellipsoid& e : next.clouds[0].ellipsoids) e.radii *= 1.02;
+    RadianceUpdateStats stats;
+    const auto during = cache.update(next, g, nullptr, &stats);
+    EXPECT_EQ(stats.standIns, 1);
+    EXPECT_EQ(during[0].grid, before[1].grid);
+    cache.waitIdle();
+}
+
 // The memory budget: room for one grid. The cloud nearer the eye gets it, the other keeps the
 // template; when the eye moves to the other cloud, the grids swap.
 TEST(CloudRadianceCacheTest, TheBudgetGivesGridsToTheCloudsLargestOnScreen) {

@@ -8,8 +8,8 @@
 // first. Until its grid is ready a cloud is lit by a stand-in, and no frame waits:
 //   1. the last grid of the same shape (the sun, the sky or the medium changed): the old light
 //      serves until the new one is ready;
-//   2. else the grid the same cloud had in the last call, if the cloud still overlaps it (a
-//      cloud of a weather change that grew or shrank);
+//   2. else the grid the same cloud (by Cloud::noiseId when set, else by index) had in the last
+//      call, if the cloud still overlaps it (a cloud of a weather change that grew or shrank);
 //   3. else the template: a sphere of the cloud's optical size, lit by the scene's sun and sky
 //      (a small grid, made in a few ms and kept), stretched onto the cloud's box.
 // A memory budget (RadianceGridSettings::megabytes) bounds the grids kept: past it, the clouds
@@ -103,7 +103,9 @@ private:
 
     std::unordered_map<std::uint64_t, Entry> entries_;
     std::unordered_map<std::uint64_t, std::shared_ptr<const CloudRadiance>> templates_;
+    const PlacedRadiance* previousOf(const Scene& scene, std::size_t i) const;
     std::vector<PlacedRadiance> previous_;  // the last call's result, by cloud index
+    std::unordered_map<std::uint64_t, std::size_t> previousById_;  // Cloud::noiseId -> its index then
 
     std::mutex mutex_;  // guards what follows (shared with the worker)
     std::condition_variable wake_, idle_;

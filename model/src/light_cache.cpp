@@ -145,6 +145,18 @@ std::unordered_set<std::uint64_t> CloudRadianceCache::owned(const Scene& scene, 
     return own;
 }
 
+// The grid cloud i had in the last call: found by its noiseId when it has one (a near-LOD
+// cloud's place in scene.clouds changes as cells before it come and go), else by its index.
+const PlacedRadiance* CloudRadianceCache::previousOf(const Scene& scene, std::size_t i) const {
+    std::size_t last = i;
+    if (const std::uint64_t id = scene.clouds[i].noiseId) {
+        const auto it = previousById_.find(id);
+        if (it == previousById_.end()) return nullptr;
+        last = it->second;
+    }
+    return last < previous_.size() && previous_[last].grid ? &previous_[last] : nullptr;
+}
+
 std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye,
                                                        RadianceUpdateStats* statsOut, bool takeFinishedGrids) {
     RadianceUpdateStats stats;
@@ -192,15 +204,18 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
         }
         if (auto it = byShape.find(w.shape); it != byShape.end() && isOwned) {
             p.grid = used.emplace(it->second, entries_.at(it->second)).first->second.grid;  // kept while it stands in
-        } else if (i < previous_.size() && isOwned && previous_[i].grid &&
-                   overlap(previous_[i].lo, previous_[i].extent, w.lo, w.extent) > 0.5) {
-            p.grid = previous_[i].grid;
+        } else if (const PlacedRadiance* last = previousOf(scene, i);
+                   isOwned && last && overlap(last->lo, last->extent, w.lo, w.extent) > 0.5) {
+            p.grid = last->grid;
         } else {
             p.grid = templateFor(scene, scene.clouds[i], s);
         }
     }
     entries_ = std::move(used);
     previous_ = out;
+    previousById_.clear();
+    for (std::size_t i = 0; i < n; ++i)
+        if (scene.clouds[i].noiseId) previousById_[scene.clouds[i].noiseId] = i;
     schedule(std::move(jobs));
     {
         std::lock_guard lock(mutex_);
