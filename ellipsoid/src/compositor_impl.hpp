@@ -159,6 +159,7 @@ struct EllipsoidRenderer::Impl {
     void groupTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out);
     std::vector<int> writeGpuTiles(const View& view, Atlas& atlas, FramePlan& out);
     void uploadPlan(const EllipsoidSettings& s, const View& view, Atlas& atlas, const AtlasLayout& a, FramePlan& out);
+
     PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
     // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
     struct WeightedTarget {
