@@ -34,8 +34,11 @@ void restorePixelStore(const GLenum (&names)[8], const GlStateSnapshot::PixelSto
 }
 }  // namespace
 
-GlStateSnapshot GlStateSnapshot::capture() {
-    GlStateSnapshot s{};
+namespace {
+
+// The framebuffers, viewport and scissor, capabilities, blending, depth, stencil, clear values and
+// rasterisation state, in GlStateSnapshot's order.
+void captureFixedFunction(GlStateSnapshot& s) {
     s.drawFramebuffer = geti(GL_DRAW_FRAMEBUFFER_BINDING);
     s.readFramebuffer = geti(GL_READ_FRAMEBUFFER_BINDING);
     s.renderbuffer = geti(GL_RENDERBUFFER_BINDING);
@@ -60,8 +63,8 @@ GlStateSnapshot GlStateSnapshot::capture() {
     s.programPointSize = glIsEnabled(GL_PROGRAM_POINT_SIZE);
     s.depthClamp = glIsEnabled(GL_DEPTH_CLAMP);
     s.dither = glIsEnabled(GL_DITHER);
-    for (GLuint i = 0; i < GLuint(kDrawBuffers); ++i) {
-        DrawBufferBlend& b = s.blend[i];
+    for (GLuint i = 0; i < GLuint(GlStateSnapshot::kDrawBuffers); ++i) {
+        GlStateSnapshot::DrawBufferBlend& b = s.blend[i];
         b.blend = glIsEnabledi(GL_BLEND, i);
         b.equationRgb = getii(GL_BLEND_EQUATION_RGB, i);
         b.equationAlpha = getii(GL_BLEND_EQUATION_ALPHA, i);
@@ -90,6 +93,11 @@ GlStateSnapshot GlStateSnapshot::capture() {
     glGetIntegerv(GL_POLYGON_MODE, s.polygonMode);
     glGetFloatv(GL_POLYGON_OFFSET_FACTOR, &s.polygonOffsetFactor);
     glGetFloatv(GL_POLYGON_OFFSET_UNITS, &s.polygonOffsetUnits);
+}
+
+// The program, buffer, texture and sampler bindings, the pixel stores, the clip distances and
+// the shader storage bindings.
+void captureBindings(GlStateSnapshot& s) {
     s.program = geti(GL_CURRENT_PROGRAM);
     s.vertexArray = geti(GL_VERTEX_ARRAY_BINDING);
     s.arrayBuffer = geti(GL_ARRAY_BUFFER_BINDING);
@@ -99,7 +107,7 @@ GlStateSnapshot GlStateSnapshot::capture() {
     s.pixelUnpackBuffer = geti(GL_PIXEL_UNPACK_BUFFER_BINDING);
     s.drawIndirectBuffer = geti(GL_DRAW_INDIRECT_BUFFER_BINDING);
     s.activeTexture = geti(GL_ACTIVE_TEXTURE);
-    for (int u = 0; u < kUnits; ++u) {
+    for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
         glActiveTexture(GL_TEXTURE0 + u);
         for (int t = 0; t < 5; ++t) s.textures[u][t] = geti(kBindings[t]);
         s.samplers[u] = geti(GL_SAMPLER_BINDING);
@@ -110,11 +118,19 @@ GlStateSnapshot GlStateSnapshot::capture() {
     for (int i = 0; i < 8; ++i) s.clipDistance[i] = glIsEnabled(GL_CLIP_DISTANCE0 + i);
     s.shaderStorageBuffer = geti(GL_SHADER_STORAGE_BUFFER_BINDING);
     for (GLuint i = 0; i < 8; ++i) {
-        Range& r = s.shaderStorage[i];
+        GlStateSnapshot::Range& r = s.shaderStorage[i];
         glGetIntegeri_v(GL_SHADER_STORAGE_BUFFER_BINDING, i, &r.buffer);
         glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_START, i, &r.start);
         glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_SIZE, i, &r.size);
     }
+}
+
+}  // namespace
+
+GlStateSnapshot GlStateSnapshot::capture() {
+    GlStateSnapshot s{};
+    captureFixedFunction(s);
+    captureBindings(s);
     return s;
 }
 
@@ -192,93 +208,115 @@ void GlStateSnapshot::restore() const {
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, GLuint(shaderStorageBuffer));
 }
 
-std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
-    std::ostringstream out;
-    auto cmp = [&](const char* name, auto a, auto b) {
+namespace {
+
+// Writes one line per item that differs between two snapshots.
+struct Differences {
+    std::ostringstream& out;
+    template <class A, class B>
+    void cmp(const char* name, A a, B b) {
         if (a != b) out << name << ": " << +a << " -> " << +b << "\n";
-    };
-    auto cmpN = [&](const char* name, const auto* a, const auto* b, int n) {
+    }
+    template <class A, class B>
+    void cmpN(const char* name, const A* a, const B* b, int n) {
         for (int i = 0; i < n; ++i)
             if (a[i] != b[i]) out << name << "[" << i << "]: " << +a[i] << " -> " << +b[i] << "\n";
-    };
-    cmp("draw framebuffer", drawFramebuffer, o.drawFramebuffer);
-    cmp("read framebuffer", readFramebuffer, o.readFramebuffer);
-    cmp("renderbuffer", renderbuffer, o.renderbuffer);
-    cmpN("viewport", viewport, o.viewport, 4);
-    cmpN("scissor box", scissorBox, o.scissorBox, 4);
-    cmp("depth test", depthTest, o.depthTest);
-    cmp("stencil test", stencilTest, o.stencilTest);
-    cmp("cull face", cullFace, o.cullFace);
-    cmp("scissor test", scissorTest, o.scissorTest);
-    cmp("polygon offset fill", polygonOffsetFill, o.polygonOffsetFill);
-    cmp("polygon offset line", polygonOffsetLine, o.polygonOffsetLine);
-    cmp("polygon offset point", polygonOffsetPoint, o.polygonOffsetPoint);
-    cmp("framebuffer sRGB", framebufferSrgb, o.framebufferSrgb);
-    cmp("multisample", multisample, o.multisample);
-    cmp("sample alpha to coverage", sampleAlphaToCoverage, o.sampleAlphaToCoverage);
-    cmp("sample alpha to one", sampleAlphaToOne, o.sampleAlphaToOne);
-    cmp("sample coverage", sampleCoverage, o.sampleCoverage);
-    cmp("sample mask", sampleMask, o.sampleMask);
-    cmp("colour logic op", colorLogicOp, o.colorLogicOp);
-    cmp("primitive restart", primitiveRestart, o.primitiveRestart);
-    cmp("rasterizer discard", rasterizerDiscard, o.rasterizerDiscard);
-    cmp("program point size", programPointSize, o.programPointSize);
-    cmp("depth clamp", depthClamp, o.depthClamp);
-    cmp("dither", dither, o.dither);
-    for (int i = 0; i < kDrawBuffers; ++i) {
-        const DrawBufferBlend& a = blend[i];
-        const DrawBufferBlend& b = o.blend[i];
+    }
+};
+
+// captureFixedFunction's state, `s` against `o`.
+void fixedFunctionDifferences(const GlStateSnapshot& s, const GlStateSnapshot& o, Differences& d) {
+    d.cmp("draw framebuffer", s.drawFramebuffer, o.drawFramebuffer);
+    d.cmp("read framebuffer", s.readFramebuffer, o.readFramebuffer);
+    d.cmp("renderbuffer", s.renderbuffer, o.renderbuffer);
+    d.cmpN("viewport", s.viewport, o.viewport, 4);
+    d.cmpN("scissor box", s.scissorBox, o.scissorBox, 4);
+    d.cmp("depth test", s.depthTest, o.depthTest);
+    d.cmp("stencil test", s.stencilTest, o.stencilTest);
+    d.cmp("cull face", s.cullFace, o.cullFace);
+    d.cmp("scissor test", s.scissorTest, o.scissorTest);
+    d.cmp("polygon offset fill", s.polygonOffsetFill, o.polygonOffsetFill);
+    d.cmp("polygon offset line", s.polygonOffsetLine, o.polygonOffsetLine);
+    d.cmp("polygon offset point", s.polygonOffsetPoint, o.polygonOffsetPoint);
+    d.cmp("framebuffer sRGB", s.framebufferSrgb, o.framebufferSrgb);
+    d.cmp("multisample", s.multisample, o.multisample);
+    d.cmp("sample alpha to coverage", s.sampleAlphaToCoverage, o.sampleAlphaToCoverage);
+    d.cmp("sample alpha to one", s.sampleAlphaToOne, o.sampleAlphaToOne);
+    d.cmp("sample coverage", s.sampleCoverage, o.sampleCoverage);
+    d.cmp("sample mask", s.sampleMask, o.sampleMask);
+    d.cmp("colour logic op", s.colorLogicOp, o.colorLogicOp);
+    d.cmp("primitive restart", s.primitiveRestart, o.primitiveRestart);
+    d.cmp("rasterizer discard", s.rasterizerDiscard, o.rasterizerDiscard);
+    d.cmp("program point size", s.programPointSize, o.programPointSize);
+    d.cmp("depth clamp", s.depthClamp, o.depthClamp);
+    d.cmp("dither", s.dither, o.dither);
+    for (int i = 0; i < GlStateSnapshot::kDrawBuffers; ++i) {
+        const GlStateSnapshot::DrawBufferBlend& a = s.blend[i];
+        const GlStateSnapshot::DrawBufferBlend& b = o.blend[i];
         const std::string n = "draw buffer " + std::to_string(i) + " ";
-        cmp((n + "blend").c_str(), a.blend, b.blend);
+        d.cmp((n + "blend").c_str(), a.blend, b.blend);
         const GLint x[6] = {a.equationRgb, a.equationAlpha, a.srcRgb, a.dstRgb, a.srcAlpha, a.dstAlpha};
         const GLint y[6] = {b.equationRgb, b.equationAlpha, b.srcRgb, b.dstRgb, b.srcAlpha, b.dstAlpha};
-        cmpN((n + "blend (equation rgb, alpha; src rgb, dst rgb, src alpha, dst alpha)").c_str(), x, y, 6);
-        cmpN((n + "color mask").c_str(), a.colorMask, b.colorMask, 4);
+        d.cmpN((n + "blend (equation rgb, alpha; src rgb, dst rgb, src alpha, dst alpha)").c_str(), x, y, 6);
+        d.cmpN((n + "color mask").c_str(), a.colorMask, b.colorMask, 4);
     }
-    cmpN("blend color", blendColor, o.blendColor, 4);
-    cmp("depth mask", depthMask, o.depthMask);
-    cmp("depth func", depthFunc, o.depthFunc);
-    cmpN("depth range", depthRange, o.depthRange, 2);
-    cmp("clip origin", clipOrigin, o.clipOrigin);
-    cmp("clip depth mode", clipDepthMode, o.clipDepthMode);
-    const GLint* f = &front.func; const GLint* of = &o.front.func;
-    const GLint* b = &back.func; const GLint* ob = &o.back.func;
-    cmpN("stencil front (func ref mask wmask fail zfail pass)", f, of, 7);
-    cmpN("stencil back (func ref mask wmask fail zfail pass)", b, ob, 7);
-    cmpN("clear color", clearColor, o.clearColor, 4);
-    cmp("clear depth", clearDepth, o.clearDepth);
-    cmp("clear stencil", clearStencil, o.clearStencil);
-    cmp("cull face mode", cullFaceMode, o.cullFaceMode);
-    cmp("front face", frontFace, o.frontFace);
-    cmpN("polygon mode", polygonMode, o.polygonMode, 2);
-    cmp("polygon offset factor", polygonOffsetFactor, o.polygonOffsetFactor);
-    cmp("polygon offset units", polygonOffsetUnits, o.polygonOffsetUnits);
-    cmp("program", program, o.program);
-    cmp("vertex array", vertexArray, o.vertexArray);
-    cmp("array buffer", arrayBuffer, o.arrayBuffer);
-    cmp("element array buffer", elementArrayBuffer, o.elementArrayBuffer);
-    cmp("uniform buffer", uniformBuffer, o.uniformBuffer);
-    cmp("pixel pack buffer", pixelPackBuffer, o.pixelPackBuffer);
-    cmp("pixel unpack buffer", pixelUnpackBuffer, o.pixelUnpackBuffer);
-    cmp("draw indirect buffer", drawIndirectBuffer, o.drawIndirectBuffer);
-    cmp("active texture", activeTexture, o.activeTexture);
-    for (int u = 0; u < kUnits; ++u) {
-        cmpN(("texture unit " + std::to_string(u) + " (2D 3D 2DArray Rect Buffer)").c_str(),
-             textures[u].data(), o.textures[u].data(), 5);
-        cmp(("sampler unit " + std::to_string(u)).c_str(), samplers[u], o.samplers[u]);
+    d.cmpN("blend color", s.blendColor, o.blendColor, 4);
+    d.cmp("depth mask", s.depthMask, o.depthMask);
+    d.cmp("depth func", s.depthFunc, o.depthFunc);
+    d.cmpN("depth range", s.depthRange, o.depthRange, 2);
+    d.cmp("clip origin", s.clipOrigin, o.clipOrigin);
+    d.cmp("clip depth mode", s.clipDepthMode, o.clipDepthMode);
+    const GLint* f = &s.front.func; const GLint* of = &o.front.func;
+    const GLint* b = &s.back.func; const GLint* ob = &o.back.func;
+    d.cmpN("stencil front (func ref mask wmask fail zfail pass)", f, of, 7);
+    d.cmpN("stencil back (func ref mask wmask fail zfail pass)", b, ob, 7);
+    d.cmpN("clear color", s.clearColor, o.clearColor, 4);
+    d.cmp("clear depth", s.clearDepth, o.clearDepth);
+    d.cmp("clear stencil", s.clearStencil, o.clearStencil);
+    d.cmp("cull face mode", s.cullFaceMode, o.cullFaceMode);
+    d.cmp("front face", s.frontFace, o.frontFace);
+    d.cmpN("polygon mode", s.polygonMode, o.polygonMode, 2);
+    d.cmp("polygon offset factor", s.polygonOffsetFactor, o.polygonOffsetFactor);
+    d.cmp("polygon offset units", s.polygonOffsetUnits, o.polygonOffsetUnits);
+}
+
+// captureBindings' state, `s` against `o`.
+void bindingDifferences(const GlStateSnapshot& s, const GlStateSnapshot& o, Differences& d) {
+    d.cmp("program", s.program, o.program);
+    d.cmp("vertex array", s.vertexArray, o.vertexArray);
+    d.cmp("array buffer", s.arrayBuffer, o.arrayBuffer);
+    d.cmp("element array buffer", s.elementArrayBuffer, o.elementArrayBuffer);
+    d.cmp("uniform buffer", s.uniformBuffer, o.uniformBuffer);
+    d.cmp("pixel pack buffer", s.pixelPackBuffer, o.pixelPackBuffer);
+    d.cmp("pixel unpack buffer", s.pixelUnpackBuffer, o.pixelUnpackBuffer);
+    d.cmp("draw indirect buffer", s.drawIndirectBuffer, o.drawIndirectBuffer);
+    d.cmp("active texture", s.activeTexture, o.activeTexture);
+    for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
+        d.cmpN(("texture unit " + std::to_string(u) + " (2D 3D 2DArray Rect Buffer)").c_str(),
+               s.textures[u].data(), o.textures[u].data(), 5);
+        d.cmp(("sampler unit " + std::to_string(u)).c_str(), s.samplers[u], o.samplers[u]);
     }
-    cmpN("pack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &pack.alignment,
-         &o.pack.alignment, 8);
-    cmpN("unpack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &unpack.alignment,
-         &o.unpack.alignment, 8);
-    cmpN("clip distance", clipDistance.data(), o.clipDistance.data(), 8);
-    cmp("shader storage buffer", shaderStorageBuffer, o.shaderStorageBuffer);
+    d.cmpN("pack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &s.pack.alignment,
+           &o.pack.alignment, 8);
+    d.cmpN("unpack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &s.unpack.alignment,
+           &o.unpack.alignment, 8);
+    d.cmpN("clip distance", s.clipDistance.data(), o.clipDistance.data(), 8);
+    d.cmp("shader storage buffer", s.shaderStorageBuffer, o.shaderStorageBuffer);
     for (int i = 0; i < 8; ++i) {
         const std::string n = "shader storage binding " + std::to_string(i) + " (buffer start size)";
-        const GLint64 a[3] = {shaderStorage[i].buffer, shaderStorage[i].start, shaderStorage[i].size};
+        const GLint64 a[3] = {s.shaderStorage[i].buffer, s.shaderStorage[i].start, s.shaderStorage[i].size};
         const GLint64 b[3] = {o.shaderStorage[i].buffer, o.shaderStorage[i].start, o.shaderStorage[i].size};
-        cmpN(n.c_str(), a, b, 3);
+        d.cmpN(n.c_str(), a, b, 3);
     }
+}
+
+}  // namespace
+
+std::string GlStateSnapshot::differences(const GlStateSnapshot& o) const {
+    std::ostringstream out;
+    Differences d{out};
+    fixedFunctionDifferences(*this, o, d);
+    bindingDifferences(*this, o, d);
     return out.str();
 }
 

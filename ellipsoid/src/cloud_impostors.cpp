@@ -29,36 +29,86 @@ Vec3 quantised(const Vec3& v) { return glm::round(v * 1000.0); }  // mm: the win
 
 }  // namespace
 
+// The visible clouds: their tiles' rectangle, whether any is cut by the near plane, how many.
+struct CloudImpostors::Group {
+    int visible = 0;
+    bool cut = false;
+    ScreenRect rect{1e300, 1e300, -1e300, -1e300};
+    std::vector<std::uint64_t> shapes;  // per visible ellipsoid: index, shape, place in the cloud
+};
+
+// A cloud that is an impostor this frame: where its image goes on screen, whether it must be
+// made (else its error: stale at 1), and what it is made from.
+struct CloudImpostors::Candidate {
+    int cloud;
+    std::uint64_t key;
+    Live* live;
+    bool must;
+    double error;
+    int px, py, w, h, need;
+    glm::dmat4 reproject;
+    std::uint64_t light;
+    double phase, weight;
+};
+
 ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene, const View& view,
                                   const PreparedClouds& prepared, const std::vector<PlacedRadiance>& light) {
     ImpostorPlan out;
-    const std::size_t nClouds = scene.clouds.size();
-    out.impostor.assign(nClouds, 0);
+    out.impostor.assign(scene.clouds.size(), 0);
     const std::uint64_t frame = ++frame_;
-    if (!allocator_ || atlasSize_ != s.atlasSize || layers_ != s.layers) {
-        fbos_.clear();
-        texture_ = Texture::create(GL_TEXTURE_2D_ARRAY);
-        checkTextureSize("the cloud impostor atlas", s.atlasSize, s.atlasSize, 0, s.layers);
-        glTextureStorage3D(texture_.id(), 1, GL_RGBA16F, s.atlasSize, s.atlasSize, s.layers);
-        checkAllocation("the cloud impostor atlas", std::uint64_t(s.atlasSize) * std::uint64_t(s.atlasSize) * s.layers * 8);
-        for (int l = 0; l < s.layers; ++l) {
-            Framebuffer fbo = Framebuffer::create();
-            glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, texture_.id(), 0, l);
-            checkFramebuffer(fbo.id(), "the cloud impostor atlas");
-            fbos_.push_back(std::move(fbo));
+    if (!allocator_ || atlasSize_ != s.atlasSize || layers_ != s.layers) makeAtlas(s);
+    const std::vector<Group> groups = groupClouds(prepared, scene.clouds.size());
+    std::vector<Candidate> cands = candidates(s, scene, view, prepared, light, groups, frame, out);
+
+    // Impostors no longer in use give their place back.
+    for (auto it = live_.begin(); it != live_.end();) {
+        if (it->second.seen != frame) {
+            if (it->second.place.pass >= 0 && it->second.place.size > 0) allocator_->free(it->second.place);
+            it = live_.erase(it);
+        } else {
+            ++it;
         }
-        allocator_ = std::make_unique<TileAllocator>(s.atlasSize, s.atlasSize, kMinImpostor, s.layers);
-        atlasSize_ = s.atlasSize, layers_ = s.layers;
-        live_.clear();
     }
 
-    // The visible clouds: their tiles' rectangle, whether any is cut by the near plane, how many.
-    struct Group {
-        int visible = 0;
-        bool cut = false;
-        ScreenRect rect{1e300, 1e300, -1e300, -1e300};
-        std::vector<std::uint64_t> shapes;  // per visible ellipsoid: index, shape, place in the cloud
-    };
+    const std::vector<char> fresh = makeImages(s, view, prepared, groups, cands, out);
+    for (std::size_t i = 0; i < cands.size(); ++i) {
+        const Candidate& k = cands[i];
+        if (!k.live || !out.impostor[std::size_t(k.cloud)]) continue;
+        ImpostorDraw d;
+        d.cloud = k.cloud;
+        d.fresh = fresh[i] != 0;
+        d.place = k.live->place;
+        d.px = k.px, d.py = k.py, d.w = k.live->w, d.h = k.live->h;
+        d.reproject = glm::mat4(k.reproject);
+        d.centre = prepared.spheres[std::size_t(k.cloud)].centre;
+        d.radius = prepared.spheres[std::size_t(k.cloud)].radius;
+        d.distance = glm::length(view.eye - d.centre);
+        out.draws.push_back(d);
+    }
+    std::stable_sort(out.draws.begin(), out.draws.end(),
+                     [](const ImpostorDraw& a, const ImpostorDraw& b) { return a.distance > b.distance; });
+    return out;
+}
+
+// The atlas (its layers, a framebuffer each, and the allocator), made anew: every image is lost.
+void CloudImpostors::makeAtlas(const ImpostorSettings& s) {
+    fbos_.clear();
+    texture_ = Texture::create(GL_TEXTURE_2D_ARRAY);
+    checkTextureSize("the cloud impostor atlas", s.atlasSize, s.atlasSize, 0, s.layers);
+    glTextureStorage3D(texture_.id(), 1, GL_RGBA16F, s.atlasSize, s.atlasSize, s.layers);
+    checkAllocation("the cloud impostor atlas", std::uint64_t(s.atlasSize) * std::uint64_t(s.atlasSize) * s.layers * 8);
+    for (int l = 0; l < s.layers; ++l) {
+        Framebuffer fbo = Framebuffer::create();
+        glNamedFramebufferTextureLayer(fbo.id(), GL_COLOR_ATTACHMENT0, texture_.id(), 0, l);
+        checkFramebuffer(fbo.id(), "the cloud impostor atlas");
+        fbos_.push_back(std::move(fbo));
+    }
+    allocator_ = std::make_unique<TileAllocator>(s.atlasSize, s.atlasSize, kMinImpostor, s.layers);
+    atlasSize_ = s.atlasSize, layers_ = s.layers;
+    live_.clear();
+}
+
+std::vector<CloudImpostors::Group> CloudImpostors::groupClouds(const PreparedClouds& prepared, std::size_t nClouds) {
     std::vector<Group> groups(nClouds);
     const std::vector<CloudSphere>& spheres = prepared.spheres;  // the clouds' bounding spheres
     for (const PreparedEllipsoid& e : prepared.ellipsoids) {
@@ -76,24 +126,22 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
                        .value());
     }
     for (Group& g : groups) std::sort(g.shapes.begin(), g.shapes.end());
+    return groups;
+}
 
+// The clouds that are impostors this frame (out.impostor), each with its kept image's error,
+// or must, when it has no usable one. Marks each seen this frame (a new one gets its entry).
+std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const ImpostorSettings& s, const Scene& scene, const View& view,
+                                                                  const PreparedClouds& prepared,
+                                                                  const std::vector<PlacedRadiance>& light,
+                                                                  const std::vector<Group>& groups, std::uint64_t frame,
+                                                                  ImpostorPlan& out) {
+    const std::vector<CloudSphere>& spheres = prepared.spheres;
     const std::uint64_t global = imageInputs(scene, prepared.noisePeriod);
     const glm::dmat4 viewProj = view.projectionMatrix * glm::lookAt(Vec3(0.0), view.forward, view.up);
-    const int W = view.camera.width, H = view.camera.height;
-    const double pxX = 0.5 * W, pxY = 0.5 * H;
-    struct Candidate {
-        int cloud;
-        std::uint64_t key;
-        Live* live;
-        bool must;
-        double error;
-        int px, py, w, h, need;
-        glm::dmat4 reproject;
-        std::uint64_t light;
-        double phase, weight;
-    };
+    const double pxX = 0.5 * view.camera.width, pxY = 0.5 * view.camera.height;
     std::vector<Candidate> cands;
-    for (int c = 0; c < int(nClouds); ++c) {
+    for (int c = 0; c < int(groups.size()); ++c) {
         const Group& g = groups[std::size_t(c)];
         if (g.visible == 0 || g.cut) continue;
         const Cloud& cloud = scene.clouds[std::size_t(c)];
@@ -150,19 +198,17 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         cands.push_back(k);
         out.impostor[std::size_t(c)] = 1;
     }
+    return cands;
+}
 
-    // Impostors no longer in use give their place back.
-    for (auto it = live_.begin(); it != live_.end();) {
-        if (it->second.seen != frame) {
-            if (it->second.place.pass >= 0 && it->second.place.size > 0) allocator_->free(it->second.place);
-            it = live_.erase(it);
-        } else {
-            ++it;
-        }
-    }
-
-    // The frame's makes: every impostor without a usable image, then the stale ones worst first
-    // within the budget (the worst one always).
+// The frame's makes: every impostor without a usable image, then the stale ones worst first
+// within the budget (the worst one always), each given its place in the atlas and its view.
+// Returns, per candidate, whether it is made this frame. A candidate the full atlas has no
+// place for is drawn as tiles (out.impostor 0, its entry gone).
+std::vector<char> CloudImpostors::makeImages(const ImpostorSettings& s, const View& view, const PreparedClouds& prepared,
+                                             const std::vector<Group>& groups, std::vector<Candidate>& cands,
+                                             ImpostorPlan& out) {
+    const int W = view.camera.width, H = view.camera.height;
     const double budget = s.budget * double(W) * double(H);
     double spent = 0;
     std::vector<std::size_t> make, stale;
@@ -196,7 +242,7 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
             L.place = place;
         }
         fresh[i] = 1;
-        const Vec3 centre = spheres[std::size_t(k.cloud)].centre;
+        const Vec3 centre = prepared.spheres[std::size_t(k.cloud)].centre;
         L.made = true;
         L.shapes = groups[std::size_t(k.cloud)].shapes;
         L.light = k.light, L.phase = k.phase, L.weight = k.weight;
@@ -211,23 +257,7 @@ ImpostorPlan CloudImpostors::plan(const ImpostorSettings& s, const Scene& scene,
         k.reproject = glm::dmat4(glm::dvec4(hx, 0, 0, 0), glm::dvec4(0, hy, 0, 0), glm::dvec4(0.0), glm::dvec4(cx, cy, 0, 1));
         ++out.rendered;
     }
-    for (std::size_t i = 0; i < cands.size(); ++i) {
-        const Candidate& k = cands[i];
-        if (!k.live || !out.impostor[std::size_t(k.cloud)]) continue;
-        ImpostorDraw d;
-        d.cloud = k.cloud;
-        d.fresh = fresh[i] != 0;
-        d.place = k.live->place;
-        d.px = k.px, d.py = k.py, d.w = k.live->w, d.h = k.live->h;
-        d.reproject = glm::mat4(k.reproject);
-        d.centre = spheres[std::size_t(k.cloud)].centre;
-        d.radius = spheres[std::size_t(k.cloud)].radius;
-        d.distance = glm::length(view.eye - d.centre);
-        out.draws.push_back(d);
-    }
-    std::stable_sort(out.draws.begin(), out.draws.end(),
-                     [](const ImpostorDraw& a, const ImpostorDraw& b) { return a.distance > b.distance; });
-    return out;
+    return fresh;
 }
 
 }  // namespace nephele

@@ -84,6 +84,17 @@ private:
         std::uint64_t seen = 0;
         bool made = false;
     };
+    // plan()'s parts (cloud_impostors.cpp).
+    struct Group;
+    struct Candidate;
+    void makeAtlas(const ImpostorSettings& s);
+    static std::vector<Group> groupClouds(const PreparedClouds& prepared, std::size_t nClouds);
+    std::vector<Candidate> candidates(const ImpostorSettings& s, const Scene& scene, const View& view,
+                                      const PreparedClouds& prepared, const std::vector<PlacedRadiance>& light,
+                                      const std::vector<Group>& groups, std::uint64_t frame, ImpostorPlan& out);
+    std::vector<char> makeImages(const ImpostorSettings& s, const View& view, const PreparedClouds& prepared,
+                                 const std::vector<Group>& groups, std::vector<Candidate>& cands, ImpostorPlan& out);
+
     std::unique_ptr<TileAllocator> allocator_;
     gl::Texture texture_;
     std::vector<gl::Framebuffer> fbos_;

@@ -57,9 +57,7 @@ void checkPow2(const char* what, int v) {
     if (v < 1 || (v & (v - 1)) != 0) throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
 }
 
-}  // namespace
-
-EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
+void checkSettings(const EllipsoidSettings& s) {
     checkPow2("minTile", s.minTile);
     checkPow2("maxTile", s.maxTile);
     if (s.minTile > s.maxTile) throw std::invalid_argument("minTile must not exceed maxTile");
@@ -78,59 +76,64 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
     if (s.cloudLodMaxPixels < 8 || s.cloudLodMaxPixels > 4096) throw std::invalid_argument("cloudLodMaxPixels must be in 8..4096");
     if (s.impostorMegabytes < 1) throw std::invalid_argument("impostorMegabytes must be at least 1");
     if (s.closeDownsample < 1 || s.closeDownsample > 4) throw std::invalid_argument("closeDownsample must be in 1..4");
-    Impl& m = *impl_;
+}
+
+}  // namespace
+
+// The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
+void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
-    // Only the programs these settings use (llvmpipe compiles each in tens of milliseconds).
     if (s.geometry == TileGeometry::Mesh) {
         const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + unorm8;
-        m.tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                                falloffTexture);
-        m.tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                                   falloffTexture + "#define CUT 1\n");
-        m.rayDefines = unorm8;
+        tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                              falloffTexture);
+        tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                                 falloffTexture + "#define CUT 1\n");
+        rayDefines = unorm8;
     } else {
-        m.tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                                   unorm8);
-        m.tileRayCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                                      unorm8 + "#define CUT 1\n");
+        tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+                                 unorm8);
+        tileRayCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+                                    unorm8 + "#define CUT 1\n");
     }
-    m.colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
+    colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
-    m.composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
+    composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
     if (s.order == CompositeOrder::Weighted || s.order == CompositeOrder::Moments) {
         const std::string weighted = fused + "#define WEIGHTED 1\n";
         const std::string second = weighted + (s.order == CompositeOrder::Moments ? "#define MOMENTS 1\n" : "");
-        m.compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
-        m.compositeWeightedFraction = Program::build(
+        compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
+        compositeWeightedFraction = Program::build(
             {{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second + "#define FRACTION 1\n");
         if (s.order == CompositeOrder::Moments) {
-            m.compositeMoments = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                                weighted + "#define MOMENTS_PASS 1\n");
-            m.compositeMomentsFraction =
+            compositeMoments = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                              weighted + "#define MOMENTS_PASS 1\n");
+            compositeMomentsFraction =
                 Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
                                weighted + "#define MOMENTS_PASS 1\n#define FRACTION 1\n");
         }
-        m.resolve = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
+        resolve = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
     } else {
-        m.compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                             fused + "#define FRACTION 1\n");
+        compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                           fused + "#define FRACTION 1\n");
     }
-    m.screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     if (cloudLodApplies(s)) {  // only then are impostors drawn
-        m.impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
-        m.impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
-                                            "#define FRACTION 1\n");
+        impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
+        impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
+                                          "#define FRACTION 1\n");
     }
     if (cloudLodApplies(s) && s.closeDownsample > 1) {  // built now, as tileClear below
-        m.reduced = std::make_unique<ReducedTarget>();
-        m.reduced->program(0, true), m.reduced->program(0, false);
+        reduced = std::make_unique<ReducedTarget>();
+        reduced->program(0, true), reduced->program(0, false);
     }
     if (s.reuse)  // built now: a first reuse frame that compiled it stalled
-        m.tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
-    m.empty = VertexArray::create();
-    HostStateScope scope;  // the uploads below see a tightly packed pixel store whatever the host set
+        tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
+}
 
+// The falloff texture and the noise volume (uploaded within the constructor's HostStateScope).
+void EllipsoidRenderer::Impl::makeTextures(const EllipsoidSettings& s) {
     // The projective radial falloff texture (the paper's figure 4), F(b) = (1 - b^2)^(5/2).
     constexpr int kFalloff = 256;
     std::vector<float> f(kFalloff * kFalloff);
@@ -139,22 +142,30 @@ EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s),
             const double u = (x + 0.5) / kFalloff * 2 - 1, v = (y + 0.5) / kFalloff * 2 - 1;
             f[y * kFalloff + x] = model::radialProfile(float(u * u + v * v));
         }
-    m.falloff = Texture::create(GL_TEXTURE_2D);
-    glTextureStorage2D(m.falloff.id(), 1, GL_R32F, kFalloff, kFalloff);
-    glTextureSubImage2D(m.falloff.id(), 0, 0, 0, kFalloff, kFalloff, GL_RED, GL_FLOAT, f.data());
-    glTextureParameteri(m.falloff.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(m.falloff.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(m.falloff.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(m.falloff.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    falloff = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(falloff.id(), 1, GL_R32F, kFalloff, kFalloff);
+    glTextureSubImage2D(falloff.id(), 0, 0, 0, kFalloff, kFalloff, GL_RED, GL_FLOAT, f.data());
+    glTextureParameteri(falloff.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(falloff.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
 
     const NoiseVolume nv = makeNoiseVolume(s.noise.size, s.noise.cells, s.noise.octaves, s.noise.seed);
-    m.noise = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(m.noise.id(), 1, GL_R32F, nv.size, nv.size, nv.size);
-    glTextureSubImage3D(m.noise.id(), 0, 0, 0, 0, nv.size, nv.size, nv.size, GL_RED, GL_FLOAT, nv.texels.data());
-    glTextureParameteri(m.noise.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(m.noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(m.noise.id(), w, GL_REPEAT);
+    noise = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(noise.id(), 1, GL_R32F, nv.size, nv.size, nv.size);
+    glTextureSubImage3D(noise.id(), 0, 0, 0, 0, nv.size, nv.size, nv.size, GL_RED, GL_FLOAT, nv.texels.data());
+    glTextureParameteri(noise.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(noise.id(), w, GL_REPEAT);
+}
 
+EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
+    checkSettings(s);
+    Impl& m = *impl_;
+    m.buildPrograms(s);
+    m.empty = VertexArray::create();
+    HostStateScope scope;  // the uploads below see a tightly packed pixel store whatever the host set
+    m.makeTextures(s);
     m.linearClamp = linearSampler(GL_CLAMP_TO_EDGE);
     checkAlways("creating the ellipsoid compositor");
 }
@@ -193,13 +204,11 @@ void EllipsoidRenderer::Impl::updateLights(const EllipsoidSettings& s, const Sce
     lightUploads += lightTextures.update(light);
 }
 
-// Everything before the first draw: projection, culling, tile sizes, packing, the GPU
-// tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
-FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse,
-                                        bool lod) {
-    Impl& m = *this;
-    FramePlan out;
-    out.reuse = reuse;
+namespace {
+
+// plan()'s first phase: the visible ellipsoids, back to front, and the close LOD's texels.
+// False when none is visible (nothing to draw).
+bool prepareFrame(const EllipsoidSettings& s, const Scene& scene, const View& view, bool lod, FramePlan& out) {
     EllipsoidStats& stats = out.stats;
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     out.prepared = prepareClouds(scene, view, s.noise);
@@ -213,95 +222,178 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         for (PreparedEllipsoid& e : out.prepared.ellipsoids) e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);
     }
     stats.visible = int(prepared.ellipsoids.size());
-    if (prepared.ellipsoids.empty()) return out;
+    return !prepared.ellipsoids.empty();
+}
 
-    const int frameW = view.camera.width, frameH = view.camera.height;
-    const int atlasW = s.atlasWidth > 0 ? s.atlasWidth : frameW;
-    const int atlasH = s.atlasHeight > 0 ? s.atlasHeight : frameH;
-    const int maxTile = std::min(s.maxTile, floorPow2(std::min(atlasW, atlasH)));
-    const int minTile = std::min(s.minTile, maxTile);
+// The composite's runs: tiles of the clouds drawn as tiles (order[0, frameTiles), back to
+// front) and impostors, merged back to front. `impostorOf`: per scene cloud, its index in
+// out.impostors, else -1 (empty without the cloud LOD).
+void makeRuns(FramePlan& out, const std::vector<int>& impostorOf, int frameTiles) {
+    std::size_t next = 0;
+    int k = 0;
+    for (const PreparedEllipsoid& e : out.prepared.ellipsoids) {
+        if (!impostorOf.empty() && impostorOf[std::size_t(e.cloud)] >= 0) continue;
+        for (; next < out.impostors.size() && out.impostors[next].distance > e.projection.distance; ++next)
+            out.runs.push_back({0, 0, int(next)});
+        if (out.runs.empty() || out.runs.back().impostor >= 0) out.runs.push_back({k, 0, -1});
+        ++out.runs.back().count, ++k;
+    }
+    for (; next < out.impostors.size(); ++next) out.runs.push_back({0, 0, int(next)});
+    if (k != frameTiles) throw std::logic_error("ellipsoid compositor: the composite's runs miss tiles");
+}
+
+// The composite order (GPU tile indices; `slot`: prepared index -> GPU tile index) and its runs.
+// prepared.ellipsoids is back to front: that is the composite order. With impostors, the
+// tiles composited over the frame first, then each fresh impostor's.
+void compositeOrder(FramePlan& out, const std::vector<int>& impostorOf, const std::vector<int>& slot) {
+    const PreparedClouds& prepared = out.prepared;
+    std::vector<int>& order = out.order;
+    if (impostorOf.empty()) {
+        order = slot;
+        makeRuns(out, impostorOf, int(order.size()));
+        return;
+    }
+    for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
+        if (impostorOf[std::size_t(prepared.ellipsoids[i].cloud)] < 0) order.push_back(slot[i]);
+    const int frameTiles = int(order.size());
+    out.impostorFirst.assign(out.impostors.size(), 0);
+    out.impostorCount.assign(out.impostors.size(), 0);
+    for (std::size_t k = 0; k < out.impostors.size(); ++k) {
+        if (!out.impostors[k].fresh) continue;
+        out.impostorFirst[k] = int(order.size());
+        for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
+            if (prepared.ellipsoids[i].cloud == out.impostors[k].cloud) order.push_back(slot[i]);
+        out.impostorCount[k] = int(order.size()) - out.impostorFirst[k];
+    }
+    makeRuns(out, impostorOf, frameTiles);
+}
+
+// One tile's record for the GPU: the ellipsoid, camera-relative, and the ray through each of
+// its tile's clip positions (rc + x rx + y ry, returned for the reuse bookkeeping).
+GpuTile gpuTile(const PreparedEllipsoid& e, const View& view, const glm::dmat4& viewRotation, Vec3& rc, Vec3& rx, Vec3& ry) {
+    const EllipsoidProjection& p = e.projection;
+    GpuTile t{};  // reproject stays zero for fresh tiles
+    put(t.centerSigma, e.shape.center - view.eye, e.sigma);
+    for (int c = 0; c < 3; ++c) put(t.axes[c], e.axes[c]);
+    for (int r = 0; r < 3; ++r) put(t.unit[r], glm::row(e.unit, r));
+    put(t.eyeUnitAc, e.unit * (view.eye - e.shape.center), e.ac);
+    const glm::dmat4 tileViewProj = p.projection * viewRotation;
+    const glm::mat4 tvp(tileViewProj);
+    std::memcpy(t.tileViewProj, glm::value_ptr(tvp), sizeof t.tileViewProj);
+    // The ray through tile clip (x, y): its point on the near plane, affine in x and y.
+    const glm::dmat4 inv = glm::inverse(tileViewProj);
+    auto nearPoint = [&](double x, double y) {
+        const glm::dvec4 h = inv * glm::dvec4(x, y, -1.0, 1.0);
+        return Vec3(h) / h.w;
+    };
+    rc = nearPoint(0, 0);
+    put(t.rayCentre, rc);
+    rx = nearPoint(1, 0) - rc, ry = nearPoint(0, 1) - rc;
+    put(t.rayX, rx);
+    put(t.rayY, ry);
+    return t;
+}
+
+}  // namespace
+
+// Everything before the first draw: projection, culling, tile sizes, packing, the GPU
+// tile data, the light volumes and the atlas. `plan.stats.visible == 0`: nothing to draw.
+FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse,
+                                        bool lod) {
+    Impl& m = *this;
+    FramePlan out;
+    out.reuse = reuse;
+    if (!prepareFrame(s, scene, view, lod, out)) return out;
+
+    AtlasLayout a;
+    a.frameW = view.camera.width, a.frameH = view.camera.height;
+    a.atlasW = s.atlasWidth > 0 ? s.atlasWidth : a.frameW;
+    a.atlasH = s.atlasHeight > 0 ? s.atlasHeight : a.frameH;
+    a.maxTile = std::min(s.maxTile, floorPow2(std::min(a.atlasW, a.atlasH)));
+    a.minTile = std::min(s.minTile, a.maxTile);
     // Without reuse one atlas per size; with it one per view size and place (a channel's tiles).
-    Atlas& atlas = m.atlases.get(reuse ? glm::ivec4(atlasW, atlasH, view.origin.x, view.origin.y) : glm::ivec4(atlasW, atlasH, -1, -1));
+    Atlas& atlas = m.atlases.get(reuse ? glm::ivec4(a.atlasW, a.atlasH, view.origin.x, view.origin.y)
+                                       : glm::ivec4(a.atlasW, a.atlasH, -1, -1));
     m.atlas = &atlas;
 
     // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
     // Driven by a host's updateLights(), the grids change only there: every channel of a frame
     // draws with the same ones.
     m.updateLights(s, scene, &view.eye, m.lightsDriven, !m.lightsDriven);
-    const std::vector<PlacedRadiance>& light = m.light;
 
-    // ---- The cloud LOD: far clouds as impostors; only the tiles of those made this frame and
-    // of the clouds drawn as tiles go on.
     std::vector<int> impostorOf;  // per scene cloud: its index in out.impostors, else -1
     std::vector<char> keepTiles;  // per scene cloud: an impostor kept from before (its tiles stay in the atlas)
-    if (lod && cloudLodApplies(s)) {
-        ImpostorSettings is;
-        is.distance = s.cloudLodDistance, is.maxPixels = s.cloudLodMaxPixels;
-        is.atlasSize = std::max(256, int(std::bit_ceil(unsigned(s.cloudLodMaxPixels + 2))));
-        is.layers = std::max(1, int(s.impostorMegabytes * 1048576.0 / (double(is.atlasSize) * is.atlasSize * 8)));
-        is.errorPixels = s.cloudLodErrorPixels, is.budget = s.reuseBudget;
-        CloudImpostors& ci = m.impostors.get({frameW, frameH, view.origin.x, view.origin.y});
-        ImpostorPlan ip = ci.plan(is, scene, view, out.prepared, light);
-        out.impostorAtlas = &ci;
-        out.impostors = std::move(ip.draws);
-        impostorOf.assign(scene.clouds.size(), -1);
-        keepTiles.assign(scene.clouds.size(), 0);
-        for (int k = 0; k < int(out.impostors.size()); ++k) {
-            impostorOf[std::size_t(out.impostors[k].cloud)] = k;
-            keepTiles[std::size_t(out.impostors[k].cloud)] = !out.impostors[k].fresh;
-        }
-        std::erase_if(out.prepared.ellipsoids, [&](const PreparedEllipsoid& e) {
-            const int k = impostorOf[std::size_t(e.cloud)];
-            return k >= 0 && !out.impostors[std::size_t(k)].fresh;
-        });
-        stats.impostors = int(out.impostors.size());
-        stats.impostorsRendered = ip.rendered;
-    }
-    // The composite's runs: tiles of the clouds drawn as tiles (order[0, frameTiles), back to
-    // front) and impostors, merged back to front.
-    auto makeRuns = [&](int frameTiles) {
-        std::size_t next = 0;
-        int k = 0;
-        for (const PreparedEllipsoid& e : out.prepared.ellipsoids) {
-            if (!impostorOf.empty() && impostorOf[std::size_t(e.cloud)] >= 0) continue;
-            for (; next < out.impostors.size() && out.impostors[next].distance > e.projection.distance; ++next)
-                out.runs.push_back({0, 0, int(next)});
-            if (out.runs.empty() || out.runs.back().impostor >= 0) out.runs.push_back({k, 0, -1});
-            ++out.runs.back().count, ++k;
-        }
-        for (; next < out.impostors.size(); ++next) out.runs.push_back({0, 0, int(next)});
-        if (k != frameTiles) throw std::logic_error("ellipsoid compositor: the composite's runs miss tiles");
-    };
+    if (lod && cloudLodApplies(s)) planImpostors(s, scene, view, out, impostorOf, keepTiles);
     if (out.prepared.ellipsoids.empty()) {  // every visible cloud an impostor kept from before
         m.lastTiles.clear();
-        makeRuns(0);
+        makeRuns(out, impostorOf, 0);
         return out;
     }
 
-    // ---- Tiles: sizes, packing, per-pass order.
-    // Each pass keeps an atlas layer until the composite: past the memory budget, the
-    // largest tiles are halved (and the packing redone) so that memory stays bounded.
-    const double layerBytes = double(atlasW) * atlasH * (s.precision == AtlasPrecision::Float16 ? 8 : 4);
-    const int maxPasses = std::max(1, int(s.atlasMegabytes * 1048576.0 / layerBytes));
-    GLint maxLayers = 0;
-    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+    placeTiles(s, scene, view, atlas, keepTiles, a, out);
+    groupTiles(s, scene, view, out);
+    const std::vector<int> slot = writeGpuTiles(view, atlas, out);
+    compositeOrder(out, impostorOf, slot);
+    uploadPlan(s, view, atlas, a, out);
+    return out;
+}
+
+// ---- The cloud LOD: far clouds as impostors; only the tiles of those made this frame and
+// of the clouds drawn as tiles go on.
+void EllipsoidRenderer::Impl::planImpostors(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out,
+                                            std::vector<int>& impostorOf, std::vector<char>& keepTiles) {
+    EllipsoidStats& stats = out.stats;
+    ImpostorSettings is;
+    is.distance = s.cloudLodDistance, is.maxPixels = s.cloudLodMaxPixels;
+    is.atlasSize = std::max(256, int(std::bit_ceil(unsigned(s.cloudLodMaxPixels + 2))));
+    is.layers = std::max(1, int(s.impostorMegabytes * 1048576.0 / (double(is.atlasSize) * is.atlasSize * 8)));
+    is.errorPixels = s.cloudLodErrorPixels, is.budget = s.reuseBudget;
+    CloudImpostors& ci = impostors.get({view.camera.width, view.camera.height, view.origin.x, view.origin.y});
+    ImpostorPlan ip = ci.plan(is, scene, view, out.prepared, light);
+    out.impostorAtlas = &ci;
+    out.impostors = std::move(ip.draws);
+    impostorOf.assign(scene.clouds.size(), -1);
+    keepTiles.assign(scene.clouds.size(), 0);
+    for (int k = 0; k < int(out.impostors.size()); ++k) {
+        impostorOf[std::size_t(out.impostors[k].cloud)] = k;
+        keepTiles[std::size_t(out.impostors[k].cloud)] = !out.impostors[k].fresh;
+    }
+    std::erase_if(out.prepared.ellipsoids, [&](const PreparedEllipsoid& e) {
+        const int k = impostorOf[std::size_t(e.cloud)];
+        return k >= 0 && !out.impostors[std::size_t(k)].fresh;
+    });
+    stats.impostors = int(out.impostors.size());
+    stats.impostorsRendered = ip.rendered;
+}
+
+// ---- Tiles: sizes, and packing (or, with reuse, which tiles are rendered again and where).
+// Each pass keeps an atlas layer until the composite: past the memory budget, the
+// largest tiles are halved (and the packing redone) so that memory stays bounded.
+void EllipsoidRenderer::Impl::placeTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, Atlas& atlas,
+                                         const std::vector<char>& keepTiles, AtlasLayout& a, FramePlan& out) {
+    EllipsoidStats& stats = out.stats;
+    const PreparedClouds& prepared = out.prepared;
+    const double layerBytes = double(a.atlasW) * a.atlasH * (s.precision == AtlasPrecision::Float16 ? 8 : 4);
+    a.maxPasses = std::max(1, int(s.atlasMegabytes * 1048576.0 / layerBytes));
+    a.maxLayers = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &a.maxLayers);
     std::vector<TilePlacement>& placements = out.placements;
-    if (!reuse) {
-        for (int limit = maxTile;; limit /= 2) {
+    if (!out.reuse) {
+        for (int limit = a.maxTile;; limit /= 2) {
             std::vector<TileRequest> requests;
             for (int i = 0; i < int(prepared.ellipsoids.size()); ++i) {
-                requests.push_back({i, tileSizeFor(tileExtent(prepared.ellipsoids[i]), minTile, limit)});
+                requests.push_back({i, tileSizeFor(tileExtent(prepared.ellipsoids[i]), a.minTile, limit)});
             }
-            out.packed = packTiles(requests, atlasW, atlasH);
+            out.packed = packTiles(requests, a.atlasW, a.atlasH);
             stats.maxTile = limit;
-            if (out.packed.passes <= maxPasses || limit <= minTile) break;
+            if (out.packed.passes <= a.maxPasses || limit <= a.minTile) break;
         }
         placements = out.packed.placements;
     } else {
         ReuseSettings rs;
-        rs.atlasWidth = atlasW, rs.atlasHeight = atlasH, rs.frameWidth = frameW, rs.frameHeight = frameH;
-        rs.minTile = minTile, rs.maxTile = maxTile, rs.budgetLayers = maxPasses, rs.layers = atlas.layers;
-        rs.maxLayers = std::max(1, std::min(int(maxLayers), std::max(4 * maxPasses, 64)));
+        rs.atlasWidth = a.atlasW, rs.atlasHeight = a.atlasH, rs.frameWidth = a.frameW, rs.frameHeight = a.frameH;
+        rs.minTile = a.minTile, rs.maxTile = a.maxTile, rs.budgetLayers = a.maxPasses, rs.layers = atlas.layers;
+        rs.maxLayers = std::max(1, std::min(int(a.maxLayers), std::max(4 * a.maxPasses, 64)));
         rs.errorPixels = s.reuseErrorPixels, rs.budget = s.reuseBudget;
         ReusePlan rp = atlas.reuse.plan(rs, scene, view, prepared, light, keepTiles);
         placements = std::move(rp.fresh);
@@ -315,63 +407,56 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         stats.atlasRepacked = rp.reset;
     }
     const PackResult& packed = out.packed;
-    if (packed.passes > maxLayers)
+    if (packed.passes > a.maxLayers)
         throw GlError("ellipsoid atlas: " + std::to_string(prepared.ellipsoids.size()) + " visible ellipsoids need " +
-                      std::to_string(packed.passes) + " passes of " + std::to_string(atlasW) + "x" + std::to_string(atlasH) +
-                      " even with " + std::to_string(minTile) + " px tiles, more than GL's " + std::to_string(maxLayers) +
+                      std::to_string(packed.passes) + " passes of " + std::to_string(a.atlasW) + "x" +
+                      std::to_string(a.atlasH) + " even with " + std::to_string(a.minTile) +
+                      " px tiles, more than GL's " + std::to_string(a.maxLayers) +
                       " atlas layers; give a larger atlas (--atlas) or smaller tiles (--min-tile)");
     stats.passes = packed.passes;
     stats.utilisation = packed.meanUtilisation();
-    // Mesh tiles near the sun are lit per pixel (nearTheSun).
+}
+
+// Mesh tiles near the sun are lit per pixel (nearTheSun). Within a pass tiles never overlap,
+// so any order will do: group them by program (cut by the near plane or not, lit per pixel or
+// not) and mesh level, one instanced draw per group.
+void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out) {
+    const PreparedClouds& prepared = out.prepared;
     out.perPixelLight.assign(prepared.ellipsoids.size(), 0);
     if (s.geometry == TileGeometry::Mesh) {
         for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
             out.perPixelLight[i] = nearTheSun(prepared.ellipsoids[i], view, scene) ? 1 : 0;
-        if (!m.tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
-            m.tileRay = Program::build(
-                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, m.rayDefines);
+        if (!tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
+            tileRay = Program::build(
+                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, rayDefines);
     }
-    // Within a pass tiles never overlap, so any order will do: group them by program
-    // (cut by the near plane or not, lit per pixel or not) and mesh level, one instanced draw
-    // per group.
     auto group = [&](const TilePlacement& p) {
         return drawGroup(s, prepared.ellipsoids[p.id], p.size, out.perPixelLight[p.id] != 0);
     };
-    std::stable_sort(placements.begin(), placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
+    std::stable_sort(out.placements.begin(), out.placements.end(), [&](const TilePlacement& a, const TilePlacement& b) {
         return a.pass != b.pass ? a.pass < b.pass : group(a) < group(b);
     });
+}
 
+// The GPU's tile records: the tiles rendered this frame, then those composited from an earlier
+// frame's image; the debug list and the stats. Returns, per prepared ellipsoid, its GPU tile.
+std::vector<int> EllipsoidRenderer::Impl::writeGpuTiles(const View& view, Atlas& atlas, FramePlan& out) {
+    EllipsoidStats& stats = out.stats;
+    const PreparedClouds& prepared = out.prepared;
+    const std::vector<TilePlacement>& placements = out.placements;
     const glm::dmat4 viewRotation = glm::lookAt(Vec3(0.0), view.forward, view.up);
     std::vector<GpuTile>& gpu = out.gpu;
     gpu.resize(placements.size() + out.reused.size());
-    m.lastTiles.clear();
+    lastTiles.clear();
     std::vector<int> slot(prepared.ellipsoids.size());  // prepared index -> GPU tile index
-    // The tiles rendered this frame, then those composited from an earlier frame's image.
     for (std::size_t k = 0; k < gpu.size(); ++k) {
         const bool fresh = k < placements.size();
         const TilePlacement& tp = fresh ? placements[k] : out.reused[k - placements.size()];
         const PreparedEllipsoid& e = prepared.ellipsoids[tp.id];
         const EllipsoidProjection& p = e.projection;
-        GpuTile& t = gpu[k];
-        put(t.centerSigma, e.shape.center - view.eye, e.sigma);
-        for (int c = 0; c < 3; ++c) put(t.axes[c], e.axes[c]);
-        for (int r = 0; r < 3; ++r) put(t.unit[r], glm::row(e.unit, r));
-        put(t.eyeUnitAc, e.unit * (view.eye - e.shape.center), e.ac);
-        const glm::dmat4 tileViewProj = p.projection * viewRotation;
-        const glm::mat4 tvp(tileViewProj);
-        std::memcpy(t.tileViewProj, glm::value_ptr(tvp), sizeof t.tileViewProj);
-        // The ray through tile clip (x, y): its point on the near plane, affine in x and y.
-        const glm::dmat4 inv = glm::inverse(tileViewProj);
-        auto nearPoint = [&](double x, double y) {
-            const glm::dvec4 h = inv * glm::dvec4(x, y, -1.0, 1.0);
-            return Vec3(h) / h.w;
-        };
-        const Vec3 rc = nearPoint(0, 0);
-        put(t.rayCentre, rc);
-        const Vec3 rx = nearPoint(1, 0) - rc, ry = nearPoint(0, 1) - rc;
-        put(t.rayX, rx);
-        put(t.rayY, ry);
-        if (fresh && reuse) atlas.reuse.rendered(tp.id, rc, rx, ry);
+        Vec3 rc, rx, ry;
+        GpuTile& t = gpu[k] = gpuTile(e, view, viewRotation, rc, rx, ry);
+        if (fresh && out.reuse) atlas.reuse.rendered(tp.id, rc, rx, ry);
         t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
         if (fresh) {
             t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
@@ -385,59 +470,44 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
         put(t.noiseOffset, e.noiseOffset);
         put(t.skyChroma, Vec3(model::skyChroma(glm::vec3(light[e.cloud].sample(e.shape.center).skyTau))));
         slot[tp.id] = int(k);
-        m.lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
+        lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
         stats.tilePixels += std::int64_t(tp.size) * tp.size;
         stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
         if (fresh) ++stats.tilesRendered, stats.tilePixelsRendered += std::int64_t(tp.size) * tp.size;
         else ++stats.tilesReused;
     }
-    // prepared.ellipsoids is back to front: that is the composite order. With impostors, the
-    // tiles composited over the frame first, then each fresh impostor's.
-    std::vector<int>& order = out.order;
-    if (impostorOf.empty()) {
-        order = slot;
-        makeRuns(int(order.size()));
-    } else {
-        for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
-            if (impostorOf[std::size_t(prepared.ellipsoids[i].cloud)] < 0) order.push_back(slot[i]);
-        const int frameTiles = int(order.size());
-        out.impostorFirst.assign(out.impostors.size(), 0);
-        out.impostorCount.assign(out.impostors.size(), 0);
-        for (std::size_t k = 0; k < out.impostors.size(); ++k) {
-            if (!out.impostors[k].fresh) continue;
-            out.impostorFirst[k] = int(order.size());
-            for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
-                if (prepared.ellipsoids[i].cloud == out.impostors[k].cloud) order.push_back(slot[i]);
-            out.impostorCount[k] = int(order.size()) - out.impostorFirst[k];
-        }
-        makeRuns(frameTiles);
-    }
+    return slot;
+}
 
-    // ---- Resources.
-    uploadDynamic(m.tiles, m.tilesCapacity, gpu.data(), gpu.size() * sizeof(GpuTile));
-    uploadDynamic(m.order, m.orderCapacity, order.data(), order.size() * sizeof(int));
-    m.lightTextures.setBoxes(m.light, view.eye);
+// ---- Resources: the tiles and the order uploaded, the light's boxes, and the atlas grown to
+// the passes' layers.
+void EllipsoidRenderer::Impl::uploadPlan(const EllipsoidSettings& s, const View& view, Atlas& atlas, const AtlasLayout& a,
+                                         FramePlan& out) {
+    uploadDynamic(tiles, tilesCapacity, out.gpu.data(), out.gpu.size() * sizeof(GpuTile));
+    uploadDynamic(order, orderCapacity, out.order.data(), out.order.size() * sizeof(int));
+    lightTextures.setBoxes(light, view.eye);
 
-    atlas.width = atlasW;
-    atlas.height = atlasH;
+    const PackResult& packed = out.packed;
+    atlas.width = a.atlasW;
+    atlas.height = a.atlasH;
     if (atlas.layers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
         // A power of two of layers, 8 at least (within the memory budget): remaking it costs a
         // frame about 200 ms at 1280x720 on llvmpipe (bench --weather: 3 -> 5 -> 8 layers as
         // near clouds came into view stalled two frames), so it is made with room to grow.
         // With reuse, twice that: its tiles stay within the layers it has until a repack.
-        const int room = int(std::bit_ceil(unsigned(packed.passes))) * (reuse ? 2 : 1);
-        const int layers = std::max(packed.passes, std::min(maxPasses, std::max(kMinAtlasLayers, room)));
+        const int room = int(std::bit_ceil(unsigned(packed.passes))) * (out.reuse ? 2 : 1);
+        const int layers = std::max(packed.passes, std::min(a.maxPasses, std::max(kMinAtlasLayers, room)));
         Texture terms = Texture::create(GL_TEXTURE_2D_ARRAY);
         out.stats.atlasGrown = true;
-        checkTextureSize("the ellipsoid atlas", atlasW, atlasH, 0, layers);
-        glTextureStorage3D(terms.id(), 1, termsFormat, atlasW, atlasH, layers);
-        checkAllocation("the ellipsoid atlas (" + std::to_string(atlasW) + "x" + std::to_string(atlasH) + ", " +
+        checkTextureSize("the ellipsoid atlas", a.atlasW, a.atlasH, 0, layers);
+        glTextureStorage3D(terms.id(), 1, termsFormat, a.atlasW, a.atlasH, layers);
+        checkAllocation("the ellipsoid atlas (" + std::to_string(a.atlasW) + "x" + std::to_string(a.atlasH) + ", " +
                             std::to_string(layers) + " layers)",
-                        std::uint64_t(atlasW) * std::uint64_t(atlasH) * std::uint64_t(layers) *
+                        std::uint64_t(a.atlasW) * std::uint64_t(a.atlasH) * std::uint64_t(layers) *
                             (termsFormat == GL_RGBA16F ? 8 : 4));
         // (With reuse the atlas grows only when it was packed anew: no tile's image is lost.)
-        if (reuse && !out.reused.empty()) throw std::logic_error("ellipsoid atlas: grown while tiles are reused");
+        if (out.reuse && !out.reused.empty()) throw std::logic_error("ellipsoid atlas: grown while tiles are reused");
         atlas.terms = std::move(terms);
         atlas.layers = layers;
         atlas.fbos.clear();
@@ -448,9 +518,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
             atlas.fbos.push_back(std::move(fbo));
         }
     }
-    out.atlasW = atlasW;
-    out.atlasH = atlasH;
-    return out;
+    out.atlasW = a.atlasW;
+    out.atlasH = a.atlasH;
 }
 
 int EllipsoidRenderer::updateLights(const Scene& scene, const Vec3* eye) {

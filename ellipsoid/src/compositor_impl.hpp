@@ -99,6 +99,9 @@ struct FramePlan {
 
 struct EllipsoidRenderer::Impl {
     FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse, bool lod = true);
+    // The constructor's parts (compositor.cpp).
+    void buildPrograms(const EllipsoidSettings& s);
+    void makeTextures(const EllipsoidSettings& s);
 
     Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
@@ -142,6 +145,21 @@ struct EllipsoidRenderer::Impl {
     };
     PerViewCache<Atlas, glm::ivec4> atlases;
     Atlas* atlas = nullptr;  // plan()'s
+
+    // plan()'s phases after the projection (compositor.cpp), in the order it runs them.
+    struct AtlasLayout {
+        int frameW = 0, frameH = 0, atlasW = 0, atlasH = 0, minTile = 0, maxTile = 0;
+        int maxPasses = 0;   // atlas layers within the memory budget (placeTiles)
+        GLint maxLayers = 0;  // GL's limit (placeTiles)
+    };
+    void planImpostors(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out,
+                       std::vector<int>& impostorOf, std::vector<char>& keepTiles);
+    void placeTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, Atlas& atlas,
+                    const std::vector<char>& keepTiles, AtlasLayout& a, FramePlan& out);
+    void groupTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out);
+    std::vector<int> writeGpuTiles(const View& view, Atlas& atlas, FramePlan& out);
+    void uploadPlan(const EllipsoidSettings& s, const View& view, Atlas& atlas, const AtlasLayout& a, FramePlan& out);
+
     PerViewCache<FrameDepth> depths;  // copies of the frame's depth (fraction mode), by view size
     // The weighted composite's frame-sized target: sum(w a c), sum(w a) and prod(1 - a).
     struct WeightedTarget {
@@ -187,6 +205,12 @@ struct EllipsoidRenderer::Impl {
     // atlas over the frame (composite_pass.cpp). Each adds its draws to `stats`.
     void drawTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
                    EllipsoidStats& stats);
+    // drawTiles()'s parts (tile_pass.cpp): the programs' uniforms, then per pass its layer
+    // cleared, its tiles drawn, and the colour-matrix copy.
+    void setTileUniforms(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view);
+    void clearTilePass(const FramePlan& plan, int pass, int first, int count, EllipsoidStats& stats);
+    void drawTilePass(const EllipsoidSettings& s, const FramePlan& plan, int first, int count, EllipsoidStats& stats);
+    void colourMatrixPass(int first, int count, EllipsoidStats& stats);
     void compositeTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
                         const HostFrame& frame, EllipsoidStats& stats);
     // compositeTiles() by order: "over" back to front, weighted (into its target, then resolved),

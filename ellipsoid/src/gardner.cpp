@@ -158,118 +158,164 @@ const std::vector<CloudRadiance>& ExactLight::grids(const Scene& scene, const Ra
     return grids_;
 }
 
+namespace {
+
+// One ellipsoid's contribution to a pixel: its opacity and colour, and the depth it is sorted
+// (PerPixel) or weighed (Weighted, Moments) by.
+struct PixelLayer {
+    float depth, alpha;
+    glm::vec3 color;
+};
+
+// What every pixel of renderGardnerExact reads.
+struct ExactFrame {
+    const Scene& scene;
+    const View& view;
+    const NoiseVolume& noiseVolume;
+    CompositeOrder order;
+    float weightExponent;
+    const PreparedClouds& prepared;
+    const std::vector<CloudRadiance>& grids;
+    std::vector<glm::vec3> chroma;  // per prepared ellipsoid
+    model::DetailParams detail;
+    float amp;
+    glm::vec3 sunIrradiance;
+    float weightReference;
+    glm::vec2 momentRange;
+};
+
+// Prepared ellipsoid pi along the ray of direction d: false when it covers nothing there.
+bool chordLayer(const ExactFrame& f, std::size_t pi, const Vec3& d, const RayRange& range, PixelLayer& out) {
+    const View& view = f.view;
+    const model::DetailParams& detail = f.detail;
+    const PreparedEllipsoid& p = f.prepared.ellipsoids[pi];
+    const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
+    // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
+    const float tStart = p.projection.crossesNear ? float(range.tNear) : 0.0f;
+    float depth = model::segmentDepth(o, du, tStart, 1e30f);
+    if (depth <= 0) return false;
+    const float len = glm::length(du);
+    const glm::vec3 dn = du / len;
+    const float tc = -glm::dot(o, dn);
+    const float h = std::sqrt(std::max(0.0f, 1.0f - glm::dot(o + tc * dn, o + tc * dn)));
+    const float tOut = (tc + h) / len;
+    const float tShade = model::shadeDepth(o, du, tStart);
+    const Vec3 shadePoint = view.eye + double(tShade) * d;
+    const Vec3 uvw = shadePoint / f.prepared.noisePeriod + p.noiseOffset;
+    const float n = f.noiseVolume.sample(glm::vec3(uvw));
+    const float tIn = std::max((tc - h) / len, tStart);
+    // The detail: the chord's depth of the eroded profile, followed piece by piece.
+    const auto eroded = [&](float tMax) {
+        const int pieces = exactPieces(detail, std::min(tMax, tOut) - tIn, tIn);
+        return model::erodedSegmentDepth(detailVolume(), detail, o, du, glm::vec3(d), tStart, tMax, pieces);
+    };
+    if (detail.erosion > 0 && (depth = eroded(1e30f)) <= 0) return false;
+    const float a = model::opacityOf(float(p.sigma) * depth);
+    const glm::vec2 terms = model::gardnerTerms(float(p.ac), a, f.amp, n);
+    float alpha = std::clamp(model::gardnerAlpha(terms.x, terms.y), 0.0f, 1.0f);
+    // An opaque object inside the cloud: only the matter in front of it covers it.
+    if (range.tEnd < tOut) {
+        const float front = detail.erosion > 0 ? eroded(float(range.tEnd))
+                                               : model::segmentDepth(o, du, tStart, float(range.tEnd));
+        alpha = model::opacityInFront(alpha, front, depth);
+    }
+    if (alpha <= 0) return false;
+    // The light of the chord (per pixel here; the compositor's meshes evaluate it per vertex).
+    const CloudRadiance& grid = f.grids[p.cloud];
+    const glm::vec2 light = chordLight(grid, f.scene, view.eye, d, o, du, tStart, float(p.sigma));
+    out.color = model::sourceFromScalars(glm::vec3(light, 0.0f), f.sunIrradiance, f.chroma[pi], float(f.scene.medium.albedo));
+    out.alpha = alpha;
+    out.depth = 0;
+    if (f.order == CompositeOrder::PerPixel) {
+        out.depth = tShade;
+    } else if (f.order == CompositeOrder::Weighted || f.order == CompositeOrder::Moments) {  // weighed later
+        const float matter = model::matterDepth(o, du, tStart);
+        out.depth = f.order == CompositeOrder::Moments ? model::momentDepth(matter, f.momentRange.x, f.momentRange.y) : matter;
+    }
+    return true;
+}
+
+// A pixel's layers over (color, alphaSum): PerPixel sorted and composited back to front;
+// Weighted or Moments weighed as the GPU's composite. (PerEllipsoid composites on the way and
+// keeps no layers.)
+void compositeLayers(const ExactFrame& f, std::vector<PixelLayer>& layers, Vec3& color, double& alphaSum) {
+    const CompositeOrder order = f.order;
+    Vec3 weightedColor(0.0);  // Weighted, Moments: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
+    double weightSum = 0, transmittance = 1;
+    if (order == CompositeOrder::PerPixel) {
+        std::sort(layers.begin(), layers.end(), [](const PixelLayer& a, const PixelLayer& b) { return a.depth > b.depth; });
+        for (const PixelLayer& l : layers) {
+            color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
+            alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
+        }
+    } else if (!layers.empty()) {
+        // Weighted or Moments, as the GPU's composite: w alpha in float, the sums in wide
+        // floats. Moments: the moments summed in float first (the GPU's first pass), then
+        // each contribution weighed by the transmittance in front of it.
+        float b[5] = {0, 0, 0, 0, 0};
+        if (order == CompositeOrder::Moments)
+            for (const PixelLayer& l : layers) {
+                const float a = model::absorbanceOf(l.alpha);
+                b[0] += a, b[1] += a * l.depth, b[2] += a * l.depth * l.depth;
+                b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
+            }
+        for (const PixelLayer& l : layers) {
+            const float w = order == CompositeOrder::Moments
+                                ? model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha)
+                                : model::compositeWeight(l.depth, f.weightReference, f.weightExponent);
+            const float wa = w * l.alpha;
+            weightedColor += Vec3(l.color) * double(wa);
+            weightSum += wa;
+            transmittance *= 1.0 - l.alpha;
+        }
+    }
+    if (weightSum > 0) {
+        const double a = 1.0 - transmittance;
+        color = weightedColor / weightSum * a + color * transmittance;
+        alphaSum = a;
+    }
+}
+
+// Pixel (x, y): the opaque scene's radiance, then the ellipsoids over it in `f.order`.
+void exactPixel(const ExactFrame& f, int x, int y, std::vector<PixelLayer>& layers, Image& image) {
+    const View& view = f.view;
+    const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
+    const RayRange range = rayRange(f.scene, view, d);
+    Vec3 color = opaqueRadiance(f.scene, view, d);
+    double alphaSum = 0;
+    layers.clear();
+    for (std::size_t pi = 0; pi < f.prepared.ellipsoids.size(); ++pi) {
+        PixelLayer l{};
+        if (!chordLayer(f, pi, d, range, l)) continue;
+        if (f.order == CompositeOrder::PerPixel || f.order == CompositeOrder::Weighted || f.order == CompositeOrder::Moments) {
+            layers.push_back(l);  // composited after
+            continue;
+        }
+        color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
+        alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
+    }
+    compositeLayers(f, layers, color, alphaSum);
+    for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(color[k]);
+    image.at(x, y, 3) = float(alphaSum);
+}
+
+}  // namespace
+
 Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume& noiseVolume,
                          const NoiseSettings& noiseSettings, CompositeOrder order, float weightExponent,
                          const RadianceGridSettings& lightSettings, ExactLight* kept) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
-    const float amp = float(scene.medium.noise);
-    const glm::vec3 sunIrradiance(scene.sun.color * scene.sun.intensity);
     ExactLight once;
-    const std::vector<CloudRadiance>& grids = (kept ? *kept : once).grids(scene, lightSettings);
-    std::vector<glm::vec3> chroma;  // per prepared ellipsoid
-    for (const PreparedEllipsoid& p : prepared.ellipsoids) chroma.push_back(ellipsoidSkyChroma(grids[p.cloud], p.shape));
-    const model::DetailParams detail = scene.medium.detail.on() ? detailParams(scene.medium.detail, view.eye) : model::DetailParams{};
-    const float weightReference = float(weightReferenceDepth(prepared, view));
-    const glm::vec2 momentRange = momentDepthRange(prepared, view);
+    ExactFrame f{scene, view, noiseVolume, order, weightExponent, prepared, (kept ? *kept : once).grids(scene, lightSettings),
+                 {}, {}, float(scene.medium.noise), glm::vec3(scene.sun.color * scene.sun.intensity), 0, {}};
+    for (const PreparedEllipsoid& p : prepared.ellipsoids) f.chroma.push_back(ellipsoidSkyChroma(f.grids[p.cloud], p.shape));
+    f.detail = scene.medium.detail.on() ? detailParams(scene.medium.detail, view.eye) : model::DetailParams{};
+    f.weightReference = float(weightReferenceDepth(prepared, view));
+    f.momentRange = momentDepthRange(prepared, view);
     Image image(view.camera.width, view.camera.height, 4);
-    struct Layer { float depth, alpha; glm::vec3 color; };
     parallelFor(image.height, [&](int y) {
-        std::vector<Layer> layers;  // PerPixel, Weighted, Moments: this pixel's contributions, composited after
-        for (int x = 0; x < image.width; ++x) {
-            const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
-            const RayRange range = rayRange(scene, view, d);
-            Vec3 color = opaqueRadiance(scene, view, d);
-            double alphaSum = 0;
-            layers.clear();
-            Vec3 weightedColor(0.0);  // Weighted, Moments: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
-            double weightSum = 0, transmittance = 1;
-            for (std::size_t pi = 0; pi < prepared.ellipsoids.size(); ++pi) {
-                const PreparedEllipsoid& p = prepared.ellipsoids[pi];
-                const glm::vec3 o(p.unit * (view.eye - p.shape.center)), du(p.unit * d);
-                // Cut by the near plane: only the matter beyond it is seen (as on the GPU).
-                const float tStart = p.projection.crossesNear ? float(range.tNear) : 0.0f;
-                float depth = model::segmentDepth(o, du, tStart, 1e30f);
-                if (depth <= 0) continue;
-                const float len = glm::length(du);
-                const glm::vec3 dn = du / len;
-                const float tc = -glm::dot(o, dn);
-                const float h = std::sqrt(std::max(0.0f, 1.0f - glm::dot(o + tc * dn, o + tc * dn)));
-                const float tOut = (tc + h) / len;
-                const float tShade = model::shadeDepth(o, du, tStart);
-                const Vec3 shadePoint = view.eye + double(tShade) * d;
-                const Vec3 uvw = shadePoint / prepared.noisePeriod + p.noiseOffset;
-                const float n = noiseVolume.sample(glm::vec3(uvw));
-                const float tIn = std::max((tc - h) / len, tStart);
-                // The detail: the chord's depth of the eroded profile, followed piece by piece.
-                const auto eroded = [&](float tMax) {
-                    const int pieces = exactPieces(detail, std::min(tMax, tOut) - tIn, tIn);
-                    return model::erodedSegmentDepth(detailVolume(), detail, o, du, glm::vec3(d), tStart, tMax, pieces);
-                };
-                if (detail.erosion > 0 && (depth = eroded(1e30f)) <= 0) continue;
-                const float a = model::opacityOf(float(p.sigma) * depth);
-                const glm::vec2 terms = model::gardnerTerms(float(p.ac), a, amp, n);
-                float alpha = std::clamp(model::gardnerAlpha(terms.x, terms.y), 0.0f, 1.0f);
-                // An opaque object inside the cloud: only the matter in front of it covers it.
-                if (range.tEnd < tOut) {
-                    const float front = detail.erosion > 0 ? eroded(float(range.tEnd))
-                                                           : model::segmentDepth(o, du, tStart, float(range.tEnd));
-                    alpha = model::opacityInFront(alpha, front, depth);
-                }
-                if (alpha <= 0) continue;
-                // The light of the chord (per pixel here; the compositor's meshes evaluate it per vertex).
-                const CloudRadiance& grid = grids[p.cloud];
-                const glm::vec2 light = chordLight(grid, scene, view.eye, d, o, du, tStart, float(p.sigma));
-                const glm::vec3 c = model::sourceFromScalars(glm::vec3(light, 0.0f), sunIrradiance, chroma[pi],
-                                                             float(scene.medium.albedo));
-                if (order == CompositeOrder::PerPixel) {
-                    layers.push_back({tShade, alpha, c});
-                    continue;
-                }
-                if (order == CompositeOrder::Weighted || order == CompositeOrder::Moments) {  // weighed below
-                    const float matter = model::matterDepth(o, du, tStart);
-                    layers.push_back({order == CompositeOrder::Moments ? model::momentDepth(matter, momentRange.x, momentRange.y)
-                                                                       : matter,
-                                      alpha, c});
-                    continue;
-                }
-                color = Vec3(c) * double(alpha) + color * (1.0 - alpha);
-                alphaSum = alpha + alphaSum * (1.0 - alpha);
-            }
-            if (order == CompositeOrder::PerPixel) {
-                std::sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
-                for (const Layer& l : layers) {
-                    color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
-                    alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
-                }
-            } else if (!layers.empty()) {
-                // Weighted or Moments, as the GPU's composite: w alpha in float, the sums in wide
-                // floats. Moments: the moments summed in float first (the GPU's first pass), then
-                // each contribution weighed by the transmittance in front of it.
-                float b[5] = {0, 0, 0, 0, 0};
-                if (order == CompositeOrder::Moments)
-                    for (const Layer& l : layers) {
-                        const float a = model::absorbanceOf(l.alpha);
-                        b[0] += a, b[1] += a * l.depth, b[2] += a * l.depth * l.depth;
-                        b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
-                    }
-                for (const Layer& l : layers) {
-                    const float w = order == CompositeOrder::Moments
-                                        ? model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha)
-                                        : model::compositeWeight(l.depth, weightReference, weightExponent);
-                    const float wa = w * l.alpha;
-                    weightedColor += Vec3(l.color) * double(wa);
-                    weightSum += wa;
-                    transmittance *= 1.0 - l.alpha;
-                }
-            }
-            if (weightSum > 0) {
-                const double a = 1.0 - transmittance;
-                color = weightedColor / weightSum * a + color * transmittance;
-                alphaSum = a;
-            }
-            for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(color[k]);
-            image.at(x, y, 3) = float(alphaSum);
-        }
+        std::vector<PixelLayer> layers;  // PerPixel, Weighted, Moments: this pixel's contributions, composited after
+        for (int x = 0; x < image.width; ++x) exactPixel(f, x, y, layers, image);
     });
     return image;
 }

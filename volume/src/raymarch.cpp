@@ -163,6 +163,14 @@ struct RaymarchRenderer::Impl {
     std::unique_ptr<ReducedTarget> reduced;  // RaymarchSettings::downsample > 1: what the march draws into
 
     void ensureNoise(const RaymarchSettings& s);
+    // render()'s phases, in its order.
+    void updateLight(const RaymarchSettings& s, const Scene& scene, const View& view, GLuint framebuffer, bool litObjects,
+                     RaymarchStats& stats);
+    std::vector<std::pair<Vec3, Vec3>> uploadClouds(const Scene& scene, const View& view);
+    void setFrameUniforms(const View& view, int d, const DepthSource& marchDepth, int tilesX);
+    void setMediumUniforms(const RaymarchSettings& s, const Scene& scene, const View& view, double kappa);
+    void drawMarch(const View& view, const HostFrame& frame, const DepthSource& depth, const DepthSource& marchDepth,
+                   const View& marchView, int d, double kappa);
 };
 
 void validate(const RaymarchSettings& s) {
@@ -218,50 +226,11 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
 
     HostStateScope scope;  // before the uploads
     if (kappa > 0) m.ensureNoise(s);
-    // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp).
-    RadianceUpdateStats lightStats;
-    const std::vector<PlacedRadiance> light = m.lightCache.update(scene, s.light, &view.eye, &lightStats);
-    stats.lightGridsComputed = lightStats.computed;
-    stats.lightStandIns = lightStats.standIns;
-    m.lightTextures.update(light);
-    m.lightTextures.setBoxes(light, view.eye);
-    if (litObjects) {
-        HostFrame lit;
-        lit.framebuffer = framebuffer;
-        lit.hasDepth = true;
-        m.objectLight.draw(scene, view, lit, m.lightTextures, light);
-    }
+    m.updateLight(s, scene, view, framebuffer, litObjects, stats);
     if (stats.ellipsoids == 0) return stats;
 
-    // ---- This frame's data, camera-relative (float precision stays at the eye).
-    std::vector<GpuEllipsoid> ells;
-    std::vector<GpuCloud> clouds;
-    std::vector<std::pair<Vec3, Vec3>> boxes;  // parallel to clouds, camera-relative
-    for (int c = 0; c < int(scene.clouds.size()); ++c) {
-        const Cloud& cloud = scene.clouds[c];
-        Vec3 lo, hi;
-        if (!raymarchCloudBox(cloud, lo, hi)) continue;
-        GpuCloud g{};
-        put(g.boxMin, lo - view.eye);
-        put(g.boxMax, hi - view.eye);
-        g.range[0] = int(ells.size());
-        g.range[2] = c;
-        for (const Ellipsoid& e : cloud.ellipsoids) {
-            if (e.density <= 0) continue;  // no matter: never a candidate
-            const glm::dmat3 unit = ellipsoidToUnit(e);
-            GpuEllipsoid ge{};
-            put(ge.eyeUnitSigma, unit * (view.eye - e.center), medium.extinction * e.density);
-            for (int r = 0; r < 3; ++r) put(ge.unit[r], glm::row(unit, r));
-            ells.push_back(ge);
-        }
-        g.range[1] = int(ells.size()) - g.range[0];
-        if (g.range[1] == 0) continue;
-        clouds.push_back(g);
-        boxes.emplace_back(lo - view.eye, hi - view.eye);
-    }
-    if (clouds.empty()) return stats;
-    uploadDynamic(m.ellipsoids, m.ellipsoidCapacity, ells.data(), ells.size() * sizeof(GpuEllipsoid));
-    uploadDynamic(m.clouds, m.cloudCapacity, clouds.data(), clouds.size() * sizeof(GpuCloud));
+    const std::vector<std::pair<Vec3, Vec3>> boxes = m.uploadClouds(scene, view);  // camera-relative
+    if (boxes.empty()) return stats;
     // The pixels the rays go through: the frame's, or 1/d of them per side (ReducedTarget's size);
     // a ray per pixel wherever the view comes within the sun's phase peak (model::withinSunPeak),
     // where a back-lit cloud's rim is thinner than a block (back-lit cumulus27 at 2x2: 19.8%
@@ -286,7 +255,69 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
         if (depth.texture != 0) marchDepth = m.reduced->depth();
     }
 
-    const Program& p = m.march;
+    m.setFrameUniforms(view, d, marchDepth, bins.tilesX);
+    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    m.setMediumUniforms(s, scene, view, kappa);
+    m.drawMarch(view, frame, depth, marchDepth, marchView, d, kappa);
+    return stats;
+}
+
+// The clouds' light: grids of clouds that only moved are kept (light_cache.hpp); with
+// `litObjects`, the objects drawn again lit by them.
+void RaymarchRenderer::Impl::updateLight(const RaymarchSettings& s, const Scene& scene, const View& view, GLuint framebuffer,
+                                         bool litObjects, RaymarchStats& stats) {
+    RadianceUpdateStats lightStats;
+    const std::vector<PlacedRadiance> light = lightCache.update(scene, s.light, &view.eye, &lightStats);
+    stats.lightGridsComputed = lightStats.computed;
+    stats.lightStandIns = lightStats.standIns;
+    lightTextures.update(light);
+    lightTextures.setBoxes(light, view.eye);
+    if (litObjects) {
+        HostFrame lit;
+        lit.framebuffer = framebuffer;
+        lit.hasDepth = true;
+        objectLight.draw(scene, view, lit, lightTextures, light);
+    }
+}
+
+// This frame's data, camera-relative (float precision stays at the eye), uploaded: the
+// ellipsoids with matter, the clouds holding them. Returns each cloud's box (empty: none).
+std::vector<std::pair<Vec3, Vec3>> RaymarchRenderer::Impl::uploadClouds(const Scene& scene, const View& view) {
+    const Medium& medium = scene.medium;
+    std::vector<GpuEllipsoid> ells;
+    std::vector<GpuCloud> gpuClouds;
+    std::vector<std::pair<Vec3, Vec3>> boxes;  // parallel to gpuClouds, camera-relative
+    for (int c = 0; c < int(scene.clouds.size()); ++c) {
+        const Cloud& cloud = scene.clouds[c];
+        Vec3 lo, hi;
+        if (!raymarchCloudBox(cloud, lo, hi)) continue;
+        GpuCloud g{};
+        put(g.boxMin, lo - view.eye);
+        put(g.boxMax, hi - view.eye);
+        g.range[0] = int(ells.size());
+        g.range[2] = c;
+        for (const Ellipsoid& e : cloud.ellipsoids) {
+            if (e.density <= 0) continue;  // no matter: never a candidate
+            const glm::dmat3 unit = ellipsoidToUnit(e);
+            GpuEllipsoid ge{};
+            put(ge.eyeUnitSigma, unit * (view.eye - e.center), medium.extinction * e.density);
+            for (int r = 0; r < 3; ++r) put(ge.unit[r], glm::row(unit, r));
+            ells.push_back(ge);
+        }
+        g.range[1] = int(ells.size()) - g.range[0];
+        if (g.range[1] == 0) continue;
+        gpuClouds.push_back(g);
+        boxes.emplace_back(lo - view.eye, hi - view.eye);
+    }
+    if (gpuClouds.empty()) return boxes;
+    uploadDynamic(ellipsoids, ellipsoidCapacity, ells.data(), ells.size() * sizeof(GpuEllipsoid));
+    uploadDynamic(clouds, cloudCapacity, gpuClouds.data(), gpuClouds.size() * sizeof(GpuCloud));
+    return boxes;
+}
+
+// The march program's view, frame and binning uniforms (d: the reduction, 1 for full size).
+void RaymarchRenderer::Impl::setFrameUniforms(const View& view, int d, const DepthSource& marchDepth, int tilesX) {
+    const Program& p = march;
     p.set("forward", glm::vec3(view.forward));
     p.set("rayCentre", glm::vec3(view.rayCentre()));
     p.set("rightScaled", glm::vec3(view.rightScaled()));
@@ -296,8 +327,13 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     p.set("farClip", float(view.camera.farClip));
     p.set("useDepth", marchDepth.texture != 0 ? 1 : 0);
     p.set("sceneDepth", 2);
-    p.set("tilesX", bins.tilesX);
-    stats.planMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    p.set("tilesX", tilesX);
+}
+
+// The march program's step, noise, light and medium uniforms.
+void RaymarchRenderer::Impl::setMediumUniforms(const RaymarchSettings& s, const Scene& scene, const View& view, double kappa) {
+    const Medium& medium = scene.medium;
+    const Program& p = march;
     p.set("stepBase", float(s.step));
     p.set("invLod", s.lodDistance > 0 ? float(1.0 / s.lodDistance) : 0.0f);
     p.set("maxSteps", s.maxSteps);
@@ -306,24 +342,29 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const double period = raymarchNoisePeriod(medium, raymarchNoiseSettings(s));
     p.set("eyeNoise", glm::vec3(glm::fract(view.eye / period)));
     p.set("invNoisePeriod", float(1.0 / period));
-    m.lightTextures.bind(p);
-    m.detail.bind(p, medium.detail, view.eye);
+    lightTextures.bind(p);
+    detail.bind(p, medium.detail, view.eye);
     p.set("sunDirection", glm::vec3(scene.sun.direction));
     p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
     p.set("hgG", float(medium.hgG));
     p.set("albedo", float(medium.albedo));
+}
 
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.ellipsoids.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.clouds.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, m.tileFirst.id());  // raymarch_data.glsl's bindings
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, m.tileClouds.id());
-    glBindTextureUnit(0, kappa > 0 ? m.noise.id() : 0);
+// The march itself: one full-screen triangle over the frame (or the reduced target, then
+// upsampled over the frame).
+void RaymarchRenderer::Impl::drawMarch(const View& view, const HostFrame& frame, const DepthSource& depth,
+                                       const DepthSource& marchDepth, const View& marchView, int d, double kappa) {
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ellipsoids.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, clouds.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, tileFirst.id());  // raymarch_data.glsl's bindings
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, tileClouds.id());
+    glBindTextureUnit(0, kappa > 0 ? noise.id() : 0);
     glBindTextureUnit(2, marchDepth.texture);
     glBindSampler(0, 0);
     glBindSampler(2, 0);
 
     if (d > 1)
-        m.reduced->resume(glm::ivec4(0, 0, marchView.camera.width, marchView.camera.height));  // the colour alone
+        reduced->resume(glm::ivec4(0, 0, marchView.camera.width, marchView.camera.height));  // the colour alone
     else
         bindFrame(frame, view);
     glDisable(GL_DEPTH_TEST);
@@ -332,12 +373,11 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
-    glUseProgram(p.id());
-    glBindVertexArray(m.empty.id());
+    glUseProgram(march.id());
+    glBindVertexArray(empty.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    if (d > 1) m.reduced->composite(frame, depth, view, 0);  // upsampled "over" the frame with its depth
+    if (d > 1) reduced->composite(frame, depth, view, 0);  // upsampled "over" the frame with its depth
     check("ray-marching the clouds");
-    return stats;
 }
 
 }  // namespace nephele
