@@ -1,5 +1,5 @@
 // The layered sky's light (issue #10): ONE source compiled as GLSL by layered_cloud.frag and as
-// C++ (layered/src/layer_light_model.hpp) by the precomputation and the tests, after
+// C++ (layered/src/layer_model.hpp) by the precomputation and the tests, after
 // gardner_model.glsl (whose cloud_light.glsl lights every other method: the same source
 // function is used here). Same subset and MODEL_FN prefix as gardner_model.glsl.
 //

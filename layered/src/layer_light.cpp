@@ -2,7 +2,7 @@
 // density with the path tracer's physics, scored by the column depths of their collisions.
 #include "layer_light.hpp"
 
-#include "layer_light_model.hpp"
+#include "layer_model.hpp"
 #include "nephele/cloud_radiance.hpp"
 #include "phase_sampling.hpp"
 

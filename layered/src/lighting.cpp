@@ -3,7 +3,7 @@
 // above it at three thresholds of eq. (16) (and of the whole column), and the photon-traced
 // light tables (layer_light.cpp); cached in checksummed files (cache_file.hpp).
 #include "layer_light.hpp"
-#include "layer_light_model.hpp"
+#include "layer_model.hpp"
 
 #include "cache_file.hpp"
 #include "fingerprint.hpp"

@@ -7,6 +7,6 @@
 
 namespace nephele::model {
 #define MODEL_FN inline
-#include "../../shaders/layer_light.glsl"
+#include "nephele/layer_light.glsl"  // the build's copy (layered/CMakeLists.txt)
 #undef MODEL_FN
 }  // namespace nephele::model
