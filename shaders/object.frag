@@ -1,12 +1,13 @@
-// Lambert under the sun, no ambient term (data/scene-format.md, "sun" and "objects").
+// Lambert under the sun, no ambient term (data/scene-format.md, "sun" and "objects"; opaque.glsl).
 // SPHERE: the mesh is the sphere's bounding box drawn by its back faces, and each
 // fragment ray-casts the exact sphere (exact silhouette and depth, as the CPU reference).
 // CLOUD_LIGHT (object_light "all", drawn by the compositor once the clouds' grids are made): the
 // object is a Lambertian receiver of all the light (docs/light.md, "Objects lit by the clouds"):
 // the sun times its transmittance through the clouds, the open sky's irradiance, and each
 // cloud's grid's change to it (what its cloud hides and what it scatters).
-#ifdef CLOUD_LIGHT
 #define MODEL_FN
+#include "opaque.glsl"
+#ifdef CLOUD_LIGHT
 #include "gardner_model.glsl"
 #include "cloud_light_grid.glsl"
 uniform int cloudCount;      // grids in cloudLightBoxes
@@ -77,6 +78,6 @@ void main() {
 #ifdef CLOUD_LIGHT
     color = vec4(albedo / kLightPi * objectIrradiance(hit, n), 0.0);
 #else
-    color = vec4(albedo * sunRadiance * max(dot(n, sunDirection), 0.0), 0.0);
+    color = vec4(lambertRadiance(albedo, sunRadiance, n, sunDirection), 0.0);
 #endif
 }
