@@ -34,6 +34,24 @@ vec4 skyTauAt(LightTexels t) {
     vec3 sky = textureLod(lightSkyTau, t.uvw, 0.0).rgb;
     return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)));
 }
+// The grids of cloud `cloud` at camera-relative point `rel`, as sampleRadiance() reads them on
+// the CPU (RadianceSample, nephele/cloud_radiance.hpp) but for skyTau.w, left as the texture's
+// (unused: the sun's transmittance is read on its own, gridSunTransmittance).
+struct RadianceSample {
+    vec4 sunFew, sunMany, skyTau, skyFlux;
+};
+RadianceSample gridSample(int cloud, vec3 rel) {
+    LightTexels t = lightTexels(cloud, rel);
+    RadianceSample g;
+    g.sunFew = textureLod(lightSunFew, t.uvw, 0.0);
+    g.sunMany = textureLod(lightSunMany, t.uvw, 0.0);
+    g.skyTau = textureLod(lightSkyTau, t.uvw, 0.0);
+    g.skyFlux = textureLod(lightSkyFlux, t.uvw, 0.0);
+    return g;
+}
+float gridSunTransmittance(int cloud, vec3 rel) {
+    return textureLod(lightSunTransmittance, lightTexels(cloud, rel).sun, 0.0).r;
+}
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     LightTexels t = lightTexels(cloud, rel);
     return lightScalars(textureLod(lightSunFew, t.uvw, 0.0), textureLod(lightSunMany, t.uvw, 0.0), skyTauAt(t),

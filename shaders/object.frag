@@ -10,6 +10,7 @@
 #ifdef CLOUD_LIGHT
 #include "gardner_model.glsl"
 #include "cloud_light_grid.glsl"
+#include "object_light.glsl"
 uniform int cloudCount;      // grids in cloudLightBoxes
 uniform vec3 sunIrradiance;  // sun.color * sun.intensity
 uniform vec3 skyZenith;
@@ -29,31 +30,12 @@ uniform mat4 viewProjection;
 #endif
 
 #ifdef CLOUD_LIGHT
-// The irradiance (W/m^2, linear RGB) on unit normal n at camera-relative point p.
+// The irradiance (W/m^2, linear RGB) on unit normal n at camera-relative point p (object_light.glsl).
 vec3 objectIrradiance(vec3 p, vec3 n) {
-    vec3 s = sunDirection;
-    // The slab test's 1 / s without infinities times zero.
-    vec3 invS = 1.0 / (s + vec3(equal(s, vec3(0.0))) * 1e-9);
-    vec3 open = openSkyIrradiance(skyZenith, skyHorizon, skyGround, n);
-    vec3 sky = open;
-    float sunDiffuse = 0.0, transmittance = 1.0;
-    for (int c = 0; c < cloudCount; ++c) {
-        vec3 lo = cloudLightBoxes[3 * c].xyz, extent = 1.0 / cloudLightBoxes[3 * c + 1].xyz;
-        // The sun's transmittance through this cloud (boxEntry), 1 if the ray misses its box.
-        float tIn = boxEntry(p, invS, lo, lo + extent);
-        if (tIn >= 0.0) transmittance *= textureLod(lightSunTransmittance, lightTexels(c, p + tIn * s).sun, 0.0).r;
-        // Its diffuse light, faded away from the box.
-        float outside = length(p - clamp(p, lo, lo + extent));
-        float fade = gridFade(outside, (extent.x + extent.y + extent.z) / 6.0);
-        if (fade < 1e-3) continue;
-        LightTexels t = lightTexels(c, p);
-        vec4 skyTau = textureLod(lightSkyTau, t.uvw, 0.0);
-        vec2 e = gridIrradiance(textureLod(lightSunFew, t.uvw, 0.0), textureLod(lightSunMany, t.uvw, 0.0), skyTau,
-                                textureLod(lightSkyFlux, t.uvw, 0.0), n);
-        sunDiffuse += fade * e.x;
-        sky += fade * (skyChroma(skyTau.rgb) * e.y - open);
-    }
-    return sunIrradiance * (max(dot(n, s), 0.0) * transmittance + sunDiffuse) + max(sky, vec3(0.0));
+    ObjectIrradiance l = openSkyLight(skyZenith, skyHorizon, skyGround, n, sunDirection);
+    for (int c = 0; c < cloudCount; ++c)
+        l = addCloudLight(l, c, p, cloudLightBoxes[3 * c].xyz, 1.0 / cloudLightBoxes[3 * c + 1].xyz);
+    return objectSunIrradiance(l, sunIrradiance) + objectDiffuseIrradiance(l, sunIrradiance);
 }
 #endif
 
