@@ -5,7 +5,8 @@
 // extent (1/m), 0), (the slot's first texel, the grid's voxels per side: a slot holds the
 // largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost
 // voxel centres, as sampleRadiance() reads them on the CPU.
-layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
+// The buffer's binding point is CloudLightTextures::kBoxesBinding, set on the program by bind().
+layout(std430) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
 uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, unused)

@@ -145,7 +145,7 @@ double sunTransmittance(const Layer& layer, const ModulationTexture& m, const Mo
 }
 
 double groundSunShare(const Sun& sun, const Sky& sky) {
-    auto luminance = [](const Vec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; };
+    auto luminance = [](const Vec3& c) { return glm::dot(c, Vec3(model::kLuminance)); };
     const double eSun = luminance(sun.color) * sun.intensity * std::max(sun.direction.z, 0.0);
     const double eSky = std::max(glm::pi<double>() * luminance(sky.horizon) +
                                      2 * glm::pi<double>() / 3 * (luminance(sky.zenith) - luminance(sky.horizon)),
