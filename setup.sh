@@ -16,6 +16,7 @@ PKGS=(
   libgtest-dev googletest                              # tests
   python3-matplotlib                                   # bench charts (/usr/bin/python3)
   clang libclang-rt-14-dev                             # the libFuzzer harness (tests/fuzz/smoke.sh)
+  doxygen                                              # the API reference (docs/api.md)
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -153,8 +153,9 @@ MODEL_FN float chordSampleDepth(vec3 oUnit, vec3 dUnit, float tStart, float sigm
 // Checks: uniform radiance L (phi0 = 4 pi L, phi1 = 0, c20 = 0): E = pi L; a beam of irradiance E0
 // onto the surface (phi0 = E0, phi1 = -E0 n): 3/4 E0 from bands 0 and 1, 17/16 E0 with band 2.
 // Clamped at 0 (a truncated series can dip below it where little light comes).
+const float kY20 = 0.3153916f;  // sqrt(5 / (16 pi)): Y20(w) = kY20 (3 w.z^2 - 1)
 MODEL_FN float harmonicIrradiance(float phi0, vec3 phi1, float c20, vec3 n) {
-    float y20 = 0.3153916f * (3.0f * n.z * n.z - 1.0f);
+    float y20 = kY20 * (3.0f * n.z * n.z - 1.0f);
     return max(0.25f * phi0 - 0.5f * dot(phi1, n) + 0.7853982f * c20 * y20, 0.0f);
 }
 

@@ -5,7 +5,8 @@
 // extent (1/m), 0), (the slot's first texel, the grid's voxels per side: a slot holds the
 // largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost
 // voxel centres, as sampleRadiance() reads them on the CPU.
-layout(std430, binding = 3) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
+// The buffer's binding point is CloudLightTextures::kBoxesBinding, set on the program by bind().
+layout(std430) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
 uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, unused)
@@ -33,6 +34,24 @@ LightTexels lightTexels(int cloud, vec3 rel) {
 vec4 skyTauAt(LightTexels t) {
     vec3 sky = textureLod(lightSkyTau, t.uvw, 0.0).rgb;
     return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)));
+}
+// The grids of cloud `cloud` at camera-relative point `rel`, as sampleRadiance() reads them on
+// the CPU (RadianceSample, nephele/cloud_radiance.hpp) but for skyTau.w, left as the texture's
+// (unused: the sun's transmittance is read on its own, gridSunTransmittance).
+struct RadianceSample {
+    vec4 sunFew, sunMany, skyTau, skyFlux;
+};
+RadianceSample gridSample(int cloud, vec3 rel) {
+    LightTexels t = lightTexels(cloud, rel);
+    RadianceSample g;
+    g.sunFew = textureLod(lightSunFew, t.uvw, 0.0);
+    g.sunMany = textureLod(lightSunMany, t.uvw, 0.0);
+    g.skyTau = textureLod(lightSkyTau, t.uvw, 0.0);
+    g.skyFlux = textureLod(lightSkyFlux, t.uvw, 0.0);
+    return g;
+}
+float gridSunTransmittance(int cloud, vec3 rel) {
+    return textureLod(lightSunTransmittance, lightTexels(cloud, rel).sun, 0.0).r;
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     LightTexels t = lightTexels(cloud, rel);

@@ -1,5 +1,5 @@
 // The layered sky's light (issue #10): ONE source compiled as GLSL by layered_cloud.frag and as
-// C++ (layered/src/layer_light_model.hpp) by the precomputation and the tests, after
+// C++ (layered/src/layer_model.hpp) by the precomputation and the tests, after
 // gardner_model.glsl (whose cloud_light.glsl lights every other method: the same source
 // function is used here). Same subset and MODEL_FN prefix as gardner_model.glsl.
 //
@@ -16,6 +16,7 @@
 // (D max(A - theta, 0)), encoded as exp(-tau / kLayerTauScale); at a fragment's own threshold
 // theta = r + 1 - C they are interpolated (0 at theta = 1, where no A <= 1 has matter).
 
+const vec3 kLayerKnots = vec3(0.25f, 0.5f, 0.75f);  // the thresholds theta_k of the knots
 const float kLayerTauScale = 4.0f;    // encoding of the knots: e = exp(-tau / scale)
 const float kLayerTableTau = 2.0f;    // table coordinate u = tau / (tau + kLayerTableTau)
 
@@ -25,10 +26,11 @@ MODEL_FN float encodeLayerTau(float tau) { return exp(-tau / kLayerTauScale); }
 // The optical depth per unit D at threshold theta from the knots' (theta 0.25, 0.5, 0.75; 0 at
 // 1): piecewise linear, continued below 0.25 with the first piece's slope.
 MODEL_FN float tauAtThreshold(vec3 knots, float theta) {
+    vec3 k = kLayerKnots;
     if (theta >= 1.0f) return 0.0f;
-    if (theta >= 0.75f) return knots.z * (1.0f - theta) * 4.0f;
-    if (theta >= 0.5f) return knots.y + (knots.z - knots.y) * (theta - 0.5f) * 4.0f;
-    return max(knots.x + (knots.y - knots.x) * (theta - 0.25f) * 4.0f, 0.0f);
+    if (theta >= k.z) return knots.z * (1.0f - theta) / (1.0f - k.z);
+    if (theta >= k.y) return knots.y + (knots.z - knots.y) * (theta - k.y) / (k.z - k.y);
+    return max(knots.x + (knots.y - knots.x) * (theta - k.x) / (k.y - k.x), 0.0f);
 }
 
 // The column's optical depths (above, below) at a fragment: encoded knots above it and of its

@@ -37,8 +37,10 @@ uniform float hgG;                 // medium.hg_g
 uniform vec3 glow;                 // city glow colour * strength (0: none)
 uniform float glowHeightCoeff;     // f_c of eq. (20)
 uniform int flashCount;
-uniform vec4 flashes[8];           // xyz relative to the eye (m), w = intensity
-const float PI = 3.14159265358979;
+#ifndef MAX_FLASHES
+#error "MAX_FLASHES: build with layered/src/renderer.cpp's defines"
+#endif
+uniform vec4 flashes[MAX_FLASHES]; // xyz relative to the eye (m), w = intensity
 
 // Phi(x), the standard normal distribution, by the logistic 1 / (1 + exp(-1.702 x)) (within 0.01).
 float normalCdf(float x) { return 1.0 / (1.0 + exp(-1.702 * x)); }
@@ -127,6 +129,6 @@ void main() {
         vec3 v = rel - flashes[i].xyz;
         flash += flashes[i].w / max(dot(v, v), 1.0);
     }
-    radiance += vec3(albedo / PI * flash);
+    radiance += vec3(albedo / kLightPi * flash);
     color = vec4(radiance * alpha, alpha);
 }

@@ -3,8 +3,8 @@
 //   S = 1 - D max(T_S - (r + 1 - C), 0), T_S = 1 (the column's peak alpha),
 // r the modulation texture's threshold where the ray from the surface point towards the sun
 // crosses the layer's middle, read with the layer shader's wind (eq. 18); the product over
-// the layers above the point. The CPU twin is sunTransmittance() in layered/src/modulation.cpp:
-// keep the two equal (layered_shadow_gl_test).
+// the layers above the point. The formula is layer_shadow.glsl's, which sunTransmittance() in
+// layered/src/modulation.cpp compiles as C++ (layered_shadow_gl_test compares the two).
 // Surfaces: every pixel with depth < 1 (the scene's objects, a host's terrain and aircraft) is
 // a point on a sunlit opaque surface (its colour is the format's sun-only Lambert term, so the
 // whole colour is multiplied); a pixel at depth 1 whose ray goes down is the format's ground,
@@ -14,6 +14,8 @@
 // upsampling of the reduced-resolution layers, compiled per layer count with SHADOW_LAYERS
 // defined: llvmpipe runs every instruction of a shader, so a dynamically indexed sampler
 // array and a loop sized by a uniform cost more than the unrolled count).
+#define MODEL_FN
+#include "layer_shadow.glsl"
 #include "view_frame.glsl"
 // The array size is the C++ side's (kMaxShadowLayers, core/internal/reduced_target.hpp), given
 // by the programs that include this file.
@@ -59,11 +61,10 @@ float cloudShadow(vec2 ndc, float depth) {
 #else
     for (int i = 0; i < shadowLayerCount; ++i) {
 #endif
-        vec2 q = rel.xy + shadowSun.xy * ((shadowMiddle[i] - h) / max(shadowSun.z, 1e-6));
+        vec2 q = rel.xy + shadowRayOffset(shadowSun, h, shadowMiddle[i]);
         vec2 uv = shadowUvModEye[i] + q * shadowInvModPeriod;
         float r = textureGrad(shadowModulation[i], uv, dFdx(uv), dFdy(uv)).r;
-        // At or above the layer's middle: no shadow from it (as the CPU twin).
-        if (h < shadowMiddle[i]) s *= 1.0 - shadowDensity[i] * max(shadowCoverage[i] - r, 0.0);  // eq. (19), T_S = 1
+        s *= layerShadow(h, shadowMiddle[i], r, shadowCoverage[i], shadowDensity[i]);
     }
     return surface ? 1.0 - share * (1.0 - s) : 1.0;
 }

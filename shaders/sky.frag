@@ -1,4 +1,6 @@
-#include "sky.glsl"
+// The format's sky behind everything (opaque.glsl).
+#define MODEL_FN
+#include "opaque.glsl"
 in vec2 ndc;
 out vec4 color;
 uniform vec3 rayCentre;    // the ray through the view's centre (NDC 0, 0), unit component along the view axis

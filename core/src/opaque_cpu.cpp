@@ -1,4 +1,5 @@
-// CPU twin of shaders/sky.frag and shaders/object.frag: the same formulas, per ray.
+// CPU twin of shaders/sky.frag and shaders/object.frag, per ray: their formulas compiled here
+// from the same source, shaders/opaque.glsl (in double), and the ray casts the rasteriser does.
 #include "nephele/opaque.hpp"
 
 #include <algorithm>
@@ -7,13 +8,21 @@
 
 namespace nephele {
 
-Vec3 skyRadiance(const Sky& sky, const Vec3& d) {
-    if (d.z < 0.0) return sky.ground;
-    return sky.horizon + (sky.zenith - sky.horizon) * std::max(d.z, 0.0);
-}
+namespace {
+namespace glsl {
+using vec3 = glm::dvec3;
+using glm::dot;
+using glm::max;
+#define MODEL_FN inline
+#include "nephele/opaque.glsl"  // the build's copy of shaders/opaque.glsl (core/CMakeLists.txt)
+#undef MODEL_FN
+}  // namespace glsl
+}  // namespace
+
+Vec3 skyRadiance(const Sky& sky, const Vec3& d) { return glsl::skyRadiance(sky.zenith, sky.horizon, sky.ground, d); }
 
 Vec3 lambertRadiance(const Sun& sun, const Vec3& albedo, const Vec3& normal) {
-    return albedo * sun.color * (sun.intensity / std::numbers::pi) * std::max(glm::dot(normal, sun.direction), 0.0);
+    return glsl::lambertRadiance(albedo, sun.color * (sun.intensity / std::numbers::pi), normal, sun.direction);
 }
 
 namespace {

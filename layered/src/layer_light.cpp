@@ -2,7 +2,7 @@
 // density with the path tracer's physics, scored by the column depths of their collisions.
 #include "layer_light.hpp"
 
-#include "layer_light_model.hpp"
+#include "layer_model.hpp"
 #include "nephele/cloud_radiance.hpp"
 #include "phase_sampling.hpp"
 
@@ -19,7 +19,6 @@ namespace nephele {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kThresholds[3] = {0.25, 0.5, 0.75};  // the knots of shaders/layer_light.glsl
 constexpr int kBatch = 256;                           // photons per deterministic batch
 constexpr int kMaxEvents = 2000;                      // scatterings per photon at most
 
@@ -120,7 +119,7 @@ Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& sour
         for (int k = 0; k < kBatch; ++k)
             tracePhoton(m, source, v.parameters.albedo, v.parameters.csG, rng,
                         [&](const Vec3& x, const Vec3& w, double weight, int scatterings) {
-                            const double y20 = 0.3153916 * (3 * w.z * w.z - 1);
+                            const double y20 = model::kY20 * (3 * w.z * w.z - 1);
                             deposit(scatterings <= kFewScatterings ? few : many, bins, m.coords(x),
                                     weight * glm::dvec4(1, w.x, w.z, y20));
                         });
@@ -190,8 +189,8 @@ LayerLightTables traceLayerLight(const LightingVolume& v, const std::atomic<bool
     for (std::size_t i = 3; i < v.texels.size(); i += 4) peak = std::max(peak, v.texels[i] / 255.0);
     std::vector<ThresholdMedium> media;
     const double sigma = lightingExtinction(p);
-    for (double theta : kThresholds)
-        if (peak > theta && sigma > 0)
+    for (int k = 0; k < 3; ++k)
+        if (const double theta = model::kLayerKnots[k]; peak > theta && sigma > 0)
             media.push_back({v, theta, s.tilePeriod, p.thickness, sigma, sigma * (peak - theta) * (1 + 1e-9)});
     LayerLightTables t;
     t.bins = s.tableBins;
@@ -244,7 +243,7 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     f.sun.assign(nodes, glm::vec4(0.0f));
     f.sunMany = f.sky = f.sun;
     if (t.sun.size() < nodes * t.sunMu.size() || t.sunMany.size() < nodes * t.sunMu.size() || t.sky.size() < nodes * 3 || t.sunMu.empty()) return f;
-    auto luminance = [](const Vec3& c) { return float(0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z); };
+    auto luminance = [](const Vec3& c) { return float(glm::dot(c, Vec3(model::kLuminance))); };
     // The sun's table at elevation |mu|: linear between the tabulated ones, clamped at the ends.
     auto sunAt = [&](double mu, std::size_t i, std::size_t j, const std::vector<glm::vec4>& table) {
         const auto& m = t.sunMu;

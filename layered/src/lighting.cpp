@@ -3,7 +3,7 @@
 // above it at three thresholds of eq. (16) (and of the whole column), and the photon-traced
 // light tables (layer_light.cpp); cached in checksummed files (cache_file.hpp).
 #include "layer_light.hpp"
-#include "layer_light_model.hpp"
+#include "layer_model.hpp"
 
 #include "cache_file.hpp"
 #include "fingerprint.hpp"
@@ -168,7 +168,6 @@ std::vector<std::uint8_t> densityBytes(const LightingSettings& s, const Lighting
 void columnKnots(LightingVolume& v, const std::vector<std::uint8_t>& density) {
     const int w = v.settings.width, h = v.settings.height, d = v.settings.depth;
     const double dz = v.parameters.thickness / d, extinction = lightingExtinction(v.parameters);
-    constexpr double kThresholds[3] = {0.25, 0.5, 0.75};
     constexpr int kSteps = 8;
     v.columns.assign(std::size_t(w) * h * 4, 0);
     auto encode = [](double tau) { return std::uint8_t(std::lround(model::encodeLayerTau(float(tau)) * 255)); };
@@ -176,7 +175,7 @@ void columnKnots(LightingVolume& v, const std::vector<std::uint8_t>& density) {
         for (int i = 0; i < w; ++i) {
             auto a = [&](int k) { return density[(std::size_t(k) * h + j) * w + i] / 255.0; };
             for (int c = 0; c < 3; ++c) {
-                const double theta = kThresholds[c];
+                const double theta = model::kLayerKnots[c];
                 double tau = 0.5 * dz * std::max(a(d - 1) - theta, 0.0);  // above the top centre: constant
                 for (int k = d - 1; k >= 0; --k) {
                     v.texels[((std::size_t(k) * h + j) * w + i) * 4 + c] = encode(extinction * tau);

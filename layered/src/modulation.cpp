@@ -1,5 +1,6 @@
 // The 2D modulation texture (Wang et al. section 5) and the CPU twins of the shader's
-// density, the near-LOD hook and the cloud shadows (19).
+// density, the near-LOD hook and the cloud shadows (19; compiled from shaders/layer_shadow.glsl).
+#include "layer_model.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/noise.hpp"
 #include "parallel.hpp"
@@ -134,15 +135,17 @@ double layerDensityIntegral(const Layer& layer, const ModulationTexture& m, cons
 
 double sunTransmittance(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, const Vec3& sun,
                         const Vec3& p, double t) {
-    const double mid = layer.base + 0.5 * layer.thickness;
-    if (p.z >= mid || sun.z <= 0) return 1;
-    const Vec3 q = p + sun * ((mid - p.z) / sun.z);
-    // eq. (19) with T_S = 1: S = 1 - D max(1 - (r + 1 - C), 0)
-    return 1 - layerModulation(layer, m, ms, q.x, q.y, t);
+    if (sun.z <= 0) return 1;  // no shadow pass either (ShadowPass::shadowingLayers)
+    // shaders/layer_shadow.glsl in float, as the shadow pass; the point in double (world, not
+    // relative to an eye).
+    const float h = float(p.z), mid = float(layer.base + 0.5 * layer.thickness);
+    const glm::dvec2 q = glm::dvec2(p.x, p.y) + glm::dvec2(model::shadowRayOffset(glm::vec3(sun), h, mid));
+    const float r = float(threshold(layer, m, ms, q.x, q.y, t));
+    return model::layerShadow(h, mid, r, float(layer.coverage), float(layer.density));
 }
 
 double groundSunShare(const Sun& sun, const Sky& sky) {
-    auto luminance = [](const Vec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; };
+    auto luminance = [](const Vec3& c) { return glm::dot(c, Vec3(model::kLuminance)); };
     const double eSun = luminance(sun.color) * sun.intensity * std::max(sun.direction.z, 0.0);
     const double eSky = std::max(glm::pi<double>() * luminance(sky.horizon) +
                                      2 * glm::pi<double>() / 3 * (luminance(sky.zenith) - luminance(sky.horizon)),

@@ -20,6 +20,10 @@ namespace nephele {
 using namespace gl;
 
 namespace {
+// The flashes a layer is lit by at once (the first active ones of the scene's lightning): the
+// size of layered_cloud.frag's uniform array, given to it as MAX_FLASHES.
+constexpr int kMaxFlashes = 8;
+
 // A lighting volume or modulation texture (LayerAssets' CPU data) and its GL texture, one per
 // distinct data: every scene layer with the same parameters draws with the same one (100
 // layers of one thickness and seed hold one of each, not 100).
@@ -188,7 +192,7 @@ void setFrameUniforms(const ProgramPair& p, const Scene& scene, const View& view
     p.set("gradScale", float(1.0 / s.downsample));
     int flashes = 0;
     for (const Lightning& l : scene.lightning)
-        if (t >= l.start && t < l.start + l.duration && flashes < 8) {
+        if (t >= l.start && t < l.start + l.duration && flashes < kMaxFlashes) {
             const std::string name = "flashes[" + std::to_string(flashes++) + "]";
             p.set(name.c_str(), glm::vec4(glm::vec3(l.position - view.eye), float(l.intensity)));
         }
@@ -255,11 +259,12 @@ void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const
 LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
     validate(settings_);
     HostStateScope scope;  // the meshes' uploads and bindings
-    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}});
+    const std::string defines = "#define MAX_FLASHES " + std::to_string(kMaxFlashes) + "\n";
+    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}}, defines);
     // llvmpipe runs both sides of a branch, so the city map's fetch is compiled in only where a
     // layer glows (10% of the frame time without it on llvmpipe).
     impl_->programGlow = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}},
-                                        "#define CITY_GLOW 1\n");
+                                        defines + "#define CITY_GLOW 1\n");
     impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
     std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
     impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);

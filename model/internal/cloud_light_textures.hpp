@@ -21,7 +21,7 @@ namespace nephele {
 
 class CloudLightTextures {
 public:
-    static constexpr GLuint kBoxesBinding = 3;  // shader storage binding of cloudLightBoxes
+    static constexpr GLuint kBoxesBinding = 3;  // shader storage binding of cloudLightBoxes (set by bind())
     static constexpr GLuint kFirstUnit = 6;     // texture units of the four grids: 6, 7, 8, 9
     static constexpr GLuint kSunUnit = 10;      // and of the sun's transmittance
 
@@ -32,7 +32,8 @@ public:
     // Writes the boxes of `placed` (as given to update()) relative to `eye`: once per view.
     void setBoxes(const std::vector<PlacedRadiance>& placed, const Vec3& eye);
     // Binds the buffer and the textures (with a linear, clamp-to-edge sampler) and sets the
-    // sampling uniforms of `program` (which includes cloud_light_grid.glsl).
+    // sampling uniforms and the boxes' block binding of `program` (which includes
+    // cloud_light_grid.glsl).
     void bind(const Program& program) const;
 
     // Bytes of GPU memory the grids' slots hold (all five textures), for the tests.

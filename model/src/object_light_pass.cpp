@@ -8,6 +8,24 @@
 #include <cmath>
 
 namespace nephele {
+namespace model {
+namespace {
+// A cloud's grid as shaders/object_light.glsl reads it on the CPU: at points relative to its
+// box's corner, in float as on the GPU (relative to the eye there).
+struct PlacedGrid {
+    const PlacedRadiance& radiance;
+};
+RadianceSample gridSample(const PlacedGrid& g, vec3 rel) { return g.radiance.sample(g.radiance.lo + Vec3(rel)); }
+float gridSunTransmittance(const PlacedGrid& g, vec3 rel) { return std::exp(-gridSample(g, rel).skyTau.w); }
+using glm::equal;
+#define MODEL_FN inline
+#define CLOUD_GRID const PlacedGrid&
+#include "nephele/object_light.glsl"  // the build's copy of shaders/object_light.glsl (model/CMakeLists.txt)
+#undef CLOUD_GRID
+#undef MODEL_FN
+}  // namespace
+}  // namespace model
+
 using namespace gl;
 
 struct ObjectLightPass::Programs {
@@ -50,30 +68,16 @@ void ObjectLightPass::draw(const Scene& scene, const View& view, const HostFrame
 
 SurfaceLight ObjectLightPass::lightAt(const Scene& scene, const std::vector<PlacedRadiance>& light, const Vec3& point,
                                       const Vec3& normal) {
-    // object.frag's objectIrradiance, per cloud.
-    const glm::vec3 n(normal), s(scene.sun.direction);
-    const glm::vec3 invS = 1.0f / (s + glm::vec3(glm::equal(s, glm::vec3(0.0f))) * 1e-9f);
-    const glm::vec3 open = model::openSkyIrradiance(glm::vec3(scene.sky.zenith), glm::vec3(scene.sky.horizon),
-                                                    glm::vec3(scene.sky.ground), n);
-    glm::dvec3 sky(open);
-    double sunDiffuse = 0, transmittance = 1;
-    for (const PlacedRadiance& c : light) {
-        // Relative to the box's corner, in float as on the GPU (relative to the eye there).
-        const glm::vec3 p(point - c.lo), extent(c.extent);
-        const float tIn = model::boxEntry(p, invS, glm::vec3(0.0f), extent);
-        if (tIn >= 0) transmittance *= std::exp(-c.sample(point + double(tIn) * Vec3(s)).skyTau.w);
-        const float fade = model::gridFade(glm::length(p - glm::clamp(p, glm::vec3(0.0f), extent)),
-                                           (extent.x + extent.y + extent.z) / 6);
-        if (fade < 1e-3f) continue;
-        const RadianceSample r = c.sample(point);
-        const glm::vec2 e = model::gridIrradiance(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, n);
-        sunDiffuse += fade * e.x;
-        sky += double(fade) * (glm::dvec3(model::skyChroma(glm::vec3(r.skyTau))) * double(e.y) - glm::dvec3(open));
-    }
-    const Vec3 sun = scene.sun.color * scene.sun.intensity;
+    // object.frag's objectIrradiance: the same source.
+    const glm::vec3 sunIrradiance(scene.sun.color * scene.sun.intensity);
+    model::ObjectIrradiance l = model::openSkyLight(glm::vec3(scene.sky.zenith), glm::vec3(scene.sky.horizon),
+                                                    glm::vec3(scene.sky.ground), glm::vec3(normal),
+                                                    glm::vec3(scene.sun.direction));
+    for (const PlacedRadiance& c : light)
+        l = model::addCloudLight(l, model::PlacedGrid{c}, glm::vec3(point - c.lo), glm::vec3(0.0f), glm::vec3(c.extent));
     SurfaceLight out;
-    out.sun = sun * (std::max(glm::dot(normal, scene.sun.direction), 0.0) * transmittance);
-    out.diffuse = sun * sunDiffuse + glm::max(sky, Vec3(0.0));
+    out.sun = Vec3(model::objectSunIrradiance(l, sunIrradiance));
+    out.diffuse = Vec3(model::objectDiffuseIrradiance(l, sunIrradiance));
     return out;
 }
 

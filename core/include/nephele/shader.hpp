@@ -27,9 +27,9 @@ public:
 // without rebuilding), else the copy embedded at build time. Throws ShaderError if unknown.
 std::string shaderFileText(const std::string& name);
 
-// Full source for one stage: "#version 450 core", `defines`, then the file with its
+// Full source for one stage: `#version 450 core`, `defines`, then the file with its
 // includes resolved. `files` receives the file name of each source-string index used in
-// #line directives, so logs can be mapped back.
+// `#line` directives, so logs can be mapped back.
 std::string assembleShaderSource(const std::string& file, const std::string& defines,
                                  std::vector<std::string>& files);
 
