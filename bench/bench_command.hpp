@@ -123,7 +123,7 @@ struct ScaleBenchOptions {
 int runScaleBench(const ScaleBenchOptions& options);
 
 // `bench --grids`: per cloud of the shared scenes, the time to make its radiance grid and the
-// memory it holds (demo/grid_bench.cpp).
+// memory it holds (bench/grid_bench.cpp).
 struct GridBenchOptions {
     std::string outDir = "bench-out";  // grid_bench.csv, grid_bench.md
     std::string scenesDir = "data/scenes";

@@ -3,7 +3,7 @@
 accuracy_chart.png: per noise setting, summed ms per frame (log) against the mean relative error
 of every method and setting, one colour per method, the Pareto front joined.
 accuracy_distance.png: each method's default against the distance to the cloud.
-Usage: /usr/bin/python3 demo/plot_accuracy.py ACCURACY.csv OUT_DIR "WHEN"
+Usage: /usr/bin/python3 bench/plot_accuracy.py ACCURACY.csv OUT_DIR "WHEN"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import os

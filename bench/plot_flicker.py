@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench --flicker`: frame-to-frame change along each camera path, one
 panel per path, one line per method and setting (the exact model's is the reference).
-Usage: /usr/bin/python3 demo/plot_flicker.py FLICKER_SERIES.csv OUT.png "WHEN"
+Usage: /usr/bin/python3 bench/plot_flicker.py FLICKER_SERIES.csv OUT.png "WHEN"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import sys

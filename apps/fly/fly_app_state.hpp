@@ -1,5 +1,5 @@
 // The interactive window's state, shared by fly_app.cpp (events, flight, reload) and
-// fly_hud.cpp (HUD, help, live controls and debug views). Internal to the demo.
+// fly_hud.cpp (HUD, help, live controls and debug views). Internal to `nephele fly`.
 #pragma once
 
 #include "fly_app.hpp"

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench`: ms per frame against ellipsoid count (log-log) for the
 compositor, the paper's one-draw-per-ellipsoid baseline, and the fill-rate floor.
-Usage: /usr/bin/python3 demo/plot_bench.py BENCH.csv OUT.png "WHEN"
+Usage: /usr/bin/python3 bench/plot_bench.py BENCH.csv OUT.png "WHEN"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import sys

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """A strip of frames from a recorded flight (`nephele fly ... --record DIR`), side by side.
 
-usage: demo/plot_strip.py DIR OUT.png [--frames 0,24,48,...] [--columns N]
+usage: apps/fly/plot_strip.py DIR OUT.png [--frames 0,24,48,...] [--columns N]
 """
 import argparse
 import os

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench --weather`: ms per frame along the flight for SkyRenderer's update +
 draw and for the one-call render() of before, the weather changes marked, and 1.5x the median.
-Usage: /usr/bin/python3 demo/plot_weather.py WEATHER_BENCH.csv OUT.png "WHEN" "WxH"
+Usage: /usr/bin/python3 bench/plot_weather.py WEATHER_BENCH.csv OUT.png "WHEN" "WxH"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import statistics

@@ -3,7 +3,7 @@
 // `--method layered`, `--method auto` and the path tracer, which renders the layer as a volume
 // of the layered sky's own density (nephele/layer_volume.hpp). Per view:
 // - the error of each against the path tracer, with the accuracy bench's definition
-//   (relativeRmse() of demo/accuracy_reference.hpp on block x block pixel means), and the
+//   (relativeRmse() of bench/accuracy_reference.hpp on block x block pixel means), and the
 //   layered sky's error split by light as the accuracy bench splits it (componentErrors());
 // - the near LOD against the layer it stands for within auto's reach (near radius + blend band):
 //   the near cumulus alone (every cell at weight 1) and the layer alone cut at the reach, over

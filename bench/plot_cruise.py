@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench --cruise`: per flight, ms per frame with --reuse on and off, and the
 PSNR of each reuse frame against the fresh one (40 dB, the target, marked).
-Usage: /usr/bin/python3 demo/plot_cruise.py CRUISE_BENCH.csv OUT.png "WHEN" "WxH"
+Usage: /usr/bin/python3 bench/plot_cruise.py CRUISE_BENCH.csv OUT.png "WHEN" "WxH"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import sys

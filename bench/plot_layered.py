@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench --layered`: ms per frame against the annulus count N (log-log), one
 line per layer extent, for the layered sky as shipped, before its speed work, and its floor.
-Usage: /usr/bin/python3 demo/plot_layered.py LAYERED_BENCH.csv OUT.png "WHEN" "WxH"
+Usage: /usr/bin/python3 bench/plot_layered.py LAYERED_BENCH.csv OUT.png "WHEN" "WxH"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
 import sys

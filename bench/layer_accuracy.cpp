@@ -1,4 +1,4 @@
-// The layered sky and auto's hand-off against the path tracer (demo/layer_accuracy.hpp).
+// The layered sky and auto's hand-off against the path tracer (bench/layer_accuracy.hpp).
 #include "layer_accuracy.hpp"
 
 #include "accuracy_reference.hpp"

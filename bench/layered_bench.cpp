@@ -57,7 +57,7 @@ Scene layeredBenchScene(double extent, int width, int height) {
 }
 
 // `--method auto` on near_and_far.json (its explicit cumulus, the layer's near LOD within
-// kAutoNearRadius + kAutoBlendBand as ellipsoids, the layer beyond), as demo/render_command.cpp
+// kAutoNearRadius + kAutoBlendBand as ellipsoids, the layer beyond), as apps/nephele/render_command.cpp
 // draws it: the far field (the layered sky), the near field (the near LOD's update and the
 // compositor with the near and explicit clouds), the whole frame, and the far field's floor.
 struct AutoSplit {

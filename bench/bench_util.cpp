@@ -254,7 +254,7 @@ void runPlot(const std::string& scriptName, const std::vector<std::string>& args
     } removeTemp{temp};
     // Appended piece by piece: "literal " + string trips a GCC 12 -Wrestrict false positive.
     std::string cmd = "/usr/bin/python3 ";
-    cmd += shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/demo/" + scriptName);
+    cmd += shellQuote(std::string(NEPHELE_SOURCE_DIR) + "/bench/" + scriptName);
     for (std::string a : args) {
         if (a.rfind(kChartsFolder, 0) == 0) a = temp + a.substr(std::string(kChartsFolder).size());
         cmd += ' ', cmd += shellQuote(a);

@@ -4,7 +4,7 @@
 straight-and-level cruise at 70 m/s through and over the field, and a 180-degree turn in 3 s
 inside it. Deterministic: run it again and the files come out the same.
 
-    /usr/bin/python3 demo/make_cruise.py data/scenes
+    /usr/bin/python3 bench/make_cruise.py data/scenes
 """
 import json
 import math
@@ -78,10 +78,10 @@ def scene(note, path):
 
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else "data/scenes"
-    made = {"cruise.json": scene("The cruise bench's field (150 cumulus, about 4000 ellipsoids, demo/make_cruise.py): "
+    made = {"cruise.json": scene("The cruise bench's field (150 cumulus, about 4000 ellipsoids, bench/make_cruise.py): "
                                  "a 60 s straight-and-level cruise at 70 m/s through the cloud tops and over them.",
                                  cruise_path()),
-            "cruise_turn.json": scene("The cruise bench's field (demo/make_cruise.py): a 180-degree turn in 3 s "
+            "cruise_turn.json": scene("The cruise bench's field (bench/make_cruise.py): a 180-degree turn in 3 s "
                                       "inside it, at 70 m/s.", turn_path())}
     for name, s in made.items():
         with open(f"{out}/{name}", "w") as f:

@@ -1,4 +1,4 @@
-// `nephele fly`: the ONE place where the demo calls Nephele's renderers, through the public
+// `nephele fly`: the ONE place where the fly app calls Nephele's renderers, through the public
 // host API as an image generator does (nephele/sky.hpp: prepare once, then update() per frame
 // and draw(ViewDesc) into its frame; ellipsoid and layered are SkyRenderer drawing the scene
 // without layers or without ellipsoid clouds; raymarch, a reference method with no host API,

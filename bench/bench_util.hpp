@@ -58,7 +58,7 @@ void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& path
 int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag, const std::string& stem,
                      const std::string& csv, const std::string& markdown);
 
-// Runs demo/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
+// Runs bench/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
 // which a leading kChartsFolder stands for a temporary folder the script draws into; the files
 // `charts` it drew there are then written to outDir (output_files.hpp's policy, all or
 // nothing). Throws with a message naming the package when the script fails.
