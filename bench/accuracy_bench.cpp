@@ -132,18 +132,18 @@ Vec3 sunAround(const Vec3& forward, double azimuthDeg, double elevationDeg) {
 std::vector<Case> cases(const AccuracyOptions& o) {
     std::vector<Case> out;
     const std::vector<std::string> names =
-        o.quick ? std::vector<std::string>{"single.json"}
+        o.bench.quick ? std::vector<std::string>{"single.json"}
                 : std::vector<std::string>{"single.json", "two_clouds.json", "flythrough.json", "field1000.json"};
     for (const std::string& n : names) {
-        Case c{n, -1, loadScene(o.scenesDir + "/" + n)};
+        Case c{n, -1, loadScene(o.bench.scenesDir + "/" + n)};
         scaleTo(c.scene, o.width);
         out.push_back(std::move(c));
     }
     // The distance series: cumulus27 seen along its camera's direction from inside out to 15 km.
-    const Scene base = loadScene(o.scenesDir + "/cumulus27.json");
+    const Scene base = loadScene(o.bench.scenesDir + "/cumulus27.json");
     const Vec3 target = centroid(base.clouds.at(0));
     const Vec3 forward = base.camera.direction;
-    const std::vector<double> distances = o.quick ? std::vector<double>{6000}
+    const std::vector<double> distances = o.bench.quick ? std::vector<double>{6000}
                                                   : std::vector<double>{0, 600, 2000, 6000, 15000};
     auto at = [&](const Scene& s, double d) {
         Scene c = s;
@@ -157,7 +157,7 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     };
     for (double d : distances)
         out.push_back({"cumulus27.json at " + (d == 0 ? std::string("0 m (inside)") : fmt("%.0f m", d)), d, at(base, d)});
-    if (o.quick) return out;
+    if (o.bench.quick) return out;
     // The light's hard cases. Back-lit: the sun 20 degrees off the view axis, behind the cloud
     // (the silver lining, and the dark core). A low sun (5 degrees) from the side.
     Scene backLit = at(base, 2000);
@@ -167,7 +167,7 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     lowSun.sun.direction = sunAround(forward, 90, 5);
     out.push_back({"cumulus27.json, low sun (5°, from the side)", -1, lowSun});
     // A small, thin cloud: one 80 x 60 x 50 m puff at density 0.3, 600 m away.
-    Scene thin = loadScene(o.scenesDir + "/single.json");
+    Scene thin = loadScene(o.bench.scenesDir + "/single.json");
     for (Ellipsoid& e : thin.clouds.at(0).ellipsoids) e.radii = Vec3(80, 60, 50), e.density = 0.3;
     thin.camera.position = thin.clouds[0].ellipsoids[0].center - 600.0 * thin.camera.direction;
     scaleTo(thin, o.width);
@@ -303,7 +303,7 @@ struct LayeredPoint {
 };
 
 std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const OpaquePass& opaque) {
-    Scene base = loadScene(o.scenesDir + "/near_and_far.json");
+    Scene base = loadScene(o.bench.scenesDir + "/near_and_far.json");
     base.clouds.clear();
     if (base.layers.empty()) throw UsageError(base.file + ": the layered convergence needs a scene with layers");
     scaleTo(base, o.width);
@@ -314,11 +314,11 @@ std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const Opa
         {"below (the scene's camera)", base.camera.position, base.camera.position + base.camera.direction},
         {"grazing, 100 m under the base", Vec3(0, 0, layer.base - 100), Vec3(0, 10000, layer.base - 100 + 200)},
         {"above, looking 10° down", Vec3(0, 0, mid + 2000), Vec3(0, 10000, mid + 2000 - 1763)}};
-    const std::vector<int> counts = o.quick ? std::vector<int>{2, 8} : std::vector<int>{2, 4, 8, 16, 32};
+    const std::vector<int> counts = o.bench.quick ? std::vector<int>{2, 8} : std::vector<int>{2, 4, 8, 16, 32};
     std::vector<LayeredPoint> out;
     // The lighting volume depends on the layer, not on N: computed once and shared through a
     // cache folder (a temporary one, removed at the end, under --no-cache).
-    std::string cacheDir = o.cacheDir;
+    std::string cacheDir = o.bench.cacheDir;
     struct TempDir {
         std::string path;
         ~TempDir() {
@@ -405,14 +405,14 @@ Image viewsMontage(const std::vector<ViewRow>& rows) {
 }  // namespace
 
 int runAccuracyBench(const AccuracyOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Case> all;
     try {
         all = cases(o);
     } catch (const std::exception& e) {
         return reportError(e, "loading the scenes");
     }
-    const std::vector<Config> configs = sweep(o.quick);
+    const std::vector<Config> configs = sweep(o.bench.quick);
     ReferenceSettings refSettings;
     refSettings.spp = o.referenceSpp;
     refSettings.targetNoise = o.referenceNoise;
@@ -420,7 +420,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     refSettings.skySpp = std::max(2, o.referenceSpp / 4);
     refSettings.singleSpp = std::max(1, o.referenceSpp / 16);
     refSettings.block = o.block;
-    refSettings.cacheDir = o.cacheDir;
+    refSettings.cacheDir = o.bench.cacheDir;
     std::vector<ReferenceInfo> refInfo;
     std::vector<ComponentRow> components;
     std::vector<Result> results;
@@ -430,7 +430,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
     using Clock = std::chrono::steady_clock;
     try {
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         const NoiseSettings ns;
@@ -704,18 +704,18 @@ int runAccuracyBench(const AccuracyOptions& o) {
         layeredCsv << "\"" << p.view << "\"," << p.layers << "," << kLayeredReferenceN << "," << fmt("%.3f", p.ms) << ","
                    << fmt("%.5f", p.relRmse) << "\n";
 
-    const std::string csvPath = (fs::path(o.outDir) / "accuracy.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "accuracy.md").string();
-    const std::string layeredPath = (fs::path(o.outDir) / "accuracy_layered.csv").string();
-    const std::string chartPath = (fs::path(o.outDir) / "accuracy_chart.png").string();
-    const std::string distancePath = (fs::path(o.outDir) / "accuracy_distance.png").string();
-    const std::string viewsPath = (fs::path(o.outDir) / "accuracy_views.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "accuracy.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "accuracy.md").string();
+    const std::string layeredPath = (fs::path(o.bench.outDir) / "accuracy_layered.csv").string();
+    const std::string chartPath = (fs::path(o.bench.outDir) / "accuracy_chart.png").string();
+    const std::string distancePath = (fs::path(o.bench.outDir) / "accuracy_distance.png").string();
+    const std::string viewsPath = (fs::path(o.bench.outDir) / "accuracy_views.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()},
                         {mdPath, generatedSection("accuracy bench", md.str())},
                         {layeredPath, layeredCsv.str()}});
         writePng(viewsPath, viewsMontage(views));
-        runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
+        runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.bench.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;

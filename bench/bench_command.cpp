@@ -97,7 +97,7 @@ Image gpuFrame(const Scene& scene, const EllipsoidSettings& settings) {
     return img;
 }
 
-std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
+std::vector<Accuracy> measureAccuracy(const EllipsoidBenchOptions& o) {
     std::vector<Accuracy> out;
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
@@ -113,7 +113,7 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
         return a;
     };
     for (const char* name : {"single.json", "two_clouds.json", "cumulus27.json", "flythrough.json", "example.json"}) {
-        Scene scene = loadScene(o.scenesDir + "/" + name);
+        Scene scene = loadScene(o.bench.scenesDir + "/" + name);
         Accuracy a = against(name, scene, {});
         if (scene.objects.empty()) {
             scene.medium.noise = 0;
@@ -128,8 +128,8 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
     }
     EllipsoidSettings u8;
     u8.precision = AtlasPrecision::Unorm8;
-    out.push_back(against("cumulus27.json, 8-bit atlas", loadScene(o.scenesDir + "/cumulus27.json"), u8));
-    const Scene probe = loadScene(o.scenesDir + "/box_in_thin_cloud.json");
+    out.push_back(against("cumulus27.json, 8-bit atlas", loadScene(o.bench.scenesDir + "/cumulus27.json"), u8));
+    const Scene probe = loadScene(o.bench.scenesDir + "/box_in_thin_cloud.json");
     EllipsoidSettings stencil;
     stencil.flyThrough = FlyThrough::Stencil;
     out.push_back(against("box_in_thin_cloud.json, fly-through: fraction", probe, {}));
@@ -140,14 +140,14 @@ std::vector<Accuracy> measureAccuracy(const BenchOptions& o) {
 
 }  // namespace
 
-int runBench(const BenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+int runBench(const EllipsoidBenchOptions& o) {
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Row> rows;
     std::vector<Accuracy> accuracy;
     std::string renderer;
     try {
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         gl::setChecks(false);  // timing: no glGetError round trips
@@ -237,9 +237,9 @@ int runBench(const BenchOptions& o) {
                << (a.mae < 0 ? std::string("—") : fmt("%.4f", a.mae)) << " |\n";
     }
 
-    const std::string csvPath = (fs::path(o.outDir) / "ellipsoid_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "ellipsoid_bench.md").string();
-    const std::string pngPath = (fs::path(o.outDir) / "ellipsoid_bench.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.md").string();
+    const std::string pngPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("ellipsoid bench", md.str())}});
     } catch (const std::exception& e) {
@@ -247,7 +247,7 @@ int runBench(const BenchOptions& o) {
         return 1;
     }
     try {
-        runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.outDir,
+        runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.bench.outDir,
                 {"ellipsoid_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";

@@ -76,13 +76,13 @@ RenderOptions optionsFor(bool reuse, bool lod, GlBackend backend) {
 }
 
 void fly(Flight& f, const CruiseBenchOptions& o) {
-    Scene scene = loadScene(o.scenesDir + "/" + f.scene);
+    Scene scene = loadScene(o.bench.scenesDir + "/" + f.scene);
     scene.camera.width = o.width, scene.camera.height = o.height;
-    const double t0 = scene.path.front().t, t1 = o.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
+    const double t0 = scene.path.front().t, t1 = o.bench.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
     const int frames = frameCount(t0, t1, f.fps);
-    FrameRenderer on(optionsFor(true, true, o.backend)), off(optionsFor(false, false, o.backend));
+    FrameRenderer on(optionsFor(true, true, o.bench.backend)), off(optionsFor(false, false, o.bench.backend));
     std::unique_ptr<FrameRenderer> alone;
-    if (f.reuseAlone) alone = std::make_unique<FrameRenderer>(optionsFor(true, false, o.backend));
+    if (f.reuseAlone) alone = std::make_unique<FrameRenderer>(optionsFor(true, false, o.bench.backend));
     gl::setChecks(false);  // timing: no glGetError round trips
     FrameChanges onChanges, offChanges;
     for (int k = 0; k < frames; ++k) {
@@ -202,7 +202,7 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
 }  // namespace
 
 int runCruiseBench(const CruiseBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Flight> flights = {
         {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus", 10, {}, 0, 0, true},
         {"cruise_turn.json", "sharp turn: 180° in 3 s in that field", 10, {}, 0, 0, true},
@@ -210,7 +210,7 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         {"flythrough.json", "flythrough.json"},
         {"layer_flight.json", "layer_flight.json"},
     };
-    if (o.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
+    if (o.bench.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
     if (!o.flights.empty()) {
         for (const std::string& f : o.flights)
             if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.scene == f; })) {
@@ -223,7 +223,7 @@ int runCruiseBench(const CruiseBenchOptions& o) {
     std::string renderer;
     try {
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         renderer = Context::create(co)->description();
         for (Flight& f : flights) f.fps = o.fps, fly(f, o);
     } catch (const std::exception& e) {
@@ -232,14 +232,14 @@ int runCruiseBench(const CruiseBenchOptions& o) {
     }
     const std::string when = utcNow();
     const std::string md = markdownOf(o, flights, when, machineLine(renderer));
-    const std::string csvPath = (fs::path(o.outDir) / "cruise_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "cruise_bench.md").string();
-    const std::string pngPath = (fs::path(o.outDir) / "cruise_bench.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "cruise_bench.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "cruise_bench.md").string();
+    const std::string pngPath = (fs::path(o.bench.outDir) / "cruise_bench.png").string();
     try {
         writeTextFiles({{csvPath, csvOf(flights)}, {mdPath, generatedSection("cruise bench", md)}});
         runPlot("plot_cruise.py", {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
                                    std::to_string(o.width) + "x" + std::to_string(o.height)},
-                o.outDir, {"cruise_bench.png"});
+                o.bench.outDir, {"cruise_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

@@ -58,18 +58,18 @@ std::vector<double> renderSequence(const Sequence& s, const RenderOptions& o, do
 }  // namespace
 
 int runFlickerBench(const FlickerOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Sequence> sequences;
     try {
         const std::vector<std::string> names =
-            o.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
+            o.bench.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
         for (const std::string& n : names) {
-            Sequence s{n, loadScene(o.scenesDir + "/" + n)};
+            Sequence s{n, loadScene(o.bench.scenesDir + "/" + n)};
             if (s.scene.path.size() < 2) throw UsageError(s.scene.file + ": path: the flicker bench needs a camera path");
             const double aspect = double(s.scene.camera.width) / s.scene.camera.height;
             s.scene.camera.width = o.width;
             s.scene.camera.height = std::max(1, int(std::lround(o.width / aspect)));
-            s.fps = o.quick ? 0.5 : o.fps;
+            s.fps = o.bench.quick ? 0.5 : o.fps;
             s.t0 = s.scene.path.front().t;
             s.frames = frameCount(s.t0, s.scene.path.back().t, s.fps);
             sequences.push_back(std::move(s));
@@ -82,7 +82,7 @@ int runFlickerBench(const FlickerOptions& o) {
     auto add = [&](std::string method, std::string setting, Method m, auto change) {
         Run r{std::move(method), std::move(setting), {}};
         r.options.method = m;
-        r.options.backend = o.backend;
+        r.options.backend = o.bench.backend;
         change(r.options);
         runs.push_back(std::move(r));
     };
@@ -104,7 +104,7 @@ int runFlickerBench(const FlickerOptions& o) {
         r.ellipsoid.reuse = true;
         r.ellipsoid.cloudLod = true;
     });
-    if (!o.quick)
+    if (!o.bench.quick)
         add("ellipsoid", "weighted composite, --reuse on", Method::Ellipsoid, [](RenderOptions& r) {
             r.ellipsoid.order = CompositeOrder::Weighted;
             r.ellipsoid.reuse = true;
@@ -112,7 +112,7 @@ int runFlickerBench(const FlickerOptions& o) {
     // The model itself, whole ellipsoids sorted by centre distance as the tiles must be: its
     // excess over the per-pixel reference is the popping of order flips alone.
     add("gardner-exact", "per-ellipsoid order", Method::GardnerExact, [](RenderOptions&) {});
-    if (!o.quick) {
+    if (!o.bench.quick) {
         add("ellipsoid", "8-bit atlas", Method::Ellipsoid,
             [](RenderOptions& r) { r.ellipsoid.precision = AtlasPrecision::Unorm8; });
         add("ellipsoid", "max tile 32", Method::Ellipsoid, [](RenderOptions& r) { r.ellipsoid.maxTile = 32; });
@@ -125,7 +125,7 @@ int runFlickerBench(const FlickerOptions& o) {
     try {
         {
             ContextOptions co;
-            co.backend = o.backend;
+            co.backend = o.bench.backend;
             renderer = Context::create(co)->description();
         }
         for (const Sequence& s : sequences) {
@@ -191,14 +191,14 @@ int runFlickerBench(const FlickerOptions& o) {
     }
     md << "\n![per-frame change along each path](flicker.png)\n";
 
-    const std::string csvPath = (fs::path(o.outDir) / "flicker.csv").string();
-    const std::string seriesPath = (fs::path(o.outDir) / "flicker_series.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "flicker.md").string();
-    const std::string pngPath = (fs::path(o.outDir) / "flicker.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "flicker.csv").string();
+    const std::string seriesPath = (fs::path(o.bench.outDir) / "flicker_series.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "flicker.md").string();
+    const std::string pngPath = (fs::path(o.bench.outDir) / "flicker.png").string();
     try {
         writeTextFiles(
             {{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md.str())}});
-        runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.outDir, {"flicker.png"});
+        runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.bench.outDir, {"flicker.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
         return 1;

@@ -31,7 +31,7 @@ std::vector<GridRow> measureGrids(const GridBenchOptions& o) {
     std::vector<GridRow> rows;
     const RadianceGridSettings settings;
     for (const std::string& name : o.scenes) {
-        const Scene scene = loadScene(o.scenesDir + "/" + name);
+        const Scene scene = loadScene(o.bench.scenesDir + "/" + name);
         for (int c = 0; c < int(scene.clouds.size()); ++c) {
             const Cloud& cloud = scene.clouds[c];
             GridRow r;
@@ -80,7 +80,7 @@ std::string gridMarkdown(const GridBenchOptions& o, const std::vector<GridRow>& 
 }  // namespace
 
 int runGridBench(const GridBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<GridRow> rows;
     try {
         rows = measureGrids(o);
@@ -94,7 +94,7 @@ int runGridBench(const GridBenchOptions& o) {
     for (const GridRow& r : rows)
         csv << r.scene << "," << r.cloud << "," << r.ellipsoids << "," << fmt("%.2f", r.opticalRadius) << "," << r.size << ","
             << fmt("%.2f", r.ms) << "," << fmt("%.4f", r.megabytes) << "\n";
-    return publishTextBench("bench --grids", o.outDir, "grid bench", "grid_bench", csv.str(), md);
+    return publishTextBench("bench --grids", o.bench.outDir, "grid bench", "grid_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli

@@ -96,11 +96,11 @@ Reference layerReference(const Scene& scene, const View& view, const LayerAccura
         PathTraceSettings ps;
         ps.spp = std::max(1, spp), ps.maxBounces = bounces, ps.seed = seed;
         ps.layers = std::make_shared<LayerVolumes>(sc, ls, 0.0);
-        const Image image = o.cacheDir.empty() ? renderPathTraced(sc, view, ps, &noise)
-                                               : renderPathTracedCached(sc, view, ps, &noise, o.cacheDir);
+        const Image image = o.bench.cacheDir.empty() ? renderPathTraced(sc, view, ps, &noise)
+                                               : renderPathTracedCached(sc, view, ps, &noise, o.bench.cacheDir);
         return blockMean(image, o.block);
     };
-    const int spp = o.quick ? 4 : o.referenceSpp, skySpp = std::max(2, spp / 4), bounces = PathTraceSettings{}.maxBounces;
+    const int spp = o.bench.quick ? 4 : o.referenceSpp, skySpp = std::max(2, spp / 4), bounces = PathTraceSettings{}.maxBounces;
     const Scene sun = sunOnly(scene), sky = skyOnly(scene);
     const Image sunA = trace(sun, spp / 2, bounces, 1), sunB = trace(sun, spp / 2, bounces, 2);
     const Image skyA = trace(sky, skySpp / 2, bounces, 1), skyB = trace(sky, skySpp / 2, bounces, 2);
@@ -202,7 +202,7 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
     }
     FrameTarget target(scene.camera.width, scene.camera.height);
     const GLuint fb = target.framebuffer();
-    const std::vector<double> ms = timeFrames(o.quick ? 1 : o.frames, target, r.opaque, scene, view,
+    const std::vector<double> ms = timeFrames(o.bench.quick ? 1 : o.frames, target, r.opaque, scene, view,
                                               {[&] { layered(fb); }, [&] { autoDraw(fb); }});
     a.layeredMs = ms[0], a.autoMs = ms[1];
     measureHandOff(scene, view, r, a);
@@ -216,12 +216,12 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     if (o.referenceSpp < 1 || o.block < 1 || o.frames < 1)
         throw std::invalid_argument("layer accuracy: spp, block and frames must be >= 1");
     if (!o.imageDir.empty()) std::filesystem::create_directories(o.imageDir);
-    Scene base = loadScene(o.scenesDir + "/near_and_far.json");
+    Scene base = loadScene(o.bench.scenesDir + "/near_and_far.json");
     if (base.layers.empty()) throw UsageError(base.file + ": the layer accuracy needs a scene with layers");
     base.clouds.clear();
     base.layers.resize(1);
     Renderers r;
-    r.layered.cacheDir = o.cacheDir;
+    r.layered.cacheDir = o.bench.cacheDir;
     r.sky = std::make_unique<LayeredRenderer>(r.layered);
     LayeredSettings single = r.layered;
     single.lighting.photons = 0;  // no diffuse light
@@ -233,8 +233,8 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
     std::vector<LayerViewAccuracy> out;
-    for (const LayerView& v : layerViews(base, o.quick)) {
-        const Scene scene = viewScene(base, v, o.quick ? 64 : o.width);
+    for (const LayerView& v : layerViews(base, o.bench.quick)) {
+        const Scene scene = viewScene(base, v, o.bench.quick ? 64 : o.width);
         LayerViewAccuracy a = measureView(scene, o, r, noise, int(out.size()));
         a.view = v.name;
         gl::checkAlways("layer accuracy");
@@ -248,8 +248,8 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
 
 std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results, const LayerAccuracyOptions& o) {
     std::ostringstream md;
-    md << "The layer of near_and_far.json (its explicit clouds removed) at " << (o.quick ? 64 : o.width)
-       << " px wide against `--method pathtrace` at " << (o.quick ? 4 : o.referenceSpp)
+    md << "The layer of near_and_far.json (its explicit clouds removed) at " << (o.bench.quick ? 64 : o.width)
+       << " px wide against `--method pathtrace` at " << (o.bench.quick ? 4 : o.referenceSpp)
        << " spp (the layer as a volume of the layered sky's density); error = RMSE of linear RGB after averaging "
        << o.block << "×" << o.block
        << " pixel blocks, over the blocks where either image has cloud (α > 0.02), relative to the reference's mean "
@@ -301,15 +301,15 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
     return md.str();
 }
 
-int runLayerAccuracyBench(const LayerAccuracyOptions& o, GlBackend backend) {
+int runLayerAccuracyBench(const LayerAccuracyOptions& o) {
     const char* tag = "layer accuracy bench";
-    if (!prepareBenchOutputs(o.outDir)) return 2;
-    const std::string mdPath = (std::filesystem::path(o.outDir) / "layer_accuracy.md").string();
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    const std::string mdPath = (std::filesystem::path(o.bench.outDir) / "layer_accuracy.md").string();
     std::vector<LayerViewAccuracy> results;
     std::string renderer;
     try {
         ContextOptions co;
-        co.backend = backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         gl::setChecks(true);

@@ -13,6 +13,7 @@
 #pragma once
 
 #include "accuracy_reference.hpp"
+#include "bench_command.hpp"
 
 #include "nephele/context.hpp"
 
@@ -22,15 +23,12 @@
 namespace nephele::cli {
 
 struct LayerAccuracyOptions {
-    std::string scenesDir = "data/scenes";
-    std::string cacheDir;     // path-traced references and lighting volumes ("" = neither is cached)
+    BenchOptions bench;       // layer_accuracy.md; quick: one view at 64 px, 4 spp, one frame
     int width = 320;          // px, the views' width (16:9)
     int referenceSpp = 256;   // samples per pixel of the reference's sun part (1/4 of it for the sky part and the single scattering)
     std::string imageDir;     // "" = none; else the block-mean images of each view (reference, layered, auto) as PNG
     int block = 4;            // errors on block x block pixel means
     int frames = 3;           // timed frames per GPU method (median)
-    bool quick = false;       // one view at 64 px, 4 spp, one frame (for tests)
-    std::string outDir = "bench-out";  // layer_accuracy.md, its generated section
 };
 
 struct LayerViewAccuracy {
@@ -68,6 +66,6 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
 
 // `nephele bench --layer-accuracy`: makes a context, measures, prints the markdown on stdout.
 // Returns the exit code (2 bad options, 1 a runtime failure).
-int runLayerAccuracyBench(const LayerAccuracyOptions& options, GlBackend backend);
+int runLayerAccuracyBench(const LayerAccuracyOptions& options);
 
 }  // namespace nephele::cli

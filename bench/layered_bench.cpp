@@ -65,14 +65,14 @@ struct AutoSplit {
     int nearClouds = 0;
 };
 AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, const OpaquePass& opaque, int frames) {
-    Scene scene = loadScene(o.scenesDir + "/near_and_far.json");
+    Scene scene = loadScene(o.bench.scenesDir + "/near_and_far.json");
     scene.camera.width = o.width, scene.camera.height = o.height;
     const View view = makeView(scene.camera);
     // auto's settings (nephele/sky.hpp): the hand-off radii, the billboard disc beyond the
     // band, tiles that last.
     LayeredSettings ls = autoLayeredSettings();
-    ls.cacheDir = o.cacheDir;
-    if (o.quick) useQuickLighting(ls.lighting);
+    ls.cacheDir = o.bench.cacheDir;
+    if (o.bench.quick) useQuickLighting(ls.lighting);
     LayeredRenderer far(ls);
     NearLod nearLod(NearLodSettings{}, ls);
     EllipsoidRenderer near(autoEllipsoidSettings());
@@ -99,7 +99,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
 }  // namespace
 
 int runLayeredBench(const LayeredBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     if (o.extents.empty() || o.counts.empty()) {
         std::cerr << "nephele: bench: --extents and --counts need at least one value each\n";
         return 2;
@@ -114,16 +114,16 @@ int runLayeredBench(const LayeredBenchOptions& o) {
             std::cerr << "nephele: bench: --counts: N = " << n << " is out of range 2..1024\n";
             return 2;
         }
-    const std::vector<int> counts = o.quick ? std::vector<int>{2, 8} : o.counts;
-    const std::vector<double> extents = o.quick ? std::vector<double>{20000} : o.extents;
-    const int frames = o.quick ? 1 : o.frames;
+    const std::vector<int> counts = o.bench.quick ? std::vector<int>{2, 8} : o.counts;
+    const std::vector<double> extents = o.bench.quick ? std::vector<double>{20000} : o.extents;
+    const int frames = o.bench.quick ? 1 : o.frames;
 
     std::vector<Row> rows;
     std::string renderer;
     std::optional<AutoSplit> autoSplit;
     try {
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         gl::setChecks(false);  // timing: no glGetError round trips
@@ -133,8 +133,8 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         for (int n : counts) {
             LayeredSettings s;
             s.layers = n;
-            s.cacheDir = o.cacheDir;
-            if (o.quick) useQuickLighting(s.lighting);
+            s.cacheDir = o.bench.cacheDir;
+            if (o.bench.quick) useQuickLighting(s.lighting);
             current[n] = std::make_unique<LayeredRenderer>(s);
             LayeredSettings ns = s;
             ns.shadows = false;
@@ -216,9 +216,9 @@ int runLayeredBench(const LayeredBenchOptions& o) {
            << fmt("%.2f", autoSplit->nearMs / autoSplit->floorMs) << "× the far field's floor).\n";
     md << "\n![ms per frame against the layer count N](layered_bench.png)\n";
 
-    const std::string csvPath = (fs::path(o.outDir) / "layered_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "layered_bench.md").string();
-    const std::string pngPath = (fs::path(o.outDir) / "layered_bench.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "layered_bench.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "layered_bench.md").string();
+    const std::string pngPath = (fs::path(o.bench.outDir) / "layered_bench.png").string();
     try {
         writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("layered bench", md.str())}});
     } catch (const std::exception& e) {
@@ -228,7 +228,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
     try {
         runPlot("plot_layered.py",
                 {csvPath, std::string(kChartsFolder) + "/layered_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
-                o.outDir, {"layered_bench.png"});
+                o.bench.outDir, {"layered_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

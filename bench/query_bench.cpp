@@ -62,7 +62,7 @@ std::vector<Vec3> pointsAround(const Scene& s, const Vec3& eye, double radius, i
 }  // namespace
 
 int runQueryBench(const QueryBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::ostringstream csv, md;
     std::string renderer;
     csv << "scene,ellipsoids,near_clouds,layers,density_us,transmittance_1km_us,transmittance_10km_us,inside_us,"
@@ -71,11 +71,11 @@ int runQueryBench(const QueryBenchOptions& o) {
           "insideCloud (mean depth) | floor: the path tracer's field |\n|---|---|---|---|---|---|---|---|---|\n";
     try {
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         for (const std::string& name : o.scenes) {
-            Scene scene = loadScene(o.scenesDir + "/" + name);
+            Scene scene = loadScene(o.bench.scenesDir + "/" + name);
             scene.camera.width = scene.camera.height = 64;  // the draws are not what is measured
             SkyRenderer sky;
             sky.prepare(scene);
@@ -129,7 +129,7 @@ int runQueryBench(const QueryBenchOptions& o) {
             "the camera and its background work; rays from the points in random directions, mostly horizontal. The "
             "floor is the path tracer's extinction field of the explicit clouds at the same points.\n\n"
          << md.str();
-    return publishTextBench("bench --queries", o.outDir, "query bench", "query_bench", csv.str(), page.str());
+    return publishTextBench("bench --queries", o.bench.outDir, "query bench", "query_bench", csv.str(), page.str());
 }
 
 }  // namespace nephele::cli

@@ -130,7 +130,7 @@ std::string cell(const Phase& p) { return p.ms < 0 ? "—" : fmt("%.0f", p.ms) +
 
 std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
     ContextOptions co;
-    co.backend = o.backend;
+    co.backend = o.bench.backend;
     auto context = Context::create(co);
     renderer = context->description();
     gl::setChecks(false);  // timing: no glGetError round trips
@@ -242,7 +242,7 @@ std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, c
 }  // namespace
 
 int runScaleBench(const ScaleBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Row> rows;
     std::string renderer;
     try {
@@ -258,7 +258,7 @@ int runScaleBench(const ScaleBenchOptions& o) {
         csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << "," << fmt("%.1f", r.load.peakMb)
             << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << "," << fmt("%.1f", r.draw.peakMb) << ","
             << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";
-    return publishTextBench("bench --scale", o.outDir, "scale bench", "scale_bench", csv.str(), md);
+    return publishTextBench("bench --scale", o.bench.outDir, "scale bench", "scale_bench", csv.str(), md);
 }
 
 }  // namespace nephele::cli

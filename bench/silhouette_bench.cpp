@@ -46,10 +46,10 @@ Scene atDistance(Scene s, double distance) {
 }  // namespace
 
 int runSilhouetteBench(const SilhouetteBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
-    const std::vector<std::string> names = o.quick ? std::vector<std::string>{"dense_cumulus.json"}
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    const std::vector<std::string> names = o.bench.quick ? std::vector<std::string>{"dense_cumulus.json"}
                                                    : std::vector<std::string>{"cumulus27.json", "dense_cumulus.json"};
-    const std::vector<double> distances = o.quick ? std::vector<double>{1000} : std::vector<double>{100, 1000, 5000};
+    const std::vector<double> distances = o.bench.quick ? std::vector<double>{1000} : std::vector<double>{100, 1000, 5000};
     std::ostringstream csv, md;
     csv << "scene,distance_m,method,erosion,dimension\n";
     md << "Box-counting dimension of the α > 0.5 silhouette (boxes 2–32 px) at " << o.width << " px wide; "
@@ -58,7 +58,7 @@ int runSilhouetteBench(const SilhouetteBenchOptions& o) {
        << "| scene | distance | method | detail off | detail on |\n|---|---|---|---|---|\n";
     try {
         for (const std::string& name : names) {
-            Scene base = loadScene(o.scenesDir + "/" + name);
+            Scene base = loadScene(o.bench.scenesDir + "/" + name);
             const double aspect = double(base.camera.width) / base.camera.height;
             base.camera.width = o.width;
             base.camera.height = std::max(1, int(std::lround(o.width / aspect)));
@@ -70,7 +70,7 @@ int runSilhouetteBench(const SilhouetteBenchOptions& o) {
                         s.medium.detail.erosion = on ? o.erosion : 0.0;
                         RenderOptions r;
                         r.method = m;
-                        r.backend = o.backend;
+                        r.backend = o.bench.backend;
                         dim[on] = silhouetteDimension(renderFrame(s, r).alpha);
                         csv << name << "," << d << "," << methodName(m) << "," << s.medium.detail.erosion << ","
                             << fmt("%.3f", dim[on]) << "\n";
@@ -82,7 +82,7 @@ int runSilhouetteBench(const SilhouetteBenchOptions& o) {
     } catch (const std::exception& e) {
         return reportError(e, "the silhouette bench");
     }
-    return publishTextBench("bench --silhouette", o.outDir, "silhouette bench", "silhouette_bench", csv.str(), md.str());
+    return publishTextBench("bench --silhouette", o.bench.outDir, "silhouette bench", "silhouette_bench", csv.str(), md.str());
 }
 
 }  // namespace nephele::cli

@@ -111,7 +111,7 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
     LayeredSettings ls = autoLayeredSettings();
     ls.cacheDir = cacheDir;
     EllipsoidSettings es = autoEllipsoidSettings();
-    if (o.quick) {  // a run for tests: every part exercised, the lighting coarse
+    if (o.bench.quick) {  // a run for tests: every part exercised, the lighting coarse
         useQuickLighting(ls.lighting);
         es.light.size = 8, es.light.sunPhotons = es.light.skyPhotons = 4096;
     }
@@ -258,7 +258,7 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
 }  // namespace
 
 int runWeatherBench(const WeatherBenchOptions& o) {
-    if (!prepareBenchOutputs(o.outDir)) return 2;
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     if (!(o.fps > 0 && o.fps <= 1000) || !(o.speed >= 0 && o.speed <= 1000) || o.frames < 20 || o.frames > 100000) {
         std::cerr << "nephele: bench --weather: --fps must be in (0, 1000], the speed in [0, 1000] m/s and --frames "
                      "20..100000\n";
@@ -267,14 +267,14 @@ int runWeatherBench(const WeatherBenchOptions& o) {
     std::vector<FrameTime> frames;
     std::string renderer;
     try {
-        Scene scene = loadScene(o.scenesDir + "/near_and_far.json");
+        Scene scene = loadScene(o.bench.scenesDir + "/near_and_far.json");
         scene.camera.width = o.width, scene.camera.height = o.height;
         ContextOptions co;
-        co.backend = o.backend;
+        co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
         gl::setChecks(false);  // timing: no glGetError round trips
-        frames = fly(o, scene, "", o.quick ? 24 : o.frames);  // no lighting cache: computed, the worst case
+        frames = fly(o, scene, "", o.bench.quick ? 24 : o.frames);  // no lighting cache: computed, the worst case
         gl::setChecks(true);
         gl::checkAlways("bench --weather");
     } catch (const std::exception& e) {
@@ -283,14 +283,14 @@ int runWeatherBench(const WeatherBenchOptions& o) {
     }
     const std::string when = utcNow();
     const std::string md = markdownOf(o, frames, when, machineLine(renderer));
-    const std::string csvPath = (fs::path(o.outDir) / "weather_bench.csv").string();
-    const std::string mdPath = (fs::path(o.outDir) / "weather_bench.md").string();
-    const std::string pngPath = (fs::path(o.outDir) / "weather_bench.png").string();
+    const std::string csvPath = (fs::path(o.bench.outDir) / "weather_bench.csv").string();
+    const std::string mdPath = (fs::path(o.bench.outDir) / "weather_bench.md").string();
+    const std::string pngPath = (fs::path(o.bench.outDir) / "weather_bench.png").string();
     try {
         writeTextFiles({{csvPath, csvOf(frames)}, {mdPath, generatedSection("weather bench", md)}});
         runPlot("plot_weather.py",
                 {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
-                o.outDir, {"weather_bench.png"});
+                o.bench.outDir, {"weather_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";
         return 1;

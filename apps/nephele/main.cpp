@@ -1,13 +1,12 @@
 // The `nephele` command-line tool.
-#include "bench_command.hpp"
-#include "bench_util.hpp"
+#include "bench_cli.hpp"
+#include "cache_dir.hpp"
 #include "cli_checks.hpp"
 #include "compare_command.hpp"
 #include "export_command.hpp"
 #include "flythrough_command.hpp"
 #include "fly_command.hpp"
 #include "ig_command.hpp"
-#include "layer_accuracy.hpp"
 #include "render_command.hpp"
 #include "terminal_text.hpp"
 
@@ -31,13 +30,6 @@ using namespace nephele;
 using namespace nephele::cli;
 
 namespace {
-
-// The path tracer's cache: the option's folder, else $NEPHELE_CACHE, else ~/.cache/nephele.
-std::string defaultCacheDir(const std::string& option) {
-    const char* env = std::getenv("NEPHELE_CACHE");
-    const char* home = std::getenv("HOME");
-    return !option.empty() ? option : env && *env ? env : home ? std::string(home) + "/.cache/nephele" : "";
-}
 
 const CLI::Validator kPath = nonEmptyPath();
 
@@ -317,204 +309,6 @@ void installConsoleLogging() {
 
 namespace {
 
-// `bench` and its modes, as typed on the command line.
-struct BenchArgs {
-    BenchOptions bo;
-    std::string gl = "egl", cache;
-    bool accuracy = false, flicker = false, layered = false, weather = false, scale = false, layerAccuracy = false, cruise = false;
-    bool silhouette = false;
-    bool queries = false;
-    bool grids = false;
-    bool quick = false, noCache = false;
-    std::string publish;  // --publish DOCS
-    LayeredBenchOptions lbo;
-    WeatherBenchOptions wbo;
-    ScaleBenchOptions sbo;
-    AccuracyOptions ao;
-    FlickerOptions flo;
-    std::vector<std::string> cruiseFlights;
-    CLI::App* cmd = nullptr;
-};
-
-void addBenchOptions(CLI::App* bench, BenchArgs& b) {
-    b.cmd = bench;
-    bench->add_option("--out-dir", b.bo.outDir,
-                      "Folder for the CSV, the chart and the markdown (the generated section for docs/benchmarks.md)")
-        ->check(kPath)
-        ->capture_default_str();
-    bench->add_option("--publish", b.publish,
-                      "Instead: put the generated sections in --out-dir into DOCS/benchmarks.md between their markers, "
-                      "and copy their CSVs and charts into DOCS (the docs/ regeneration step)")
-        ->check(kPath);
-    bench->add_option("--counts", b.bo.counts, "Ellipsoid counts")->check(within(1, 1000000))->capture_default_str();
-    bench->add_option("--frames", b.bo.frames, "Measured frames per point (median)")->check(within(1, 1000))->capture_default_str();
-    bench->add_option("--width", b.bo.width, "Frame width")->check(within(16, kMaxImageSize))->capture_default_str();
-    bench->add_option("--height", b.bo.height, "Frame height")->check(within(16, kMaxImageSize))->capture_default_str();
-    bench->add_flag("!--no-exact", b.bo.accuracy, "Skip the GPU-vs-gardner-exact figures on the shared scenes");
-    bench->add_option("--scenes", b.bo.scenesDir, "Folder of the shared scenes")->check(kPath)->capture_default_str();
-    bench->add_flag("--accuracy", b.accuracy,
-                    "Instead: speed against error vs the path-traced reference, every method and a sweep of its settings");
-    bench->add_flag("--flicker", b.flicker, "Instead: frame-to-frame change along camera paths against the exact model");
-    bench->add_flag("--silhouette", b.silhouette,
-                    "Instead: box-counting dimension of the cumulus silhouettes, detail off and on, from 100 m to 5 km");
-    bench->add_flag("--queries", b.queries,
-                    "Instead: microseconds per call of the host's cloud queries (densityAt, transmittance, insideCloud)");
-    bench->add_flag("--layered", b.layered, "Instead: the layered far field against its floor over --extents and --layer-counts (N)");
-    bench->add_flag("--layer-accuracy", b.layerAccuracy,
-                    "Instead: the layered sky and auto's hand-off against the path tracer on views of near_and_far.json's "
-                    "layer (its section into --out-dir, with the views' images when --out-dir is given; --width, "
-                    "--frames, --spp, --cache)");
-    bench->add_flag("--weather", b.weather,
-                    "Instead: frame times of a flight while the weather changes (coverage, base, thickness, wind, sun)");
-    bench->add_flag("--cruise", b.cruise,
-                    "Instead: --reuse on against off on flights (a 4000-ellipsoid cruise, a sharp turn, approach, flythrough, "
-                    "layer_flight): ms per frame, tiles rendered, PSNR against every tile fresh");
-    bench->add_option("--flights", b.cruiseFlights, "--cruise: only these flights (scene file names)");
-    bench->add_flag("--scale", b.scale,
-                    "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
-    bench->add_flag("--grids", b.grids,
-                    "Instead: per cloud of the shared scenes, the ms to make its radiance grid and the MB it holds");
-    bench->add_option("--scale-counts", b.sbo.counts, "--scale: ellipsoid counts")
-        ->check(within(1, limits::kEllipsoids.value))
-        ->capture_default_str();
-    bench->add_option("--layer-counts", b.lbo.counts, "--layered: annuli per layer (N)")->check(within(2, 1024))->capture_default_str();
-    bench->add_option("--extents", b.lbo.extents, "--layered: layer extents (m)")->check(within(1000, 1e6))->capture_default_str();
-    bench->add_option("--noise-modes", b.ao.noiseModes, "--accuracy: 0 (medium.noise 0), scene (the scenes' noise), or both")
-        ->check(CLI::IsMember({"0", "scene"}))
-        ->capture_default_str();
-    bench->add_option("--reference-noise", b.ao.referenceNoise, "--accuracy: trace the reference until its own noise is at most this")
-        ->check(within(0.001, 0.5))
-        ->capture_default_str();
-    bench->add_option("--spp", b.ao.referenceSpp, "--accuracy: the most samples per pixel of the reference; --layer-accuracy: its sun part's (256)")
-        ->check(within(1, 1 << 20))
-        ->capture_default_str();
-    bench->add_option("--fps", b.flo.fps, "--flicker, --weather, --cruise: frames per second of scene time")->check(within(0.01, 1000))->capture_default_str();
-    bench->add_option("--transition", b.wbo.transition, "--weather: seconds each weather change ramps over (Weather::transitionSeconds; 0: at once)")
-        ->check(within(0, 3600))
-        ->capture_default_str();
-    bench->add_option("--cache", b.cache, "--accuracy, --layer-accuracy: reference cache folder (default $NEPHELE_CACHE, else ~/.cache/nephele)")
-        ->check(kPath);
-    bench->add_flag("--no-cache", b.noCache, "--accuracy, --layer-accuracy: do not read or write the reference cache");
-    bench->add_flag("--quick", b.quick, "--accuracy/--layer-accuracy/--flicker/--layered/--weather/--scale/--cruise/--grids/--queries: a minimal run (one scene, defaults; --layered and --weather with a coarse layer lighting; for tests)");
-    bench->add_option("--gl", b.gl, "egl or osmesa")->check(CLI::IsMember({"egl", "osmesa"}));
-}
-
-// `bench --layer-accuracy`: the options it shares with the others (ranged there).
-int runLayerAccuracyArgs(const BenchArgs& b) {
-    LayerAccuracyOptions lao;
-    lao.scenesDir = b.bo.scenesDir, lao.frames = b.bo.frames, lao.quick = b.quick;
-    if (b.cmd->count("--width") > 0) lao.width = b.bo.width;
-    if (b.cmd->count("--spp") > 0) lao.referenceSpp = b.ao.referenceSpp;
-    lao.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
-    lao.outDir = b.bo.outDir;
-    if (b.cmd->count("--out-dir") > 0) lao.imageDir = b.bo.outDir;  // the views' images
-    return runLayerAccuracyBench(lao, b.bo.backend);
-}
-
-int runBenchArgs(BenchArgs& b) {
-    b.bo.backend = parseBackend(b.gl);
-    if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-            int(b.cruise) + int(b.grids) + int(b.silhouette) + int(b.queries) > 1) {
-        std::cerr << "nephele: bench: --accuracy, --layer-accuracy, --flicker, --layered, --weather, --scale, --cruise, "
-                     "--grids, --silhouette and --queries are separate runs; give one\n";
-        return 2;
-    }
-    const BenchOptions& bo = b.bo;
-    if (!b.publish.empty()) {
-        if (int(b.accuracy) + int(b.flicker) + int(b.layered) + int(b.weather) + int(b.scale) + int(b.layerAccuracy) +
-                int(b.cruise) + int(b.grids) + int(b.silhouette) + int(b.queries) > 0) {
-            std::cerr << "nephele: bench: --publish runs no bench: it publishes what --out-dir holds; give it alone\n";
-            return 2;
-        }
-        return publishBenchSections(bo.outDir, b.publish);
-    }
-    const bool widthGiven = b.cmd->count("--width") > 0, heightGiven = b.cmd->count("--height") > 0;
-    if (b.accuracy) {
-        AccuracyOptions& ao = b.ao;
-        ao.outDir = bo.outDir, ao.scenesDir = bo.scenesDir, ao.frames = bo.frames;
-        ao.backend = bo.backend, ao.quick = b.quick;
-        if (widthGiven) ao.width = bo.width;
-        if (!b.noCache) ao.cacheDir = defaultCacheDir(b.cache);
-        return runAccuracyBench(ao);
-    }
-    if (b.layerAccuracy) return runLayerAccuracyArgs(b);
-    if (b.layered) {
-        LayeredBenchOptions& lbo = b.lbo;
-        lbo.outDir = bo.outDir, lbo.scenesDir = bo.scenesDir, lbo.frames = bo.frames;
-        lbo.backend = bo.backend, lbo.quick = b.quick;
-        if (widthGiven) lbo.width = bo.width;
-        if (heightGiven) lbo.height = bo.height;
-        if (widthGiven != heightGiven) {  // one alone keeps the 16:9 aspect
-            if (widthGiven) lbo.height = std::max(16, int(std::lround(lbo.width * 9.0 / 16.0)));
-            else lbo.width = std::max(16, int(std::lround(lbo.height * 16.0 / 9.0)));
-        }
-        if (b.quick && !widthGiven && !heightGiven) lbo.width = 320, lbo.height = 180;
-        lbo.cacheDir = b.noCache ? "" : defaultCacheDir(b.cache);
-        return runLayeredBench(lbo);
-    }
-    if (b.weather) {
-        WeatherBenchOptions& wbo = b.wbo;
-        wbo.outDir = bo.outDir, wbo.scenesDir = bo.scenesDir, wbo.backend = bo.backend;
-        wbo.quick = b.quick;
-        if (b.cmd->count("--frames") > 0) wbo.frames = bo.frames;
-        if (b.cmd->count("--fps") > 0) wbo.fps = b.flo.fps;
-        if (widthGiven) wbo.width = bo.width, wbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
-        if (heightGiven) wbo.height = bo.height;
-        if (b.quick && !widthGiven) wbo.width = 320, wbo.height = 180;
-        return runWeatherBench(wbo);
-    }
-    if (b.cruise) {
-        CruiseBenchOptions cbo;
-        cbo.outDir = bo.outDir, cbo.scenesDir = bo.scenesDir, cbo.backend = bo.backend;
-        cbo.quick = b.quick;
-        cbo.flights = b.cruiseFlights;
-        if (b.cmd->count("--fps") > 0) cbo.fps = b.flo.fps;
-        if (widthGiven) cbo.width = bo.width, cbo.height = std::max(16, int(std::lround(bo.width * 9.0 / 16.0)));
-        if (heightGiven) cbo.height = bo.height;
-        if (b.quick && !widthGiven) cbo.width = 160, cbo.height = 90;
-        return runCruiseBench(cbo);
-    }
-    if (b.scale) {
-        ScaleBenchOptions& sbo = b.sbo;
-        sbo.outDir = bo.outDir, sbo.backend = bo.backend;
-        if (b.quick) {  // --scale-counts given with it wins
-            if (b.cmd->count("--scale-counts") == 0) sbo.counts = {16, 160};
-            sbo.width = 320, sbo.height = 180, sbo.exactWidth = 32;
-        }
-        if (widthGiven) sbo.width = bo.width;
-        if (heightGiven) sbo.height = bo.height;
-        return runScaleBench(sbo);
-    }
-    if (b.grids) {
-        GridBenchOptions gbo;
-        gbo.outDir = bo.outDir, gbo.scenesDir = bo.scenesDir;
-        if (b.cmd->count("--frames") > 0) gbo.runs = bo.frames;
-        if (b.quick) gbo.scenes = {"single.json"}, gbo.runs = 1;
-        return runGridBench(gbo);
-    }
-    if (b.queries) {
-        QueryBenchOptions qo;
-        qo.outDir = bo.outDir, qo.scenesDir = bo.scenesDir, qo.backend = bo.backend;
-        if (b.quick) qo.scenes = {"near_and_far.json"}, qo.points = 200;
-        return runQueryBench(qo);
-    }
-    if (b.silhouette) {
-        SilhouetteBenchOptions so;
-        so.outDir = bo.outDir, so.scenesDir = bo.scenesDir;
-        so.backend = bo.backend, so.quick = b.quick;
-        if (widthGiven) so.width = bo.width;
-        return runSilhouetteBench(so);
-    }
-    if (b.flicker) {
-        FlickerOptions& flo = b.flo;
-        flo.outDir = bo.outDir, flo.scenesDir = bo.scenesDir;
-        flo.backend = bo.backend, flo.quick = b.quick;
-        if (widthGiven) flo.width = bo.width;
-        return runFlickerBench(flo);
-    }
-    return runBench(bo);
-}
-
 // `info SCENE`: load the scene and print what it holds (no GL).
 int runInfoScene(const std::string& file) {
     try {
@@ -632,7 +426,7 @@ int run(int argc, char** argv) {
     CLI::App* flyCmd = fly::addFlyCommand(app, flyo);
 
     BenchArgs benchArgs;
-    addBenchOptions(app.add_subcommand("bench", "Time the ellipsoid compositor against its floor and baseline"), benchArgs);
+    CLI::App* bench = addBenchCommand(app, benchArgs);
 
     CompareOptions co;
     CLI::App* compare = app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
@@ -678,7 +472,7 @@ int run(int argc, char** argv) {
     if (*info) return infoScene.empty() ? runInfoContext(infoGl) : runInfoScene(infoScene);
     if (*compare) return runCompare(co);
     if (*exportCmd) return eo.cacheDir = defaultCacheDir(""), runExport(eo);
-    if (*benchArgs.cmd) return runBenchArgs(benchArgs);
+    if (*bench) return runBenchCommand(benchArgs);
     try {
         if (*fly) {
             applySceneArgs(flyArgs, fo.render);
