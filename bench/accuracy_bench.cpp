@@ -402,130 +402,157 @@ Image viewsMontage(const std::vector<ViewRow>& rows) {
     return out;
 }
 
-}  // namespace
+// The reference's settings from the options: its samples per pixel, pieces and noise target.
+ReferenceSettings referenceSettings(const AccuracyOptions& o) {
+    ReferenceSettings s;
+    s.spp = o.referenceSpp;
+    s.targetNoise = o.referenceNoise;
+    s.pieceSpp = std::min(s.pieceSpp, std::max(1, o.referenceSpp / 2));
+    s.skySpp = std::max(2, o.referenceSpp / 4);
+    s.singleSpp = std::max(1, o.referenceSpp / 16);
+    s.block = o.block;
+    s.cacheDir = o.bench.cacheDir;
+    return s;
+}
 
-int runAccuracyBench(const AccuracyOptions& o) {
-    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
-    std::vector<Case> all;
-    try {
-        all = cases(o);
-    } catch (const std::exception& e) {
-        return reportError(e, "loading the scenes");
-    }
-    const std::vector<Config> configs = sweep(o.bench.quick);
-    ReferenceSettings refSettings;
-    refSettings.spp = o.referenceSpp;
-    refSettings.targetNoise = o.referenceNoise;
-    refSettings.pieceSpp = std::min(refSettings.pieceSpp, std::max(1, o.referenceSpp / 2));
-    refSettings.skySpp = std::max(2, o.referenceSpp / 4);
-    refSettings.singleSpp = std::max(1, o.referenceSpp / 16);
-    refSettings.block = o.block;
-    refSettings.cacheDir = o.bench.cacheDir;
+// What a run measured: every case's reference, the methods against it, the layered sky's N.
+struct Measured {
     std::vector<ReferenceInfo> refInfo;
     std::vector<ComponentRow> components;
     std::vector<Result> results;
     std::vector<LayeredPoint> layered;
     std::vector<ViewRow> views;  // noise 0, for accuracy_views.png
     std::string renderer;
-    using Clock = std::chrono::steady_clock;
-    try {
-        ContextOptions co;
-        co.backend = o.bench.backend;
-        auto context = Context::create(co);
-        renderer = context->description();
-        const NoiseSettings ns;
-        const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
-        std::vector<std::unique_ptr<EllipsoidRenderer>> ellipsoids(configs.size());
-        std::vector<std::unique_ptr<RaymarchRenderer>> marchers(configs.size());
+};
+
+// The sweep's renderers (a GPU config's own; none for a CPU one), the field's noise, the sky pass.
+struct Methods {
+    const std::vector<Config>& configs;
+    const ReferenceSettings& refSettings;
+    NoiseSettings ns;
+    NoiseVolume noise;
+    std::vector<std::unique_ptr<EllipsoidRenderer>> ellipsoids;
+    std::vector<std::unique_ptr<RaymarchRenderer>> marchers;
+    OpaquePass opaque;
+
+    Methods(const std::vector<Config>& c, const ReferenceSettings& r)
+        : configs(c), refSettings(r), noise(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed)),
+          ellipsoids(c.size()), marchers(c.size()) {
         for (std::size_t i = 0; i < configs.size(); ++i) {
             if (configs[i].kind == Kind::Ellipsoid) ellipsoids[i] = std::make_unique<EllipsoidRenderer>(configs[i].ellipsoid);
             if (configs[i].kind == Kind::Raymarch) marchers[i] = std::make_unique<RaymarchRenderer>(configs[i].raymarch);
         }
-        OpaquePass opaque;
-        for (const std::string& noiseMode : o.noiseModes) {
-            for (const Case& c0 : all) {
-                Scene scene = c0.scene;
-                if (noiseMode == "0") scene.medium.noise = 0;
-                if (noiseMode == "scene" && scene.medium.noise == 0) continue;
-                const View view = makeView(scene.camera);
-                const bool objects = !scene.objects.empty();
-                std::cerr << "bench: accuracy: " << c0.name << ", noise " << scene.medium.noise << ": reference (to "
-                          << fmt("%.0f%%", 100 * refSettings.targetNoise) << " noise, at most " << refSettings.spp
-                          << " spp, cached)...\n";
-                const Reference reference = makeReference(scene, view, noise, refSettings);
-                const Image& referenceBlocks = reference.total;
-                if (noiseMode == "0") views.push_back({reference.full, {}, {}});
-                refInfo.push_back({noiseMode, c0.name, reference.noise, reference.seconds, reference.traced, reference.spp,
-                                   reference.highSpp, reference.highShare, reference.scratchSeconds,
-                                   reference.highScratchSeconds});
-                if (noiseMode == "0")
-                    for (ComponentRow& row : measureComponents(scene, view, reference, noise, ns, opaque, o.block)) {
-                        row.caseName = c0.name;
-                        row.shares = referenceShares(reference);
-                        components.push_back(std::move(row));
-                    }
-                FrameTarget target(scene.camera.width, scene.camera.height);
-                // GPU configs: timed together, frame by frame in turn.
-                std::vector<std::size_t> gpu;
-                std::vector<std::function<void()>> draws;
-                for (std::size_t i = 0; i < configs.size(); ++i) {
-                    if (configs[i].noiseOnly && scene.medium.noise == 0) continue;
-                    if (ellipsoids[i]) {
-                        gpu.push_back(i);
-                        draws.push_back([&, i] { ellipsoids[i]->render(scene, view, target.framebuffer(), objects); });
-                    } else if (marchers[i]) {
-                        gpu.push_back(i);
-                        draws.push_back([&, i] { marchers[i]->render(scene, view, target.framebuffer(), objects); });
-                    }
-                }
-                gl::setChecks(false);
-                const std::vector<double> ms = timeFrames(o.frames, target, opaque, scene, view, draws);
-                gl::setChecks(true);
-                auto record = [&](std::size_t i, double t, const Image& img) {
-                    if (noiseMode == "0" && configs[i].setting == "default") {
-                        if (configs[i].kind == Kind::Ellipsoid) views.back().compositor = img;
-                        if (configs[i].kind == Kind::Raymarch) views.back().marcher = img;
-                    }
-                    Result r;
-                    r.noise = noiseMode;
-                    r.caseName = c0.name;
-                    r.distance = c0.distance;
-                    r.kind = configs[i].kind;
-                    r.setting = configs[i].setting;
-                    r.ms = t;
-                    // Both at the block grid: the reference's Monte Carlo noise averages down
-                    // (block^2 pixels a block), the methods' structure stays.
-                    const Image mine = blockMean(img, o.block);
-                    r.relRmse = relativeRmse(mine, referenceBlocks);
-                    const Image a = channels(mine, 3, 1), b = channels(referenceBlocks, 3, 1);
-                    const RenderComparison cmp =
-                        compareRenders(channels(mine, 0, 3), channels(referenceBlocks, 0, 3), &a, &b);
-                    r.psnrFit = cmp.psnr, r.exposure = cmp.exposure, r.ssim = cmp.ssim, r.alphaMae = cmp.alphaMae;
-                    results.push_back(r);
-                };
-                for (std::size_t k = 0; k < gpu.size(); ++k) {  // one more frame each, for the image
-                    opaque.draw(scene, view, target.framebuffer());
-                    draws[k]();
-                    record(gpu[k], ms[k], target.readColor());
-                }
-                gl::checkAlways("bench --accuracy");
-                for (std::size_t i = 0; i < configs.size(); ++i) {  // CPU configs: one timed run each
-                    if (configs[i].kind != Kind::GardnerExact && configs[i].kind != Kind::PathTrace) continue;
-                    const auto t0 = Clock::now();
-                    const Image img = configs[i].kind == Kind::GardnerExact
-                                          ? renderGardnerExact(scene, view, noise, ns)
-                                          : renderPathTraced(scene, view, configs[i].pathtrace, &noise);
-                    record(i, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(), img);
-                }
-            }
-        }
-        layered = layeredConvergence(o, opaque);
-    } catch (const std::exception& e) {
-        return reportError(e, "bench --accuracy");
     }
+};
 
-    // Aggregate per method and setting over the cases each noise mode has.
-    std::vector<Aggregate> agg;
+// One config's image of a case against the reference, as a Result (and, with noise 0, a
+// default's image for the views montage).
+void record(const AccuracyOptions& o, const Config& config, const Case& c, const std::string& noiseMode,
+            const Reference& reference, double ms, const Image& img, Measured& m) {
+    if (noiseMode == "0" && config.setting == "default") {
+        if (config.kind == Kind::Ellipsoid) m.views.back().compositor = img;
+        if (config.kind == Kind::Raymarch) m.views.back().marcher = img;
+    }
+    Result r;
+    r.noise = noiseMode;
+    r.caseName = c.name;
+    r.distance = c.distance;
+    r.kind = config.kind;
+    r.setting = config.setting;
+    r.ms = ms;
+    // Both at the block grid: the reference's Monte Carlo noise averages down (block^2 pixels a
+    // block), the methods' structure stays.
+    const Image& referenceBlocks = reference.total;
+    const Image mine = blockMean(img, o.block);
+    r.relRmse = relativeRmse(mine, referenceBlocks);
+    const Image a = channels(mine, 3, 1), b = channels(referenceBlocks, 3, 1);
+    const RenderComparison cmp = compareRenders(channels(mine, 0, 3), channels(referenceBlocks, 0, 3), &a, &b);
+    r.psnrFit = cmp.psnr, r.exposure = cmp.exposure, r.ssim = cmp.ssim, r.alphaMae = cmp.alphaMae;
+    m.results.push_back(r);
+}
+
+// The sweep's configs on one case: the GPU ones timed together, frame by frame in turn, then
+// one more frame each for the image; the CPU ones one timed run each.
+void measureConfigs(const AccuracyOptions& o, Methods& methods, const Case& c, const std::string& noiseMode,
+                    const Scene& scene, const Reference& reference, Measured& m) {
+    using Clock = std::chrono::steady_clock;
+    const std::vector<Config>& configs = methods.configs;
+    const View view = makeView(scene.camera);
+    const bool objects = !scene.objects.empty();
+    FrameTarget target(scene.camera.width, scene.camera.height);
+    std::vector<std::size_t> gpu;
+    std::vector<std::function<void()>> draws;
+    for (std::size_t i = 0; i < configs.size(); ++i) {
+        if (configs[i].noiseOnly && scene.medium.noise == 0) continue;
+        if (methods.ellipsoids[i]) {
+            gpu.push_back(i);
+            draws.push_back([&, i] { methods.ellipsoids[i]->render(scene, view, target.framebuffer(), objects); });
+        } else if (methods.marchers[i]) {
+            gpu.push_back(i);
+            draws.push_back([&, i] { methods.marchers[i]->render(scene, view, target.framebuffer(), objects); });
+        }
+    }
+    gl::setChecks(false);
+    const std::vector<double> ms = timeFrames(o.frames, target, methods.opaque, scene, view, draws);
+    gl::setChecks(true);
+    for (std::size_t k = 0; k < gpu.size(); ++k) {
+        methods.opaque.draw(scene, view, target.framebuffer());
+        draws[k]();
+        record(o, configs[gpu[k]], c, noiseMode, reference, ms[k], target.readColor(), m);
+    }
+    gl::checkAlways("bench --accuracy");
+    for (std::size_t i = 0; i < configs.size(); ++i) {
+        if (configs[i].kind != Kind::GardnerExact && configs[i].kind != Kind::PathTrace) continue;
+        const auto t0 = Clock::now();
+        const Image img = configs[i].kind == Kind::GardnerExact
+                              ? renderGardnerExact(scene, view, methods.noise, methods.ns)
+                              : renderPathTraced(scene, view, configs[i].pathtrace, &methods.noise);
+        record(o, configs[i], c, noiseMode, reference, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(),
+               img, m);
+    }
+}
+
+// One case with one noise mode: its reference, the split by light (noise 0), the sweep.
+void measureCase(const AccuracyOptions& o, Methods& methods, const Case& c, const std::string& noiseMode, Measured& m) {
+    Scene scene = c.scene;
+    if (noiseMode == "0") scene.medium.noise = 0;
+    if (noiseMode == "scene" && scene.medium.noise == 0) return;
+    const View view = makeView(scene.camera);
+    const ReferenceSettings& refSettings = methods.refSettings;
+    std::cerr << "bench: accuracy: " << c.name << ", noise " << scene.medium.noise << ": reference (to "
+              << fmt("%.0f%%", 100 * refSettings.targetNoise) << " noise, at most " << refSettings.spp << " spp, cached)...\n";
+    const Reference reference = makeReference(scene, view, methods.noise, refSettings);
+    if (noiseMode == "0") m.views.push_back({reference.full, {}, {}});
+    m.refInfo.push_back({noiseMode, c.name, reference.noise, reference.seconds, reference.traced, reference.spp,
+                         reference.highSpp, reference.highShare, reference.scratchSeconds, reference.highScratchSeconds});
+    if (noiseMode == "0")
+        for (ComponentRow& row : measureComponents(scene, view, reference, methods.noise, methods.ns, methods.opaque, o.block)) {
+            row.caseName = c.name;
+            row.shares = referenceShares(reference);
+            m.components.push_back(std::move(row));
+        }
+    measureConfigs(o, methods, c, noiseMode, scene, reference, m);
+}
+
+// Every case in every noise mode, then the layered sky's convergence. Throws.
+Measured measure(const AccuracyOptions& o, const std::vector<Case>& all, const std::vector<Config>& configs,
+                 const ReferenceSettings& refSettings) {
+    Measured m;
+    ContextOptions co;
+    co.backend = o.bench.backend;
+    auto context = Context::create(co);
+    m.renderer = context->description();
+    Methods methods(configs, refSettings);
+    for (const std::string& noiseMode : o.noiseModes)
+        for (const Case& c : all) measureCase(o, methods, c, noiseMode, m);
+    m.layered = layeredConvergence(o, methods.opaque);
+    return m;
+}
+
+// Per method and setting over the cases each noise mode has (a noise-only setting, which lacks
+// the noise-0 cases, is left out: like is compared with like), the Pareto front marked, and
+// each result marked as its aggregate is. Returns the cases per noise mode.
+std::map<std::string, int> aggregate(std::vector<Result>& results, std::vector<Aggregate>& agg) {
     for (const Result& r : results) {
         auto it = std::find_if(agg.begin(), agg.end(), [&](const Aggregate& a) {
             return a.noise == r.noise && a.kind == r.kind && a.setting == r.setting;
@@ -538,7 +565,6 @@ int runAccuracyBench(const AccuracyOptions& o) {
         it->meanRelRmse += r.relRmse;
         it->cases += 1;
     }
-    // A noise-only setting lacks the noise-0 cases: compare like with like.
     std::map<std::string, int> casesPerNoise;
     for (const Aggregate& a : agg) casesPerNoise[a.noise] = std::max(casesPerNoise[a.noise], a.cases);
     agg.erase(std::remove_if(agg.begin(), agg.end(), [&](const Aggregate& a) { return a.cases != casesPerNoise[a.noise]; }),
@@ -548,32 +574,38 @@ int runAccuracyBench(const AccuracyOptions& o) {
     for (Result& r : results)
         for (const Aggregate& a : agg)
             if (a.noise == r.noise && a.kind == r.kind && a.setting == r.setting) r.pareto = a.pareto;
+    return casesPerNoise;
+}
 
-    const std::string when = utcNow();
-    const std::string machine = machineLine(renderer);
+std::string resultsCsv(const Measured& m) {
     auto referenceNoiseOf = [&](const Result& r) {
-        for (const ReferenceInfo& i : refInfo)
+        for (const ReferenceInfo& i : m.refInfo)
             if (i.noise == r.noise && i.caseName == r.caseName) return i.relNoise;
         return -1.0;
     };
     std::ostringstream csv;
     csv << "noise,case,distance_m,method,setting,ms,rel_rmse,psnr_exposure_fitted,exposure,ssim,alpha_mae,"
            "reference_rel_rmse,pareto\n";
-    for (const Result& r : results)
+    for (const Result& r : m.results)
         csv << r.noise << ",\"" << r.caseName << "\"," << (r.distance < 0 ? std::string() : fmt("%.0f", r.distance)) << ","
             << kindName(r.kind) << ",\"" << r.setting << "\"," << fmt("%.3f", r.ms) << "," << fmt("%.5f", r.relRmse) << ","
             << fmt("%.2f", r.psnrFit) << "," << fmt("%.4f", r.exposure) << "," << fmt("%.4f", r.ssim) << ","
             << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", referenceNoiseOf(r)) << "," << (r.pareto ? 1 : 0) << "\n";
+    return csv.str();
+}
 
+// The section's first paragraph: how the figures were made, the references' cost and noise.
+void writeIntro(std::ostream& md, const AccuracyOptions& o, const Measured& m, const ReferenceSettings& refSettings,
+                const std::string& when, const std::vector<Case>& all, int cases) {
     double refNoise[2] = {0, 0}, refWorst[2] = {0, 0}, refSeconds = 0;
     std::pair<double, double> highShareRange{1, 0};
     double scratch = 0, highScratch = 0;
-    for (const ReferenceInfo& r : refInfo) {
+    for (const ReferenceInfo& r : m.refInfo) {
         highShareRange = {std::min(highShareRange.first, r.highShare), std::max(highShareRange.second, r.highShare)};
         scratch += r.scratchSeconds, highScratch += r.highScratchSeconds;
     }
     int refCount[2] = {0, 0}, traced = 0;
-    for (const ReferenceInfo& r : refInfo) {
+    for (const ReferenceInfo& r : m.refInfo) {
         const int k = r.noise == "0" ? 0 : 1;
         refNoise[k] += r.relNoise;
         refWorst[k] = std::max(refWorst[k], r.relNoise);
@@ -581,8 +613,7 @@ int runAccuracyBench(const AccuracyOptions& o) {
         refSeconds += r.seconds;
         traced += r.traced;
     }
-    std::ostringstream md;
-    md << "Measured by `nephele bench --accuracy` on " << when << ", " << machine << ". Every scene rendered at "
+    md << "Measured by `nephele bench --accuracy` on " << when << ", " << machineLine(m.renderer) << ". Every scene rendered at "
        << o.width << " px wide (the camera inside the cloud at " << o.width / 2 << "); error = RMSE of linear RGB, "
        << "after averaging " << o.block << "×" << o.block << " pixel blocks, over the blocks where either image has "
           "cloud (α > 0.02), relative to the reference's mean radiance there (no exposure fit: a colour calibration "
@@ -590,9 +621,9 @@ int runAccuracyBench(const AccuracyOptions& o) {
           "traced apart and summed (the sky with a quarter of the sun's samples), in pieces of "
        << refSettings.pieceSpp << " spp of independent seeds added until the noise of their mean, measured by their "
           "spread, is at most " << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has "
-       << refSettings.spp << " spp (" << sppRange(refInfo) << " spp per case here); the scattering orders past "
+       << refSettings.spp << " spp (" << sppRange(m.refInfo) << " spp per case here); the scattering orders past "
        << kReferenceBounces << " (up to " << PathTraceSettings{}.maxBounces << ") traced apart in pieces of their own, "
-       << "to a quarter of that noise or a quarter of the samples (" << sppRange(refInfo, &ReferenceInfo::highSpp)
+       << "to a quarter of that noise or a quarter of the samples (" << sppRange(m.refInfo, &ReferenceInfo::highSpp)
        << " spp here; they carry " << fmt("%.1f%%", 100 * highShareRange.first) << "–" << fmt("%.1f%%", 100 * highShareRange.second)
        << " of the light): its own noise is "
        << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
@@ -603,20 +634,22 @@ int runAccuracyBench(const AccuracyOptions& o) {
        << (traced > 0 ? "Making the references took " + fmt("%.0f", refSeconds / 60) + " min in this run (" +
                             std::to_string(traced) + " path traces; they are cached for later runs). "
                       : std::string("The references came from the cache. "))
-       << "Made from scratch on this machine, all " << refInfo.size() << " would take about "
+       << "Made from scratch on this machine, all " << m.refInfo.size() << " would take about "
        << fmt("%.1f", scratch / 3600) << " h (" << fmt("%.0f", highScratch / 60)
        << " min of it the orders past " << kReferenceBounces
        << "; estimated per kind of trace by a pilot of 1/64 of its pixels, times its pieces). "
        << "Time = median ms per frame over " << o.frames
-       << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the "
-       << casesPerNoise["0"] << " cases (";
+       << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the " << cases << " cases (";
     bool first = true;
     for (const Case& c : all) {
         md << (first ? "" : ", ") << c.name;
         first = false;
     }
     md << "). ✓ = on the Pareto front (nothing else is both faster and more accurate).\n\n";
-    md << "![ms per frame against error, per method and setting](accuracy_chart.png)\n\n";
+}
+
+// Per noise mode, every method and setting's total time and mean error, fastest first.
+void writeAggregates(std::ostream& md, const AccuracyOptions& o, const std::vector<Aggregate>& agg) {
     for (const std::string& noiseMode : o.noiseModes) {
         md << (noiseMode == "0" ? "With `medium.noise: 0` (the exact analytic field):\n\n"
                                 : "With the scenes' noise (`medium.noise` 0.3; the path tracer uses the project's "
@@ -632,7 +665,10 @@ int runAccuracyBench(const AccuracyOptions& o) {
                << fmt("%.1f%%", 100 * a.meanRelRmse) << " | " << (a.pareto ? "✓" : "") << " |\n";
         md << "\n";
     }
-    // Per case, the defaults of each method (the compositor's default is what --method auto draws).
+}
+
+// Per case, the defaults of each method (the compositor's default is what --method auto draws).
+void writePerCase(std::ostream& md, const AccuracyOptions& o, const Measured& m, const std::vector<Case>& all) {
     for (const std::string& noiseMode : o.noiseModes) {
         md << "Per case, " << (noiseMode == "0" ? "with `medium.noise: 0`" : "with the scenes' noise")
            << " (error / ms per frame; the reference's own noise last):\n\n"
@@ -647,19 +683,22 @@ int runAccuracyBench(const AccuracyOptions& o) {
                                                             {Kind::PathTrace, ""}};
             for (const auto& column : columns) {
                 const auto& [k, setting] = column;
-                const auto it = std::find_if(results.begin(), results.end(), [&, k = k, &setting = setting](const Result& r) {
+                const auto it = std::find_if(m.results.begin(), m.results.end(), [&, k = k, &setting = setting](const Result& r) {
                     return r.noise == noiseMode && r.caseName == c.name && r.kind == k && (setting.empty() || r.setting == setting);
                 });
-                md << " | " << (it == results.end() ? std::string("—") : fmt("%.1f%%", 100 * it->relRmse) + " / " + fmt("%.1f", it->ms));
+                md << " | " << (it == m.results.end() ? std::string("—") : fmt("%.1f%%", 100 * it->relRmse) + " / " + fmt("%.1f", it->ms));
             }
             double refNoiseHere = -1;
-            for (const ReferenceInfo& i : refInfo)
+            for (const ReferenceInfo& i : m.refInfo)
                 if (i.noise == noiseMode && i.caseName == c.name) refNoiseHere = i.relNoise;
             md << " | " << (refNoiseHere < 0 ? std::string("—") : fmt("%.1f%%", 100 * refNoiseHere)) << " |\n";
         }
         md << "\n";
     }
-    md << "\n![error and time against distance](accuracy_distance.png)\n";
+}
+
+// Where the error is (noise 0): the reference and each method split by light.
+void writeComponents(std::ostream& md, const std::vector<ComponentRow>& components) {
     md << "\nWhere the error is (`medium.noise: 0`): the reference's radiance over the cloud split by light (the "
           "sun's single scattering, its multiple scattering, the sky's and the ground's light including the "
           "background seen through), and each method's error split the same way, each traced or rendered on its "
@@ -677,6 +716,10 @@ int runAccuracyBench(const AccuracyOptions& o) {
            << fmt("%.1f%%", 100 * r.errors.single) << " | " << fmt("%.1f%%", 100 * r.errors.multiple) << " | "
            << fmt("%.1f%%", 100 * r.errors.sky) << " | " << fmt("%.1f%%", 100 * r.errors.opacity) << " |\n";
     }
+}
+
+// The layered sky's N against N = kLayeredReferenceN: a view per row, N per column.
+void writeLayered(std::ostream& md, const std::vector<LayeredPoint>& layered) {
     md << "\nThe layered sky's layer count N, measured against its own converged limit, N = " << kLayeredReferenceN
        << ", on the layer of `near_and_far.json` (error as above; ms per frame; its error against the path tracer, "
           "which renders the layer as a volume, is `nephele bench --layer-accuracy`'s, under \"The layered sky\"):\n\n"
@@ -698,32 +741,71 @@ int runAccuracyBench(const AccuracyOptions& o) {
                 if (p.view == v && p.layers == n) md << " | " << fmt("%.1f%%", 100 * p.relRmse) << " / " << fmt("%.0f", p.ms);
         md << " |\n";
     }
-    std::ostringstream layeredCsv;
-    layeredCsv << "view,layers,reference_layers,ms,rel_rmse\n";
-    for (const LayeredPoint& p : layered)
-        layeredCsv << "\"" << p.view << "\"," << p.layers << "," << kLayeredReferenceN << "," << fmt("%.3f", p.ms) << ","
-                   << fmt("%.5f", p.relRmse) << "\n";
+}
 
-    const std::string csvPath = (fs::path(o.bench.outDir) / "accuracy.csv").string();
-    const std::string mdPath = (fs::path(o.bench.outDir) / "accuracy.md").string();
-    const std::string layeredPath = (fs::path(o.bench.outDir) / "accuracy_layered.csv").string();
-    const std::string chartPath = (fs::path(o.bench.outDir) / "accuracy_chart.png").string();
-    const std::string distancePath = (fs::path(o.bench.outDir) / "accuracy_distance.png").string();
-    const std::string viewsPath = (fs::path(o.bench.outDir) / "accuracy_views.png").string();
+std::string layeredCsv(const std::vector<LayeredPoint>& layered) {
+    std::ostringstream csv;
+    csv << "view,layers,reference_layers,ms,rel_rmse\n";
+    for (const LayeredPoint& p : layered)
+        csv << "\"" << p.view << "\"," << p.layers << "," << kLayeredReferenceN << "," << fmt("%.3f", p.ms) << ","
+            << fmt("%.5f", p.relRmse) << "\n";
+    return csv.str();
+}
+
+// The CSVs, the section, the views montage and the charts into outDir; the section on stdout.
+int writeResults(const AccuracyOptions& o, const Measured& m, const std::string& md, const std::string& when) {
+    const fs::path dir(o.bench.outDir);
+    const std::string csvPath = (dir / "accuracy.csv").string(), mdPath = (dir / "accuracy.md").string();
+    const std::string layeredPath = (dir / "accuracy_layered.csv").string();
+    const std::string chartPath = (dir / "accuracy_chart.png").string(), distancePath = (dir / "accuracy_distance.png").string();
+    const std::string viewsPath = (dir / "accuracy_views.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()},
-                        {mdPath, generatedSection("accuracy bench", md.str())},
-                        {layeredPath, layeredCsv.str()}});
-        writePng(viewsPath, viewsMontage(views));
+        writeTextFiles({{csvPath, resultsCsv(m)},
+                        {mdPath, generatedSection("accuracy bench", md)},
+                        {layeredPath, layeredCsv(m.layered)}});
+        writePng(viewsPath, viewsMontage(m.views));
         runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.bench.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;
     }
-    std::cout << md.str();
+    std::cout << md;
     std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", "
               << chartPath << ", " << distancePath << ", " << viewsPath << "\n";
     return 0;
+}
+
+}  // namespace
+
+int runAccuracyBench(const AccuracyOptions& o) {
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    std::vector<Case> all;
+    try {
+        all = cases(o);
+    } catch (const std::exception& e) {
+        return reportError(e, "loading the scenes");
+    }
+    const std::vector<Config> configs = sweep(o.bench.quick);
+    const ReferenceSettings refSettings = referenceSettings(o);
+    Measured m;
+    try {
+        m = measure(o, all, configs, refSettings);
+    } catch (const std::exception& e) {
+        return reportError(e, "bench --accuracy");
+    }
+    std::vector<Aggregate> agg;
+    std::map<std::string, int> casesPerNoise = aggregate(m.results, agg);
+
+    const std::string when = utcNow();
+    std::ostringstream md;
+    writeIntro(md, o, m, refSettings, when, all, casesPerNoise["0"]);
+    md << "![ms per frame against error, per method and setting](accuracy_chart.png)\n\n";
+    writeAggregates(md, o, agg);
+    writePerCase(md, o, m, all);
+    md << "\n![error and time against distance](accuracy_distance.png)\n";
+    writeComponents(md, m.components);
+    writeLayered(md, m.layered);
+    return writeResults(o, m, md.str(), when);
 }
 
 }  // namespace nephele::cli
