@@ -55,29 +55,27 @@ std::vector<double> renderSequence(const Sequence& s, const RenderOptions& o, do
     return changes.changes();
 }
 
-}  // namespace
-
-int runFlickerBench(const FlickerOptions& o) {
-    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+// The paths: flythrough.json's and approach.json's (approach.json alone, at 0.5 fps, quick).
+std::vector<Sequence> loadSequences(const FlickerOptions& o) {
     std::vector<Sequence> sequences;
-    try {
-        const std::vector<std::string> names =
-            o.bench.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
-        for (const std::string& n : names) {
-            Sequence s{n, loadScene(o.bench.scenesDir + "/" + n)};
-            if (s.scene.path.size() < 2) throw UsageError(s.scene.file + ": path: the flicker bench needs a camera path");
-            const double aspect = double(s.scene.camera.width) / s.scene.camera.height;
-            s.scene.camera.width = o.width;
-            s.scene.camera.height = std::max(1, int(std::lround(o.width / aspect)));
-            s.fps = o.bench.quick ? 0.5 : o.fps;
-            s.t0 = s.scene.path.front().t;
-            s.frames = frameCount(s.t0, s.scene.path.back().t, s.fps);
-            sequences.push_back(std::move(s));
-        }
-    } catch (const std::exception& e) {
-        return reportError(e, "loading the scenes");
+    const std::vector<std::string> names =
+        o.bench.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
+    for (const std::string& n : names) {
+        Sequence s{n, loadScene(o.bench.scenesDir + "/" + n)};
+        if (s.scene.path.size() < 2) throw UsageError(s.scene.file + ": path: the flicker bench needs a camera path");
+        const double aspect = double(s.scene.camera.width) / s.scene.camera.height;
+        s.scene.camera.width = o.width;
+        s.scene.camera.height = std::max(1, int(std::lround(o.width / aspect)));
+        s.fps = o.bench.quick ? 0.5 : o.fps;
+        s.t0 = s.scene.path.front().t;
+        s.frames = frameCount(s.t0, s.scene.path.back().t, s.fps);
+        sequences.push_back(std::move(s));
     }
+    return sequences;
+}
 
+// The methods and settings, the reference first.
+std::vector<Run> flickerRuns(const FlickerOptions& o) {
     std::vector<Run> runs;
     auto add = [&](std::string method, std::string setting, Method m, auto change) {
         Run r{std::move(method), std::move(setting), {}};
@@ -119,39 +117,42 @@ int runFlickerBench(const FlickerOptions& o) {
         add("raymarch", "default", Method::Raymarch, [](RenderOptions&) {});
         add("raymarch", "step 100 m", Method::Raymarch, [](RenderOptions& r) { r.raymarch.step = 100; });
     }
+    return runs;
+}
 
+// Every run along every sequence, against the sequence's first run (the reference). Throws.
+std::vector<Outcome> measureFlicker(const FlickerOptions& o, const std::vector<Sequence>& sequences,
+                                    const std::vector<Run>& runs, std::string& renderer) {
     std::vector<Outcome> outcomes;
-    std::string renderer;
-    try {
-        {
-            ContextOptions co;
-            co.backend = o.bench.backend;
-            renderer = Context::create(co)->description();
-        }
-        for (const Sequence& s : sequences) {
-            std::vector<double> reference;
-            for (const Run& r : runs) {
-                std::cerr << "bench: flicker: " << s.name << ", " << r.method << " " << r.setting << " (" << s.frames
-                          << " frames at " << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
-                Outcome out{s.name, r.method, r.setting, s.frames};
-                out.changes = renderSequence(s, r.options, out.msPerFrame);
-                if (reference.empty()) reference = out.changes;  // the first run is the reference
-                for (std::size_t k = 0; k < out.changes.size(); ++k) {
-                    out.meanChange += out.changes[k] / out.changes.size();
-                    out.referenceMeanChange += reference[k] / reference.size();
-                    const double excess = out.changes[k] - reference[k];
-                    if (k == 0 || excess > out.maxExcess) out.maxExcess = excess, out.worstPair = int(k) + 1;
-                }
-                out.flickerIndex = out.meanChange - out.referenceMeanChange;
-                outcomes.push_back(std::move(out));
-            }
-        }
-    } catch (const std::exception& e) {
-        return reportError(e, "bench --flicker");
+    {
+        ContextOptions co;
+        co.backend = o.bench.backend;
+        renderer = Context::create(co)->description();
     }
+    for (const Sequence& s : sequences) {
+        std::vector<double> reference;
+        for (const Run& r : runs) {
+            std::cerr << "bench: flicker: " << s.name << ", " << r.method << " " << r.setting << " (" << s.frames
+                      << " frames at " << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
+            Outcome out{s.name, r.method, r.setting, s.frames};
+            out.changes = renderSequence(s, r.options, out.msPerFrame);
+            if (reference.empty()) reference = out.changes;  // the first run is the reference
+            for (std::size_t k = 0; k < out.changes.size(); ++k) {
+                out.meanChange += out.changes[k] / out.changes.size();
+                out.referenceMeanChange += reference[k] / reference.size();
+                const double excess = out.changes[k] - reference[k];
+                if (k == 0 || excess > out.maxExcess) out.maxExcess = excess, out.worstPair = int(k) + 1;
+            }
+            out.flickerIndex = out.meanChange - out.referenceMeanChange;
+            outcomes.push_back(std::move(out));
+        }
+    }
+    return outcomes;
+}
 
-    const std::string when = utcNow();
-    std::ostringstream csv, series;
+// flicker.csv, a row per run and sequence; flicker_series.csv, a row per frame pair.
+void writeCsvs(const std::vector<Outcome>& outcomes, const std::vector<Sequence>& sequences, std::ostream& csv,
+               std::ostream& series) {
     csv << "sequence,method,setting,frames,fps,mean_change,reference_mean_change,flicker_index,max_excess,worst_frame,"
            "ms_per_frame\n";
     series << "sequence,method,setting,frame,change\n";
@@ -164,6 +165,10 @@ int runFlickerBench(const FlickerOptions& o) {
             series << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << k + 1 << "," << fmt("%.6f", r.changes[k])
                    << "\n";
     }
+}
+
+std::string flickerMarkdown(const FlickerOptions& o, const std::vector<Outcome>& outcomes,
+                            const std::vector<Sequence>& sequences, const std::string& when, const std::string& renderer) {
     std::ostringstream md;
     md << "Measured by `nephele bench --flicker` on " << when << ", " << machineLine(renderer) << ". Each sequence is the "
        << "scene's camera `path` rendered at " << o.width << " px wide; change = mean |difference| of linear RGB (clamped "
@@ -190,20 +195,44 @@ int runFlickerBench(const FlickerOptions& o) {
            << " | " << fmt("%+.5f", r.maxExcess) << " (" << r.worstPair << ") |\n";
     }
     md << "\n![per-frame change along each path](flicker.png)\n";
+    return md.str();
+}
 
+}  // namespace
+
+int runFlickerBench(const FlickerOptions& o) {
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    std::vector<Sequence> sequences;
+    try {
+        sequences = loadSequences(o);
+    } catch (const std::exception& e) {
+        return reportError(e, "loading the scenes");
+    }
+    const std::vector<Run> runs = flickerRuns(o);
+    std::vector<Outcome> outcomes;
+    std::string renderer;
+    try {
+        outcomes = measureFlicker(o, sequences, runs, renderer);
+    } catch (const std::exception& e) {
+        return reportError(e, "bench --flicker");
+    }
+
+    const std::string when = utcNow();
+    std::ostringstream csv, series;
+    writeCsvs(outcomes, sequences, csv, series);
+    const std::string md = flickerMarkdown(o, outcomes, sequences, when, renderer);
     const std::string csvPath = (fs::path(o.bench.outDir) / "flicker.csv").string();
     const std::string seriesPath = (fs::path(o.bench.outDir) / "flicker_series.csv").string();
     const std::string mdPath = (fs::path(o.bench.outDir) / "flicker.md").string();
     const std::string pngPath = (fs::path(o.bench.outDir) / "flicker.png").string();
     try {
-        writeTextFiles(
-            {{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md.str())}});
+        writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md)}});
         runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.bench.outDir, {"flicker.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
         return 1;
     }
-    std::cout << md.str();
+    std::cout << md;
     std::cerr << "nephele: bench --flicker wrote " << csvPath << ", " << seriesPath << ", " << mdPath << ", " << pngPath
               << "\n";
     return 0;
