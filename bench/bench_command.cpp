@@ -138,61 +138,48 @@ std::vector<Accuracy> measureAccuracy(const EllipsoidBenchOptions& o) {
     return out;
 }
 
-}  // namespace
-
-int runBench(const EllipsoidBenchOptions& o) {
-    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+// Every count's frame time with the defaults, the floor, the baseline, the separate pass and
+// the other composite, interleaved. Throws.
+std::vector<Row> timeCounts(const EllipsoidBenchOptions& o) {
     std::vector<Row> rows;
-    std::vector<Accuracy> accuracy;
-    std::string renderer;
-    try {
-        ContextOptions co;
-        co.backend = o.bench.backend;
-        auto context = Context::create(co);
-        renderer = context->description();
-        gl::setChecks(false);  // timing: no glGetError round trips
-        FrameTarget target(o.width, o.height);
-        OpaquePass opaque;
-        // instanced: the defaults (batched, colour matrix fused into the composite); separate: batched
-        // with the paper's own colour-matrix pass; baseline: the paper's pipeline, one draw per
-        // ellipsoid and the separate colour-matrix pass.
-        EllipsoidSettings instancedSettings, baselineSettings, separateSettings, otherSettings;
-        baselineSettings.instanced = false;
-        baselineSettings.colourMatrixPass = true;
-        separateSettings.colourMatrixPass = true;
-        otherSettings.order = otherComposite();
-        EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings), separate(separateSettings),
-            other(otherSettings);
-        for (int count : o.counts) {
-            const Scene scene = benchScene(count, o.width, o.height);
-            const View view = makeView(scene.camera);
-            Row r;
-            r.count = count;
-            const std::vector<double> ms = timeFrames(
-                o.frames, target, opaque, scene, view,
-                {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
-                 [&] { renderFloor(instanced, scene, view, target.framebuffer()); },
-                 [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
-                 [&] { separate.render(scene, view, target.framebuffer(), false); },
-                 [&] { other.render(scene, view, target.framebuffer(), false); }});
-            r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.separateMs = ms[3], r.otherCompositeMs = ms[4];
-            std::cerr << "bench: " << count << " ellipsoids: " << fmt("%.1f", r.ms) << " ms, floor "
-                      << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms, separate colour-matrix pass "
-                      << fmt("%.1f", r.separateMs) << " ms, " << otherCompositeName() << " composite "
-                      << fmt("%.1f", r.otherCompositeMs) << " ms\n";
-            rows.push_back(r);
-        }
-        gl::setChecks(true);
-        gl::checkAlways("bench");
-        if (o.accuracy) accuracy = measureAccuracy(o);
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench failed: " << e.what() << "\n";
-        return 1;
+    gl::setChecks(false);  // timing: no glGetError round trips
+    FrameTarget target(o.width, o.height);
+    OpaquePass opaque;
+    // instanced: the defaults (batched, colour matrix fused into the composite); separate: batched
+    // with the paper's own colour-matrix pass; baseline: the paper's pipeline, one draw per
+    // ellipsoid and the separate colour-matrix pass.
+    EllipsoidSettings instancedSettings, baselineSettings, separateSettings, otherSettings;
+    baselineSettings.instanced = false;
+    baselineSettings.colourMatrixPass = true;
+    separateSettings.colourMatrixPass = true;
+    otherSettings.order = otherComposite();
+    EllipsoidRenderer instanced(instancedSettings), baseline(baselineSettings), separate(separateSettings),
+        other(otherSettings);
+    for (int count : o.counts) {
+        const Scene scene = benchScene(count, o.width, o.height);
+        const View view = makeView(scene.camera);
+        Row r;
+        r.count = count;
+        const std::vector<double> ms = timeFrames(
+            o.frames, target, opaque, scene, view,
+            {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
+             [&] { renderFloor(instanced, scene, view, target.framebuffer()); },
+             [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
+             [&] { separate.render(scene, view, target.framebuffer(), false); },
+             [&] { other.render(scene, view, target.framebuffer(), false); }});
+        r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.separateMs = ms[3], r.otherCompositeMs = ms[4];
+        std::cerr << "bench: " << count << " ellipsoids: " << fmt("%.1f", r.ms) << " ms, floor "
+                  << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms, separate colour-matrix pass "
+                  << fmt("%.1f", r.separateMs) << " ms, " << otherCompositeName() << " composite "
+                  << fmt("%.1f", r.otherCompositeMs) << " ms\n";
+        rows.push_back(r);
     }
+    gl::setChecks(true);
+    gl::checkAlways("bench");
+    return rows;
+}
 
-    const std::string when = utcNow();
-    const std::string machine = machineLine(renderer);
-
+std::string ellipsoidCsv(const std::vector<Row>& rows) {
     std::ostringstream csv;
     csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,separate_pass_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,"
            "baseline_draw_calls,passes,utilisation,tile_pixels,screen_pixels,"
@@ -203,7 +190,11 @@ int runBench(const EllipsoidBenchOptions& o) {
             << "," << r.stats.drawCalls << "," << r.baselineStats.drawCalls << "," << r.stats.passes << ","
             << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << "," << r.stats.screenPixels << ","
             << fmt("%.3f", r.otherCompositeMs) << "\n";
+    return csv.str();
+}
 
+std::string ellipsoidMarkdown(const EllipsoidBenchOptions& o, const std::vector<Row>& rows,
+                              const std::vector<Accuracy>& accuracy, const std::string& when, const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
        << ", median of " << o.frames << " frames (wall time to glFinish; the sky is drawn before the clock starts; the "
@@ -236,26 +227,31 @@ int runBench(const EllipsoidBenchOptions& o) {
                << (a.iou < 0 ? std::string("—") : fmt("%.3f", a.iou)) << " | "
                << (a.mae < 0 ? std::string("—") : fmt("%.4f", a.mae)) << " |\n";
     }
+    return md.str();
+}
 
-    const std::string csvPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.csv").string();
-    const std::string mdPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.md").string();
-    const std::string pngPath = (fs::path(o.bench.outDir) / "ellipsoid_bench.png").string();
+}  // namespace
+
+int runBench(const EllipsoidBenchOptions& o) {
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    std::vector<Row> rows;
+    std::vector<Accuracy> accuracy;
+    std::string renderer;
     try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("ellipsoid bench", md.str())}});
+        ContextOptions co;
+        co.backend = o.bench.backend;
+        auto context = Context::create(co);
+        renderer = context->description();
+        rows = timeCounts(o);
+        if (o.accuracy) accuracy = measureAccuracy(o);
     } catch (const std::exception& e) {
-        std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
+        std::cerr << "nephele: bench failed: " << e.what() << "\n";
         return 1;
     }
-    try {
-        runPlot("plot_bench.py", {csvPath, std::string(kChartsFolder) + "/ellipsoid_bench.png", when}, o.bench.outDir,
-                {"ellipsoid_bench.png"});
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench: " << e.what() << "\n";
-        return 1;
-    }
-    std::cout << md.str();
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
-    return 0;
+    const std::string when = utcNow();
+    const std::string md = ellipsoidMarkdown(o, rows, accuracy, when, machineLine(renderer));
+    return publishChartBench(o.bench.outDir, "ellipsoid bench", "ellipsoid_bench", ellipsoidCsv(rows), md, "plot_bench.py",
+                             when);
 }
 
 }  // namespace nephele::cli

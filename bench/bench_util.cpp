@@ -240,6 +240,31 @@ int publishTextBench(const std::string& what, const std::string& outDir, const s
     return 0;
 }
 
+int publishChartBench(const std::string& outDir, const std::string& tag, const std::string& stem, const std::string& csv,
+                      const std::string& markdown, const std::string& script, const std::string& when,
+                      const std::vector<std::string>& plotArgs) {
+    const std::string csvPath = (fs::path(outDir) / (stem + ".csv")).string();
+    const std::string mdPath = (fs::path(outDir) / (stem + ".md")).string();
+    const std::string pngPath = (fs::path(outDir) / (stem + ".png")).string();
+    try {
+        writeTextFiles({{csvPath, csv}, {mdPath, generatedSection(tag, markdown)}});
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
+        return 1;
+    }
+    try {
+        std::vector<std::string> args{csvPath, std::string(kChartsFolder) + "/" + stem + ".png", when};
+        args.insert(args.end(), plotArgs.begin(), plotArgs.end());
+        runPlot(script, args, outDir, {stem + ".png"});
+    } catch (const std::exception& e) {
+        std::cerr << "nephele: bench: " << e.what() << "\n";
+        return 1;
+    }
+    std::cout << markdown;
+    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
+    return 0;
+}
+
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args, const std::string& outDir,
              const std::vector<std::string>& charts) {
     // The script draws into a temporary folder of its own; the charts then go into place
