@@ -96,85 +96,67 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
     return a;
 }
 
-}  // namespace
-
-int runLayeredBench(const LayeredBenchOptions& o) {
-    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+// Prints what is wrong with --extents or --layer-counts and returns false.
+bool checkRanges(const LayeredBenchOptions& o) {
     if (o.extents.empty() || o.counts.empty()) {
         std::cerr << "nephele: bench: --extents and --counts need at least one value each\n";
-        return 2;
+        return false;
     }
     for (double e : o.extents)
         if (!(e > 0 && e <= 1e6)) {
             std::cerr << "nephele: bench: --extents: " << e << " m is out of range (0, 1e6]\n";
-            return 2;
+            return false;
         }
     for (int n : o.counts)
         if (n < 2 || n > 1024) {
             std::cerr << "nephele: bench: --counts: N = " << n << " is out of range 2..1024\n";
-            return 2;
+            return false;
         }
-    const std::vector<int> counts = o.bench.quick ? std::vector<int>{2, 8} : o.counts;
-    const std::vector<double> extents = o.bench.quick ? std::vector<double>{20000} : o.extents;
-    const int frames = o.bench.quick ? 1 : o.frames;
+    return true;
+}
 
-    std::vector<Row> rows;
-    std::string renderer;
-    std::optional<AutoSplit> autoSplit;
-    try {
-        ContextOptions co;
-        co.backend = o.bench.backend;
-        auto context = Context::create(co);
-        renderer = context->description();
-        gl::setChecks(false);  // timing: no glGetError round trips
-        FrameTarget target(o.width, o.height);
-        OpaquePass opaque;
-        std::map<int, std::unique_ptr<LayeredRenderer>> current, noShadow, before;
-        for (int n : counts) {
-            LayeredSettings s;
-            s.layers = n;
-            s.cacheDir = o.bench.cacheDir;
-            if (o.bench.quick) useQuickLighting(s.lighting);
-            current[n] = std::make_unique<LayeredRenderer>(s);
-            LayeredSettings ns = s;
-            ns.shadows = false;
-            noShadow[n] = std::make_unique<LayeredRenderer>(ns);
-            LayeredSettings bs = s;
-            bs.downsample = 1;
-            before[n] = std::make_unique<LayeredRenderer>(bs);
-        }
-        for (double extent : extents)
-            for (int n : counts) {
-                const Scene scene = layeredBenchScene(extent, o.width, o.height);
-                const View view = makeView(scene.camera);
-                Row r;
-                r.extent = extent, r.layers = n;
-                const double t = 0;
-                const std::vector<double> ms = timeFrames(
-                    frames, target, opaque, scene, view,
-                    {[&] { r.stats = current[n]->render(scene, view, target.framebuffer(), t); },
-                     [&] { r.floorStats = renderFloor(*current[n], scene, view, target.framebuffer(), t); },
-                     [&] { noShadow[n]->render(scene, view, target.framebuffer(), t); },
-                     [&] { before[n]->render(scene, view, target.framebuffer(), t); }});
-                r.ms = ms[0], r.floorMs = ms[1], r.noShadowMs = ms[2], r.beforeMs = ms[3];
-                std::cerr << "bench: extent " << fmt("%.0f", extent / 1000) << " km, N = " << n << ": "
-                          << fmt("%.1f", r.ms) << " ms, floor " << fmt("%.1f", r.floorMs) << " ms, without shadows "
-                          << fmt("%.1f", r.noShadowMs) << " ms, before " << fmt("%.1f", r.beforeMs) << " ms\n";
-                rows.push_back(r);
-            }
-        autoSplit = timeAutoNearAndFar(o, target, opaque, frames);
-        std::cerr << "bench: --method auto on near_and_far.json: " << fmt("%.1f", autoSplit->ms) << " ms (far "
-                  << fmt("%.1f", autoSplit->farMs) << ", near " << fmt("%.1f", autoSplit->nearMs) << ", far floor "
-                  << fmt("%.1f", autoSplit->floorMs) << ")\n";
-        gl::setChecks(true);
-        gl::checkAlways("bench --layered");
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench failed: " << e.what() << "\n";
-        return 1;
+// Every extent and N: the layered sky as shipped, its floor, without shadows and before its
+// speed work, interleaved. Throws.
+std::vector<Row> timeLayers(const LayeredBenchOptions& o, const std::vector<double>& extents, const std::vector<int>& counts,
+                            int frames, FrameTarget& target, const OpaquePass& opaque) {
+    std::map<int, std::unique_ptr<LayeredRenderer>> current, noShadow, before;
+    for (int n : counts) {
+        LayeredSettings s;
+        s.layers = n;
+        s.cacheDir = o.bench.cacheDir;
+        if (o.bench.quick) useQuickLighting(s.lighting);
+        current[n] = std::make_unique<LayeredRenderer>(s);
+        LayeredSettings ns = s;
+        ns.shadows = false;
+        noShadow[n] = std::make_unique<LayeredRenderer>(ns);
+        LayeredSettings bs = s;
+        bs.downsample = 1;
+        before[n] = std::make_unique<LayeredRenderer>(bs);
     }
+    std::vector<Row> rows;
+    for (double extent : extents)
+        for (int n : counts) {
+            const Scene scene = layeredBenchScene(extent, o.width, o.height);
+            const View view = makeView(scene.camera);
+            Row r;
+            r.extent = extent, r.layers = n;
+            const double t = 0;
+            const std::vector<double> ms = timeFrames(
+                frames, target, opaque, scene, view,
+                {[&] { r.stats = current[n]->render(scene, view, target.framebuffer(), t); },
+                 [&] { r.floorStats = renderFloor(*current[n], scene, view, target.framebuffer(), t); },
+                 [&] { noShadow[n]->render(scene, view, target.framebuffer(), t); },
+                 [&] { before[n]->render(scene, view, target.framebuffer(), t); }});
+            r.ms = ms[0], r.floorMs = ms[1], r.noShadowMs = ms[2], r.beforeMs = ms[3];
+            std::cerr << "bench: extent " << fmt("%.0f", extent / 1000) << " km, N = " << n << ": "
+                      << fmt("%.1f", r.ms) << " ms, floor " << fmt("%.1f", r.floorMs) << " ms, without shadows "
+                      << fmt("%.1f", r.noShadowMs) << " ms, before " << fmt("%.1f", r.beforeMs) << " ms\n";
+            rows.push_back(r);
+        }
+    return rows;
+}
 
-    const std::string when = utcNow();
-    const std::string machine = machineLine(renderer);
+std::string layeredCsv(const std::vector<Row>& rows) {
     std::ostringstream csv;
     csv << "extent_m,layers,ms,floor_ms,ratio_to_floor,no_shadow_ms,shadow_pass_ms,before_ms,speedup_vs_before,"
            "draw_calls,instances,shadow_draw_calls,floor_draw_calls\n";
@@ -184,7 +166,11 @@ int runLayeredBench(const LayeredBenchOptions& o) {
             << fmt("%.3f", r.ms - r.noShadowMs) << "," << fmt("%.3f", r.beforeMs) << "," << fmt("%.3f", r.beforeMs / r.ms)
             << "," << r.stats.drawCalls << "," << r.stats.instances << "," << r.stats.shadowDrawCalls << ","
             << r.floorStats.drawCalls << "\n";
+    return csv.str();
+}
 
+std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>& rows, const std::optional<AutoSplit>& autoSplit,
+                            int frames, const std::string& when, const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --layered` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
        << ", median of " << frames
@@ -215,27 +201,44 @@ int runLayeredBench(const LayeredBenchOptions& o) {
            << "× the floor), near field (near LOD update and compositor) " << fmt("%.1f", autoSplit->nearMs) << " ms ("
            << fmt("%.2f", autoSplit->nearMs / autoSplit->floorMs) << "× the far field's floor).\n";
     md << "\n![ms per frame against the layer count N](layered_bench.png)\n";
+    return md.str();
+}
 
-    const std::string csvPath = (fs::path(o.bench.outDir) / "layered_bench.csv").string();
-    const std::string mdPath = (fs::path(o.bench.outDir) / "layered_bench.md").string();
-    const std::string pngPath = (fs::path(o.bench.outDir) / "layered_bench.png").string();
+}  // namespace
+
+int runLayeredBench(const LayeredBenchOptions& o) {
+    if (!prepareBenchOutputs(o.bench.outDir)) return 2;
+    if (!checkRanges(o)) return 2;
+    const std::vector<int> counts = o.bench.quick ? std::vector<int>{2, 8} : o.counts;
+    const std::vector<double> extents = o.bench.quick ? std::vector<double>{20000} : o.extents;
+    const int frames = o.bench.quick ? 1 : o.frames;
+
+    std::vector<Row> rows;
+    std::string renderer;
+    std::optional<AutoSplit> autoSplit;
     try {
-        writeTextFiles({{csvPath, csv.str()}, {mdPath, generatedSection("layered bench", md.str())}});
+        ContextOptions co;
+        co.backend = o.bench.backend;
+        auto context = Context::create(co);
+        renderer = context->description();
+        gl::setChecks(false);  // timing: no glGetError round trips
+        FrameTarget target(o.width, o.height);
+        OpaquePass opaque;
+        rows = timeLayers(o, extents, counts, frames, target, opaque);
+        autoSplit = timeAutoNearAndFar(o, target, opaque, frames);
+        std::cerr << "bench: --method auto on near_and_far.json: " << fmt("%.1f", autoSplit->ms) << " ms (far "
+                  << fmt("%.1f", autoSplit->farMs) << ", near " << fmt("%.1f", autoSplit->nearMs) << ", far floor "
+                  << fmt("%.1f", autoSplit->floorMs) << ")\n";
+        gl::setChecks(true);
+        gl::checkAlways("bench --layered");
     } catch (const std::exception& e) {
-        std::cerr << "nephele: bench: writing the results failed: " << e.what() << "\n";
+        std::cerr << "nephele: bench failed: " << e.what() << "\n";
         return 1;
     }
-    try {
-        runPlot("plot_layered.py",
-                {csvPath, std::string(kChartsFolder) + "/layered_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
-                o.bench.outDir, {"layered_bench.png"});
-    } catch (const std::exception& e) {
-        std::cerr << "nephele: bench: " << e.what() << "\n";
-        return 1;
-    }
-    std::cout << md.str();
-    std::cerr << "nephele: bench wrote " << csvPath << ", " << mdPath << ", " << pngPath << "\n";
-    return 0;
+    const std::string when = utcNow();
+    const std::string md = layeredMarkdown(o, rows, autoSplit, frames, when, machineLine(renderer));
+    return publishChartBench(o.bench.outDir, "layered bench", "layered_bench", layeredCsv(rows), md, "plot_layered.py", when,
+                             {std::to_string(o.width) + "x" + std::to_string(o.height)});
 }
 
 }  // namespace nephele::cli
