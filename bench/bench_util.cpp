@@ -124,57 +124,94 @@ std::string generatedSection(const std::string& tag, const std::string& markdown
     return beginMarker(tag) + "\n" + markdown + endMarker(tag) + "\n";
 }
 
+namespace {
+
+const std::string kPublish = "nephele: bench --publish: ";
+
+// A bench's generated section in --out-dir: its tag, its text between the markers, its file.
+struct Section {
+    std::string tag, body;
+    fs::path md;
+};
+
+// The sections in outDir: each *.md whose first line is a BEGIN marker and that holds its END
+// marker. Returns 0, or the exit code with a message (2: a section without its END marker).
+// Throws when a file cannot be read.
+int readSections(const std::string& outDir, std::vector<Section>& sections) {
+    std::vector<fs::path> mds;
+    for (const auto& entry : fs::directory_iterator(outDir))
+        if (entry.is_regular_file() && entry.path().extension() == ".md" &&
+            entry.path().filename().string().find(".partial-") == std::string::npos)
+            mds.push_back(entry.path());
+    std::sort(mds.begin(), mds.end());
+    const std::string beginPrefix = "<!-- BEGIN GENERATED: ", suffix = " -->";
+    for (const fs::path& md : mds) {
+        const std::string text = readText(md.string());
+        if (text.rfind(beginPrefix, 0) != 0) continue;
+        const auto eol = text.find('\n');
+        const std::string first = text.substr(0, eol);
+        if (eol == std::string::npos || first.size() < beginPrefix.size() + suffix.size() ||
+            first.compare(first.size() - suffix.size(), suffix.size(), suffix) != 0)
+            continue;
+        const std::string tag = first.substr(beginPrefix.size(), first.size() - beginPrefix.size() - suffix.size());
+        const auto end = text.rfind(endMarker(tag));
+        if (end == std::string::npos || end < eol) {
+            std::cerr << kPublish << md.string() << ": no '" << endMarker(tag) << "' line: not a whole section\n";
+            return 2;
+        }
+        sections.push_back({tag, text.substr(eol + 1, end - eol - 1), md});
+    }
+    return 0;
+}
+
+// Writes the page and copies each section's CSVs and charts (the files named after its
+// markdown file: STEM.csv, STEM_series.csv, STEM_chart.png, ...) into docsDir, all or nothing.
+// Throws.
+void writePublished(const std::string& page, const fs::path& pagePath, const std::vector<Section>& sections,
+                    const std::string& outDir, const std::string& docsDir) {
+    OutputFiles out;
+    out.add(pagePath.string(), textWriter(page), "--publish");
+    for (const Section& s : sections) {
+        const std::string stem = s.md.stem().string();
+        for (const auto& entry : fs::directory_iterator(outDir)) {
+            const std::string name = entry.path().filename().string(), ext = entry.path().extension().string();
+            if (!entry.is_regular_file() || name.rfind(stem, 0) != 0 || (ext != ".csv" && ext != ".png") ||
+                name.find(".partial-") != std::string::npos)
+                continue;
+            const auto copy = [from = entry.path()](const std::string& p) {
+                fs::copy_file(from, p, fs::copy_options::overwrite_existing);
+            };
+            out.add((fs::path(docsDir) / name).string(), copy, "--publish");
+        }
+    }
+    out.commit();
+}
+
+}  // namespace
+
 int publishBenchSections(const std::string& outDir, const std::string& docsDir) {
-    const std::string what = "nephele: bench --publish: ";
     const fs::path pagePath = fs::path(docsDir) / kBenchmarksPage;
-    struct Section {
-        std::string tag, body;
-        fs::path md;
-    };
     std::vector<Section> sections;
     std::error_code ec;
     if (!fs::is_directory(outDir, ec)) {
-        std::cerr << what << "--out-dir '" << outDir << "' is not a folder (run a bench with --out-dir first)\n";
+        std::cerr << kPublish << "--out-dir '" << outDir << "' is not a folder (run a bench with --out-dir first)\n";
         return 2;
     }
     if (!fs::is_regular_file(pagePath, ec)) {
-        std::cerr << what << "'" << pagePath.string() << "' is not a file: --publish names the docs folder that holds "
+        std::cerr << kPublish << "'" << pagePath.string() << "' is not a file: --publish names the docs folder that holds "
                   << kBenchmarksPage << "\n";
         return 2;
     }
     std::string page;
     try {
         page = readText(pagePath.string());
-        // A bench's section file: its BEGIN marker on the first line, its END marker last.
-        std::vector<fs::path> mds;
-        for (const auto& entry : fs::directory_iterator(outDir))
-            if (entry.is_regular_file() && entry.path().extension() == ".md" &&
-                entry.path().filename().string().find(".partial-") == std::string::npos)
-                mds.push_back(entry.path());
-        std::sort(mds.begin(), mds.end());
-        const std::string beginPrefix = "<!-- BEGIN GENERATED: ", suffix = " -->";
-        for (const fs::path& md : mds) {
-            const std::string text = readText(md.string());
-            if (text.rfind(beginPrefix, 0) != 0) continue;
-            const auto eol = text.find('\n');
-            const std::string first = text.substr(0, eol);
-            if (eol == std::string::npos || first.size() < beginPrefix.size() + suffix.size() ||
-                first.compare(first.size() - suffix.size(), suffix.size(), suffix) != 0)
-                continue;
-            const std::string tag = first.substr(beginPrefix.size(), first.size() - beginPrefix.size() - suffix.size());
-            const auto end = text.rfind(endMarker(tag));
-            if (end == std::string::npos || end < eol) {
-                std::cerr << what << md.string() << ": no '" << endMarker(tag) << "' line: not a whole section\n";
-                return 2;
-            }
-            sections.push_back({tag, text.substr(eol + 1, end - eol - 1), md});
-        }
+        if (const int code = readSections(outDir, sections)) return code;
     } catch (const std::exception& e) {
-        std::cerr << what << e.what() << "\n";
+        std::cerr << kPublish << e.what() << "\n";
         return 1;
     }
     if (sections.empty()) {
-        std::cerr << what << "'" << outDir << "' holds no generated section (a bench's *.md beginning with '"
+        std::cerr << kPublish << "'" << outDir << "' holds no generated section (a bench's *.md beginning with '"
                   << beginMarker("TAG") << "'): run a bench with --out-dir " << outDir << " first\n";
         return 2;
     }
@@ -183,36 +220,19 @@ int publishBenchSections(const std::string& outDir, const std::string& docsDir) 
         const std::string begin = beginMarker(s.tag), end = endMarker(s.tag);
         const auto b = page.find(begin), e = page.find(end);
         if (b == std::string::npos || e == std::string::npos || e < b) {
-            std::cerr << what << pagePath.string() << " has no '" << begin << "' ... '" << end
+            std::cerr << kPublish << pagePath.string() << " has no '" << begin << "' ... '" << end
                       << "' lines to replace; add them where the section should go\n";
             return 2;
         }
         page = page.substr(0, b + begin.size()) + "\n" + s.body + page.substr(e);
     }
     try {
-        OutputFiles out;
-        out.add(pagePath.string(), textWriter(page), "--publish");
-        // The files a section shows or links (its CSVs and charts) are the ones named after its
-        // markdown file: STEM.csv, STEM_series.csv, STEM_chart.png, ...
-        for (const Section& s : sections) {
-            const std::string stem = s.md.stem().string();
-            for (const auto& entry : fs::directory_iterator(outDir)) {
-                const std::string name = entry.path().filename().string(), ext = entry.path().extension().string();
-                if (!entry.is_regular_file() || name.rfind(stem, 0) != 0 || (ext != ".csv" && ext != ".png") ||
-                    name.find(".partial-") != std::string::npos)
-                    continue;
-                const auto copy = [from = entry.path()](const std::string& p) {
-                    fs::copy_file(from, p, fs::copy_options::overwrite_existing);
-                };
-                out.add((fs::path(docsDir) / name).string(), copy, "--publish");
-            }
-        }
-        out.commit();
+        writePublished(page, pagePath, sections, outDir, docsDir);
     } catch (const std::exception& e) {
-        std::cerr << what << e.what() << "\n";
+        std::cerr << kPublish << e.what() << "\n";
         return 1;
     }
-    std::cerr << what << "replaced " << sections.size() << " section" << (sections.size() == 1 ? "" : "s") << " of "
+    std::cerr << kPublish << "replaced " << sections.size() << " section" << (sections.size() == 1 ? "" : "s") << " of "
               << pagePath.string() << ":";
     for (const Section& s : sections) std::cerr << " " << s.tag << ";";
     std::cerr << " and copied their CSVs and charts into " << docsDir << "\n";
