@@ -80,34 +80,40 @@ double relativeRmse(const Image& a, const Image& b) {
     return n == 0 ? 0 : rmseOver(a, b, a, b, sum / n);
 }
 
-Reference makeReference(const Scene& scene, const View& view, const NoiseVolume& noise, const ReferenceSettings& s) {
-    const auto start = std::chrono::steady_clock::now();
-    const std::uint64_t before = detail::pathTracedImagesComputed();
-    auto trace = [&](const Scene& sc, int spp, int firstBounce, int maxBounces, unsigned seed) {
+namespace {
+
+// One set of a reference's pieces: the scattering orders first..last, each piece traced with
+// its own seed.
+struct Part {
+    int first, last;
+    unsigned seedBase;
+    std::vector<Image> pieces;  // sun + sky block means, each piece
+    Image sun, sky, full;       // their running means
+};
+
+// Traces a reference's pieces: the sun's light and the sky's apart, each piece of `piece`
+// (the sky's of `skyPiece`) samples per pixel, through the cache when there is one.
+struct PieceTracer {
+    const View& view;
+    const NoiseVolume& noise;
+    const ReferenceSettings& s;
+    Scene sun, sky;
+    int piece, skyPiece;
+
+    PieceTracer(const Scene& scene, const View& v, const NoiseVolume& n, const ReferenceSettings& settings)
+        : view(v), noise(n), s(settings), sun(sunOnly(scene)), sky(skyOnly(scene)),
+          piece(std::clamp(s.pieceSpp, 1, std::max(1, s.spp / 2))),
+          skyPiece(std::max(1, piece * s.skySpp / std::max(1, s.spp))) {}
+
+    Image trace(const Scene& sc, int spp, int firstBounce, int maxBounces, unsigned seed) const {
         PathTraceSettings p;
         p.spp = std::max(1, spp);
         p.firstBounce = firstBounce, p.maxBounces = maxBounces;
         p.seed = seed;
         return s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise) : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
-    };
-    const Scene sun = sunOnly(scene), sky = skyOnly(scene);
-    const int allBounces = PathTraceSettings{}.maxBounces;
-    // Pieces of independent seeds, added until the mean's noise is below the target: the
-    // spread of the pieces measures it (the noise of a mean of m: their RMS spread / sqrt(m - 1)).
-    // The scattering orders up to kReferenceBounces in one set of pieces, those past it (a few
-    // per cent of the light, in deep matter only) in another, at most a quarter of the samples
-    // (a sample of them costs a whole path): the two noises add in quadrature.
-    const int piece = std::clamp(s.pieceSpp, 1, std::max(1, s.spp / 2));
-    const int skyPiece = std::max(1, piece * s.skySpp / std::max(1, s.spp));
-    const int maxPieces = std::max(2, s.spp / piece), maxTails = std::max(2, maxPieces / 4);
-    struct Part {  // one set of pieces: the orders first..last
-        int first, last;
-        unsigned seedBase;
-        std::vector<Image> pieces;  // sun + sky block means, each piece
-        Image sun, sky, full;       // their running means
-    };
-    Part low{0, kReferenceBounces, 1, {}, {}, {}, {}}, high{kReferenceBounces + 1, allBounces, 1000001, {}, {}, {}, {}};
-    auto addPiece = [&](Part& part) {
+    }
+
+    void addPiece(Part& part) const {
         const unsigned seed = part.seedBase + unsigned(part.pieces.size());
         const Image fullA = trace(sun, piece, part.first, part.last, seed), fullB = trace(sky, skyPiece, part.first, part.last, seed);
         const Image a = blockMean(fullA, s.block), b = blockMean(fullB, s.block), both = add(fullA, fullB);
@@ -118,53 +124,77 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
         };
         if (part.pieces.size() == 1) part.sun = a, part.sky = b, part.full = both;
         runningMean(part.sun, a), runningMean(part.sky, b), runningMean(part.full, both);
-    };
-    // A part's noise relative to `norm`, and how many pieces would bring it to `target`.
-    auto noiseOf = [](const Part& part, double norm) {
-        const Image mean = add(part.sun, part.sky);
-        double spread = 0;
-        for (const Image& p : part.pieces) spread += std::pow(rmseOver(p, mean, mean, mean, norm), 2);
-        const double m = double(part.pieces.size());
-        return std::sqrt(spread / m / (m - 1));
-    };
-    auto grow = [&](Part& part, double noise, double target, int most) {
+    }
+
+    // Adds pieces until `part` would reach `target` from its `noise` now, at least one, at most `most`.
+    void grow(Part& part, double noise, double target, int most) const {
         const double m = double(part.pieces.size());
         const int want = int(std::ceil(1.1 * m * std::pow(noise / std::max(target, 1e-9), 2)));
         while (int(part.pieces.size()) < std::clamp(want, int(m) + 1, most)) addPiece(part);
-    };
+    }
+
+    // The wall time a trace of this kind would take here, from a pilot (1/64 of the pixels at
+    // 2 spp, its CPU time scaled).
+    double estimate(const Scene& sc, int spp, int first, int last) const {
+        PathTraceSettings p;
+        p.spp = std::max(1, spp), p.firstBounce = first, p.maxBounces = last;
+        return estimatePathTraceSeconds(sc, view, p, &noise);
+    }
+};
+
+// A part's noise relative to `norm`: the noise of a mean of m pieces is their RMS spread / sqrt(m - 1).
+double noiseOf(const Part& part, double norm) {
+    const Image mean = add(part.sun, part.sky);
+    double spread = 0;
+    for (const Image& p : part.pieces) spread += std::pow(rmseOver(p, mean, mean, mean, norm), 2);
+    const double m = double(part.pieces.size());
+    return std::sqrt(spread / m / (m - 1));
+}
+
+}  // namespace
+
+Reference makeReference(const Scene& scene, const View& view, const NoiseVolume& noise, const ReferenceSettings& s) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t before = detail::pathTracedImagesComputed();
+    const PieceTracer tracer(scene, view, noise, s);
+    const int allBounces = PathTraceSettings{}.maxBounces;
+    // Pieces of independent seeds, added until the mean's noise is below the target: the
+    // spread of the pieces measures it. The scattering orders up to kReferenceBounces in one
+    // set of pieces, those past it (a few per cent of the light, in deep matter only) in
+    // another, at most a quarter of the samples (a sample of them costs a whole path): the two
+    // noises add in quadrature.
+    const int maxPieces = std::max(2, s.spp / tracer.piece), maxTails = std::max(2, maxPieces / 4);
+    Part low{0, kReferenceBounces, 1, {}, {}, {}, {}}, high{kReferenceBounces + 1, allBounces, 1000001, {}, {}, {}, {}};
     Reference r;
     for (;;) {
-        while (low.pieces.size() < 2) addPiece(low);
-        while (high.pieces.size() < 2) addPiece(high);
+        while (low.pieces.size() < 2) tracer.addPiece(low);
+        while (high.pieces.size() < 2) tracer.addPiece(high);
         r.sun = add(low.sun, high.sun), r.sky = add(low.sky, high.sky);
         r.total = add(r.sun, r.sky);
         const double norm = cloudMean(r.total), lowNoise = noiseOf(low, norm), highNoise = noiseOf(high, norm);
         r.noise = std::hypot(lowNoise, highNoise);
         if (r.noise <= s.targetNoise) break;
         const bool lowFull = int(low.pieces.size()) >= maxPieces, highFull = int(high.pieces.size()) >= maxTails;
-        if (highNoise > 0.25 * s.targetNoise && !highFull) grow(high, highNoise, 0.25 * s.targetNoise, maxTails);
-        else if (!lowFull) grow(low, lowNoise, std::sqrt(std::max(std::pow(s.targetNoise, 2) - highNoise * highNoise, 0.25 * std::pow(s.targetNoise, 2))), maxPieces);
-        else if (!highFull) addPiece(high);
+        if (highNoise > 0.25 * s.targetNoise && !highFull) tracer.grow(high, highNoise, 0.25 * s.targetNoise, maxTails);
+        else if (!lowFull) tracer.grow(low, lowNoise, std::sqrt(std::max(std::pow(s.targetNoise, 2) - highNoise * highNoise, 0.25 * std::pow(s.targetNoise, 2))), maxPieces);
+        else if (!highFull) tracer.addPiece(high);
         else break;
     }
     r.full = add(low.full, high.full);
-    r.spp = piece * int(low.pieces.size());
-    r.highSpp = piece * int(high.pieces.size());
+    r.spp = tracer.piece * int(low.pieces.size());
+    r.highSpp = tracer.piece * int(high.pieces.size());
     Image highTotal = add(high.sun, high.sky);  // over the same blocks as the total
     for (std::size_t p = 3; p < highTotal.pixels.size(); p += 4) highTotal.pixels[p] = r.total.pixels[p];
     r.highShare = cloudMean(r.total) > 0 ? cloudMean(highTotal) / cloudMean(r.total) : 0;
-    r.single = blockMean(trace(sun, s.singleSpp, 0, 0, 1000), s.block);
-    // What it would take made from scratch here: each kind of trace's pilot estimate (a pilot of
-    // 1/64 of the pixels at 2 spp, its CPU time scaled), times the pieces of that kind.
-    auto estimate = [&](const Scene& sc, int spp, int first, int last) {
-        PathTraceSettings p;
-        p.spp = std::max(1, spp), p.firstBounce = first, p.maxBounces = last;
-        return estimatePathTraceSeconds(sc, view, p, &noise);
-    };
-    r.highScratchSeconds = double(high.pieces.size()) * (estimate(sun, piece, high.first, high.last) +
-                                                        estimate(sky, skyPiece, high.first, high.last));
-    r.scratchSeconds = double(low.pieces.size()) * (estimate(sun, piece, 0, low.last) + estimate(sky, skyPiece, 0, low.last)) +
-                       r.highScratchSeconds + estimate(sun, s.singleSpp, 0, 0);
+    r.single = blockMean(tracer.trace(tracer.sun, s.singleSpp, 0, 0, 1000), s.block);
+    // What it would take made from scratch here: each kind of trace's estimate times the pieces of that kind.
+    const Scene& sun = tracer.sun;
+    const Scene& sky = tracer.sky;
+    r.highScratchSeconds = double(high.pieces.size()) * (tracer.estimate(sun, tracer.piece, high.first, high.last) +
+                                                        tracer.estimate(sky, tracer.skyPiece, high.first, high.last));
+    r.scratchSeconds = double(low.pieces.size()) * (tracer.estimate(sun, tracer.piece, 0, low.last) +
+                                                    tracer.estimate(sky, tracer.skyPiece, 0, low.last)) +
+                       r.highScratchSeconds + tracer.estimate(sun, s.singleSpp, 0, 0);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.traced = int(detail::pathTracedImagesComputed() - before);
     return r;
