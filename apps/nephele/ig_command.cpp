@@ -331,7 +331,10 @@ struct Screen {
 };
 }  // namespace
 
-int runIg(const IgOptions& o) {
+namespace {
+
+// What the IG holds from its start to its end: the host's state, the GL objects, the socket.
+struct Ig {
     IgState s;
     std::unique_ptr<Context> context;
     std::unique_ptr<FrameTarget> target;
@@ -339,43 +342,160 @@ int runIg(const IgOptions& o) {
     std::unique_ptr<SkyRenderer> sky;
     std::unique_ptr<UdpSocket> socket;
     std::optional<Screen> screen;  // --window
-    try {
-        if (o.headless == o.window) throw UsageError("nephele ig: give exactly one of --headless and --window");
-        if (o.render.method != Method::Auto) throw UsageError("nephele ig draws with --method auto only");
-        if (!o.record.empty()) {
-            std::filesystem::create_directories(o.record);
-            if (!std::filesystem::is_directory(o.record)) throw UsageError("--record: '" + o.record + "' is not a folder");
+};
+
+// Checks the options, loads the scene, binds the socket, makes the context and prepares the
+// sky (the one wait). Throws.
+void startIg(const IgOptions& o, Ig& ig) {
+    IgState& s = ig.s;
+    if (o.headless == o.window) throw UsageError("nephele ig: give exactly one of --headless and --window");
+    if (o.render.method != Method::Auto) throw UsageError("nephele ig draws with --method auto only");
+    if (!o.record.empty()) {
+        std::filesystem::create_directories(o.record);
+        if (!std::filesystem::is_directory(o.record)) throw UsageError("--record: '" + o.record + "' is not a folder");
+    }
+    s.scene = loadScene(o.render.scene);
+    applySize(s.scene, o.render);
+    checkFrameMemory(s.scene, o.render);
+    s.weather = Weather::of(s.scene);
+    s.weather.transitionSeconds = o.transition;
+    s.frame.emplace(parseOrigin(o.origin));
+    s.day = {s.scene.sun, s.scene.sky};
+    s.sceneObjects = s.scene.objects;
+    s.channel = o.channel;
+    const Camera& cam = s.scene.camera;
+    const Frustum f = symmetricFrustum(cam.fovYDeg, double(cam.width) / cam.height);
+    s.left = degrees(std::atan(f.left)), s.right = degrees(std::atan(f.right));
+    s.bottom = degrees(std::atan(f.bottom)), s.top = degrees(std::atan(f.top));
+    ig.socket = std::make_unique<UdpSocket>(o.address, o.port, o.timeout);
+    ContextOptions co;
+    co.backend = o.window ? GlBackend::Glfw : o.render.backend;
+    co.width = cam.width, co.height = cam.height;
+    co.title = "nephele ig: channel " + std::to_string(o.channel);
+    ig.context = Context::create(co);
+    if (o.window) ig.screen.emplace();
+    gl::setChecks(true);
+    ig.opaque = std::make_unique<OpaquePass>();
+    ig.sky = std::make_unique<SkyRenderer>(SkySettings{o.render.layered, o.render.nearLod, o.render.ellipsoid});
+    ig.sky->prepare(s.scene);  // the one wait: shaders, the layers' lighting, the clouds' grids
+    ig.target = std::make_unique<FrameTarget>(cam.width, cam.height);
+}
+
+// A frame's packets applied to the state; its Environmental Conditions Requests, answered
+// after the frame is drawn.
+std::vector<const cigi::EnvironmentalConditionsRequest*> applyPackets(IgState& s, const cigi::HostDatagram& d) {
+    std::vector<const cigi::EnvironmentalConditionsRequest*> requests;
+    for (const cigi::HostPacket& p : d.packets) {
+        if (auto* w = std::get_if<cigi::WeatherControl>(&p)) s.apply(*w);
+        else if (auto* v = std::get_if<cigi::ViewDefinition>(&p)) s.apply(*v);
+        else if (auto* c = std::get_if<cigi::ViewControl>(&p)) s.apply(*c);
+        else if (auto* a = std::get_if<cigi::AtmosphereControl>(&p)) s.atmosphere = *a;
+        else if (auto* r = std::get_if<cigi::EnvironmentalConditionsRequest>(&p)) requests.push_back(r);
+        else if (auto* cs = std::get_if<cigi::CelestialSphereControl>(&p)) s.apply(*cs);
+        else if (auto* e = std::get_if<cigi::EntityControl>(&p)) s.apply(*e);
+    }
+    return requests;
+}
+
+// --record: the frame drawn (linear), and with --window what the window shows, as PFMs named
+// by the host frame number.
+void recordFrame(const IgOptions& o, const Ig& ig, std::uint32_t hostFrame, const Image& shown) {
+    char name[64];
+    std::snprintf(name, sizeof name, "host-frame-%010u.pfm", hostFrame);
+    const Image color = channels(ig.target->readColor(), 0, 3);
+    OutputFiles files;
+    files.add((std::filesystem::path(o.record) / name).string(), [&](const std::string& p) { writePfm(p, color); },
+              "--record");
+    if (ig.screen) {
+        std::snprintf(name, sizeof name, "window-frame-%010u.pfm", hostFrame);
+        files.add((std::filesystem::path(o.record) / name).string(),
+                  [&](const std::string& p) { writePfm(p, shown); }, "--record");
+    }
+    files.checkPaths();
+    files.commit();
+}
+
+// Draws the host frame `igc` with the state its packets left, then records or shows it.
+// Returns false when the window was closed.
+bool drawFrame(const IgOptions& o, Ig& ig, const cigi::IgControl& igc) {
+    IgState& s = ig.s;
+    const std::unique_ptr<SkyRenderer>& sky = ig.sky;
+    // The frame's time: the host's timestamp when valid, else its frame number at 60 Hz, so
+    // that every channel of one host frame draws the same instant.
+    const double t = igc.timestampValid ? igc.timestamp * 1e-5 : igc.hostFrameNumber / 60.0;
+    s.scene.sun = s.weather.sun;  // the opaque pass's light, and a rewind's prepare()
+    s.scene.sky = s.weather.sky;
+    s.scene.layers = s.weather.enabledLayers();
+    ig.context->makeCurrent();
+    s.scene.objects = s.objects();
+    const Camera camera = s.eye(t);
+    const View view = channelView(camera, s.view);
+    // The host's clock drives the sky's; one that runs back (a host restarting its frame
+    // numbers) starts the sky again (prepare() sets its time to 0). prepare() numbers the
+    // scene's layers 1, 2, 3, 10, ... as Weather::of does, not by the ids the host gave them:
+    // an update at once to the host's weather gives each layer its id back before the frame's
+    // update, which would otherwise ramp from one to the other.
+    if (t < sky->time() - 1e-6) {
+        sky->prepare(s.scene);
+        Weather atOnce = s.weather;
+        atOnce.transitionSeconds = 0;
+        sky->update(0, atOnce, camera.position);
+    }
+    sky->update(std::max(0.0, t - sky->time()), s.weather, camera.position);
+    // Every channel must draw the same light for one host frame, and each IG process makes its
+    // own: what a weather change queued is waited for here, so a change that needs a new
+    // lighting volume still costs the frame it lands in.
+    sky->waitForBackgroundWork();
+    ig.opaque->draw(s.scene, view, ig.target->framebuffer());
+    sky->draw(viewDescOf(view, ig.target->framebuffer(), !s.scene.objects.empty()));
+    Image shown;
+    if (ig.screen) ig.screen->show(*ig.context, *ig.target, o.record.empty() ? nullptr : &shown);
+    if (!o.record.empty()) recordFrame(o, ig, igc.hostFrameNumber, shown);
+    else if (!ig.screen) gl::glFinish();
+    return !(ig.screen && glfwWindowShouldClose(ig.context->window()));
+}
+
+// The answer to host frame `igc`, in the host's byte order: a Start of Frame with the IG's
+// frame counter (advanced here), then the answers to the frame's requests.
+std::vector<std::uint8_t> answerFrame(IgState& s, const SkyRenderer& sky, const cigi::HostDatagram& d,
+                                      const std::vector<const cigi::EnvironmentalConditionsRequest*>& requests,
+                                      bool operate, std::uint32_t& igFrame, std::chrono::steady_clock::time_point start) {
+    const cigi::IgControl& igc = d.igControl;
+    cigi::DatagramWriter reply(d.byteOrder);
+    for (const auto* r : requests) {
+        if (reply.bytes().size() > 60000) {  // a UDP datagram holds 65507 bytes
+            s.once("more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
+            break;
         }
-        s.scene = loadScene(o.render.scene);
-        applySize(s.scene, o.render);
-        checkFrameMemory(s.scene, o.render);
-        s.weather = Weather::of(s.scene);
-        s.weather.transitionSeconds = o.transition;
-        s.frame.emplace(parseOrigin(o.origin));
-        s.day = {s.scene.sun, s.scene.sky};
-        s.sceneObjects = s.scene.objects;
-        s.channel = o.channel;
-        const Camera& cam = s.scene.camera;
-        const Frustum f = symmetricFrustum(cam.fovYDeg, double(cam.width) / cam.height);
-        s.left = degrees(std::atan(f.left)), s.right = degrees(std::atan(f.right));
-        s.bottom = degrees(std::atan(f.bottom)), s.top = degrees(std::atan(f.top));
-        socket = std::make_unique<UdpSocket>(o.address, o.port, o.timeout);
-        ContextOptions co;
-        co.backend = o.window ? GlBackend::Glfw : o.render.backend;
-        co.width = cam.width, co.height = cam.height;
-        co.title = "nephele ig: channel " + std::to_string(o.channel);
-        context = Context::create(co);
-        if (o.window) screen.emplace();
-        gl::setChecks(true);
-        opaque = std::make_unique<OpaquePass>();
-        sky = std::make_unique<SkyRenderer>(SkySettings{o.render.layered, o.render.nearLod, o.render.ellipsoid});
-        sky->prepare(s.scene);  // the one wait: shaders, the layers' lighting, the clouds' grids
-        target = std::make_unique<FrameTarget>(cam.width, cam.height);
+        s.answer(*r, sky, reply);
+    }
+    cigi::StartOfFrame sof;
+    sof.databaseNumber = static_cast<std::int8_t>(igc.databaseNumber > 0 ? igc.databaseNumber : 0);
+    sof.igMode = operate ? igc.igMode : cigi::IgMode::Reset;
+    sof.igFrameNumber = ++igFrame;
+    sof.lastHostFrameNumber = igc.hostFrameNumber;
+    sof.timestampValid = true;
+    sof.timestamp = static_cast<std::uint32_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count() / 10);
+    cigi::DatagramWriter out(d.byteOrder);
+    out.add(sof);
+    const std::vector<std::uint8_t>& extra = reply.bytes();
+    std::vector<std::uint8_t> datagram = out.bytes();
+    datagram.insert(datagram.end(), extra.begin(), extra.end());
+    return datagram;
+}
+
+}  // namespace
+
+int runIg(const IgOptions& o) {
+    Ig ig;
+    try {
+        startIg(o, ig);
     } catch (const std::exception& e) {
         return reportError(e, "starting nephele ig");
     }
     std::cerr << "nephele: ig: channel " << o.channel << " listening on " << o.address << ":" << o.port << " ("
-              << s.scene.camera.width << "x" << s.scene.camera.height << ")\n";
+              << ig.s.scene.camera.width << "x" << ig.s.scene.camera.height << ")\n";
 
     const auto start = std::chrono::steady_clock::now();
     std::uint32_t igFrame = 0;
@@ -386,7 +506,7 @@ int runIg(const IgOptions& o) {
     try {
         for (;;) {
             sockaddr_in from{};
-            const long n = socket->receive(buffer, from);
+            const long n = ig.socket->receive(buffer, from);
             if (n < 0) {
                 if (o.frames > 0 && rendered < o.frames) {
                     std::cerr << "nephele: ig: no datagram from the host for " << o.timeout << " s after " << rendered
@@ -402,96 +522,20 @@ int runIg(const IgOptions& o) {
             // A host resending its frame (it has not seen the Start of Frame yet) gets the same
             // answer again: the frame is not drawn twice and the IG frame counter does not move.
             if (lastHostFrame && igc.hostFrameNumber == *lastHostFrame) {
-                socket->send(lastAnswer, from);
+                ig.socket->send(lastAnswer, from);
                 continue;
             }
-            cigi::DatagramWriter reply(d->byteOrder);  // answered in the host's byte order
-            std::vector<const cigi::EnvironmentalConditionsRequest*> requests;
-            for (const cigi::HostPacket& p : d->packets) {
-                if (auto* w = std::get_if<cigi::WeatherControl>(&p)) s.apply(*w);
-                else if (auto* v = std::get_if<cigi::ViewDefinition>(&p)) s.apply(*v);
-                else if (auto* c = std::get_if<cigi::ViewControl>(&p)) s.apply(*c);
-                else if (auto* a = std::get_if<cigi::AtmosphereControl>(&p)) s.atmosphere = *a;
-                else if (auto* r = std::get_if<cigi::EnvironmentalConditionsRequest>(&p)) requests.push_back(r);
-                else if (auto* cs = std::get_if<cigi::CelestialSphereControl>(&p)) s.apply(*cs);
-                else if (auto* e = std::get_if<cigi::EntityControl>(&p)) s.apply(*e);
-            }
+            const auto requests = applyPackets(ig.s, *d);
             const bool operate = igc.igMode == cigi::IgMode::Operate || igc.igMode == cigi::IgMode::Debug;
             if (operate) {
-                // The frame's time: the host's timestamp when valid, else its frame number at 60 Hz, so
-                // that every channel of one host frame draws the same instant.
-                const double t = igc.timestampValid ? igc.timestamp * 1e-5 : igc.hostFrameNumber / 60.0;
-                s.scene.sun = s.weather.sun;  // the opaque pass's light, and a rewind's prepare()
-                s.scene.sky = s.weather.sky;
-                s.scene.layers = s.weather.enabledLayers();
-                context->makeCurrent();
-                s.scene.objects = s.objects();
-                const Camera camera = s.eye(t);
-                const View view = channelView(camera, s.view);
-                // The host's clock drives the sky's; one that runs back (a host restarting its
-                // frame numbers) starts the sky again (prepare() sets its time to 0). prepare()
-                // numbers the scene's layers 1, 2, 3, 10, ... as Weather::of does, not by the ids
-                // the host gave them: an update at once to the host's weather gives each layer its
-                // id back before the frame's update, which would otherwise ramp from one to the other.
-                if (t < sky->time() - 1e-6) {
-                    sky->prepare(s.scene);
-                    Weather atOnce = s.weather;
-                    atOnce.transitionSeconds = 0;
-                    sky->update(0, atOnce, camera.position);
-                }
-                sky->update(std::max(0.0, t - sky->time()), s.weather, camera.position);
-                // Every channel must draw the same light for one host frame, and each IG process
-                // makes its own: what a weather change queued is waited for here, so a change that
-                // needs a new lighting volume still costs the frame it lands in.
-                sky->waitForBackgroundWork();
-                opaque->draw(s.scene, view, target->framebuffer());
-                sky->draw(viewDescOf(view, target->framebuffer(), !s.scene.objects.empty()));
-                Image shown;
-                if (screen) screen->show(*context, *target, o.record.empty() ? nullptr : &shown);
-                if (!o.record.empty()) {
-                    char name[64];
-                    std::snprintf(name, sizeof name, "host-frame-%010u.pfm", igc.hostFrameNumber);
-                    const Image color = channels(target->readColor(), 0, 3);
-                    OutputFiles files;
-                    files.add((std::filesystem::path(o.record) / name).string(), [&](const std::string& p) { writePfm(p, color); },
-                              "--record");
-                    if (screen) {
-                        std::snprintf(name, sizeof name, "window-frame-%010u.pfm", igc.hostFrameNumber);
-                        files.add((std::filesystem::path(o.record) / name).string(),
-                                  [&](const std::string& p) { writePfm(p, shown); }, "--record");
-                    }
-                    files.checkPaths();
-                    files.commit();
-                } else if (!screen) {
-                    gl::glFinish();
-                }
-                if (screen && glfwWindowShouldClose(context->window())) {
+                if (!drawFrame(o, ig, igc)) {
                     std::cerr << "nephele: ig: the window was closed after " << rendered + 1 << " frames\n";
                     return 0;
                 }
                 ++rendered;
             }
-            for (const auto* r : requests) {
-                if (reply.bytes().size() > 60000) {  // a UDP datagram holds 65507 bytes
-                    s.once("more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
-                    break;
-                }
-                s.answer(*r, *sky, reply);
-            }
-            cigi::StartOfFrame sof;
-            sof.databaseNumber = static_cast<std::int8_t>(igc.databaseNumber > 0 ? igc.databaseNumber : 0);
-            sof.igMode = operate ? igc.igMode : cigi::IgMode::Reset;
-            sof.igFrameNumber = ++igFrame;
-            sof.lastHostFrameNumber = igc.hostFrameNumber;
-            sof.timestampValid = true;
-            sof.timestamp = static_cast<std::uint32_t>(
-                std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count() / 10);
-            cigi::DatagramWriter out(d->byteOrder);
-            out.add(sof);
-            const std::vector<std::uint8_t>& extra = reply.bytes();
-            std::vector<std::uint8_t> datagram = out.bytes();
-            datagram.insert(datagram.end(), extra.begin(), extra.end());
-            socket->send(datagram, from);
+            std::vector<std::uint8_t> datagram = answerFrame(ig.s, *ig.sky, *d, requests, operate, igFrame, start);
+            ig.socket->send(datagram, from);
             lastHostFrame = igc.hostFrameNumber;
             lastAnswer = std::move(datagram);
             if (o.frames > 0 && rendered >= o.frames) {
