@@ -6,7 +6,7 @@ PKGS=(
   build-essential cmake pkg-config
   libegl-dev libegl-mesa0 libgl-dev libgl1-mesa-dri   # EGL + Mesa llvmpipe (headless default)
   libosmesa6-dev                                       # OSMesa fallback
-  libglfw3-dev xvfb xauth                              # windows (demo), tested under Xvfb
+  libglfw3-dev xvfb xauth                              # windows (nephele fly), tested under Xvfb
   libimgui-dev                                         # nephele fly's HUD (Dear ImGui, GLFW + OpenGL 3 backends)
   libglm-dev                                           # vector maths
   nlohmann-json3-dev                                   # scene files

@@ -2,9 +2,9 @@
 // are not regular files, NUL bytes, deep nesting, huge counts, image bombs, long shader lines.
 // Each case checks that the message names the file, the JSON path and the limit, and that
 // time and memory stay bounded: CPU-time ceilings far above the linear cost (a quadratic
-// step is 10-100x over them), and runs of the command line under `ulimit -v`.
-#include "cli_run.hpp"
-#include "temp_dir.hpp"
+// step is 10-100x over them). The command line's runs under `ulimit -v` are hostile_cli_test.cpp's.
+#include "hostile_files.hpp"
+#include "test_build.hpp"
 
 #include "nephele/generate.hpp"
 #include "nephele/image.hpp"
@@ -34,8 +34,11 @@ namespace {
 
 using namespace limits;
 
-const std::string kCamera = R"("camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]})";
-std::string sceneWith(const std::string& rest) { return R"({"cloudscene": 1, )" + kCamera + ", " + rest + "}"; }
+using test::claimingPng;
+using test::kCamera;
+using test::HostileFileTest;
+using test::sceneWith;
+
 std::string repeated(const std::string& item, std::size_t n) {
     std::string s;
     s.reserve(n * (item.size() + 1));
@@ -75,25 +78,6 @@ double cpuTime(const std::function<void()>& f) {
     return cpuSeconds() - start;
 }
 
-class HostileFileTest : public ::testing::Test {
-protected:
-    // The test's folder, removed at its end (with the process id: it had none, and other
-    // checkouts on the machine run the same tests at the same time).
-    test::TempDir tmp_{"nephele_hostile_"};
-    const fs::path& dir_ = tmp_.dir();
-    std::string path(const std::string& name) const { return tmp_.path(name); }
-    std::string write(const std::string& name, const std::string& bytes) const { return tmp_.write(name, bytes); }
-    // A file of `bytes` zero bytes that takes no disk space (the size check comes first).
-    std::string sparse(const std::string& name, std::uint64_t bytes) const {
-        write(name, "");
-        fs::resize_file(path(name), bytes);
-        return path(name);
-    }
-    std::string fifo(const std::string& name) const {
-        EXPECT_EQ(::mkfifo(path(name).c_str(), 0600), 0);
-        return path(name);
-    }
-};
 
 // ---------------------------------------------------------------- the limits themselves
 
@@ -490,26 +474,6 @@ TEST_F(HostileFileTest, ObjMustBeARegularFileWithinItsLimits) {
     }
 }
 
-// A PNG whose IHDR claims w x h, with an IDAT of a few bytes and valid CRCs.
-std::string claimingPng(std::uint32_t w, std::uint32_t h) {
-    auto crc32 = [](const std::string& s) {
-        std::uint32_t c = 0xffffffffu;
-        for (unsigned char b : s) {
-            c ^= b;
-            for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-        }
-        return c ^ 0xffffffffu;
-    };
-    auto be32 = [](std::uint32_t v) {
-        return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)};
-    };
-    auto chunk = [&](const std::string& type, const std::string& data) {
-        return be32(std::uint32_t(data.size())) + type + data + be32(crc32(type + data));
-    };
-    const std::string ihdr = be32(w) + be32(h) + std::string{8, 6, 0, 0, 0};
-    const std::string idat("\x78\x9c\x63\x00\x00\x00\x01\x00\x01", 9);  // zlib of one zero byte
-    return "\x89PNG\r\n\x1a\n" + chunk("IHDR", ihdr) + chunk("IDAT", idat) + chunk("IEND", "");
-}
 
 TEST_F(HostileFileTest, PngBombsFailBeforeAllocating) {
     const std::string huge = write("huge.png", claimingPng(20000, 20000));
@@ -568,32 +532,6 @@ TEST_F(HostileFileTest, ShaderIncludesReadLongLinesWithoutRecursion) {
     EXPECT_NE(source.find("#include \"b.glsl\" trailing"), std::string::npos);
 }
 
-// ---------------------------------------------------------------- the command line, memory-bounded
-
-using test::BoundedRun;
-using test::runBounded;
-
-TEST_F(HostileFileTest, CommandLineFailsClearlyWithinBoundedMemoryAndTime) {
-    const std::string deep = write("deep.json", R"({"cloudscene": 1, "_": )" + std::string(200000, '[') + std::string(200000, ']') + "}");
-    const std::string tail = write("tail.json", sceneWith(R"("clouds": [])") + std::string(1, '\0') + "}");
-    fifo("fifo.json");
-    const std::pair<std::string, std::string> cases[] = {
-        {deep, "nested deeper than the limit " + limitText(kNestingDepth)},
-        {tail, "contains a NUL byte"},
-        {"/dev/zero", "is a character device, not a regular file"},
-        {path("fifo.json"), "is a FIFO, not a regular file"},
-    };
-    for (const auto& [file, fault] : cases) {
-        SCOPED_TRACE(file);
-        const BoundedRun r = runBounded("info " + file, 512, 20);
-        EXPECT_EQ(r.code, 2) << r.output;
-        EXPECT_EQ(r.output.rfind("nephele: " + file + ": ", 0), 0u) << r.output;
-        EXPECT_NE(r.output.find(fault), std::string::npos) << r.output;
-    }
-    const BoundedRun bomb = runBounded("compare " + write("bomb.png", claimingPng(20000, 20000)) + " " + path("bomb.png"), 512, 20);
-    EXPECT_EQ(bomb.code, 2) << bomb.output;
-    EXPECT_NE(bomb.output.find(limitText(kImageSide)), std::string::npos) << bomb.output;
-}
 
 }  // namespace
 }  // namespace nephele

@@ -492,7 +492,7 @@ TEST(PathTraceTest, CacheHitsAndMisses) {
 
 // The orders 0..k plus the orders k+1..n, with the same seed, are the image with maxBounces n:
 // what the accuracy bench's reference relies on to trace the high orders apart
-// (demo/accuracy_reference.cpp).
+// (bench/accuracy_reference.cpp).
 TEST(PathTraceTest, ScatteringOrdersSplitExactly) {
     Scene scene = cloudScene(16, 12);
     scene.medium.extinction = 0.05;  // optical depth about 12 through the centre: many orders

@@ -1,6 +1,7 @@
 # Run by ctest (TEST_INCLUDE_FILES, after the test executables' own lists): gives every
-# GoogleTest test its labels from tests/test_labels_list.cmake. Reads nephele_tests_TESTS and
-# nephele_gltests_TESTS, the lists gtest_discover_tests leaves.
+# GoogleTest test its labels from tests/test_labels_list.cmake. Reads nephele_tests_TESTS,
+# nephele_gltests_TESTS and the front ends' nephele_app_tests_TESTS and nephele_app_gltests_TESTS
+# (NEPHELE_BUILD_APPS), the lists gtest_discover_tests leaves.
 # ctest runs this without the project's policies: those of CMake 3.20 (if(... IN_LIST ...)), for this file only.
 cmake_policy(PUSH)
 cmake_policy(VERSION 3.20)
@@ -37,10 +38,15 @@ endfunction()
 set(NEPHELE_SLOW_FOUND)
 nephele_label_tests(unit "${nephele_tests_TESTS}")
 nephele_label_tests(gl "${nephele_gltests_TESTS}")
-# A slow test renamed or deleted would silently join the sanitizer subset: say which.
-foreach(name IN LISTS NEPHELE_SLOW_TESTS)
-  if(NOT name IN_LIST NEPHELE_SLOW_FOUND)
-    message(WARNING "tests/test_labels_list.cmake: no test named ${name} (renamed or deleted?)")
-  endif()
-endforeach()
+nephele_label_tests(unit "${nephele_app_tests_TESTS}")
+nephele_label_tests(gl "${nephele_app_gltests_TESTS}")
+# A slow test renamed or deleted would silently join the sanitizer subset: say which (when the
+# front ends' tests are built too: the list names theirs as well).
+if(DEFINED nephele_app_tests_TESTS)
+  foreach(name IN LISTS NEPHELE_SLOW_TESTS)
+    if(NOT name IN_LIST NEPHELE_SLOW_FOUND)
+      message(WARNING "tests/test_labels_list.cmake: no test named ${name} (renamed or deleted?)")
+    endif()
+  endforeach()
+endif()
 cmake_policy(POP)

@@ -1,9 +1,9 @@
 # The ctest labels of the test executables' tests (docs/testing.md, "Labels"). ctest reads this
-# after the executables have listed their tests (gtest_discover_tests: nephele_tests_TESTS,
-# nephele_gltests_TESTS), so a label follows a test by its name, whichever file it moves to:
-#   unit      nephele_tests: no GL context, no child process;
-#   cli       nephele_tests that run the `nephele` executable (it renders through EGL);
-#   gl        nephele_gltests: a GL context (EGL, OSMesa, or GLFW under Xvfb);
+# after the executables have listed their tests (gtest_discover_tests: nephele_tests_TESTS, ...),
+# so a label follows a test by its name, whichever file it moves to:
+#   unit      nephele_tests and nephele_app_tests: no GL context, no child process;
+#   cli       nephele_app_tests that run the `nephele` executable (it renders through EGL);
+#   gl        nephele_gltests and nephele_app_gltests: a GL context (EGL, OSMesa, or GLFW under Xvfb);
 #   sanitize  what the sanitizers exist for: hostile input, the log, the host's GL state;
 #   slow      over 3 s under the sanitizers (clang -O1, ctest -j2, 2026-12-02 to -04): the
 #             sanitize-rest-quick test preset leaves these out (CMakePresets.json).

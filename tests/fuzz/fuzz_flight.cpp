@@ -1,4 +1,4 @@
-// libFuzzer: the flight-script reader of `nephele fly --script` (demo/fly_script.cpp) on any
+// libFuzzer: the flight-script reader of `nephele fly --script` (apps/fly/fly_script.cpp) on any
 // bytes, and the cameras of the flight it reads (keyframes interpolated, inputs integrated at
 // the fixed step) over a small scene. A SceneError is the expected way to fail; anything else
 // (another exception, a crash, a sanitizer report, a timeout) is a finding.

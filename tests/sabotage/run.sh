@@ -242,7 +242,7 @@ if ! cmake -S "$scratch" -B "$build" "${launcher[@]}" -DNEPHELE_PCH=OFF -DNEPHEL
 fi
 
 # Which test executable runs which ctest name, from ctest's own listing of the unbroken build.
-test_targets=$(sed -n 's/^add_executable(\([A-Za-z0-9_]*\) .*/\1/p' "$scratch/tests/CMakeLists.txt" | tr '\n' ' ')
+test_targets=$(sed -n 's/^[[:space:]]*add_executable(\([A-Za-z0-9_]*\) .*/\1/p' "$scratch/tests/CMakeLists.txt" | tr '\n' ' ')
 [[ -n $test_targets ]] || die "found no add_executable() in tests/CMakeLists.txt"
 # shellcheck disable=SC2086
 if ! cmake --build "$build" -j"$jobs" --target $test_targets > "$workdir/logs/build.log" 2>&1; then
