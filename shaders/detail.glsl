@@ -167,3 +167,19 @@ MODEL_FN float erodedSegmentDepth(DETAIL_TEX tex, DetailParams dp, vec3 oUnit, v
     }
     return max(sum, 0.0f) / c.len;
 }
+
+// How much an ellipsoid's unit space grows (1 + delta) for the eroded ellipsoid about a ray to be
+// its unit sphere: max(1 - q (1 + delta)^2, 0)^2 is the smooth profile of the sphere shrunk to
+// 1 / (1 + delta). delta is read where the ray enters the eroded ellipsoid beyond tStart (two
+// fixed-point steps from the smooth one's entry); 1 where the ray misses. The light's chord
+// samples (chordLightAt) follow the eroded chord with it: the smooth chord's first mean free
+// paths are what the detail took away, and the grids hold that air as air.
+MODEL_FN float erodedGrowth(DETAIL_TEX tex, DetailParams dp, vec3 oUnit, vec3 dUnit, vec3 d, float tStart) {
+    float grow = 1.0f;
+    for (int i = 0; i < 2; ++i) {
+        ChordSpan c = chordSpan(oUnit * grow, dUnit * grow, tStart, 1e30f);
+        if (c.h2 <= 0.0f) break;
+        grow = 1.0f + detailErosion(tex, dp, d * ((c.tc + c.u0) / c.len));
+    }
+    return grow;
+}

@@ -59,7 +59,11 @@ void main() {
     vec3 d = normalize(relPosition);
     float tStart = nearClip / dot(d, forward);
     float depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), tStart, 1e30);
-    vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz, toUnit(t, d), d, tStart, instance.y, sunDirection, hgG);
+    float grow = 1.0;  // the light follows the eroded chord (erodedGrowth, detail.glsl)
+#ifndef FALLOFF_TEXTURE
+    if (detail.erosion > 0.0) grow = erodedGrowth(detailVolume, detail, t.eyeUnitAc.xyz, toUnit(t, d), d, tStart);
+#endif
+    vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz * grow, toUnit(t, d) * grow, d, tStart, instance.y, sunDirection, hgG);
 #else
     // The plane point at radius rho lies on the ray with impact parameter
     // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):

@@ -10,6 +10,7 @@
 // opacity is the exact chord beyond the near plane per pixel; they need the ray instead.
 #define MODEL_FN
 #include "gardner_model.glsl"
+#include "detail.glsl"
 #include "tiles.glsl"
 #include "cloud_light_grid.glsl"
 layout(location = 0) in vec3 position;   // on the circumscribed unit-sphere mesh
@@ -23,6 +24,8 @@ uniform vec3 eyeNoise;                   // fract(eye / noisePeriod)
 uniform float noisePeriod;               // m
 uniform vec3 sunDirection;               // unit, towards the sun
 uniform float hgG;                       // medium.hg_g
+uniform DetailParams detail;             // medium.detail (erosion 0: off), as the fragment shader's
+uniform sampler3D detailVolume;
 flat out int tileIndex;
 #ifdef CUT
 out vec3 relPosition;                    // camera-relative world position (the ray)
@@ -88,6 +91,11 @@ void main() {
     vec3 shade = tShade * d;
     noiseCoord = shade / noisePeriod + eyeNoise + t.noiseOffset.xyz;
 #ifndef CUT
-    light = chordLightAt(int(t.params.y), o, du, d, tStart, t.centerSigma.w, sunDirection, hgG);
+    // With the detail, the light follows the eroded chord (erodedGrowth, detail.glsl).
+    float grow = 1.0;
+#ifndef FALLOFF_TEXTURE
+    if (detail.erosion > 0.0) grow = erodedGrowth(detailVolume, detail, o, du, d, tStart);
+#endif
+    light = chordLightAt(int(t.params.y), o * grow, du * grow, d, tStart, t.centerSigma.w, sunDirection, hgG);
 #endif
 }

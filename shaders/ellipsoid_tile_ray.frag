@@ -55,7 +55,8 @@ void main() {
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
     if (detail.erosion > 0.0 && depth > 0.0)
         depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, detailPieces);
-    vec2 light = chordLightAt(cloud, o, du, d, tStart, instance.y, sunDirection, hgG);
+    float grow = detail.erosion > 0.0 ? erodedGrowth(detailVolume, detail, o, du, d, tStart) : 1.0;  // the eroded chord
+    vec2 light = chordLightAt(cloud, o * grow, du * grow, d, tStart, instance.y, sunDirection, hgG);
     // Outside the silhouette: no matter (A = 0) makes eq. (2) zero whatever Ac and n are; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.
     bool inside = depth > 0.0;

@@ -5,6 +5,7 @@
 // dimension the benches report.
 #include "nephele/detail.hpp"
 
+#include "nephele/cloud_radiance.hpp"
 #include "nephele/ellipsoid_space.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/metrics.hpp"
@@ -234,4 +235,33 @@ TEST(DetailTest, LoaderChecksTheDetail) {
     fails(R"({"smallest": 0.01})", "medium.detail.smallest");
     fails(R"({"wind": [300, 0, 0]})", "medium.detail.wind");
     fails(R"({"erosoin": 1})", "erosoin");
+}
+
+// The clouds' radiance grids hold the eroded cloud (issue 34 §2): the sun's transmittance through
+// the detail, closed form in pieces of a fine voxel, is the smooth one's as the erosion goes to 0,
+// never below it (erosion only removes matter), and well above it where the detail bites.
+TEST(DetailTest, RadianceGridsSeeTheErosion) {
+    RadianceGridSettings g;
+    g.size = 16;
+    g.sunPhotons = g.skyPhotons = 1 << 10;
+    auto grid = [&](double erosion) {
+        const Scene s = oneCloud(erosion);
+        return computeCloudRadiance(s, s.clouds[0], g);
+    };
+    const CloudRadiance smooth = grid(0), faint = grid(1e-5), eroded = grid(1.5);
+    ASSERT_EQ(smooth.sunTransmittance.size(), eroded.sunTransmittance.size());
+    double faintMax = 0;
+    int below = 0, lifted = 0, shadowed = 0;
+    for (std::size_t i = 0; i < smooth.sunTransmittance.size(); ++i) {
+        const double t0 = smooth.sunTransmittance[i], t1 = eroded.sunTransmittance[i];
+        faintMax = std::max(faintMax, std::abs(double(faint.sunTransmittance[i]) - t0));
+        if (t1 < t0 - 1e-4) ++below;
+        if (t0 < 0.9) ++shadowed;
+        if (t0 < 0.9 && t1 > t0 + 0.05) ++lifted;
+    }
+    std::printf("faint: largest difference %.2g; eroded: %d of %d shadowed voxels lifted by > 0.05, %d below\n", faintMax,
+                lifted, shadowed, below);
+    EXPECT_LT(faintMax, 1e-3);
+    EXPECT_EQ(below, 0);
+    EXPECT_GT(lifted, shadowed / 4);
 }

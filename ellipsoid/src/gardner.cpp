@@ -222,7 +222,9 @@ bool chordLayer(const ExactFrame& f, std::size_t pi, const Vec3& d, const RayRan
     if (alpha <= 0) return false;
     // The light of the chord (per pixel here; the compositor's meshes evaluate it per vertex).
     const CloudRadiance& grid = f.grids[p.cloud];
-    const glm::vec2 light = chordLight(grid, f.scene, view.eye, d, o, du, tStart, float(p.sigma));
+    // With the detail, the light follows the eroded chord (erodedGrowth, detail.glsl), as the tiles'.
+    const float grow = detail.erosion > 0 ? model::erodedGrowth(detailVolume(), detail, o, du, glm::vec3(d), tStart) : 1.0f;
+    const glm::vec2 light = chordLight(grid, f.scene, view.eye, d, o * grow, du * grow, tStart, float(p.sigma));
     out.color = model::sourceFromScalars(glm::vec3(light, 0.0f), f.sunIrradiance, f.chroma[pi], float(f.scene.medium.albedo));
     out.alpha = alpha;
     out.depth = 0;

@@ -2,6 +2,7 @@
 // on the grid, the sun's optical depth in closed form, and the diffuse light by photons traced
 // through the voxelised extinction with the path tracer's physics, scored by track length.
 #include "nephele/cloud_radiance.hpp"
+#include "grid_erosion.hpp"
 #include "phase_sampling.hpp"
 
 #include "nephele/gardner_model.hpp"
@@ -53,10 +54,11 @@ struct Grid {
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * n + y) * n + x; }
 };
 
-// Mean extinction over each voxel: the exact field at 2x2x2 points per voxel, each ellipsoid
-// over the voxels of its box only; on a periodic grid what reaches past a side comes back
-// through the opposite one.
-std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& g) {
+// Mean extinction over each voxel: the field at 2x2x2 points per voxel (the finer grid's voxel
+// centres, where `erosion` is read), each ellipsoid over the voxels of its box only; on a
+// periodic grid what reaches past a side comes back through the opposite one.
+std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& g, const GridErosion& erosion) {
+    static_assert(kSunRefinement == 2, "voxelise samples the finer grid's voxel centres");
     std::vector<float> sigma(std::size_t(g.n) * g.n * g.n, 0.0f);
     struct Shape { glm::dmat3 unit; Vec3 centre; double sigma; glm::ivec3 lo, hi; };
     std::vector<Shape> shapes;
@@ -79,10 +81,12 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
                 for (int x = e.lo.x; x <= e.hi.x; ++x) {
                     double sum = 0;
                     for (int k = 0; k < 8; ++k) {
-                        const Vec3 sub(0.25 + 0.5 * (k & 1), 0.25 + 0.5 * ((k >> 1) & 1), 0.25 + 0.5 * (k >> 2));
-                        const Vec3 u = e.unit * (g.lo + (Vec3(x, y, z) + sub) * g.cell - e.centre);
+                        const glm::ivec3 sub(k & 1, (k >> 1) & 1, k >> 2);
+                        const Vec3 u = e.unit * (g.lo + (Vec3(x, y, z) + 0.25 + 0.5 * Vec3(sub)) * g.cell - e.centre);
                         const double q = glm::dot(u, u);
-                        if (q < 1) sum += (1 - q) * (1 - q);
+                        if (q >= 1) continue;
+                        sum += erosion.on() ? erodedProfile(q, erosion.atFine(2 * x + sub.x, 2 * y + sub.y, 2 * z + sub.z))
+                                            : (1 - q) * (1 - q);
                     }
                     const int wx = ((x % g.n) + g.n) % g.n, wy = ((y % g.n) + g.n) % g.n;  // x, y on a periodic grid
                     sigma[g.index(wx, wy, z)] += float(e.sigma * sum / 8);
@@ -343,11 +347,30 @@ double beyondTile(const Grid& g, const Vec3& p, const Vec3& w) {
     return tau;
 }
 
+// The eroded profile's depth along the ray p + t s (o, d: its unit-space origin and direction in
+// one ellipsoid) for t >= 0, as erodedSegmentDepth: in pieces of at most `piece` metres, each
+// eroded by the grid's delta at its middle.
+double erodedSunDepth(const GridErosion& erosion, const glm::vec3& o, const glm::vec3& d, const Vec3& p, const Vec3& s,
+                      double piece) {
+    const model::ChordSpan c = model::chordSpan(o, d, 0.0f, 1e30f);
+    if (c.h2 <= 0.0f || !(c.u1 > c.u0)) return 0;
+    const int pieces = std::max(1, int(std::ceil((c.u1 - c.u0) / c.len / piece)));
+    const float step = (c.u1 - c.u0) / float(pieces);
+    double sum = 0;
+    for (int i = 0; i < pieces; ++i) {
+        const float ua = c.u0 + float(i) * step;
+        const double t = (c.tc + ua + 0.5f * step) / c.len;
+        sum += model::erodedPiece(c.h2, ua, ua + step, erosion.at(p + t * s));
+    }
+    return std::max(sum, 0.0) / c.len;
+}
+
 // The sun's transmittance at the centres of the voxels of the finer grid (`n` per side over
-// g's box), its optical depth closed form through every ellipsoid; on a periodic grid, past
+// g's box), its optical depth closed form through every ellipsoid (with the detail, in pieces
+// of a fine voxel, each closed form); on a periodic grid, past
 // where the ray first leaves the box across, on through g's voxelised field of the tiles beyond
 // until it leaves through the top or the bottom.
-std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n) {
+std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n, const GridErosion& erosion) {
     // Per ellipsoid, the arguments of model::segmentDepth(M (p - c), M s, 0, infinity), M (p - c)
     // stepped from voxel to voxel rather than multiplied out: the finer grid has
     // kSunRefinement^3 times the voxels of the diffuse light's.
@@ -368,6 +391,7 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
     // minutes (issue 38); the shadows cost about N R^2 n / cell^2. The sums are the same, term
     // by term (a voxel outside every shadow gets a 0 from each).
     const Vec3 boxHi = g.lo + cell * double(n);
+    const double piece = std::max({cell.x, cell.y, cell.z});
     std::vector<float> out(std::size_t(n) * n * n);
     parallelFor(n, [&](int z) {
         std::vector<double> tau(std::size_t(n) * n, 0.0);
@@ -395,7 +419,9 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
                 for (int x = lo[0]; x <= hi[0]; ++x) {
                     const glm::vec3 o(e.origin + double(x) * e.step[0] + double(y) * e.step[1] + double(z) * e.step[2]);
                     if (glm::dot(o, o) >= 1 && glm::dot(o, e.sun) >= 0) continue;  // outside it, the sun away from it: 0
-                    tau[std::size_t(y) * n + x] += e.weight * model::segmentDepth(o, e.sun, 0.0f, 1e30f);
+                    tau[std::size_t(y) * n + x] +=
+                        e.weight * (erosion.on() ? erodedSunDepth(erosion, o, e.sun, g.lo + (Vec3(x, y, z) + 0.5) * cell, sun, piece)
+                                                 : model::segmentDepth(o, e.sun, 0.0f, 1e30f));
                 }
         }
         for (int y = 0; y < n; ++y)
@@ -493,18 +519,18 @@ CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, con
         s.sunPhotons = int(std::lround(settings.sunPhotons * share));
         s.skyPhotons = int(std::lround(settings.skyPhotons * share));
     }
+    const GridGeometry geometry = gridGeometry(scene, cloud, settings);
     CloudRadiance out;
     out.size = s.size;
-    Vec3 lo, hi;
-    radianceBox(cloud, lo, hi);
-    out.boxMin = lo;
-    out.boxExtent = glm::max(hi - lo, Vec3(1.0));
+    out.boxMin = geometry.lo;
+    out.boxExtent = geometry.extent;
     Grid g;
     g.n = s.size;
     g.lo = out.boxMin;
     g.cell = out.boxExtent / double(s.size);
     g.periodic = cloud.tiled();
-    g.sigma = voxelise(scene, cloud, g);
+    const GridErosion erosion(scene, cloud, geometry);
+    g.sigma = voxelise(scene, cloud, g, erosion);
     traceSun(scene, g, s, out.sunFew, out.sunMany, cancel);
     traceSky(scene, g, s, out.skyTau, out.skyFlux, cancel);
     if (cancel && *cancel) return CloudRadiance{};
@@ -521,7 +547,7 @@ CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, con
         smooth(out.skyTau, s.size);
         smooth(out.skyFlux, s.size);
     }
-    out.sunTransmittance = sunTransmittances(scene, cloud, g, out.sunSize());
+    out.sunTransmittance = sunTransmittances(scene, cloud, g, out.sunSize(), erosion);
     out.computeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return out;
 }

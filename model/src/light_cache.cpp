@@ -1,6 +1,7 @@
 #include "light_cache.hpp"
 
 #include "fingerprint.hpp"
+#include "grid_erosion.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -36,10 +37,14 @@ std::uint64_t shapeKey(const Cloud& cloud, const RadianceGridSettings& s) {
     return f.value();
 }
 
-std::uint64_t lightKey(const Scene& scene, std::uint64_t shape) {
+std::uint64_t lightKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s, std::uint64_t shape) {
     Fingerprint f;
     f.add(shape);
     addLight(f, scene);
+    // With the detail a grid holds the eroded cloud: it depends on the detail, and on where the
+    // detail sits in the cloud (grid_erosion.hpp).
+    if (scene.medium.detail.on())
+        f.addDetail(scene.medium.detail).add(gridDetailOffset(scene, cloud, gridGeometry(scene, cloud, s)));
     return f.value();
 }
 
@@ -53,7 +58,7 @@ double overlap(const Vec3& loA, const Vec3& extA, const Vec3& loB, const Vec3& e
 }  // namespace
 
 std::uint64_t radianceGridKey(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings) {
-    return lightKey(scene, shapeKey(cloud, settings));
+    return lightKey(scene, cloud, settings, shapeKey(cloud, settings));
 }
 
 CloudRadianceCache::~CloudRadianceCache() {
@@ -111,7 +116,7 @@ std::vector<CloudRadianceCache::Want> CloudRadianceCache::wants(const Scene& sce
     for (std::size_t i = 0; i < out.size(); ++i) {
         Want& w = out[i];
         w.shape = shapeKey(scene.clouds[i], s);
-        w.key = lightKey(scene, w.shape);
+        w.key = lightKey(scene, scene.clouds[i], s, w.shape);
         Vec3 hi;
         radianceBox(scene.clouds[i], w.lo, hi);
         w.extent = glm::max(hi - w.lo, Vec3(1.0));
