@@ -119,7 +119,8 @@ int runScaleBench(const ScaleBenchOptions& options);
 // memory it holds (bench/grid_bench.cpp).
 struct GridBenchOptions {
     BenchOptions bench;  // grid_bench.csv, grid_bench.md (no GL)
-    std::vector<std::string> scenes{"single.json", "two_clouds.json", "cumulus27.json", "showcase.json", "field1000.json"};
+    std::vector<std::string> scenes{"single.json", "two_clouds.json", "cumulus27.json", "dense_cumulus.json",
+                                    "detailed_cumulus.json", "showcase.json", "field1000.json"};
     int runs = 3;                 // per cloud (median)
 };
 int runGridBench(const GridBenchOptions& options);

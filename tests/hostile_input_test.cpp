@@ -171,7 +171,8 @@ TEST(HostileCumulusTest, ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
     Cloud few = many;
     few.ellipsoids.resize(200);
     RadianceGridSettings s;
-    s.fitToCloud = false;  // both 32^3, with all the photons
+    s.size = 32, s.fitToCloud = false;  // both 32^3, with all the photons
+    s.sunPhotons = s.skyPhotons = 1 << 18;
     double cpu[2];
     for (int k = 0; k < 2; ++k) {
         const double start = processCpuSeconds();
