@@ -80,10 +80,8 @@ std::vector<Config> sweep(bool quick) {
         ell("8-bit atlas", [](EllipsoidSettings& s) { s.precision = AtlasPrecision::Unorm8; });
         ell("tessellation 6", [](EllipsoidSettings& s) { s.tessellation = 6; });
         ell("tessellation 48", [](EllipsoidSettings& s) { s.tessellation = 48; });
-        ell("light grid 16", [](EllipsoidSettings& s) { s.light.size = 16, s.light.sunPhotons /= 16, s.light.skyPhotons /= 16; });
-        ell("light grid not fitted", [](EllipsoidSettings& s) {
-            s.light.fitToCloud = false, s.light.size = 32, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4;
-        });
+        ell("light grid 16", [](EllipsoidSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
+        ell("light grid not fitted", [](EllipsoidSettings& s) { s.light.fitToCloud = false; });
         ell("photons x 4", [](EllipsoidSettings& s) { s.light.sunPhotons *= 4, s.light.skyPhotons *= 4; });
         ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
         ell("weighted composite", [](EllipsoidSettings& s) { s.order = CompositeOrder::Weighted; });
@@ -93,7 +91,7 @@ std::vector<Config> sweep(bool quick) {
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
         ray("fixed step", [](RaymarchSettings& s) { s.lodDistance = 0; });
         ray("a ray per pixel", [](RaymarchSettings& s) { s.downsample = 1; });
-        ray("light grid 16", [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 16, s.light.skyPhotons /= 16; });
+        ray("light grid 16", [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
         ray("octaves 2", [](RaymarchSettings& s) { s.octaves = 2; }, true);
     }
     c.push_back({Kind::GardnerExact, "CPU, float", {}, {}, {}});

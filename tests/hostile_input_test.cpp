@@ -171,8 +171,7 @@ TEST(HostileCumulusTest, ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
     Cloud few = many;
     few.ellipsoids.resize(200);
     RadianceGridSettings s;
-    s.size = 32, s.fitToCloud = false;  // both 32^3, with all the photons
-    s.sunPhotons = s.skyPhotons = 1 << 18;
+    s.fitToCloud = false;  // both 32^3, with all the photons
     double cpu[2];
     for (int k = 0; k < 2; ++k) {
         const double start = processCpuSeconds();

@@ -49,21 +49,20 @@ struct RadianceGridSettings {
     // Voxels per side of the grid of a big cloud, 4..128. 32 by the accuracy bench: with the
     // light in two parts (cloud_light.glsl) a finer grid is better everywhere it was measured,
     // most against the sun (the ray-marcher back-lit: 31% at 16^3, 17% at 32^3, 12% at 48^3),
-    // at 8 times the photons and memory of 16^3 (docs/light.md). With fitToCloud only an
-    // optically thick cloud gets the largest: 64 resolves the lit skin of real cumulus (a mean
-    // free path of about 13 m) where 32 did not (dense cumulus back-lit: 40% at 32^3, 25% at
-    // 64^3, tools/detail_light.py); cumulus27 gets 32, a puff 8 or 16.
-    int size = 64;
+    // at 8 times the photons and memory of 16^3 (docs/light.md). Real cumulus (dense_cumulus.json)
+    // would take 64 (its back-lit error 40% at 32^3, 25% at 64^3), but a grid's light read beyond
+    // its box moves with its voxel size (docs/light.md, "The grid's size and real cumulus"): not the
+    // default yet.
+    int size = 32;
     // Each cloud's grid as fine as its optical size needs (radianceGridSize): a small or thin
     // cloud gets 8^3 or 16^3 voxels, and photons in proportion to the grid's cross-section
     // (n^2: a photon crosses about n voxels, so each voxel's tally keeps its noise). false:
     // every grid `size`^3 with all the photons.
     bool fitToCloud = true;
     // Photons traced from the sun, and from the sky and the ground, for a grid of `size`^3,
-    // 0..2^26; a fitted grid of n^3 gets them times (n / size)^2. 2^20 at 64^3 is 2^18 at 32^3:
-    // there the accuracy bench's cumulus lost under a point against 2^20.
-    int sunPhotons = 1 << 20;
-    int skyPhotons = 1 << 20;
+    // 0..2^26. 2^18 at 32^3: the accuracy bench's cumulus lost under a point against 2^20.
+    int sunPhotons = 1 << 18;
+    int skyPhotons = 1 << 18;
     int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
     unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
     // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
@@ -128,8 +127,7 @@ double cloudOpticalRadius(const Scene& scene, const Cloud& cloud);
 
 // The voxels per side of `cloud`'s grid: settings.size, or with fitToCloud the power of two at
 // or above its optical radius, between 8 and settings.size (a voxel then spans at most about
-// two optical depths up to the largest; cumulus27.json's cloud gets 32, dense_cumulus.json's
-// 64, a puff of optical radius 3 gets 8).
+// two optical depths; cumulus27.json's cloud gets 32, a puff of optical radius 3 gets 8).
 int radianceGridSize(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& settings);
 
 // Throws std::invalid_argument naming the setting that is out of range.
