@@ -3,6 +3,7 @@
 // through the voxelised extinction with the path tracer's physics, scored by track length.
 #include "nephele/cloud_radiance.hpp"
 #include "grid_erosion.hpp"
+#include "grid_sampling.hpp"
 #include "phase_sampling.hpp"
 
 #include "nephele/gardner_model.hpp"
@@ -512,14 +513,14 @@ CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, con
     validate(settings);
     const Scene scene = lightSources(sceneIn);  // what lights the grid (Scene::lighting)
     const auto start = std::chrono::steady_clock::now();
+    const GridGeometry geometry = gridGeometry(scene, cloud, settings);
     RadianceGridSettings s = settings;
-    s.size = radianceGridSize(scene, cloud, settings);
+    s.size = geometry.size;
     if (s.size != settings.size) {  // photons in proportion to the cross-section (see fitToCloud)
         const double share = std::pow(double(s.size) / settings.size, 2);
         s.sunPhotons = int(std::lround(settings.sunPhotons * share));
         s.skyPhotons = int(std::lround(settings.skyPhotons * share));
     }
-    const GridGeometry geometry = gridGeometry(scene, cloud, settings);
     CloudRadiance out;
     out.size = s.size;
     out.boxMin = geometry.lo;
@@ -551,25 +552,6 @@ CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, con
     out.computeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return out;
 }
-
-namespace {
-
-// The trilinear weights at a world point of a grid of n^3 voxel centres over the box, clamped
-// to the outermost centres (the GPU's GL_LINEAR, clamp-to-edge): f(index, weight) per corner.
-template <class F>
-void trilinear(const Vec3& boxMin, const Vec3& boxExtent, int n, const Vec3& world, F&& f) {
-    const Vec3 p = glm::clamp((world - boxMin) / boxExtent * double(n) - 0.5, Vec3(0.0), Vec3(n - 1));
-    const glm::ivec3 i0 = glm::min(glm::ivec3(p), glm::ivec3(n - 2));  // n >= 4 (validate)
-    const glm::vec3 fr = glm::vec3(p - Vec3(i0));
-    for (int c = 0; c < 8; ++c) {
-        const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
-        const glm::ivec3 at = i0 + o;
-        const glm::vec3 t = glm::mix(glm::vec3(1.0f) - fr, fr, glm::vec3(o));
-        f((std::size_t(at.z) * n + at.y) * n + at.x, t.x * t.y * t.z);
-    }
-}
-
-}  // namespace
 
 RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
     RadianceSample r;

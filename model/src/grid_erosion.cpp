@@ -1,6 +1,7 @@
 // The detail field as a radiance grid holds it (grid_erosion.hpp).
 #include "grid_erosion.hpp"
 
+#include "grid_sampling.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -39,6 +40,7 @@ GridErosion::GridErosion(const Scene& scene, const Cloud& cloud, const GridGeome
     if (!on_) return;
     n_ = kSunRefinement * g.size;
     lo_ = g.lo;
+    extent_ = g.extent;
     cell_ = g.extent / double(n_);
     drift_ = anchorOf(cloud) - Vec3(gridDetailOffset(scene, cloud, g)) * offsetStep(g);
     // The eye's octave count and normalisation (so the erosion keeps its distribution), drawn
@@ -67,17 +69,9 @@ float GridErosion::atFine(int i, int j, int k) const {
 }
 
 float GridErosion::at(const Vec3& x) const {
-    const Vec3 p = glm::clamp((x - lo_) / cell_ - 0.5, Vec3(0.0), Vec3(n_ - 1));
-    const glm::ivec3 a = glm::min(glm::ivec3(p), glm::ivec3(n_ - 2));  // n_ >= 2 kSunRefinement
-    const glm::ivec3 b = a + 1;
-    const Vec3 f = p - Vec3(a);
-    auto v = [&](int i, int j, int k) { return double(delta_[(std::size_t(k) * n_ + j) * n_ + i]); };
-    const double x00 = v(a.x, a.y, a.z) + f.x * (v(b.x, a.y, a.z) - v(a.x, a.y, a.z));
-    const double x10 = v(a.x, b.y, a.z) + f.x * (v(b.x, b.y, a.z) - v(a.x, b.y, a.z));
-    const double x01 = v(a.x, a.y, b.z) + f.x * (v(b.x, a.y, b.z) - v(a.x, a.y, b.z));
-    const double x11 = v(a.x, b.y, b.z) + f.x * (v(b.x, b.y, b.z) - v(a.x, b.y, b.z));
-    const double y0 = x00 + f.y * (x10 - x00), y1 = x01 + f.y * (x11 - x01);
-    return float(y0 + f.z * (y1 - y0));
+    float value = 0.0f;
+    trilinear(lo_, extent_, n_, x, [&](std::size_t i, float w) { value += w * delta_[i]; });
+    return value;
 }
 
 }  // namespace nephele

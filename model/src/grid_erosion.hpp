@@ -40,15 +40,13 @@ public:
     float atFine(int i, int j, int k) const;
     // At a world point: trilinear between the fine voxel centres, clamped to the outermost ones.
     float at(const Vec3& x) const;
-    // The fine voxels' side (m).
-    Vec3 fineCell() const { return cell_; }
 
 private:
     float evaluate(const Vec3& x) const;
 
     bool on_ = false;
     int n_ = 0;
-    Vec3 lo_{0.0}, cell_{1.0};
+    Vec3 lo_{0.0}, extent_{1.0}, cell_{1.0};  // the grid's box; its fine voxels' side
     Vec3 drift_{0.0};  // the detail's drift the grid is made for (gridDetailOffset's rounding)
     model::DetailParams params_{};
     std::vector<float> delta_;
