@@ -3,6 +3,8 @@
 // give what NoiseVolume::sample gives on the CPU, which the CPU reference renderers use.
 #include "gl_test_util.hpp"
 
+#include "../model/internal/noise_texture.hpp"
+
 #include "nephele/noise.hpp"
 #include "nephele/shader.hpp"
 
@@ -19,15 +21,10 @@ using namespace nephele::gl;
 
 namespace {
 
+// The library's own upload (noiseTexture), which every renderer samples the noise through.
 Texture uploadVolume(const NoiseVolume& v) {
-    Texture tex = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(tex.id(), 1, GL_R32F, v.size, v.size, v.size);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glTextureSubImage3D(tex.id(), 0, 0, 0, 0, v.size, v.size, v.size, GL_RED, GL_FLOAT, v.texels.data());
-    glTextureParameteri(tex.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(tex.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-        glTextureParameteri(tex.id(), wrap, GL_REPEAT);
+    Texture tex = noiseTexture(v);
     checkAlways("upload noise volume");
     return tex;
 }

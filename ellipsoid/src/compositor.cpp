@@ -3,6 +3,7 @@
 // and render(), which runs the tile pass (tile_pass.cpp) and the composite (composite_pass.cpp).
 #include "compositor_impl.hpp"
 #include "ellipsoid_hooks.hpp"
+#include "noise_texture.hpp"
 
 #include "nephele/gl_state.hpp"
 
@@ -150,13 +151,7 @@ void EllipsoidRenderer::Impl::makeTextures(const EllipsoidSettings& s) {
     glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
 
-    const NoiseVolume nv = makeNoiseVolume(s.noise.size, s.noise.cells, s.noise.octaves, s.noise.seed);
-    noise = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(noise.id(), 1, GL_R32F, nv.size, nv.size, nv.size);
-    glTextureSubImage3D(noise.id(), 0, 0, 0, 0, nv.size, nv.size, nv.size, GL_RED, GL_FLOAT, nv.texels.data());
-    glTextureParameteri(noise.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(noise.id(), w, GL_REPEAT);
+    noise = noiseTexture(makeNoiseVolume(s.noise.size, s.noise.cells, s.noise.octaves, s.noise.seed));
 }
 
 EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {

@@ -3,6 +3,7 @@
 
 #include "cloud_light_textures.hpp"
 #include "detail_texture.hpp"
+#include "noise_texture.hpp"
 #include "object_light_pass.hpp"
 #include "nephele/frame_depth.hpp"
 #include "nephele/gardner_model.hpp"
@@ -199,13 +200,7 @@ void RaymarchRenderer::Impl::ensureNoise(const RaymarchSettings& s) {
     if (noise && noiseOctaves == s.octaves) return;
     const NoiseSettings ns = raymarchNoiseSettings(s);
     noiseCpu = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
-    noise = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(noise.id(), 1, GL_R32F, noiseCpu.size, noiseCpu.size, noiseCpu.size);
-    glTextureSubImage3D(noise.id(), 0, 0, 0, 0, noiseCpu.size, noiseCpu.size, noiseCpu.size, GL_RED, GL_FLOAT,
-                        noiseCpu.texels.data());
-    glTextureParameteri(noise.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(noise.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(noise.id(), w, GL_REPEAT);
+    noise = noiseTexture(noiseCpu);
     noiseOctaves = s.octaves;
     check("uploading the raymarch noise volume");
 }
