@@ -17,6 +17,7 @@ PKGS=(
   python3-matplotlib                                   # bench charts (/usr/bin/python3)
   clang libclang-rt-14-dev                             # the libFuzzer harness (tests/fuzz/smoke.sh)
   doxygen                                              # the API reference (docs/api.md)
+  clang-format                                         # the form gate (.clang-format, tools/check_format.py)
 )
 missing=()
 for p in "${PKGS[@]}"; do

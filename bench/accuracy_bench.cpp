@@ -40,10 +40,10 @@ enum class Kind { Ellipsoid, Raymarch, GardnerExact, PathTrace };
 
 const char* kindName(Kind k) {
     switch (k) {
-    case Kind::Ellipsoid: return "ellipsoid";
-    case Kind::Raymarch: return "raymarch";
-    case Kind::GardnerExact: return "gardner-exact";
-    case Kind::PathTrace: return "pathtrace";
+        case Kind::Ellipsoid: return "ellipsoid";
+        case Kind::Raymarch: return "raymarch";
+        case Kind::GardnerExact: return "gardner-exact";
+        case Kind::PathTrace: return "pathtrace";
     }
     return "?";
 }
@@ -80,7 +80,8 @@ std::vector<Config> sweep(bool quick) {
         ell("8-bit atlas", [](EllipsoidSettings& s) { s.precision = AtlasPrecision::Unorm8; });
         ell("tessellation 6", [](EllipsoidSettings& s) { s.tessellation = 6; });
         ell("tessellation 48", [](EllipsoidSettings& s) { s.tessellation = 48; });
-        ell("light grid 16", [](EllipsoidSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
+        ell("light grid 16",
+            [](EllipsoidSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
         ell("light grid not fitted", [](EllipsoidSettings& s) { s.light.fitToCloud = false; });
         ell("photons x 4", [](EllipsoidSettings& s) { s.light.sunPhotons *= 4, s.light.skyPhotons *= 4; });
         ell("polygon tiles", [](EllipsoidSettings& s) { s.geometry = TileGeometry::Polygon; });
@@ -91,8 +92,10 @@ std::vector<Config> sweep(bool quick) {
         ray("step 100 m", [](RaymarchSettings& s) { s.step = 100; });
         ray("fixed step", [](RaymarchSettings& s) { s.lodDistance = 0; });
         ray("a ray per pixel", [](RaymarchSettings& s) { s.downsample = 1; });
-        ray("light grid 16", [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
-        ray("octaves 2", [](RaymarchSettings& s) { s.octaves = 2; }, true);
+        ray("light grid 16",
+            [](RaymarchSettings& s) { s.light.size = 16, s.light.sunPhotons /= 4, s.light.skyPhotons /= 4; });
+        ray(
+            "octaves 2", [](RaymarchSettings& s) { s.octaves = 2; }, true);
     }
     c.push_back({Kind::GardnerExact, "CPU, float", {}, {}, {}});
     Config pt{Kind::PathTrace, "16 spp", {}, {}, {}};
@@ -133,7 +136,7 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     std::vector<Case> out;
     const std::vector<std::string> names =
         o.bench.quick ? std::vector<std::string>{"single.json"}
-                : std::vector<std::string>{"single.json", "two_clouds.json", "flythrough.json", "field1000.json"};
+                      : std::vector<std::string>{"single.json", "two_clouds.json", "flythrough.json", "field1000.json"};
     for (const std::string& n : names) {
         Case c{n, -1, loadScene(o.bench.scenesDir + "/" + n)};
         scaleTo(c.scene, o.width);
@@ -143,8 +146,8 @@ std::vector<Case> cases(const AccuracyOptions& o) {
     const Scene base = loadScene(o.bench.scenesDir + "/cumulus27.json");
     const Vec3 target = centroid(base.clouds.at(0));
     const Vec3 forward = base.camera.direction;
-    const std::vector<double> distances = o.bench.quick ? std::vector<double>{6000}
-                                                  : std::vector<double>{0, 600, 2000, 6000, 15000};
+    const std::vector<double> distances =
+        o.bench.quick ? std::vector<double>{6000} : std::vector<double>{0, 600, 2000, 6000, 15000};
     auto at = [&](const Scene& s, double d) {
         Scene c = s;
         c.camera.position = target - d * forward;
@@ -156,7 +159,8 @@ std::vector<Case> cases(const AccuracyOptions& o) {
         return c;
     };
     for (double d : distances)
-        out.push_back({"cumulus27.json at " + (d == 0 ? std::string("0 m (inside)") : fmt("%.0f m", d)), d, at(base, d)});
+        out.push_back(
+            {"cumulus27.json at " + (d == 0 ? std::string("0 m (inside)") : fmt("%.0f m", d)), d, at(base, d)});
     if (o.bench.quick) return out;
     // The light's hard cases. Back-lit: the sun 20 degrees off the view axis, behind the cloud
     // (the silver lining, and the dark core). A low sun (5 degrees) from the side.
@@ -187,7 +191,8 @@ std::vector<Case> cases(const AccuracyOptions& o) {
         reach = std::max(reach, glm::dot(e.center - denseCentre, -forward) + e.maxRadius());
     dense.camera.position = denseCentre - (reach + 300.0) * forward;
     scaleTo(dense, o.width);
-    out.push_back({"dense cumulus (" + std::to_string(dense.clouds[0].ellipsoids.size()) + " ellipsoids) from 300 m", -1, dense});
+    out.push_back(
+        {"dense cumulus (" + std::to_string(dense.clouds[0].ellipsoids.size()) + " ellipsoids) from 300 m", -1, dense});
     return out;
 }
 
@@ -198,20 +203,20 @@ struct Result {
     Kind kind;
     std::string setting;
     double ms = 0;
-    double relRmse = 0;        // RMSE over cloud pixels / mean reference radiance there
+    double relRmse = 0;  // RMSE over cloud pixels / mean reference radiance there
     double psnrFit = 0, exposure = 1, ssim = 0;
     double alphaMae = 0;
-    bool pareto = false;       // on the Pareto front of the aggregate (set later)
+    bool pareto = false;  // on the Pareto front of the aggregate (set later)
 };
 
 // What the reference of one case cost and how noisy it is.
 struct ReferenceInfo {
     std::string noise, caseName;
     double relNoise = 0, seconds = 0;
-    int traced = 0;  // path traces computed in this run (0: all from the cache)
-    int spp = 0;     // the sun part's samples per pixel it took
-    int highSpp = 0;           // of the scattering orders past kReferenceBounces
-    double highShare = 0;      // their share of the light
+    int traced = 0;                                     // path traces computed in this run (0: all from the cache)
+    int spp = 0;                                        // the sun part's samples per pixel it took
+    int highSpp = 0;                                    // of the scattering orders past kReferenceBounces
+    double highShare = 0;                               // their share of the light
     double scratchSeconds = 0, highScratchSeconds = 0;  // made afresh here, estimated (Reference)
 };
 
@@ -308,7 +313,10 @@ std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const Opa
     if (base.layers.empty()) throw UsageError(base.file + ": the layered convergence needs a scene with layers");
     scaleTo(base, o.width);
     const Layer& layer = base.layers.front();
-    struct ViewCase { std::string name; Vec3 eye, lookAt; };
+    struct ViewCase {
+        std::string name;
+        Vec3 eye, lookAt;
+    };
     const double mid = layer.base + 0.5 * layer.thickness;
     const std::vector<ViewCase> views = {
         {"below (the scene's camera)", base.camera.position, base.camera.position + base.camera.direction},
@@ -353,7 +361,8 @@ std::vector<LayeredPoint> layeredConvergence(const AccuracyOptions& o, const Opa
         reference.render(scene, view, target.framebuffer(), 0);
         const Image ref = blockMean(target.readColor(), o.block);
         std::vector<std::function<void()>> draws;
-        for (auto& r : renderers) draws.push_back([&, rp = r.get()] { rp->render(scene, view, target.framebuffer(), 0); });
+        for (auto& r : renderers)
+            draws.push_back([&, rp = r.get()] { rp->render(scene, view, target.framebuffer(), 0); });
         gl::setChecks(false);
         const std::vector<double> ms = timeFrames(o.frames, target, opaque, scene, view, draws);
         gl::setChecks(true);
@@ -383,7 +392,8 @@ struct ViewRow {
 };
 Image viewsMontage(const std::vector<ViewRow>& rows) {
     int cellW = 1, cellH = 1;
-    for (const ViewRow& r : rows) cellW = std::max(cellW, r.reference.width), cellH = std::max(cellH, r.reference.height);
+    for (const ViewRow& r : rows)
+        cellW = std::max(cellW, r.reference.width), cellH = std::max(cellH, r.reference.height);
     const int gap = 4;
     Image out(3 * cellW + 2 * gap, int(rows.size()) * (cellH + gap) - gap, 4);
     for (std::size_t p = 0; p < std::size_t(out.width) * out.height; ++p) out.pixels[4 * p + 3] = 1;
@@ -393,7 +403,8 @@ Image viewsMontage(const std::vector<ViewRow>& rows) {
             const Image& im = *cells[c];
             if (im.width == 0 || im.height == 0) continue;
             const int k = std::max(1, std::min(cellW / im.width, cellH / im.height));
-            const int x0 = c * (cellW + gap) + (cellW - k * im.width) / 2, y0 = int(row) * (cellH + gap) + (cellH - k * im.height) / 2;
+            const int x0 = c * (cellW + gap) + (cellW - k * im.width) / 2,
+                      y0 = int(row) * (cellH + gap) + (cellH - k * im.height) / 2;
             for (int y = 0; y < k * im.height; ++y)
                 for (int x = 0; x < k * im.width; ++x)
                     for (int ch = 0; ch < 3; ++ch) out.at(x0 + x, y0 + y, ch) = im.at(x / k, y / k, ch);
@@ -436,11 +447,16 @@ struct Methods {
     OpaquePass opaque;
 
     Methods(const std::vector<Config>& c, const ReferenceSettings& r)
-        : configs(c), refSettings(r), noise(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed)),
-          ellipsoids(c.size()), marchers(c.size()) {
+        : configs(c),
+          refSettings(r),
+          noise(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed)),
+          ellipsoids(c.size()),
+          marchers(c.size()) {
         for (std::size_t i = 0; i < configs.size(); ++i) {
-            if (configs[i].kind == Kind::Ellipsoid) ellipsoids[i] = std::make_unique<EllipsoidRenderer>(configs[i].ellipsoid);
-            if (configs[i].kind == Kind::Raymarch) marchers[i] = std::make_unique<RaymarchRenderer>(configs[i].raymarch);
+            if (configs[i].kind == Kind::Ellipsoid)
+                ellipsoids[i] = std::make_unique<EllipsoidRenderer>(configs[i].ellipsoid);
+            if (configs[i].kind == Kind::Raymarch)
+                marchers[i] = std::make_unique<RaymarchRenderer>(configs[i].raymarch);
         }
     }
 };
@@ -507,8 +523,8 @@ void measureConfigs(const AccuracyOptions& o, Methods& methods, const Case& c, c
         const Image img = configs[i].kind == Kind::GardnerExact
                               ? renderGardnerExact(scene, view, methods.noise, methods.ns)
                               : renderPathTraced(scene, view, configs[i].pathtrace, &methods.noise);
-        record(o, configs[i], c, noiseMode, reference, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(),
-               img, m);
+        record(o, configs[i], c, noiseMode, reference,
+               std::chrono::duration<double, std::milli>(Clock::now() - t0).count(), img, m);
     }
 }
 
@@ -520,13 +536,16 @@ void measureCase(const AccuracyOptions& o, Methods& methods, const Case& c, cons
     const View view = makeView(scene.camera);
     const ReferenceSettings& refSettings = methods.refSettings;
     std::cerr << "bench: accuracy: " << c.name << ", noise " << scene.medium.noise << ": reference (to "
-              << fmt("%.0f%%", 100 * refSettings.targetNoise) << " noise, at most " << refSettings.spp << " spp, cached)...\n";
+              << fmt("%.0f%%", 100 * refSettings.targetNoise) << " noise, at most " << refSettings.spp
+              << " spp, cached)...\n";
     const Reference reference = makeReference(scene, view, methods.noise, refSettings);
     if (noiseMode == "0") m.views.push_back({reference.full, {}, {}});
     m.refInfo.push_back({noiseMode, c.name, reference.noise, reference.seconds, reference.traced, reference.spp,
-                         reference.highSpp, reference.highShare, reference.scratchSeconds, reference.highScratchSeconds});
+                         reference.highSpp, reference.highShare, reference.scratchSeconds,
+                         reference.highScratchSeconds});
     if (noiseMode == "0")
-        for (ComponentRow& row : measureComponents(scene, view, reference, methods.noise, methods.ns, methods.opaque, o.block)) {
+        for (ComponentRow& row :
+             measureComponents(scene, view, reference, methods.noise, methods.ns, methods.opaque, o.block)) {
             row.caseName = c.name;
             row.shares = referenceShares(reference);
             m.components.push_back(std::move(row));
@@ -567,8 +586,9 @@ std::map<std::string, int> aggregate(std::vector<Result>& results, std::vector<A
     }
     std::map<std::string, int> casesPerNoise;
     for (const Aggregate& a : agg) casesPerNoise[a.noise] = std::max(casesPerNoise[a.noise], a.cases);
-    agg.erase(std::remove_if(agg.begin(), agg.end(), [&](const Aggregate& a) { return a.cases != casesPerNoise[a.noise]; }),
-              agg.end());
+    agg.erase(
+        std::remove_if(agg.begin(), agg.end(), [&](const Aggregate& a) { return a.cases != casesPerNoise[a.noise]; }),
+        agg.end());
     for (Aggregate& a : agg) a.meanRelRmse /= a.cases;
     markPareto(agg);
     for (Result& r : results)
@@ -587,10 +607,11 @@ std::string resultsCsv(const Measured& m) {
     csv << "noise,case,distance_m,method,setting,ms,rel_rmse,psnr_exposure_fitted,exposure,ssim,alpha_mae,"
            "reference_rel_rmse,pareto\n";
     for (const Result& r : m.results)
-        csv << r.noise << ",\"" << r.caseName << "\"," << (r.distance < 0 ? std::string() : fmt("%.0f", r.distance)) << ","
-            << kindName(r.kind) << ",\"" << r.setting << "\"," << fmt("%.3f", r.ms) << "," << fmt("%.5f", r.relRmse) << ","
-            << fmt("%.2f", r.psnrFit) << "," << fmt("%.4f", r.exposure) << "," << fmt("%.4f", r.ssim) << ","
-            << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", referenceNoiseOf(r)) << "," << (r.pareto ? 1 : 0) << "\n";
+        csv << r.noise << ",\"" << r.caseName << "\"," << (r.distance < 0 ? std::string() : fmt("%.0f", r.distance))
+            << "," << kindName(r.kind) << ",\"" << r.setting << "\"," << fmt("%.3f", r.ms) << ","
+            << fmt("%.5f", r.relRmse) << "," << fmt("%.2f", r.psnrFit) << "," << fmt("%.4f", r.exposure) << ","
+            << fmt("%.4f", r.ssim) << "," << fmt("%.4f", r.alphaMae) << "," << fmt("%.5f", referenceNoiseOf(r)) << ","
+            << (r.pareto ? 1 : 0) << "\n";
     return csv.str();
 }
 
@@ -613,19 +634,23 @@ void writeIntro(std::ostream& md, const AccuracyOptions& o, const Measured& m, c
         refSeconds += r.seconds;
         traced += r.traced;
     }
-    md << "Measured by `nephele bench --accuracy` on " << when << ", " << machineLine(m.renderer) << ". Every scene rendered at "
-       << o.width << " px wide (the camera inside the cloud at " << o.width / 2 << "); error = RMSE of linear RGB, "
-       << "after averaging " << o.block << "×" << o.block << " pixel blocks, over the blocks where either image has "
+    md << "Measured by `nephele bench --accuracy` on " << when << ", " << machineLine(m.renderer)
+       << ". Every scene rendered at " << o.width << " px wide (the camera inside the cloud at " << o.width / 2
+       << "); error = RMSE of linear RGB, "
+       << "after averaging " << o.block << "×" << o.block
+       << " pixel blocks, over the blocks where either image has "
           "cloud (α > 0.02), relative to the reference's mean radiance there (no exposure fit: a colour calibration "
           "error counts). The reference is `--method pathtrace`, the sun's light and the sky's and the ground's "
           "traced apart and summed (the sky with a quarter of the sun's samples), in pieces of "
-       << refSettings.pieceSpp << " spp of independent seeds added until the noise of their mean, measured by their "
-          "spread, is at most " << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has "
-       << refSettings.spp << " spp (" << sppRange(m.refInfo) << " spp per case here); the scattering orders past "
-       << kReferenceBounces << " (up to " << PathTraceSettings{}.maxBounces << ") traced apart in pieces of their own, "
+       << refSettings.pieceSpp
+       << " spp of independent seeds added until the noise of their mean, measured by their "
+          "spread, is at most "
+       << fmt("%.0f%%", 100 * refSettings.targetNoise) << " or the sun's light has " << refSettings.spp << " spp ("
+       << sppRange(m.refInfo) << " spp per case here); the scattering orders past " << kReferenceBounces << " (up to "
+       << PathTraceSettings{}.maxBounces << ") traced apart in pieces of their own, "
        << "to a quarter of that noise or a quarter of the samples (" << sppRange(m.refInfo, &ReferenceInfo::highSpp)
-       << " spp here; they carry " << fmt("%.1f%%", 100 * highShareRange.first) << "–" << fmt("%.1f%%", 100 * highShareRange.second)
-       << " of the light): its own noise is "
+       << " spp here; they carry " << fmt("%.1f%%", 100 * highShareRange.first) << "–"
+       << fmt("%.1f%%", 100 * highShareRange.second) << " of the light): its own noise is "
        << fmt("%.1f%%", refCount[0] ? 100 * refNoise[0] / refCount[0] : 0) << " on average (at most "
        << fmt("%.1f%%", 100 * refWorst[0]) << ") with noise 0"
        << (refCount[1] ? " and " + fmt("%.1f%%", 100 * refNoise[1] / refCount[1]) + " (at most " +
@@ -635,11 +660,11 @@ void writeIntro(std::ostream& md, const AccuracyOptions& o, const Measured& m, c
                             std::to_string(traced) + " path traces; they are cached for later runs). "
                       : std::string("The references came from the cache. "))
        << "Made from scratch on this machine, all " << m.refInfo.size() << " would take about "
-       << fmt("%.1f", scratch / 3600) << " h (" << fmt("%.0f", highScratch / 60)
-       << " min of it the orders past " << kReferenceBounces
-       << "; estimated per kind of trace by a pilot of 1/64 of its pixels, times its pieces). "
+       << fmt("%.1f", scratch / 3600) << " h (" << fmt("%.0f", highScratch / 60) << " min of it the orders past "
+       << kReferenceBounces << "; estimated per kind of trace by a pilot of 1/64 of its pixels, times its pieces). "
        << "Time = median ms per frame over " << o.frames
-       << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the " << cases << " cases (";
+       << " frames for the GPU methods (interleaved), one run for the CPU ones; summed over the " << cases
+       << " cases (";
     bool first = true;
     for (const Case& c : all) {
         md << (first ? "" : ", ") << c.name;
@@ -651,15 +676,17 @@ void writeIntro(std::ostream& md, const AccuracyOptions& o, const Measured& m, c
 // Per noise mode, every method and setting's total time and mean error, fastest first.
 void writeAggregates(std::ostream& md, const AccuracyOptions& o, const std::vector<Aggregate>& agg) {
     for (const std::string& noiseMode : o.noiseModes) {
-        md << (noiseMode == "0" ? "With `medium.noise: 0` (the exact analytic field):\n\n"
-                                : "With the scenes' noise (`medium.noise` 0.3; the path tracer uses the project's "
-                                  "noise field per ellipsoid, the ray-marcher one noise field over the sum, the compositor "
-                                  "one sample of that field per chord):\n\n");
+        md << (noiseMode == "0"
+                   ? "With `medium.noise: 0` (the exact analytic field):\n\n"
+                   : "With the scenes' noise (`medium.noise` 0.3; the path tracer uses the project's "
+                     "noise field per ellipsoid, the ray-marcher one noise field over the sum, the compositor "
+                     "one sample of that field per chord):\n\n");
         md << "| method | setting | total ms | mean error | Pareto |\n|---|---|---:|---:|:---:|\n";
         std::vector<Aggregate> rows;
         for (const Aggregate& a : agg)
             if (a.noise == noiseMode) rows.push_back(a);
-        std::sort(rows.begin(), rows.end(), [](const Aggregate& a, const Aggregate& b) { return a.totalMs < b.totalMs; });
+        std::sort(rows.begin(), rows.end(),
+                  [](const Aggregate& a, const Aggregate& b) { return a.totalMs < b.totalMs; });
         for (const Aggregate& a : rows)
             md << "| " << kindName(a.kind) << " | " << a.setting << " | " << fmt("%.1f", a.totalMs) << " | "
                << fmt("%.1f%%", 100 * a.meanRelRmse) << " | " << (a.pareto ? "✓" : "") << " |\n";
@@ -672,7 +699,8 @@ void writePerCase(std::ostream& md, const AccuracyOptions& o, const Measured& m,
     for (const std::string& noiseMode : o.noiseModes) {
         md << "Per case, " << (noiseMode == "0" ? "with `medium.noise: 0`" : "with the scenes' noise")
            << " (error / ms per frame; the reference's own noise last):\n\n"
-              "| case | ellipsoid (auto) | weighted composite | raymarch | gardner-exact | pathtrace 16 spp | reference noise |\n"
+              "| case | ellipsoid (auto) | weighted composite | raymarch | gardner-exact | pathtrace 16 spp | "
+              "reference noise |\n"
               "|---|---:|---:|---:|---:|---:|---:|\n";
         for (const Case& c : all) {
             md << "| " << c.name;
@@ -683,10 +711,14 @@ void writePerCase(std::ostream& md, const AccuracyOptions& o, const Measured& m,
                                                             {Kind::PathTrace, ""}};
             for (const auto& column : columns) {
                 const auto& [k, setting] = column;
-                const auto it = std::find_if(m.results.begin(), m.results.end(), [&, k = k, &setting = setting](const Result& r) {
-                    return r.noise == noiseMode && r.caseName == c.name && r.kind == k && (setting.empty() || r.setting == setting);
-                });
-                md << " | " << (it == m.results.end() ? std::string("—") : fmt("%.1f%%", 100 * it->relRmse) + " / " + fmt("%.1f", it->ms));
+                const auto it =
+                    std::find_if(m.results.begin(), m.results.end(), [&, k = k, &setting = setting](const Result& r) {
+                        return r.noise == noiseMode && r.caseName == c.name && r.kind == k &&
+                               (setting.empty() || r.setting == setting);
+                    });
+                md << " | "
+                   << (it == m.results.end() ? std::string("—")
+                                             : fmt("%.1f%%", 100 * it->relRmse) + " / " + fmt("%.1f", it->ms));
             }
             double refNoiseHere = -1;
             for (const ReferenceInfo& i : m.refInfo)
@@ -726,7 +758,8 @@ void writeLayered(std::ostream& md, const std::vector<LayeredPoint>& layered) {
           "| view |";
     std::vector<int> layerCounts;
     for (const LayeredPoint& p : layered)
-        if (std::find(layerCounts.begin(), layerCounts.end(), p.layers) == layerCounts.end()) layerCounts.push_back(p.layers);
+        if (std::find(layerCounts.begin(), layerCounts.end(), p.layers) == layerCounts.end())
+            layerCounts.push_back(p.layers);
     for (int n : layerCounts) md << " N = " << n << " |";
     md << "\n|---|";
     for (std::size_t k = 0; k < layerCounts.size(); ++k) md << "---:|";
@@ -738,7 +771,8 @@ void writeLayered(std::ostream& md, const std::vector<LayeredPoint>& layered) {
         md << "| " << v;
         for (int n : layerCounts)
             for (const LayeredPoint& p : layered)
-                if (p.view == v && p.layers == n) md << " | " << fmt("%.1f%%", 100 * p.relRmse) << " / " << fmt("%.0f", p.ms);
+                if (p.view == v && p.layers == n)
+                    md << " | " << fmt("%.1f%%", 100 * p.relRmse) << " / " << fmt("%.0f", p.ms);
         md << " |\n";
     }
 }
@@ -757,21 +791,23 @@ int writeResults(const AccuracyOptions& o, const Measured& m, const std::string&
     const fs::path dir(o.bench.outDir);
     const std::string csvPath = (dir / "accuracy.csv").string(), mdPath = (dir / "accuracy.md").string();
     const std::string layeredPath = (dir / "accuracy_layered.csv").string();
-    const std::string chartPath = (dir / "accuracy_chart.png").string(), distancePath = (dir / "accuracy_distance.png").string();
+    const std::string chartPath = (dir / "accuracy_chart.png").string(),
+                      distancePath = (dir / "accuracy_distance.png").string();
     const std::string viewsPath = (dir / "accuracy_views.png").string();
     try {
         writeTextFiles({{csvPath, resultsCsv(m)},
                         {mdPath, generatedSection("accuracy bench", md)},
                         {layeredPath, layeredCsv(m.layered)}});
         writePng(viewsPath, viewsMontage(m.views));
-        runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.bench.outDir, {"accuracy_chart.png", "accuracy_distance.png"});
+        runPlot("plot_accuracy.py", {csvPath, kChartsFolder, when}, o.bench.outDir,
+                {"accuracy_chart.png", "accuracy_distance.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --accuracy: " << e.what() << "\n";
         return 1;
     }
     std::cout << md;
-    std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", "
-              << chartPath << ", " << distancePath << ", " << viewsPath << "\n";
+    std::cerr << "nephele: bench --accuracy wrote " << csvPath << ", " << mdPath << ", " << chartPath << ", "
+              << distancePath << ", " << viewsPath << "\n";
     return 0;
 }
 

@@ -101,7 +101,11 @@ struct PieceTracer {
     int piece, skyPiece;
 
     PieceTracer(const Scene& scene, const View& v, const NoiseVolume& n, const ReferenceSettings& settings)
-        : view(v), noise(n), s(settings), sun(sunOnly(scene)), sky(skyOnly(scene)),
+        : view(v),
+          noise(n),
+          s(settings),
+          sun(sunOnly(scene)),
+          sky(skyOnly(scene)),
           piece(std::clamp(s.pieceSpp, 1, std::max(1, s.spp / 2))),
           skyPiece(std::max(1, piece * s.skySpp / std::max(1, s.spp))) {}
 
@@ -110,12 +114,14 @@ struct PieceTracer {
         p.spp = std::max(1, spp);
         p.firstBounce = firstBounce, p.maxBounces = maxBounces;
         p.seed = seed;
-        return s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise) : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
+        return s.cacheDir.empty() ? renderPathTraced(sc, view, p, &noise)
+                                  : renderPathTracedCached(sc, view, p, &noise, s.cacheDir);
     }
 
     void addPiece(Part& part) const {
         const unsigned seed = part.seedBase + unsigned(part.pieces.size());
-        const Image fullA = trace(sun, piece, part.first, part.last, seed), fullB = trace(sky, skyPiece, part.first, part.last, seed);
+        const Image fullA = trace(sun, piece, part.first, part.last, seed),
+                    fullB = trace(sky, skyPiece, part.first, part.last, seed);
         const Image a = blockMean(fullA, s.block), b = blockMean(fullB, s.block), both = add(fullA, fullB);
         part.pieces.push_back(add(a, b));
         const float w = 1.0f / float(part.pieces.size());
@@ -176,7 +182,11 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
         if (r.noise <= s.targetNoise) break;
         const bool lowFull = int(low.pieces.size()) >= maxPieces, highFull = int(high.pieces.size()) >= maxTails;
         if (highNoise > 0.25 * s.targetNoise && !highFull) tracer.grow(high, highNoise, 0.25 * s.targetNoise, maxTails);
-        else if (!lowFull) tracer.grow(low, lowNoise, std::sqrt(std::max(std::pow(s.targetNoise, 2) - highNoise * highNoise, 0.25 * std::pow(s.targetNoise, 2))), maxPieces);
+        else if (!lowFull)
+            tracer.grow(low, lowNoise,
+                        std::sqrt(std::max(std::pow(s.targetNoise, 2) - highNoise * highNoise,
+                                           0.25 * std::pow(s.targetNoise, 2))),
+                        maxPieces);
         else if (!highFull) tracer.addPiece(high);
         else break;
     }
@@ -191,7 +201,7 @@ Reference makeReference(const Scene& scene, const View& view, const NoiseVolume&
     const Scene& sun = tracer.sun;
     const Scene& sky = tracer.sky;
     r.highScratchSeconds = double(high.pieces.size()) * (tracer.estimate(sun, tracer.piece, high.first, high.last) +
-                                                        tracer.estimate(sky, tracer.skyPiece, high.first, high.last));
+                                                         tracer.estimate(sky, tracer.skyPiece, high.first, high.last));
     r.scratchSeconds = double(low.pieces.size()) * (tracer.estimate(sun, tracer.piece, 0, low.last) +
                                                     tracer.estimate(sky, tracer.skyPiece, 0, low.last)) +
                        r.highScratchSeconds + tracer.estimate(sun, s.singleSpp, 0, 0);
@@ -229,7 +239,8 @@ ReferenceShares referenceShares(const Reference& ref) {
     // Means over the same blocks: cloudMean's mask is the image's own alpha, so use the total's.
     auto over = [&](const Image& part) {
         Image masked = part;
-        for (std::size_t p = 0; p < std::size_t(part.width) * part.height; ++p) masked.pixels[4 * p + 3] = ref.total.pixels[4 * p + 3];
+        for (std::size_t p = 0; p < std::size_t(part.width) * part.height; ++p)
+            masked.pixels[4 * p + 3] = ref.total.pixels[4 * p + 3];
         return cloudMean(masked) / total;
     };
     ReferenceShares s;

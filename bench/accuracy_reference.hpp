@@ -44,10 +44,10 @@ struct ReferenceSettings {
     int spp = 1024;
     int pieceSpp = 32;
     double targetNoise = 0.02;
-    int skySpp = 256;         // the sky part's samples per `spp` (smoother: skylight comes from every side)
-    int singleSpp = 64;       // of the sun's single scattering (bounces 0)
+    int skySpp = 256;    // the sky part's samples per `spp` (smoother: skylight comes from every side)
+    int singleSpp = 64;  // of the sun's single scattering (bounces 0)
     int block = 4;
-    std::string cacheDir;     // "" = no cache
+    std::string cacheDir;  // "" = no cache
 };
 Reference makeReference(const Scene& scene, const View& view, const NoiseVolume& noise, const ReferenceSettings& s);
 

@@ -15,20 +15,20 @@ class App;
 namespace nephele::cli {
 
 struct BenchArgs {
-    BenchOptions common;          // --out-dir, --scenes, --quick; --gl and --cache below
+    BenchOptions common;  // --out-dir, --scenes, --quick; --gl and --cache below
     std::string gl = "egl", cache;
     bool noCache = false;
     // The bench to run instead of the ellipsoid bench: at most one.
     bool accuracy = false, layerAccuracy = false, flicker = false, silhouette = false, queries = false;
     bool layered = false, weather = false, cruise = false, scale = false, grids = false;
-    std::string publish;          // --publish DOCS: no bench, the sections of --out-dir into DOCS
+    std::string publish;  // --publish DOCS: no bench, the sections of --out-dir into DOCS
     // Each bench's own flags, where the command line puts them.
-    EllipsoidBenchOptions bo;     // --counts, --frames, --width, --height, --no-exact
-    AccuracyOptions ao;           // --noise-modes, --reference-noise, --spp
-    FlickerOptions flo;           // --fps
-    LayeredBenchOptions lbo;      // --layer-counts, --extents
-    WeatherBenchOptions wbo;      // --transition
-    ScaleBenchOptions sbo;        // --scale-counts
+    EllipsoidBenchOptions bo;                // --counts, --frames, --width, --height, --no-exact
+    AccuracyOptions ao;                      // --noise-modes, --reference-noise, --spp
+    FlickerOptions flo;                      // --fps
+    LayeredBenchOptions lbo;                 // --layer-counts, --extents
+    WeatherBenchOptions wbo;                 // --transition
+    ScaleBenchOptions sbo;                   // --scale-counts
     std::vector<std::string> cruiseFlights;  // --flights
     CLI::App* cmd = nullptr;
 };

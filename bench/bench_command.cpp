@@ -78,7 +78,8 @@ namespace {
 
 // The composite order that is not the default: the bench times it beside the defaults.
 CompositeOrder otherComposite() {
-    return EllipsoidSettings().order == CompositeOrder::Weighted ? CompositeOrder::PerEllipsoid : CompositeOrder::Weighted;
+    return EllipsoidSettings().order == CompositeOrder::Weighted ? CompositeOrder::PerEllipsoid
+                                                                 : CompositeOrder::Weighted;
 }
 const char* otherCompositeName() { return otherComposite() == CompositeOrder::Weighted ? "weighted" : "back-to-front"; }
 
@@ -160,18 +161,18 @@ std::vector<Row> timeCounts(const EllipsoidBenchOptions& o) {
         const View view = makeView(scene.camera);
         Row r;
         r.count = count;
-        const std::vector<double> ms = timeFrames(
-            o.frames, target, opaque, scene, view,
-            {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
-             [&] { renderFloor(instanced, scene, view, target.framebuffer()); },
-             [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
-             [&] { separate.render(scene, view, target.framebuffer(), false); },
-             [&] { other.render(scene, view, target.framebuffer(), false); }});
+        const std::vector<double> ms =
+            timeFrames(o.frames, target, opaque, scene, view,
+                       {[&] { r.stats = instanced.render(scene, view, target.framebuffer(), false); },
+                        [&] { renderFloor(instanced, scene, view, target.framebuffer()); },
+                        [&] { r.baselineStats = baseline.render(scene, view, target.framebuffer(), false); },
+                        [&] { separate.render(scene, view, target.framebuffer(), false); },
+                        [&] { other.render(scene, view, target.framebuffer(), false); }});
         r.ms = ms[0], r.floorMs = ms[1], r.baselineMs = ms[2], r.separateMs = ms[3], r.otherCompositeMs = ms[4];
         std::cerr << "bench: " << count << " ellipsoids: " << fmt("%.1f", r.ms) << " ms, floor "
-                  << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs) << " ms, separate colour-matrix pass "
-                  << fmt("%.1f", r.separateMs) << " ms, " << otherCompositeName() << " composite "
-                  << fmt("%.1f", r.otherCompositeMs) << " ms\n";
+                  << fmt("%.1f", r.floorMs) << " ms, baseline " << fmt("%.1f", r.baselineMs)
+                  << " ms, separate colour-matrix pass " << fmt("%.1f", r.separateMs) << " ms, " << otherCompositeName()
+                  << " composite " << fmt("%.1f", r.otherCompositeMs) << " ms\n";
         rows.push_back(r);
     }
     gl::setChecks(true);
@@ -183,24 +184,28 @@ std::string ellipsoidCsv(const std::vector<Row>& rows) {
     std::ostringstream csv;
     csv << "ellipsoids,visible,ms,floor_ms,baseline_ms,separate_pass_ms,ratio_to_floor,speedup_vs_baseline,draw_calls,"
            "baseline_draw_calls,passes,utilisation,tile_pixels,screen_pixels,"
-        << (otherComposite() == CompositeOrder::Weighted ? "weighted_composite_ms" : "back_to_front_composite_ms") << "\n";
+        << (otherComposite() == CompositeOrder::Weighted ? "weighted_composite_ms" : "back_to_front_composite_ms")
+        << "\n";
     for (const Row& r : rows)
         csv << r.count << "," << r.stats.visible << "," << fmt("%.3f", r.ms) << "," << fmt("%.3f", r.floorMs) << ","
-            << fmt("%.3f", r.baselineMs) << "," << fmt("%.3f", r.separateMs) << "," << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.baselineMs / r.ms)
-            << "," << r.stats.drawCalls << "," << r.baselineStats.drawCalls << "," << r.stats.passes << ","
-            << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << "," << r.stats.screenPixels << ","
-            << fmt("%.3f", r.otherCompositeMs) << "\n";
+            << fmt("%.3f", r.baselineMs) << "," << fmt("%.3f", r.separateMs) << "," << fmt("%.3f", r.ms / r.floorMs)
+            << "," << fmt("%.3f", r.baselineMs / r.ms) << "," << r.stats.drawCalls << "," << r.baselineStats.drawCalls
+            << "," << r.stats.passes << "," << fmt("%.3f", r.stats.utilisation) << "," << r.stats.tilePixels << ","
+            << r.stats.screenPixels << "," << fmt("%.3f", r.otherCompositeMs) << "\n";
     return csv.str();
 }
 
 std::string ellipsoidMarkdown(const EllipsoidBenchOptions& o, const std::vector<Row>& rows,
-                              const std::vector<Accuracy>& accuracy, const std::string& when, const std::string& machine) {
+                              const std::vector<Accuracy>& accuracy, const std::string& when,
+                              const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", median of " << o.frames << " frames (wall time to glFinish; the sky is drawn before the clock starts; the "
+       << ", median of " << o.frames
+       << " frames (wall time to glFinish; the sky is drawn before the clock starts; the "
           "methods take turns frame by frame). "
        << "The floor is the same tiles' unavoidable pixel work alone (each tile's pixels blended once per pass, each "
-          "tile's screen rectangle composited once, one draw each per pass); the compositor (the defaults) batches each "
+          "tile's screen rectangle composited once, one draw each per pass); the compositor (the defaults) batches "
+          "each "
           "pass's tiles into one instanced draw and applies the colour matrix inside the composite; \"separate "
           "pass\" is the same with the paper's own colour-matrix copy pass (same image); the baseline is the "
           "paper's pipeline: one draw per ellipsoid (same shaders, a viewport and a draw per tile and per "
@@ -208,14 +213,15 @@ std::string ellipsoidMarkdown(const EllipsoidBenchOptions& o, const std::vector<
        << otherCompositeName() << " composite\" is the defaults with the other composite order (`--composite`).\n\n";
     md << "| ellipsoids | ms/frame | floor ms | baseline ms | separate pass ms | " << otherCompositeName()
        << " composite ms | × floor | separate pass × floor | speed-up vs baseline "
-          "| draws | baseline draws | passes | atlas use |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          "| draws | baseline draws | passes | atlas use "
+          "|\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
         md << "| " << r.count << " | " << fmt("%.1f", r.ms) << " | " << fmt("%.1f", r.floorMs) << " | "
-           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.1f", r.separateMs) << " | " << fmt("%.1f", r.otherCompositeMs)
-           << " | " << fmt("%.2f", r.ms / r.floorMs)
-           << " | " << fmt("%.2f", r.separateMs / r.floorMs) << " | "
-           << fmt("%.1f", r.baselineMs / r.ms) << " | " << r.stats.drawCalls << " | " << r.baselineStats.drawCalls
-           << " | " << r.stats.passes << " | " << fmt("%.0f%%", 100 * r.stats.utilisation) << " |\n";
+           << fmt("%.1f", r.baselineMs) << " | " << fmt("%.1f", r.separateMs) << " | "
+           << fmt("%.1f", r.otherCompositeMs) << " | " << fmt("%.2f", r.ms / r.floorMs) << " | "
+           << fmt("%.2f", r.separateMs / r.floorMs) << " | " << fmt("%.1f", r.baselineMs / r.ms) << " | "
+           << r.stats.drawCalls << " | " << r.baselineStats.drawCalls << " | " << r.stats.passes << " | "
+           << fmt("%.0f%%", 100 * r.stats.utilisation) << " |\n";
     md << "\n![ms per frame against ellipsoid count](ellipsoid_bench.png)\n";
     if (!accuracy.empty()) {
         md << "\nAccuracy on the shared scenes at their own size, same run: the GPU compositor against "
@@ -250,8 +256,8 @@ int runBench(const EllipsoidBenchOptions& o) {
     }
     const std::string when = utcNow();
     const std::string md = ellipsoidMarkdown(o, rows, accuracy, when, machineLine(renderer));
-    return publishChartBench(o.bench.outDir, "ellipsoid bench", "ellipsoid_bench", ellipsoidCsv(rows), md, "plot_bench.py",
-                             when);
+    return publishChartBench(o.bench.outDir, "ellipsoid bench", "ellipsoid_bench", ellipsoidCsv(rows), md,
+                             "plot_bench.py", when);
 }
 
 }  // namespace nephele::cli

@@ -198,8 +198,8 @@ int publishBenchSections(const std::string& outDir, const std::string& docsDir) 
         return 2;
     }
     if (!fs::is_regular_file(pagePath, ec)) {
-        std::cerr << kPublish << "'" << pagePath.string() << "' is not a file: --publish names the docs folder that holds "
-                  << kBenchmarksPage << "\n";
+        std::cerr << kPublish << "'" << pagePath.string()
+                  << "' is not a file: --publish names the docs folder that holds " << kBenchmarksPage << "\n";
         return 2;
     }
     std::string page;
@@ -245,8 +245,8 @@ void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& path
     files.commit();
 }
 
-int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag, const std::string& stem,
-                     const std::string& csv, const std::string& markdown) {
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag,
+                     const std::string& stem, const std::string& csv, const std::string& markdown) {
     const std::string csvPath = (fs::path(outDir) / (stem + ".csv")).string();
     const std::string mdPath = (fs::path(outDir) / (stem + ".md")).string();
     try {
@@ -260,9 +260,9 @@ int publishTextBench(const std::string& what, const std::string& outDir, const s
     return 0;
 }
 
-int publishChartBench(const std::string& outDir, const std::string& tag, const std::string& stem, const std::string& csv,
-                      const std::string& markdown, const std::string& script, const std::string& when,
-                      const std::vector<std::string>& plotArgs) {
+int publishChartBench(const std::string& outDir, const std::string& tag, const std::string& stem,
+                      const std::string& csv, const std::string& markdown, const std::string& script,
+                      const std::string& when, const std::vector<std::string>& plotArgs) {
     const std::string csvPath = (fs::path(outDir) / (stem + ".csv")).string();
     const std::string mdPath = (fs::path(outDir) / (stem + ".md")).string();
     const std::string pngPath = (fs::path(outDir) / (stem + ".png")).string();
@@ -305,8 +305,9 @@ void runPlot(const std::string& scriptName, const std::vector<std::string>& args
         cmd += ' ', cmd += shellQuote(a);
     }
     if (std::system(cmd.c_str()) != 0)
-        throw std::runtime_error("the chart (" + scriptName +
-                                 ") failed: it needs /usr/bin/python3 with python3-matplotlib (./setup.sh installs it)");
+        throw std::runtime_error(
+            "the chart (" + scriptName +
+            ") failed: it needs /usr/bin/python3 with python3-matplotlib (./setup.sh installs it)");
     OutputFiles files;
     for (const std::string& name : charts)
         files.add((fs::path(outDir) / name).string(),

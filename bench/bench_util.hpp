@@ -55,17 +55,17 @@ void writeTextFiles(const std::vector<std::pair<std::string, std::string>>& path
 // `stem`.md, the generated section `tag` (generatedSection), into outDir (writeTextFiles), then
 // prints the markdown and what was written. Returns the exit code: 0, or 1 with a message when
 // a write failed.
-int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag, const std::string& stem,
-                     const std::string& csv, const std::string& markdown);
+int publishTextBench(const std::string& what, const std::string& outDir, const std::string& tag,
+                     const std::string& stem, const std::string& csv, const std::string& markdown);
 
 // The end of a bench with one chart (`bench`, `bench --layered`): writes STEM.csv and STEM.md,
 // the generated section `tag`, into outDir (writeTextFiles), then the chart STEM.png, drawn by
 // `script` from the CSV (its arguments: the CSV, the chart, `when`, then `plotArgs`); prints the
 // markdown and what was written. Returns the exit code: 0, or 1 with a message when a write or
 // the chart failed.
-int publishChartBench(const std::string& outDir, const std::string& tag, const std::string& stem, const std::string& csv,
-                      const std::string& markdown, const std::string& script, const std::string& when,
-                      const std::vector<std::string>& plotArgs = {});
+int publishChartBench(const std::string& outDir, const std::string& tag, const std::string& stem,
+                      const std::string& csv, const std::string& markdown, const std::string& script,
+                      const std::string& when, const std::vector<std::string>& plotArgs = {});
 
 // Runs bench/plot_*.py through Debian's /usr/bin/python3 (python3-matplotlib) with `args`, in
 // which a leading kChartsFolder stands for a temporary folder the script draws into; the files

@@ -30,14 +30,14 @@ namespace {
 
 struct CruiseFrame {
     double onMs = 0, offMs = 0;
-    double repeatMs = -1;               // every 10th frame: the reuse run's same frame again (nothing newly stale: its floor)
-    double aloneMs = -1;                // Flight::reuseAlone: the same frame with --reuse on --cloud-lod off
+    double repeatMs = -1;  // every 10th frame: the reuse run's same frame again (nothing newly stale: its floor)
+    double aloneMs = -1;   // Flight::reuseAlone: the same frame with --reuse on --cloud-lod off
     int impostors = 0, impostorsMade = 0;  // the on run's clouds drawn as impostors, and of those made this frame
-    int must = 0;                       // reuse: tiles rendered for want of a usable image
-    bool repacked = false;              // reuse: the atlas was packed anew
+    int must = 0;                          // reuse: tiles rendered for want of a usable image
+    bool repacked = false;                 // reuse: the atlas was packed anew
     int onTiles = 0, offTiles = 0, visible = 0;
     std::int64_t onPixels = 0, offPixels = 0;
-    double psnr = 0;                    // dB, the reuse frame against the fresh one (8-bit sRGB, as written)
+    double psnr = 0;                     // dB, the reuse frame against the fresh one (8-bit sRGB, as written)
     double onChange = 0, offChange = 0;  // mean |change| from the frame before (FrameChanges)
 };
 
@@ -78,7 +78,8 @@ RenderOptions optionsFor(bool reuse, bool lod, GlBackend backend) {
 void fly(Flight& f, const CruiseBenchOptions& o) {
     Scene scene = loadScene(o.bench.scenesDir + "/" + f.scene);
     scene.camera.width = o.width, scene.camera.height = o.height;
-    const double t0 = scene.path.front().t, t1 = o.bench.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
+    const double t0 = scene.path.front().t,
+                 t1 = o.bench.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
     const int frames = frameCount(t0, t1, f.fps);
     FrameRenderer on(optionsFor(true, true, o.bench.backend)), off(optionsFor(false, false, o.bench.backend));
     std::unique_ptr<FrameRenderer> alone;
@@ -127,16 +128,18 @@ double minOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_el
 
 std::string csvOf(const std::vector<Flight>& flights) {
     std::ostringstream csv;
-    csv << "flight,frame,on_ms,off_ms,repeat_ms,on_tiles,on_tiles_without_image,atlas_repacked,off_tiles,visible,on_tile_pixels,"
+    csv << "flight,frame,on_ms,off_ms,repeat_ms,on_tiles,on_tiles_without_image,atlas_repacked,off_tiles,visible,on_"
+           "tile_pixels,"
            "off_tile_pixels,psnr_db,on_change,off_change,reuse_alone_ms,impostors,impostors_made\n";
     for (const Flight& f : flights)
         for (std::size_t i = 0; i < f.frames.size(); ++i) {
             const CruiseFrame& c = f.frames[i];
             csv << f.scene << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << ","
-                << (c.repeatMs < 0 ? std::string() : fmt("%.3f", c.repeatMs)) << "," << c.onTiles << "," << c.must << ","
-                << (c.repacked ? 1 : 0) << "," << c.offTiles << "," << c.visible << "," << c.onPixels << "," << c.offPixels << "," << fmt("%.2f", c.psnr) << ","
-                << fmt("%.6f", c.onChange) << "," << fmt("%.6f", c.offChange) << ","
-                << (c.aloneMs < 0 ? std::string() : fmt("%.3f", c.aloneMs)) << "," << c.impostors << "," << c.impostorsMade << "\n";
+                << (c.repeatMs < 0 ? std::string() : fmt("%.3f", c.repeatMs)) << "," << c.onTiles << "," << c.must
+                << "," << (c.repacked ? 1 : 0) << "," << c.offTiles << "," << c.visible << "," << c.onPixels << ","
+                << c.offPixels << "," << fmt("%.2f", c.psnr) << "," << fmt("%.6f", c.onChange) << ","
+                << fmt("%.6f", c.offChange) << "," << (c.aloneMs < 0 ? std::string() : fmt("%.3f", c.aloneMs)) << ","
+                << c.impostors << "," << c.impostorsMade << "\n";
         }
     return csv.str();
 }
@@ -146,20 +149,30 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
     std::ostringstream md;
     md << "Measured by `nephele bench --cruise` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
        << ", `--method auto` with its defaults (\"on\": back to front, `--reuse on`, `--cloud-lod on`) and with "
-          "`--reuse off --cloud-lod off` (\"off\": every tile rendered every frame), frame by frame in turn; on the cruise "
-          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without the cloud LOD: neither far impostors nor close tiles at what their image holds). A frame's ms is the draw's wall time to "
-          "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in both) is "
-          "left out of the figures and given apart. PSNR: each frame of \"on\" against the same frame of \"off\" (every tile "
-          "fresh, the cloud LOD off), as 8-bit sRGB, and how many frames fall below the cloud LOD's bound of 45 dB. Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "
+          "`--reuse off --cloud-lod off` (\"off\": every tile rendered every frame), frame by frame in turn; on the "
+          "cruise "
+          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without the "
+          "cloud LOD: neither far impostors nor close tiles at what their image holds). A frame's ms is the draw's "
+          "wall time to "
+          "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in "
+          "both) is "
+          "left out of the figures and given apart. PSNR: each frame of \"on\" against the same frame of \"off\" "
+          "(every tile "
+          "fresh, the cloud LOD off), as 8-bit sRGB, and how many frames fall below the cloud LOD's bound of 45 dB. "
+          "Flicker: the mean frame-to-frame change (mean |linear RGB difference| clamped to [0, 1]); the "
           "flicker index against the exact model is this change minus the exact model's, which is the same for both "
           "runs, so on − off is the difference of their indices. Reuse floor: every 10th frame the reuse run draws the "
           "same frame again, with nothing newly stale: what a frame costs when it renders only the tiles no reuse can "
           "keep (the eye inside, cut by the near plane, past 6× the error) and the budget's backlog, besides the "
-          "composite, the planning and, on layer_flight, the layered sky. Tiles without an image: rendered whatever the budget (new in view, a "
+          "composite, the planning and, on layer_flight, the layered sky. Tiles without an image: rendered whatever "
+          "the budget (new in view, a "
           "part come into view, cut by the near plane).\n\n";
-    md << "| flight | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse floor ms | worst ms on / off "
-          "(off's median) | tiles rendered a frame on (without an image) / off (visible) | impostors a frame (made) | tile Mpx "
-          "a frame on / off | atlas repacks | PSNR min / median dB (frames below 45) | change on − off | worst frame change on / off | frame 0 "
+    md << "| flight | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse floor ms | "
+          "worst ms on / off "
+          "(off's median) | tiles rendered a frame on (without an image) / off (visible) | impostors a frame (made) | "
+          "tile Mpx "
+          "a frame on / off | atlas repacks | PSNR min / median dB (frames below 45) | change on − off | worst frame "
+          "change on / off | frame 0 "
           "ms on / off |\n"
           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Flight& f : flights) {
@@ -176,24 +189,26 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
             if (c.aloneMs >= 0) alone.push_back(c.aloneMs);
             repacks += c.repacked ? 1 : 0;
         }
-        md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / " << fmt("%.1f", mean(offMs))
-           << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | "
-           << (alone.empty() ? std::string("–")
-                             : fmt("%.1f", mean(alone)) + " (" + fmt("%.2f", mean(offMs) / std::max(mean(alone), 1e-9)) + ")")
-           << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat)))
-           << " | " << fmt("%.1f", maxOf(onMs)) << " / " << fmt("%.1f", maxOf(offMs)) << " (" << fmt("%.1f", median(offMs)) << ") | "
-           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
+        md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / "
+           << fmt("%.1f", mean(offMs)) << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | "
+           << (alone.empty()
+                   ? std::string("–")
+                   : fmt("%.1f", mean(alone)) + " (" + fmt("%.2f", mean(offMs) / std::max(mean(alone), 1e-9)) + ")")
+           << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat))) << " | "
+           << fmt("%.1f", maxOf(onMs)) << " / " << fmt("%.1f", maxOf(offMs)) << " (" << fmt("%.1f", median(offMs))
+           << ") | " << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.must; }))) << ") / "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.offTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.visible; }))) << ") | "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.impostors; }))) << " ("
            << fmt("%.1f", mean(column(fr, [](const CruiseFrame& c) { return c.impostorsMade; }))) << ") | "
            << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.onPixels; })) / 1e6) << " / "
-           << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.offPixels; })) / 1e6) << " | " << repacks << " | "
-           << fmt("%.1f", minOf(psnr)) << " / " << fmt("%.1f", median(psnr)) << " ("
-           << std::count_if(psnr.begin(), psnr.end(), [](double p) { return p < kLodBoundDb; }) << ") | " << fmt("%+.5f", mean(onCh) - mean(offCh))
-           << " | " << fmt("%.4f", maxOf(onCh)) << " / " << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs)
-           << " / " << fmt("%.0f", f.firstOffMs) << " |\n";
+           << fmt("%.2f", mean(column(fr, [](const CruiseFrame& c) { return c.offPixels; })) / 1e6) << " | " << repacks
+           << " | " << fmt("%.1f", minOf(psnr)) << " / " << fmt("%.1f", median(psnr)) << " ("
+           << std::count_if(psnr.begin(), psnr.end(), [](double p) { return p < kLodBoundDb; }) << ") | "
+           << fmt("%+.5f", mean(onCh) - mean(offCh)) << " | " << fmt("%.4f", maxOf(onCh)) << " / "
+           << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs) << " / " << fmt("%.0f", f.firstOffMs)
+           << " |\n";
     }
     md << "\n![ms per frame: auto (reuse and cloud LOD on), reuse alone, both off](cruise_bench.png)\n";
     return md.str();
@@ -218,7 +233,9 @@ int runCruiseBench(const CruiseBenchOptions& o) {
                           << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json)\n";
                 return 2;
             }
-        std::erase_if(flights, [&](const Flight& x) { return std::find(o.flights.begin(), o.flights.end(), x.scene) == o.flights.end(); });
+        std::erase_if(flights, [&](const Flight& x) {
+            return std::find(o.flights.begin(), o.flights.end(), x.scene) == o.flights.end();
+        });
     }
     std::string renderer;
     try {
@@ -237,8 +254,9 @@ int runCruiseBench(const CruiseBenchOptions& o) {
     const std::string pngPath = (fs::path(o.bench.outDir) / "cruise_bench.png").string();
     try {
         writeTextFiles({{csvPath, csvOf(flights)}, {mdPath, generatedSection("cruise bench", md)}});
-        runPlot("plot_cruise.py", {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
-                                   std::to_string(o.width) + "x" + std::to_string(o.height)},
+        runPlot("plot_cruise.py",
+                {csvPath, std::string(kChartsFolder) + "/cruise_bench.png", when,
+                 std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.bench.outDir, {"cruise_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";

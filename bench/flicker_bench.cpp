@@ -58,8 +58,8 @@ std::vector<double> renderSequence(const Sequence& s, const RenderOptions& o, do
 // The paths: flythrough.json's and approach.json's (approach.json alone, at 0.5 fps, quick).
 std::vector<Sequence> loadSequences(const FlickerOptions& o) {
     std::vector<Sequence> sequences;
-    const std::vector<std::string> names =
-        o.bench.quick ? std::vector<std::string>{"approach.json"} : std::vector<std::string>{"flythrough.json", "approach.json"};
+    const std::vector<std::string> names = o.bench.quick ? std::vector<std::string>{"approach.json"}
+                                                         : std::vector<std::string>{"flythrough.json", "approach.json"};
     for (const std::string& n : names) {
         Sequence s{n, loadScene(o.bench.scenesDir + "/" + n)};
         if (s.scene.path.size() < 2) throw UsageError(s.scene.file + ": path: the flicker bench needs a camera path");
@@ -157,28 +157,37 @@ void writeCsvs(const std::vector<Outcome>& outcomes, const std::vector<Sequence>
            "ms_per_frame\n";
     series << "sequence,method,setting,frame,change\n";
     for (const Outcome& r : outcomes) {
-        const Sequence& s = *std::find_if(sequences.begin(), sequences.end(), [&](const Sequence& q) { return q.name == r.sequence; });
-        csv << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << r.frames << "," << fmt("%.3g", s.fps) << ","
-            << fmt("%.6f", r.meanChange) << "," << fmt("%.6f", r.referenceMeanChange) << "," << fmt("%.6f", r.flickerIndex)
-            << "," << fmt("%.6f", r.maxExcess) << "," << r.worstPair << "," << fmt("%.1f", r.msPerFrame) << "\n";
+        const Sequence& s =
+            *std::find_if(sequences.begin(), sequences.end(), [&](const Sequence& q) { return q.name == r.sequence; });
+        csv << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << r.frames << "," << fmt("%.3g", s.fps)
+            << "," << fmt("%.6f", r.meanChange) << "," << fmt("%.6f", r.referenceMeanChange) << ","
+            << fmt("%.6f", r.flickerIndex) << "," << fmt("%.6f", r.maxExcess) << "," << r.worstPair << ","
+            << fmt("%.1f", r.msPerFrame) << "\n";
         for (std::size_t k = 0; k < r.changes.size(); ++k)
-            series << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << k + 1 << "," << fmt("%.6f", r.changes[k])
-                   << "\n";
+            series << r.sequence << "," << r.method << ",\"" << r.setting << "\"," << k + 1 << ","
+                   << fmt("%.6f", r.changes[k]) << "\n";
     }
 }
 
 std::string flickerMarkdown(const FlickerOptions& o, const std::vector<Outcome>& outcomes,
-                            const std::vector<Sequence>& sequences, const std::string& when, const std::string& renderer) {
+                            const std::vector<Sequence>& sequences, const std::string& when,
+                            const std::string& renderer) {
     std::ostringstream md;
-    md << "Measured by `nephele bench --flicker` on " << when << ", " << machineLine(renderer) << ". Each sequence is the "
-       << "scene's camera `path` rendered at " << o.width << " px wide; change = mean |difference| of linear RGB (clamped "
-          "to [0, 1]) between consecutive frames. The reference is `gardner-exact --exact-order pixel`, the exact evaluation "
-          "of the Gardner model with no tiles, no atlas and each pixel's contributions composited in the depth order of "
+    md << "Measured by `nephele bench --flicker` on " << when << ", " << machineLine(renderer)
+       << ". Each sequence is the "
+       << "scene's camera `path` rendered at " << o.width
+       << " px wide; change = mean |difference| of linear RGB (clamped "
+          "to [0, 1]) between consecutive frames. The reference is `gardner-exact --exact-order pixel`, the exact "
+          "evaluation "
+          "of the Gardner model with no tiles, no atlas and each pixel's contributions composited in the depth order "
+          "of "
           "their shading points (an order that cannot flip as the eye moves), not the path tracer: at affordable "
           "sample counts the path tracer's Monte Carlo noise changes every frame and would swamp the signal. "
           "`gardner-exact, per-ellipsoid order` is the same model with whole ellipsoids sorted back to front by "
-          "centre distance, as the compositor's back-to-front tiles must be: its excess is the popping of order flips alone; "
-          "the compositor's other composite (`--composite`: back-to-front or weighted, order-independent) has a row of its "
+          "centre distance, as the compositor's back-to-front tiles must be: its excess is the popping of order flips "
+          "alone; "
+          "the compositor's other composite (`--composite`: back-to-front or weighted, order-independent) has a row of "
+          "its "
           "own. Flicker index = the method's "
           "mean change − the reference's; max excess = the largest single-frame (change − reference change), where a "
           "pop would show.\n\n"
@@ -191,8 +200,8 @@ std::string flickerMarkdown(const FlickerOptions& o, const std::vector<Outcome>&
             continue;
         }
         md << "| " << r.sequence << " | " << r.method << " | " << r.setting << " | " << r.frames << " | "
-           << fmt("%.3g", sequences[0].fps) << " | " << fmt("%.5f", r.meanChange) << " | " << fmt("%+.5f", r.flickerIndex)
-           << " | " << fmt("%+.5f", r.maxExcess) << " (" << r.worstPair << ") |\n";
+           << fmt("%.3g", sequences[0].fps) << " | " << fmt("%.5f", r.meanChange) << " | "
+           << fmt("%+.5f", r.flickerIndex) << " | " << fmt("%+.5f", r.maxExcess) << " (" << r.worstPair << ") |\n";
     }
     md << "\n![per-frame change along each path](flicker.png)\n";
     return md.str();
@@ -226,8 +235,10 @@ int runFlickerBench(const FlickerOptions& o) {
     const std::string mdPath = (fs::path(o.bench.outDir) / "flicker.md").string();
     const std::string pngPath = (fs::path(o.bench.outDir) / "flicker.png").string();
     try {
-        writeTextFiles({{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md)}});
-        runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.bench.outDir, {"flicker.png"});
+        writeTextFiles(
+            {{csvPath, csv.str()}, {seriesPath, series.str()}, {mdPath, generatedSection("flicker bench", md)}});
+        runPlot("plot_flicker.py", {seriesPath, std::string(kChartsFolder) + "/flicker.png", when}, o.bench.outDir,
+                {"flicker.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench --flicker: " << e.what() << "\n";
         return 1;

@@ -54,13 +54,16 @@ std::vector<GridRow> measureGrids(const GridBenchOptions& o) {
 
 std::string gridMarkdown(const GridBenchOptions& o, const std::vector<GridRow>& rows, const std::string& when) {
     std::ostringstream md;
-    md << "Measured by `nephele bench --grids` on " << when << ", " << machineLine("no GL (the grids are made on the CPU)")
+    md << "Measured by `nephele bench --grids` on " << when << ", "
+       << machineLine("no GL (the grids are made on the CPU)")
        << ". Per cloud: the wall time of `computeCloudRadiance` with the default `RadianceGridSettings` (the grid "
           "fitted to the cloud's optical radius, at most 32³; 2¹⁸ photons from the sun and as many from the sky at "
           "32³, in proportion to the cross-section below), median of "
-       << o.runs << " runs, on every core; memory = `radianceGridBytes` (the CPU's floats and the GPU's half floats, "
+       << o.runs
+       << " runs, on every core; memory = `radianceGridBytes` (the CPU's floats and the GPU's half floats, "
           "the sun's transmittance on its grid twice as fine).\n\n";
-    md << "| scene | clouds | grids | ms per cloud (median, largest) | ms in all | MB in all |\n|---|---:|---|---:|---:|---:|\n";
+    md << "| scene | clouds | grids | ms per cloud (median, largest) | ms in all | MB in all "
+          "|\n|---|---:|---|---:|---:|---:|\n";
     for (const std::string& name : o.scenes) {
         std::vector<double> ms;
         std::map<int, int> sizes;
@@ -69,7 +72,8 @@ std::string gridMarkdown(const GridBenchOptions& o, const std::vector<GridRow>& 
             if (r.scene == name) ms.push_back(r.ms), total += r.ms, megabytes += r.megabytes, ++sizes[r.size];
         if (ms.empty()) continue;
         std::string grids;
-        for (const auto& [size, n] : sizes) grids += (grids.empty() ? "" : ", ") + std::to_string(n) + " × " + std::to_string(size) + "³";
+        for (const auto& [size, n] : sizes)
+            grids += (grids.empty() ? "" : ", ") + std::to_string(n) + " × " + std::to_string(size) + "³";
         md << "| `" << name << "` | " << ms.size() << " | " << grids << " | " << fmt("%.1f", median(ms)) << ", "
            << fmt("%.1f", *std::max_element(ms.begin(), ms.end())) << " | " << fmt("%.0f", total) << " | "
            << fmt("%.2f", megabytes) << " |\n";
@@ -92,8 +96,8 @@ int runGridBench(const GridBenchOptions& o) {
     std::ostringstream csv;
     csv << "scene,cloud,ellipsoids,optical_radius,size,ms,mb\n";
     for (const GridRow& r : rows)
-        csv << r.scene << "," << r.cloud << "," << r.ellipsoids << "," << fmt("%.2f", r.opticalRadius) << "," << r.size << ","
-            << fmt("%.2f", r.ms) << "," << fmt("%.4f", r.megabytes) << "\n";
+        csv << r.scene << "," << r.cloud << "," << r.ellipsoids << "," << fmt("%.2f", r.opticalRadius) << "," << r.size
+            << "," << fmt("%.2f", r.ms) << "," << fmt("%.4f", r.megabytes) << "\n";
     return publishTextBench("bench --grids", o.bench.outDir, "grid bench", "grid_bench", csv.str(), md);
 }
 

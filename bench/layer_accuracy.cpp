@@ -25,8 +25,8 @@ namespace {
 struct LayerView {
     std::string name;
     Vec3 eye;
-    double elevationDeg;  // of the view direction (looking along +y)
-    double coverage = -1; // the layer's, if >= 0
+    double elevationDeg;   // of the view direction (looking along +y)
+    double coverage = -1;  // the layer's, if >= 0
 };
 
 // Below the base looking up, grazing just under the base, inside the layer, above looking down;
@@ -35,11 +35,12 @@ struct LayerView {
 std::vector<LayerView> layerViews(const Scene& scene, bool quick) {
     const Layer& l = scene.layers.front();
     const double mid = l.base + 0.5 * l.thickness;
-    std::vector<LayerView> v = {{"below, looking up 20°", scene.camera.position, 20},
-                                {"grazing, 100 m under the base", Vec3(0, 0, l.base - 100), 1.1},
-                                {"inside the layer, level", Vec3(0, 0, mid), 0},
-                                {"above, looking 10° down", Vec3(0, 0, mid + 2000), -10},
-                                {"100 m under a deck (coverage 0.9), looking up 20°", Vec3(0, 0, l.base - 100), 20, 0.9}};
+    std::vector<LayerView> v = {
+        {"below, looking up 20°", scene.camera.position, 20},
+        {"grazing, 100 m under the base", Vec3(0, 0, l.base - 100), 1.1},
+        {"inside the layer, level", Vec3(0, 0, mid), 0},
+        {"above, looking 10° down", Vec3(0, 0, mid + 2000), -10},
+        {"100 m under a deck (coverage 0.9), looking up 20°", Vec3(0, 0, l.base - 100), 20, 0.9}};
     if (quick) v.resize(1);
     return v;
 }
@@ -78,10 +79,10 @@ double meanAlpha(const Image& a) {
 
 struct Renderers {
     LayeredSettings layered;
-    std::unique_ptr<LayeredRenderer> sky;  // --method layered
+    std::unique_ptr<LayeredRenderer> sky;     // --method layered
     std::unique_ptr<LayeredRenderer> single;  // --method layered lit by single scattering alone (no photons)
-    std::unique_ptr<SkyRenderer> autoSky;  // --method auto
-    std::unique_ptr<SkyRenderer> autoAlone;  // --method auto, each near cumulus lit as a cloud alone
+    std::unique_ptr<SkyRenderer> autoSky;     // --method auto
+    std::unique_ptr<SkyRenderer> autoAlone;   // --method auto, each near cumulus lit as a cloud alone
     OpaquePass opaque;
 };
 
@@ -97,10 +98,11 @@ Reference layerReference(const Scene& scene, const View& view, const LayerAccura
         ps.spp = std::max(1, spp), ps.maxBounces = bounces, ps.seed = seed;
         ps.layers = std::make_shared<LayerVolumes>(sc, ls, 0.0);
         const Image image = o.bench.cacheDir.empty() ? renderPathTraced(sc, view, ps, &noise)
-                                               : renderPathTracedCached(sc, view, ps, &noise, o.bench.cacheDir);
+                                                     : renderPathTracedCached(sc, view, ps, &noise, o.bench.cacheDir);
         return blockMean(image, o.block);
     };
-    const int spp = o.bench.quick ? 4 : o.referenceSpp, skySpp = std::max(2, spp / 4), bounces = PathTraceSettings{}.maxBounces;
+    const int spp = o.bench.quick ? 4 : o.referenceSpp, skySpp = std::max(2, spp / 4),
+              bounces = PathTraceSettings{}.maxBounces;
     const Scene sun = sunOnly(scene), sky = skyOnly(scene);
     const Image sunA = trace(sun, spp / 2, bounces, 1), sunB = trace(sun, spp / 2, bounces, 2);
     const Image skyA = trace(sky, skySpp / 2, bounces, 1), skyB = trace(sky, skySpp / 2, bounces, 2);
@@ -124,7 +126,7 @@ Reference layerReference(const Scene& scene, const View& view, const LayerAccura
 // The near LOD against the layer it stands for within auto's reach (hand_off.hpp).
 void measureHandOff(const Scene& scene, const View& view, const Renderers& r, LayerViewAccuracy& out) {
     const HandOff h = nephele::measureHandOff(scene, view, r.layered, kAutoNearRadius, kAutoNearRadius + kAutoBlendBand,
-                                                 autoEllipsoidSettings());
+                                              autoEllipsoidSettings());
     out.reachPixels = h.reachPixels, out.bandPixels = h.bandPixels;
     out.nearOpacity = h.nearOpacity, out.layerOpacity = h.layerOpacity, out.volumeOpacity = h.volumeOpacity;
     out.nearRadiance = h.nearRadiance, out.layerRadiance = h.layerRadiance;
@@ -147,8 +149,9 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
     a.autoError = relativeRmse(autoBlocks, ref.total), a.autoRatio = meanRatio(autoBlocks, ref.total);
     a.layeredOpacity = meanAlpha(layeredBlocks);
     {  // within auto's reach
-        const Image aloneBlocks = blockMean(drawOver(scene, view, r.opaque, [&](GLuint fb) { r.autoAlone->render(scene, view, fb, 0, false); }),
-                                            o.block);
+        const Image aloneBlocks = blockMean(
+            drawOver(scene, view, r.opaque, [&](GLuint fb) { r.autoAlone->render(scene, view, fb, 0, false); }),
+            o.block);
         const Layer& l = scene.layers.front();
         const double top = l.base + l.thickness, reach = kAutoNearRadius + kAutoBlendBand;
         std::vector<char> inReach(std::size_t(layeredBlocks.width) * layeredBlocks.height), inBand = inReach;
@@ -160,7 +163,8 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
                 inBand[p] = meetsSlab(view.eye, d, l.base, top, kAutoNearRadius, reach);
                 a.nearBlocks += inReach[p];
             }
-        auto masked = [&](const Image& blocks, const std::vector<char>& mask) {  // alpha 0 outside: relativeRmse() and meanRatio() skip it
+        auto masked = [&](const Image& blocks,
+                          const std::vector<char>& mask) {  // alpha 0 outside: relativeRmse() and meanRatio() skip it
             Image out = blocks;
             for (std::size_t p = 0; p < mask.size(); ++p)
                 if (!mask[p]) out.pixels[4 * p + 3] = 0;
@@ -182,11 +186,13 @@ LayerViewAccuracy measureView(const Scene& scene, const LayerAccuracyOptions& o,
         for (int light = 0; light < 2; ++light) {
             const Scene lit = light == 0 ? sunOnly(scene) : skyOnly(scene);
             Image part = light == 0 ? ref.sun : ref.sky;  // over the total's cloud blocks in the band
-            for (std::size_t p = 0; p < inBand.size(); ++p) part.pixels[4 * p + 3] = inBand[p] ? ref.total.pixels[4 * p + 3] : 0;
-            const Image l = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.sky->render(lit, view, fb, 0); }), o.block);
+            for (std::size_t p = 0; p < inBand.size(); ++p)
+                part.pixels[4 * p + 3] = inBand[p] ? ref.total.pixels[4 * p + 3] : 0;
+            const Image l =
+                blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { r.sky->render(lit, view, fb, 0); }), o.block);
             SkyRenderer fresh(SkySettings{autoLayeredSettings(r.layered), {}, autoEllipsoidSettings()});
-            const Image au = blockMean(drawOver(lit, view, r.opaque, [&](GLuint fb) { fresh.render(lit, view, fb, 0, false); }),
-                                       o.block);
+            const Image au = blockMean(
+                drawOver(lit, view, r.opaque, [&](GLuint fb) { fresh.render(lit, view, fb, 0, false); }), o.block);
             double* ratios = light == 0 ? a.bandSunRatio : a.bandSkyRatio;
             ratios[0] = meanRatio(masked(l, inBand), part), ratios[1] = meanRatio(masked(au, inBand), part);
         }
@@ -229,7 +235,8 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     r.autoSky = std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), {}, autoEllipsoidSettings()});
     NearLodSettings alone;
     alone.tiledLight = false;
-    r.autoAlone = std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), alone, autoEllipsoidSettings()});
+    r.autoAlone =
+        std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), alone, autoEllipsoidSettings()});
     const NoiseSettings ns;
     const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
     std::vector<LayerViewAccuracy> out;
@@ -238,9 +245,9 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
         LayerViewAccuracy a = measureView(scene, o, r, noise, int(out.size()));
         a.view = v.name;
         gl::checkAlways("layer accuracy");
-        std::cerr << "bench: layer accuracy, " << v.name << ": layered " << fmt("%.1f%%", 100 * a.layeredError) << ", auto "
-                  << fmt("%.1f%%", 100 * a.autoError) << " (reference noise " << fmt("%.1f%%", 100 * a.referenceNoise)
-                  << ", " << fmt("%.0f s", a.referenceSeconds) << ")\n";
+        std::cerr << "bench: layer accuracy, " << v.name << ": layered " << fmt("%.1f%%", 100 * a.layeredError)
+                  << ", auto " << fmt("%.1f%%", 100 * a.autoError) << " (reference noise "
+                  << fmt("%.1f%%", 100 * a.referenceNoise) << ", " << fmt("%.0f s", a.referenceSeconds) << ")\n";
         out.push_back(a);
     }
     return out;
@@ -257,36 +264,41 @@ std::string layerAccuracyMarkdown(const std::vector<LayerViewAccuracy>& results,
     md << "| view | layered error | layered mean | auto error | auto mean | reference noise | opacity (reference / "
           "layered) | layered ms | auto ms |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const LayerViewAccuracy& a : results)
-        md << "| " << a.view << " | " << fmt("%.1f%%", 100 * a.layeredError) << " | " << fmt("%.2f", a.layeredRatio) << " | "
-           << fmt("%.1f%%", 100 * a.autoError) << " | " << fmt("%.2f", a.autoRatio) << " | "
+        md << "| " << a.view << " | " << fmt("%.1f%%", 100 * a.layeredError) << " | " << fmt("%.2f", a.layeredRatio)
+           << " | " << fmt("%.1f%%", 100 * a.autoError) << " | " << fmt("%.2f", a.autoRatio) << " | "
            << fmt("%.1f%%", 100 * a.referenceNoise) << " | " << fmt("%.3f", a.referenceOpacity) << " / "
-           << fmt("%.3f", a.layeredOpacity) << " | " << fmt("%.1f", a.layeredMs) << " | " << fmt("%.1f", a.autoMs) << " |\n";
+           << fmt("%.3f", a.layeredOpacity) << " | " << fmt("%.1f", a.layeredMs) << " | " << fmt("%.1f", a.autoMs)
+           << " |\n";
     md << "\nThe layered sky's error split by light (componentErrors(): the sun's single scattering, its multiple "
           "scattering, the sky's and the ground's light, the opacity alone; each relative to the reference's mean "
           "radiance) and the reference's radiance by light:\n\n";
-    md << "| view | single | multiple | sky | opacity | reference: single / multiple / sky |\n|---|---:|---:|---:|---:|---:|\n";
+    md << "| view | single | multiple | sky | opacity | reference: single / multiple / sky "
+          "|\n|---|---:|---:|---:|---:|---:|\n";
     for (const LayerViewAccuracy& a : results) {
         const ComponentErrors& e = a.layeredParts;
-        md << "| " << a.view << " | " << fmt("%.1f%%", 100 * e.single) << " | " << fmt("%.1f%%", 100 * e.multiple) << " | "
-           << fmt("%.1f%%", 100 * e.sky) << " | " << fmt("%.1f%%", 100 * e.opacity) << " | "
-           << fmt("%.2f", a.shares.single) << " / " << fmt("%.2f", a.shares.multiple) << " / " << fmt("%.2f", a.shares.sky)
-           << " |\n";
+        md << "| " << a.view << " | " << fmt("%.1f%%", 100 * e.single) << " | " << fmt("%.1f%%", 100 * e.multiple)
+           << " | " << fmt("%.1f%%", 100 * e.sky) << " | " << fmt("%.1f%%", 100 * e.opacity) << " | "
+           << fmt("%.2f", a.shares.single) << " / " << fmt("%.2f", a.shares.multiple) << " / "
+           << fmt("%.2f", a.shares.sky) << " |\n";
     }
     md << "\nWithin auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
        << " m), where auto draws the near LOD: the blocks whose centre's ray meets the layer there, error / mean "
-          "radiance over the reference's, of the layered sky, of auto, and of auto with each near cumulus lit as a cloud "
+          "radiance over the reference's, of the layered sky, of auto, and of auto with each near cumulus lit as a "
+          "cloud "
           "alone in clear air (`NearLodSettings::tiledLight` off; on, each is lit as one tile of an endless layer of "
           "copies of itself):\n\n";
-    md << "| view | blocks | layered | auto | auto, near clouds lit alone | blend band only: mean of layered / auto / lit "
-          "alone | band, the sun's light: layered / auto | band, the sky's: layered / auto |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    md << "| view | blocks | layered | auto | auto, near clouds lit alone | blend band only: mean of layered / auto / "
+          "lit "
+          "alone | band, the sun's light: layered / auto | band, the sky's: layered / auto "
+          "|\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const LayerViewAccuracy& a : results)
         md << "| " << a.view << " | " << a.nearBlocks << " | " << fmt("%.1f%%", 100 * a.layeredNearError) << " / "
            << fmt("%.2f", a.layeredNearRatio) << " | " << fmt("%.1f%%", 100 * a.autoNearError) << " / "
            << fmt("%.2f", a.autoNearRatio) << " | " << fmt("%.1f%%", 100 * a.aloneNearError) << " / "
            << fmt("%.2f", a.aloneNearRatio) << " | " << fmt("%.2f", a.layeredBandRatio) << " / "
-           << fmt("%.2f", a.autoBandRatio) << " / " << fmt("%.2f", a.aloneBandRatio) << " | " << fmt("%.2f", a.bandSunRatio[0])
-           << " / " << fmt("%.2f", a.bandSunRatio[1]) << " | " << fmt("%.2f", a.bandSkyRatio[0]) << " / "
-           << fmt("%.2f", a.bandSkyRatio[1]) << " |\n";
+           << fmt("%.2f", a.autoBandRatio) << " / " << fmt("%.2f", a.aloneBandRatio) << " | "
+           << fmt("%.2f", a.bandSunRatio[0]) << " / " << fmt("%.2f", a.bandSunRatio[1]) << " | "
+           << fmt("%.2f", a.bandSkyRatio[0]) << " / " << fmt("%.2f", a.bandSkyRatio[1]) << " |\n";
     md << "\nThe near LOD against the layer within auto's reach (" << fmt("%.0f", kAutoNearRadius + kAutoBlendBand)
        << " m): the near cumulus alone (every cell at weight 1) and the layered sky cut at the reach, over the pixels "
           "whose ray meets the layer within the reach (opacity; the volume's is the CPU integral of its density) and "

@@ -23,24 +23,25 @@
 namespace nephele::cli {
 
 struct LayerAccuracyOptions {
-    BenchOptions bench;       // layer_accuracy.md; quick: one view at 64 px, 4 spp, one frame
-    int width = 320;          // px, the views' width (16:9)
-    int referenceSpp = 256;   // samples per pixel of the reference's sun part (1/4 of it for the sky part and the single scattering)
-    std::string imageDir;     // "" = none; else the block-mean images of each view (reference, layered, auto) as PNG
-    int block = 4;            // errors on block x block pixel means
-    int frames = 3;           // timed frames per GPU method (median)
+    BenchOptions bench;  // layer_accuracy.md; quick: one view at 64 px, 4 spp, one frame
+    int width = 320;     // px, the views' width (16:9)
+    int referenceSpp =
+        256;  // samples per pixel of the reference's sun part (1/4 of it for the sky part and the single scattering)
+    std::string imageDir;  // "" = none; else the block-mean images of each view (reference, layered, auto) as PNG
+    int block = 4;         // errors on block x block pixel means
+    int frames = 3;        // timed frames per GPU method (median)
 };
 
 struct LayerViewAccuracy {
     std::string view;
-    double referenceSeconds = 0;  // wall time of the reference and its noise estimate (about 0 when cached)
-    double referenceNoise = 0;    // the reference's own relative RMSE, from its two halves
+    double referenceSeconds = 0;             // wall time of the reference and its noise estimate (about 0 when cached)
+    double referenceNoise = 0;               // the reference's own relative RMSE, from its two halves
     double layeredError = 0, autoError = 0;  // relative RMSE against the reference
     double layeredRatio = 0, autoRatio = 0;  // mean radiance over the cloud blocks / the reference's
     double referenceOpacity = 0, layeredOpacity = 0;  // mean alpha over the frame
-    ComponentErrors layeredParts;  // the layered sky's error split by light (accuracy_reference.hpp)
-    ReferenceShares shares;        // the reference's radiance split by light
-    double layeredMs = 0, autoMs = 0;        // median ms per frame
+    ComponentErrors layeredParts;                     // the layered sky's error split by light (accuracy_reference.hpp)
+    ReferenceShares shares;                           // the reference's radiance split by light
+    double layeredMs = 0, autoMs = 0;                 // median ms per frame
     // Over the blocks whose centre's ray meets the layer within auto's reach (where auto draws
     // the near LOD): error and mean ratio against the reference of the layered sky, of auto, and
     // of auto with the near cumulus lit each as a cloud alone (NearLodSettings::tiledLight off).

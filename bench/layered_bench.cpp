@@ -84,14 +84,13 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
         a.nearClouds = int(clouds.size());
         near.render(withNearClouds(scene, clouds), view, target.framebuffer(), objects);
     };
-    const std::vector<double> ms =
-        timeFrames(frames, target, opaque, scene, view,
-                   {[&] {
-                        far.render(scene, view, target.framebuffer(), t);
-                        drawNear();
-                    },
-                    [&] { far.render(scene, view, target.framebuffer(), t); }, drawNear,
-                    [&] { renderFloor(far, scene, view, target.framebuffer(), t); }});
+    const std::vector<double> ms = timeFrames(frames, target, opaque, scene, view,
+                                              {[&] {
+                                                   far.render(scene, view, target.framebuffer(), t);
+                                                   drawNear();
+                                               },
+                                               [&] { far.render(scene, view, target.framebuffer(), t); }, drawNear,
+                                               [&] { renderFloor(far, scene, view, target.framebuffer(), t); }});
     a.ms = ms[0], a.farMs = ms[1], a.nearMs = ms[2], a.floorMs = ms[3];
     return a;
 }
@@ -117,8 +116,8 @@ bool checkRanges(const LayeredBenchOptions& o) {
 
 // Every extent and N: the layered sky as shipped, its floor, without shadows and before its
 // speed work, interleaved. Throws.
-std::vector<Row> timeLayers(const LayeredBenchOptions& o, const std::vector<double>& extents, const std::vector<int>& counts,
-                            int frames, FrameTarget& target, const OpaquePass& opaque) {
+std::vector<Row> timeLayers(const LayeredBenchOptions& o, const std::vector<double>& extents,
+                            const std::vector<int>& counts, int frames, FrameTarget& target, const OpaquePass& opaque) {
     std::map<int, std::unique_ptr<LayeredRenderer>> current, noShadow, before;
     for (int n : counts) {
         LayeredSettings s;
@@ -141,16 +140,16 @@ std::vector<Row> timeLayers(const LayeredBenchOptions& o, const std::vector<doub
             Row r;
             r.extent = extent, r.layers = n;
             const double t = 0;
-            const std::vector<double> ms = timeFrames(
-                frames, target, opaque, scene, view,
-                {[&] { r.stats = current[n]->render(scene, view, target.framebuffer(), t); },
-                 [&] { r.floorStats = renderFloor(*current[n], scene, view, target.framebuffer(), t); },
-                 [&] { noShadow[n]->render(scene, view, target.framebuffer(), t); },
-                 [&] { before[n]->render(scene, view, target.framebuffer(), t); }});
+            const std::vector<double> ms =
+                timeFrames(frames, target, opaque, scene, view,
+                           {[&] { r.stats = current[n]->render(scene, view, target.framebuffer(), t); },
+                            [&] { r.floorStats = renderFloor(*current[n], scene, view, target.framebuffer(), t); },
+                            [&] { noShadow[n]->render(scene, view, target.framebuffer(), t); },
+                            [&] { before[n]->render(scene, view, target.framebuffer(), t); }});
             r.ms = ms[0], r.floorMs = ms[1], r.noShadowMs = ms[2], r.beforeMs = ms[3];
-            std::cerr << "bench: extent " << fmt("%.0f", extent / 1000) << " km, N = " << n << ": "
-                      << fmt("%.1f", r.ms) << " ms, floor " << fmt("%.1f", r.floorMs) << " ms, without shadows "
-                      << fmt("%.1f", r.noShadowMs) << " ms, before " << fmt("%.1f", r.beforeMs) << " ms\n";
+            std::cerr << "bench: extent " << fmt("%.0f", extent / 1000) << " km, N = " << n << ": " << fmt("%.1f", r.ms)
+                      << " ms, floor " << fmt("%.1f", r.floorMs) << " ms, without shadows " << fmt("%.1f", r.noShadowMs)
+                      << " ms, before " << fmt("%.1f", r.beforeMs) << " ms\n";
             rows.push_back(r);
         }
     return rows;
@@ -161,19 +160,20 @@ std::string layeredCsv(const std::vector<Row>& rows) {
     csv << "extent_m,layers,ms,floor_ms,ratio_to_floor,no_shadow_ms,shadow_pass_ms,before_ms,speedup_vs_before,"
            "draw_calls,instances,shadow_draw_calls,floor_draw_calls\n";
     for (const Row& r : rows)
-        csv << fmt("%.0f", r.extent) << "," << r.layers << "," << fmt("%.3f", r.ms) << "," << fmt("%.3f", r.floorMs) << ","
-            << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.noShadowMs) << ","
-            << fmt("%.3f", r.ms - r.noShadowMs) << "," << fmt("%.3f", r.beforeMs) << "," << fmt("%.3f", r.beforeMs / r.ms)
-            << "," << r.stats.drawCalls << "," << r.stats.instances << "," << r.stats.shadowDrawCalls << ","
-            << r.floorStats.drawCalls << "\n";
+        csv << fmt("%.0f", r.extent) << "," << r.layers << "," << fmt("%.3f", r.ms) << "," << fmt("%.3f", r.floorMs)
+            << "," << fmt("%.3f", r.ms / r.floorMs) << "," << fmt("%.3f", r.noShadowMs) << ","
+            << fmt("%.3f", r.ms - r.noShadowMs) << "," << fmt("%.3f", r.beforeMs) << ","
+            << fmt("%.3f", r.beforeMs / r.ms) << "," << r.stats.drawCalls << "," << r.stats.instances << ","
+            << r.stats.shadowDrawCalls << "," << r.floorStats.drawCalls << "\n";
     return csv.str();
 }
 
-std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>& rows, const std::optional<AutoSplit>& autoSplit,
-                            int frames, const std::string& when, const std::string& machine) {
+std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>& rows,
+                            const std::optional<AutoSplit>& autoSplit, int frames, const std::string& when,
+                            const std::string& machine) {
     std::ostringstream md;
-    md << "Measured by `nephele bench --layered` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", median of " << frames
+    md << "Measured by `nephele bench --layered` on " << when << ", " << machine << ", at " << o.width << "x"
+       << o.height << ", median of " << frames
        << " frames (wall time to glFinish; the sky and ground are drawn before the clock starts; the variants take "
           "turns frame by frame). View: near_and_far.json's eye 900 m up looking 7° up at its layer (2500–3100 m, "
           "coverage 0.6, density 0.8), ground below the horizon. ms/frame is the layered sky as shipped (drawn at "
@@ -188,16 +188,19 @@ std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>
           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
         md << "| " << fmt("%.0f km", r.extent / 1000) << " | " << r.layers << " | " << fmt("%.1f", r.ms) << " | "
-           << fmt("%.1f", r.floorMs) << " | " << fmt("%.2f", r.ms / r.floorMs) << " | " << fmt("%.1f", r.ms - r.noShadowMs)
-           << " | " << fmt("%.1f", r.beforeMs) << " | " << fmt("%.2f", r.beforeMs / r.ms) << " | "
-           << r.stats.drawCalls + r.stats.shadowDrawCalls + r.stats.upsampleDrawCalls << " | " << r.stats.instances << " |\n";
+           << fmt("%.1f", r.floorMs) << " | " << fmt("%.2f", r.ms / r.floorMs) << " | "
+           << fmt("%.1f", r.ms - r.noShadowMs) << " | " << fmt("%.1f", r.beforeMs) << " | "
+           << fmt("%.2f", r.beforeMs / r.ms) << " | "
+           << r.stats.drawCalls + r.stats.shadowDrawCalls + r.stats.upsampleDrawCalls << " | " << r.stats.instances
+           << " |\n";
     if (autoSplit)
         md << "\n`--method auto` on near_and_far.json (" << autoSplit->nearClouds
            << " clouds near the eye as ellipsoids: its explicit cumulus and the layer's near LOD within "
-           << fmt("%.1f", (kAutoNearRadius + kAutoBlendBand) / 1000) << " km; the layer beyond), same run: "
-           << fmt("%.1f", autoSplit->ms) << " ms per frame, " << fmt("%.2f", autoSplit->ms / autoSplit->floorMs)
-           << "× the far field's floor (" << fmt("%.1f", autoSplit->floorMs) << " ms); far field "
-           << fmt("%.1f", autoSplit->farMs) << " ms (" << fmt("%.2f", autoSplit->farMs / autoSplit->floorMs)
+           << fmt("%.1f", (kAutoNearRadius + kAutoBlendBand) / 1000)
+           << " km; the layer beyond), same run: " << fmt("%.1f", autoSplit->ms) << " ms per frame, "
+           << fmt("%.2f", autoSplit->ms / autoSplit->floorMs) << "× the far field's floor ("
+           << fmt("%.1f", autoSplit->floorMs) << " ms); far field " << fmt("%.1f", autoSplit->farMs) << " ms ("
+           << fmt("%.2f", autoSplit->farMs / autoSplit->floorMs)
            << "× the floor), near field (near LOD update and compositor) " << fmt("%.1f", autoSplit->nearMs) << " ms ("
            << fmt("%.2f", autoSplit->nearMs / autoSplit->floorMs) << "× the far field's floor).\n";
     md << "\n![ms per frame against the layer count N](layered_bench.png)\n";
@@ -237,8 +240,8 @@ int runLayeredBench(const LayeredBenchOptions& o) {
     }
     const std::string when = utcNow();
     const std::string md = layeredMarkdown(o, rows, autoSplit, frames, when, machineLine(renderer));
-    return publishChartBench(o.bench.outDir, "layered bench", "layered_bench", layeredCsv(rows), md, "plot_layered.py", when,
-                             {std::to_string(o.width) + "x" + std::to_string(o.height)});
+    return publishChartBench(o.bench.outDir, "layered bench", "layered_bench", layeredCsv(rows), md, "plot_layered.py",
+                             when, {std::to_string(o.width) + "x" + std::to_string(o.height)});
 }
 
 }  // namespace nephele::cli

@@ -67,7 +67,8 @@ int runQueryBench(const QueryBenchOptions& o) {
     std::string renderer;
     csv << "scene,ellipsoids,near_clouds,layers,density_us,transmittance_1km_us,transmittance_10km_us,inside_us,"
            "mean_depth_m,floor_us\n";
-    md << "| scene | explicit ellipsoids | near clouds | layers | densityAt | transmittance 1 km | transmittance 10 km | "
+    md << "| scene | explicit ellipsoids | near clouds | layers | densityAt | transmittance 1 km | transmittance 10 km "
+          "| "
           "insideCloud (mean depth) | floor: the path tracer's field |\n|---|---|---|---|---|---|---|---|---|\n";
     try {
         ContextOptions co;
@@ -99,36 +100,42 @@ int runQueryBench(const QueryBenchOptions& o) {
                 const double x = g(rng), y = g(rng), z = g(rng);  // one by one, as above
                 dirs.push_back(glm::normalize(Vec3(x, y, 0.3 * z)));
             }
-            const NoiseVolume noise = makeNoiseVolume(NoiseSettings{}.size, NoiseSettings{}.cells, NoiseSettings{}.octaves,
-                                                      NoiseSettings{}.seed);
+            const NoiseVolume noise = makeNoiseVolume(NoiseSettings{}.size, NoiseSettings{}.cells,
+                                                      NoiseSettings{}.octaves, NoiseSettings{}.seed);
             const ExtinctionField field(scene, &noise, nullptr, eye);
             const double density = microseconds(points, [&](const Vec3& p, std::size_t) { return sky.densityAt(p); });
-            const double t1 = microseconds(points, [&](const Vec3& p, std::size_t i) { return sky.transmittance(p, dirs[i], 1000); });
-            const double t10 = microseconds(points, [&](const Vec3& p, std::size_t i) { return sky.transmittance(p, dirs[i], 10000); });
-            const double in = microseconds(inside, [&](const Vec3& p, std::size_t) { return sky.insideCloud(p).depth; });
+            const double t1 =
+                microseconds(points, [&](const Vec3& p, std::size_t i) { return sky.transmittance(p, dirs[i], 1000); });
+            const double t10 = microseconds(
+                points, [&](const Vec3& p, std::size_t i) { return sky.transmittance(p, dirs[i], 10000); });
+            const double in =
+                microseconds(inside, [&](const Vec3& p, std::size_t) { return sky.insideCloud(p).depth; });
             double depth = 0;
             for (const Vec3& p : inside) depth += sky.insideCloud(p).depth / double(inside.size());
             const double floor = microseconds(points, [&](const Vec3& p, std::size_t) { return field(p); });
             int ellipsoids = 0;
             for (const Cloud& c : scene.clouds) ellipsoids += int(c.ellipsoids.size());
             csv << name << "," << ellipsoids << "," << stats.nearLod.clouds << "," << scene.layers.size() << ","
-                << fmt("%.3f", density) << "," << fmt("%.2f", t1) << "," << fmt("%.2f", t10) << "," << fmt("%.2f", in) << ","
-                << fmt("%.1f", depth) << "," << fmt("%.3f", floor) << "\n";
-            md << "| " << name << " | " << ellipsoids << " | " << stats.nearLod.clouds << " | " << scene.layers.size() << " | "
-               << fmt("%.2f", density) << " µs | " << fmt("%.1f", t1) << " µs | " << fmt("%.1f", t10) << " µs | "
-               << fmt("%.1f", in) << " µs (" << fmt("%.0f", depth) << " m) | " << fmt("%.2f", floor) << " µs |\n";
+                << fmt("%.3f", density) << "," << fmt("%.2f", t1) << "," << fmt("%.2f", t10) << "," << fmt("%.2f", in)
+                << "," << fmt("%.1f", depth) << "," << fmt("%.3f", floor) << "\n";
+            md << "| " << name << " | " << ellipsoids << " | " << stats.nearLod.clouds << " | " << scene.layers.size()
+               << " | " << fmt("%.2f", density) << " µs | " << fmt("%.1f", t1) << " µs | " << fmt("%.1f", t10)
+               << " µs | " << fmt("%.1f", in) << " µs (" << fmt("%.0f", depth) << " m) | " << fmt("%.2f", floor)
+               << " µs |\n";
         }
     } catch (const std::exception& e) {
         return reportError(e, "the query bench");
     }
     std::ostringstream page;
-    page << "Measured by `nephele bench --queries` on " << utcNow() << ", " << machineLine(renderer) << ". Per call, one "
-         << "thread, median of five passes over " << o.points << " points that hold matter (insideCloud: " << o.points
-         << " points inside a cloud), drawn within " << fmt("%.0f", o.radius)
-         << " m of the camera (horizontally) between the lowest and the highest matter, after `prepare`, an `update` at "
-            "the camera and its background work; rays from the points in random directions, mostly horizontal. The "
-            "floor is the path tracer's extinction field of the explicit clouds at the same points.\n\n"
-         << md.str();
+    page
+        << "Measured by `nephele bench --queries` on " << utcNow() << ", " << machineLine(renderer)
+        << ". Per call, one "
+        << "thread, median of five passes over " << o.points << " points that hold matter (insideCloud: " << o.points
+        << " points inside a cloud), drawn within " << fmt("%.0f", o.radius)
+        << " m of the camera (horizontally) between the lowest and the highest matter, after `prepare`, an `update` at "
+           "the camera and its background work; rays from the points in random directions, mostly horizontal. The "
+           "floor is the path tracer's extinction field of the explicit clouds at the same points.\n\n"
+        << md.str();
     return publishTextBench("bench --queries", o.bench.outDir, "query bench", "query_bench", csv.str(), page.str());
 }
 

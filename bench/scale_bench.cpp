@@ -44,18 +44,21 @@ std::string sceneJson(const Scene& s) {
     std::string out;
     char buf[256];
     const Camera& c = s.camera;
-    std::snprintf(buf, sizeof buf,
-                  "{\"cloudscene\": 1, \"camera\": {\"position\": [%.3f, %.3f, %.3f], \"direction\": [%.6f, %.6f, %.6f], "
-                  "\"fov_y_deg\": %.3f, \"width\": %d, \"height\": %d},\n\"clouds\": [",
-                  c.position.x, c.position.y, c.position.z, c.direction.x, c.direction.y, c.direction.z, c.fovYDeg, c.width,
-                  c.height);
+    std::snprintf(
+        buf, sizeof buf,
+        "{\"cloudscene\": 1, \"camera\": {\"position\": [%.3f, %.3f, %.3f], \"direction\": [%.6f, %.6f, %.6f], "
+        "\"fov_y_deg\": %.3f, \"width\": %d, \"height\": %d},\n\"clouds\": [",
+        c.position.x, c.position.y, c.position.z, c.direction.x, c.direction.y, c.direction.z, c.fovYDeg, c.width,
+        c.height);
     out += buf;
     for (std::size_t k = 0; k < s.clouds.size(); ++k) {
         out += (k ? ",\n" : "") + std::string("{\"name\": \"") + s.clouds[k].name + "\", \"ellipsoids\": [";
         for (std::size_t i = 0; i < s.clouds[k].ellipsoids.size(); ++i) {
             const Ellipsoid& e = s.clouds[k].ellipsoids[i];
-            std::snprintf(buf, sizeof buf, "%s{\"center\": [%.2f, %.2f, %.2f], \"radii\": [%.2f, %.2f, %.2f], \"rotation_deg\": [0, 0, %.2f]}",
-                          i ? ", " : "", e.center.x, e.center.y, e.center.z, e.radii.x, e.radii.y, e.radii.z, e.rotationDeg.z);
+            std::snprintf(
+                buf, sizeof buf,
+                "%s{\"center\": [%.2f, %.2f, %.2f], \"radii\": [%.2f, %.2f, %.2f], \"rotation_deg\": [0, 0, %.2f]}",
+                i ? ", " : "", e.center.x, e.center.y, e.center.z, e.radii.x, e.radii.y, e.radii.z, e.rotationDeg.z);
             out += buf;
         }
         out += "]}";
@@ -84,7 +87,7 @@ struct Row {
     int count = 0;
     std::string method, size;
     Phase load, plan, draw;
-    double nextMs = -1;  // the second frame, light volumes reused
+    double nextMs = -1;   // the second frame, light volumes reused
     std::string refused;  // the message, when the method refused the scene
 };
 
@@ -126,7 +129,9 @@ double exponent(const std::vector<std::pair<double, double>>& xy) {
     return (n * sxy - sx * sy) / (n * sxx - sx * sx);
 }
 
-std::string cell(const Phase& p) { return p.ms < 0 ? "—" : fmt("%.0f", p.ms) + " ms / " + fmt("%.0f", p.peakMb) + " MB"; }
+std::string cell(const Phase& p) {
+    return p.ms < 0 ? "—" : fmt("%.0f", p.ms) + " ms / " + fmt("%.0f", p.peakMb) + " MB";
+}
 
 std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
     ContextOptions co;
@@ -134,7 +139,8 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
     auto context = Context::create(co);
     renderer = context->description();
     gl::setChecks(false);  // timing: no glGetError round trips
-    const std::string file = (fs::temp_directory_path() / ("nephele_scale_" + std::to_string(::getpid()) + ".json")).string();
+    const std::string file =
+        (fs::temp_directory_path() / ("nephele_scale_" + std::to_string(::getpid()) + ".json")).string();
     std::vector<Row> rows;
     for (int count : o.counts) {
         { std::ofstream(file) << sceneJson(benchScene(count, o.width, o.height)); }
@@ -158,31 +164,35 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
             Row r = row("ellipsoid", size);
             EllipsoidRenderer clouds;
             EllipsoidStats st;
-            timeMethod(r, background, [&] { st = clouds.render(scene, view, target.framebuffer(), false); },
-                       [&] { return st.planMs; });
+            timeMethod(
+                r, background, [&] { st = clouds.render(scene, view, target.framebuffer(), false); },
+                [&] { return st.planMs; });
             rows.push_back(r);
         }
         {
             Row r = row("auto", size);
             SkyRenderer sky;
             SkyStats st;
-            timeMethod(r, background, [&] { st = sky.render(scene, view, target.framebuffer(), 0.0, false); },
-                       [&] { return st.ellipsoids.planMs; });
+            timeMethod(
+                r, background, [&] { st = sky.render(scene, view, target.framebuffer(), 0.0, false); },
+                [&] { return st.ellipsoids.planMs; });
             rows.push_back(r);
         }
         {
             Row r = row("raymarch", size);
             RaymarchRenderer marcher;
             RaymarchStats st;
-            timeMethod(r, background, [&] { st = marcher.render(scene, view, target.framebuffer(), false); },
-                       [&] { return st.planMs; });
+            timeMethod(
+                r, background, [&] { st = marcher.render(scene, view, target.framebuffer(), false); },
+                [&] { return st.planMs; });
             rows.push_back(r);
         }
         {  // the CPU reference at a thumbnail size
             Scene small = scene;
             small.camera.width = o.exactWidth;
             small.camera.height = std::max(1, int(std::lround(o.exactWidth * double(o.height) / o.width)));
-            Row r = row("gardner-exact", std::to_string(small.camera.width) + "x" + std::to_string(small.camera.height));
+            Row r =
+                row("gardner-exact", std::to_string(small.camera.width) + "x" + std::to_string(small.camera.height));
             const NoiseSettings ns;
             const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
             resetPeak();
@@ -255,9 +265,9 @@ int runScaleBench(const ScaleBenchOptions& o) {
     std::ostringstream csv;
     csv << "ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n";
     for (const Row& r : rows)
-        csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << "," << fmt("%.1f", r.load.peakMb)
-            << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << "," << fmt("%.1f", r.draw.peakMb) << ","
-            << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";
+        csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << ","
+            << fmt("%.1f", r.load.peakMb) << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << ","
+            << fmt("%.1f", r.draw.peakMb) << "," << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";
     return publishTextBench("bench --scale", o.bench.outDir, "scale bench", "scale_bench", csv.str(), md);
 }
 

@@ -47,9 +47,11 @@ Scene atDistance(Scene s, double distance) {
 
 int runSilhouetteBench(const SilhouetteBenchOptions& o) {
     if (!prepareBenchOutputs(o.bench.outDir)) return 2;
-    const std::vector<std::string> names = o.bench.quick ? std::vector<std::string>{"dense_cumulus.json"}
-                                                   : std::vector<std::string>{"cumulus27.json", "dense_cumulus.json"};
-    const std::vector<double> distances = o.bench.quick ? std::vector<double>{1000} : std::vector<double>{100, 1000, 5000};
+    const std::vector<std::string> names = o.bench.quick
+                                               ? std::vector<std::string>{"dense_cumulus.json"}
+                                               : std::vector<std::string>{"cumulus27.json", "dense_cumulus.json"};
+    const std::vector<double> distances =
+        o.bench.quick ? std::vector<double>{1000} : std::vector<double>{100, 1000, 5000};
     std::ostringstream csv, md;
     csv << "scene,distance_m,method,erosion,dimension\n";
     md << "Box-counting dimension of the α > 0.5 silhouette (boxes 2–32 px) at " << o.width << " px wide; "
@@ -80,14 +82,15 @@ int runSilhouetteBench(const SilhouetteBenchOptions& o) {
                         csv << name << "," << d << "," << methodName(m) << "," << s.medium.detail.erosion << ","
                             << fmt("%.3f", dim[on]) << "\n";
                     }
-                    md << "| " << name << " | " << d << " m | " << methodName(m) << " | " << fmt("%.3f", dim[0]) << " | "
-                       << fmt("%.3f", dim[1]) << " |\n";
+                    md << "| " << name << " | " << d << " m | " << methodName(m) << " | " << fmt("%.3f", dim[0])
+                       << " | " << fmt("%.3f", dim[1]) << " |\n";
                 }
         }
     } catch (const std::exception& e) {
         return reportError(e, "the silhouette bench");
     }
-    return publishTextBench("bench --silhouette", o.bench.outDir, "silhouette bench", "silhouette_bench", csv.str(), md.str());
+    return publishTextBench("bench --silhouette", o.bench.outDir, "silhouette bench", "silhouette_bench", csv.str(),
+                            md.str());
 }
 
 }  // namespace nephele::cli

@@ -84,10 +84,10 @@ std::vector<WeatherEvent> sweep(int frames) {
              w.apply(second);
          }},
         {at(0.5), "sun azimuth 56 -> 80 deg, elevation 68 -> 40 deg", [](Weather& w) { w.sun = sunAt(80, 40); }},
-        {at(0.65), "coverage 45% and thickness 500 m", layer([](CloudLayerControl& c) {
-             c.coverage = 45, c.thickness = 500;
-         })},
-        {at(0.8), "sun elevation 40 -> 25 deg, and layer 2 off", [](Weather& w) {
+        {at(0.65), "coverage 45% and thickness 500 m",
+         layer([](CloudLayerControl& c) { c.coverage = 45, c.thickness = 500; })},
+        {at(0.8), "sun elevation 40 -> 25 deg, and layer 2 off",
+         [](Weather& w) {
              w.sun = sunAt(90, 25);
              w.layers.at(2).enabled = false;
          }},
@@ -157,7 +157,8 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         opaque.draw(old, view, target.framebuffer());
         gl::glFinish();
         t0 = Clock::now();
-        ft.beforeLightVolumes = before.render(old, view, target.framebuffer(), t, !old.objects.empty()).ellipsoids.lightVolumes;
+        ft.beforeLightVolumes =
+            before.render(old, view, target.framebuffer(), t, !old.objects.empty()).ellipsoids.lightVolumes;
         gl::glFinish();
         ft.beforeMs = msSince(t0);
         if (f >= 0) out.push_back(ft);
@@ -169,20 +170,21 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
 std::string csvOf(const std::vector<FrameTime>& frames) {
     std::ostringstream csv;
     csv << "frame,ms,update_ms,draw_ms,before_ms,light_grids_finished,light_grids_pending,light_stand_ins,light_ms,"
-           "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,tiles_ms,"
-           "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_uploads,atlas_grown,transition,event\n";
+           "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,"
+           "tiles_ms,"
+           "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_"
+           "uploads,atlas_grown,transition,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
-        csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs) << ","
-            << fmt("%.3f", f.beforeMs) << "," << f.update.lightVolumes << "," << f.update.lightPending << ","
-            << f.update.lightStandIns << "," << fmt("%.3f", f.update.lightMs) << ","
-            << f.update.nearLod.generated << ","
-            << f.update.nearLod.pending << "," << f.update.backgroundJobs << "," << f.uploads << "," << f.pendingLayers << ","
-            << f.beforeLightVolumes << "," << fmt("%.3f", f.farFieldMs) << "," << fmt("%.3f", f.tilesMs) << ","
-            << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << "," << f.tilesRendered << "," << f.tilesMust << ","
-            << fmt("%.4f", f.tileMegapixels) << "," << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << ","
-            << f.lightUploads << "," << int(f.atlasGrown) << "," << fmt("%.3f", f.update.transition)
-            << ",\"" << f.event << "\"\n";
+        csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs)
+            << "," << fmt("%.3f", f.beforeMs) << "," << f.update.lightVolumes << "," << f.update.lightPending << ","
+            << f.update.lightStandIns << "," << fmt("%.3f", f.update.lightMs) << "," << f.update.nearLod.generated
+            << "," << f.update.nearLod.pending << "," << f.update.backgroundJobs << "," << f.uploads << ","
+            << f.pendingLayers << "," << f.beforeLightVolumes << "," << fmt("%.3f", f.farFieldMs) << ","
+            << fmt("%.3f", f.tilesMs) << "," << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << ","
+            << f.tilesRendered << "," << f.tilesMust << "," << fmt("%.4f", f.tileMegapixels) << ","
+            << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << "," << f.lightUploads << "," << int(f.atlasGrown)
+            << "," << fmt("%.3f", f.update.transition) << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }
@@ -208,13 +210,15 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
     for (const FrameTime& f : frames) ms.push_back(f.ms), beforeMs.push_back(f.beforeMs);
     const double med = median(ms), beforeMed = median(beforeMs);
     std::ostringstream md;
-    md << "Measured by `nephele bench --weather` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ": " << frames.size() << " frames of a flight through near_and_far.json (" << fmt("%.0f", o.speed)
+    md << "Measured by `nephele bench --weather` on " << when << ", " << machine << ", at " << o.width << "x"
+       << o.height << ": " << frames.size() << " frames of a flight through near_and_far.json (" << fmt("%.0f", o.speed)
        << " m/s along its heading, " << fmt("%.0f", o.fps)
        << " frames per second of simulated time) while the weather changes as below, each change ramping over "
-       << fmt("%.1f", o.transition) << " s (Weather::transitionSeconds; a change during a ramp starts a new one from "
+       << fmt("%.1f", o.transition)
+       << " s (Weather::transitionSeconds; a change during a ramp starts a new one from "
           "what is shown). A frame is SkyRenderer::update + "
-          "draw of one channel, wall time to glFinish (the host's sky is drawn before the clock starts; the draw's parts "
+          "draw of one channel, wall time to glFinish (the host's sky is drawn before the clock starts; the draw's "
+          "parts "
           "are timed, a glFinish between them); before = the "
           "same frames with the one-call SkyRenderer::render of before, the same weather applied to its scene; the two "
           "take turns frame by frame. The layers' lighting is computed, not loaded from a cache (the worst case). "
@@ -224,13 +228,14 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
     md << summaryRow("update + draw", ms) << summaryRow("before: render()", beforeMs) << "\n";
     {
         const FrameTime& worst = frames[worstIn(ms, 0, ms.size())];
-        md << "The worst frame by part (SkySettings::timings; the CSV has every frame's): update " << fmt("%.1f", worst.updateMs)
-           << " ms, far field " << fmt("%.1f", worst.farFieldMs) << ", tiles " << fmt("%.1f", worst.tilesMs) << ", composite "
-           << fmt("%.1f", worst.compositeMs) << " (" << worst.passes << " atlas passes, " << worst.visible
-           << " ellipsoids visible).\n\n";
+        md << "The worst frame by part (SkySettings::timings; the CSV has every frame's): update "
+           << fmt("%.1f", worst.updateMs) << " ms, far field " << fmt("%.1f", worst.farFieldMs) << ", tiles "
+           << fmt("%.1f", worst.tilesMs) << ", composite " << fmt("%.1f", worst.compositeMs) << " (" << worst.passes
+           << " atlas passes, " << worst.visible << " ellipsoids visible).\n\n";
     }
     md << "Per change, the worst frame from it to the next change (at most 10 frames):\n\n";
-    md << "| frame | change | update + draw ms | × median | × the 10 frames before | grids made on the worker (most pending) | "
+    md << "| frame | change | update + draw ms | × median | × the 10 frames before | grids made on the worker (most "
+          "pending) | "
           "cells made | before ms | × median |\n"
           "|---:|---|---:|---:|---:|---:|---:|---:|---:|\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -245,7 +250,8 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
                 pending = std::max(pending, frames[k].update.lightPending);
         // The frames just before the change: the same clouds in view, so that a stall shows
         // apart from what the flight itself brings into view.
-        const std::vector<double> lead(ms.begin() + std::ptrdiff_t(i >= 10 ? i - 10 : 0), ms.begin() + std::ptrdiff_t(i));
+        const std::vector<double> lead(ms.begin() + std::ptrdiff_t(i >= 10 ? i - 10 : 0),
+                                       ms.begin() + std::ptrdiff_t(i));
         const std::string overLead = lead.empty() ? "" : fmt("%.2f", ms[w] / median(lead));
         md << "| " << i << " | " << frames[i].event << " | " << fmt("%.1f", ms[w]) << " | " << fmt("%.2f", ms[w] / med)
            << " | " << overLead << " | " << volumes << " (" << pending << ") | " << cells << " | "
@@ -273,7 +279,7 @@ int runWeatherBench(const WeatherBenchOptions& o) {
         co.backend = o.bench.backend;
         auto context = Context::create(co);
         renderer = context->description();
-        gl::setChecks(false);  // timing: no glGetError round trips
+        gl::setChecks(false);                                       // timing: no glGetError round trips
         frames = fly(o, scene, "", o.bench.quick ? 24 : o.frames);  // no lighting cache: computed, the worst case
         gl::setChecks(true);
         gl::checkAlways("bench --weather");
@@ -289,7 +295,8 @@ int runWeatherBench(const WeatherBenchOptions& o) {
     try {
         writeTextFiles({{csvPath, csvOf(frames)}, {mdPath, generatedSection("weather bench", md)}});
         runPlot("plot_weather.py",
-                {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when, std::to_string(o.width) + "x" + std::to_string(o.height)},
+                {csvPath, std::string(kChartsFolder) + "/weather_bench.png", when,
+                 std::to_string(o.width) + "x" + std::to_string(o.height)},
                 o.bench.outDir, {"weather_bench.png"});
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench: " << e.what() << "\n";

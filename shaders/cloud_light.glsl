@@ -178,7 +178,8 @@ MODEL_FN float lobeIrradiance(vec4 lobe, vec3 n) {
 // in the cloud per unit of the sun's irradiance, the luminance irradiance of the sky's and the
 // ground's light there, seen through the cloud and scattered by it); texels as lightScalars().
 MODEL_FN vec2 gridIrradiance(vec4 sunFew, vec4 sunMany, vec4 skyTau, vec4 skyFlux, vec3 n) {
-    float sun = lobeIrradiance(sunFew, n) + harmonicIrradiance(sunMany.w, vec3(sunMany.x, sunMany.y, sunMany.z), 0.0f, n);
+    float sun =
+        lobeIrradiance(sunFew, n) + harmonicIrradiance(sunMany.w, vec3(sunMany.x, sunMany.y, sunMany.z), 0.0f, n);
     float skyPhi0 = dot(vec3(skyTau.x, skyTau.y, skyTau.z), kLuminance);
     float sky = harmonicIrradiance(skyPhi0, vec3(skyFlux.x, skyFlux.y, skyFlux.z), skyFlux.w, n);
     return vec2(sun, sky);
@@ -193,7 +194,8 @@ MODEL_FN vec3 openSkyIrradiance(vec3 zenith, vec3 horizon, vec3 ground, vec3 n) 
     float c = clamp(n.z, -1.0f, 1.0f);
     float a = acos(c);
     float lobe = 0.6666667f * ((kLightPi - a) * c + sqrt(max(1.0f - c * c, 0.0f)));
-    return horizon * (0.5f * kLightPi * (1.0f + c)) + (zenith - horizon) * lobe + ground * (0.5f * kLightPi * (1.0f - c));
+    return horizon * (0.5f * kLightPi * (1.0f + c)) + (zenith - horizon) * lobe +
+           ground * (0.5f * kLightPi * (1.0f - c));
 }
 
 // How much of a cloud's grid (its light there minus the open sky's) an object at `outside` m

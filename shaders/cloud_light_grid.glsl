@@ -7,7 +7,8 @@
 // voxel centres, as sampleRadiance() reads them on the CPU.
 // The buffer's binding point is CloudLightTextures::kBoxesBinding, set on the program by bind().
 layout(std430) readonly buffer CloudLightBoxes { vec4 cloudLightBoxes[]; };
-uniform sampler3D lightSunFew;      // (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance
+// lightSunFew: (phi1 xyz, phi0) of the sun's light scattered 1..kFewScatterings times, per unit irradiance.
+uniform sampler3D lightSunFew;
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, unused)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
@@ -26,7 +27,8 @@ LightTexels lightTexels(int cloud, vec3 rel) {
     float fine = lightSunRefinement * slot.w;
     LightTexels t;
     t.uvw = (clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz) * lightInvTexels;
-    t.sun = (clamp(u * fine, vec3(0.5), vec3(fine - 0.5)) + lightSunRefinement * slot.xyz) * lightInvTexels / lightSunRefinement;
+    t.sun = (clamp(u * fine, vec3(0.5), vec3(fine - 0.5)) + lightSunRefinement * slot.xyz) * lightInvTexels /
+            lightSunRefinement;
     return t;
 }
 // (sky fluence rgb, optical depth to the sun): the sun's texture holds its transmittance, so

@@ -115,7 +115,8 @@ MODEL_FN float detailValue(DETAIL_TEX tex, DetailParams dp, vec3 rel) {
     for (int k = 0; k < dp.octaves; ++k) {
         float f = clamp(cut - float(k), 0.0f, 1.0f);
         float n = dp.mean;
-        if (f > 0.0f) n = dp.mean + f * (detailOctave(tex, dp.kind, y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean);
+        if (f > 0.0f)
+            n = dp.mean + f * (detailOctave(tex, dp.kind, y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean);
         sum += weight * n;
         total += weight;
         weight *= kDetailGain;

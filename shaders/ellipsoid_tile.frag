@@ -63,7 +63,8 @@ void main() {
 #ifndef FALLOFF_TEXTURE
     if (detail.erosion > 0.0) grow = erodedGrowth(detailVolume, detail, t.eyeUnitAc.xyz, toUnit(t, d), d, tStart);
 #endif
-    vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz * grow, toUnit(t, d) * grow, d, tStart, instance.y, sunDirection, hgG);
+    vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz * grow, toUnit(t, d) * grow, d, tStart, instance.y,
+                              sunDirection, hgG);
 #else
     // The plane point at radius rho lies on the ray with impact parameter
     // b = rho L / sqrt(L^2 + rho^2) (L: the eye's unit-space distance to the centre):
@@ -96,7 +97,8 @@ void main() {
         Tile tile = tiles[tileIndex];
         vec3 dr = normalize(rayOf());
         float t0 = instance.w > 0.5 ? nearClip / dot(dr, forward) : 0.0;
-        depth = erodedSegmentDepth(detailVolume, detail, tile.eyeUnitAc.xyz, toUnit(tile, dr), dr, t0, 1e30, detailPieces);
+        depth =
+            erodedSegmentDepth(detailVolume, detail, tile.eyeUnitAc.xyz, toUnit(tile, dr), dr, t0, 1e30, detailPieces);
     }
 #endif
     float a = opacityOf(instance.y * depth);

@@ -37,7 +37,8 @@ MODEL_FN float tauAtThreshold(vec3 knots, float theta) {
 // whole column, the fragment's threshold theta and density D.
 MODEL_FN vec3 layerColumnDepths(vec3 encodedAbove, vec3 encodedColumn, float theta, float density) {
     vec3 above = vec3(decodeLayerTau(encodedAbove.x), decodeLayerTau(encodedAbove.y), decodeLayerTau(encodedAbove.z));
-    vec3 column = vec3(decodeLayerTau(encodedColumn.x), decodeLayerTau(encodedColumn.y), decodeLayerTau(encodedColumn.z));
+    vec3 column =
+        vec3(decodeLayerTau(encodedColumn.x), decodeLayerTau(encodedColumn.y), decodeLayerTau(encodedColumn.z));
     float a = density * tauAtThreshold(above, theta);
     float c = density * tauAtThreshold(column, theta);
     return vec3(a, max(c - a, 0.0f), 0.0f);
@@ -57,8 +58,8 @@ MODEL_FN vec4 sunTableLobe(vec4 table, vec3 sunHorizontal) {
     return vec4(sunHorizontal.x * table.y, sunHorizontal.y * table.y, table.z, table.x);
 }
 
-MODEL_FN vec3 layerSource(vec4 sunTable, vec4 sunManyTable, vec4 skyTable, float tauSun, vec3 d, vec3 sunDirection, vec3 sunHorizontal,
-                          float g, vec3 sunIrradiance, float albedo) {
+MODEL_FN vec3 layerSource(vec4 sunTable, vec4 sunManyTable, vec4 skyTable, float tauSun, vec3 d, vec3 sunDirection,
+                          vec3 sunHorizontal, float g, vec3 sunIrradiance, float albedo) {
     vec4 sunFew = sunTableLobe(sunTable, sunHorizontal), sunMany = sunTableLobe(sunManyTable, sunHorizontal);
     vec4 skyTau = vec4(skyTable.x, skyTable.y, skyTable.z, tauSun);
     vec4 skyFlux = vec4(0.0f, 0.0f, skyTable.w, sunTable.w);

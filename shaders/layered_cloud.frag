@@ -115,7 +115,8 @@ void main() {
     vec3 radiance = layerSource(textureLod(sunTable, uvTable, 0.0), textureLod(sunManyTable, uvTable, 0.0),
                                 textureLod(skyTable, uvTable, 0.0), tauSun, d,
                                 sunDirection, sunHorizontal, hgG, sunIrradiance, albedo);
-    radiance += albedo * skyIrradiance * singleScatter(d, skyDirection, hgG, mix(depths.y, depths.x, skyFromAbove) / skyMu);
+    radiance +=
+        albedo * skyIrradiance * singleScatter(d, skyDirection, hgG, mix(depths.y, depths.x, skyFromAbove) / skyMu);
     // City glow, eq. (20).
 #ifdef CITY_GLOW  // (a program of its own: llvmpipe would fetch the city map even where no layer glows)
     if (glow != vec3(0.0)) {

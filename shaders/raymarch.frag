@@ -147,7 +147,8 @@ void shade(RmCloud c, float l0, float l1) {
     float sigma = detail.erosion > 0.0 ? erodedExtinctionAt(mid) : extinctionAt(mid);
     if (sigma <= 0.0) return;
     float dT = exp(-sigma * (l1 - l0));
-    radiance += transmittance * (1.0 - dT) * cloudSourceAt(c.range.z, dir * mid, dir, sunDirection, hgG, sunIrradiance, albedo);
+    radiance +=
+        transmittance * (1.0 - dT) * cloudSourceAt(c.range.z, dir * mid, dir, sunDirection, hgG, sunIrradiance, albedo);
     transmittance *= dT;
 }
 
@@ -158,8 +159,12 @@ void shade(RmCloud c, float l0, float l1) {
 float minStep = 0.0;
 // With the detail, a step spans at most the finest wavelength drawn at l (detail.glsl's r, twice:
 // an octave is whole from 2 r), so that the march resolves the octaves it draws.
-float detailStep(float l) { return detail.erosion > 0.0 ? 2.0 * max(kDetailFadeAngle * l, 0.5 * detail.smallest) : 1e30; }
-float stepAt(float l) { return max(max(min(stepBase * (1.0 + l * invLod), detailStep(l)), minStep), l * (1.0 / 1048576.0)); }
+float detailStep(float l) {
+    return detail.erosion > 0.0 ? 2.0 * max(kDetailFadeAngle * l, 0.5 * detail.smallest) : 1e30;
+}
+float stepAt(float l) {
+    return max(max(min(stepBase * (1.0 + l * invLod), detailStep(l)), minStep), l * (1.0 / 1048576.0));
+}
 
 // One cloud over [tMin, tMax]: the sorted candidates marched front to back with the
 // no-duplicate tracing of Algorithm 2 (lambda only moves forward: overlaps are marched once,

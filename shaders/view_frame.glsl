@@ -10,7 +10,9 @@ uniform vec2 depthOrigin;     // the texel of the view's pixel (0, 0) in the dep
 // This fragment's pixel in the view (0 .. width - 1, 0 .. height - 1 from the lower left).
 ivec2 viewPixel() { return ivec2(gl_FragCoord.xy - viewportOrigin); }
 // The frame's window depth at a pixel of the view.
-float frameDepthAt(sampler2D depthTexture, ivec2 pixel) { return texelFetch(depthTexture, pixel + ivec2(depthOrigin), 0).r; }
+float frameDepthAt(sampler2D depthTexture, ivec2 pixel) {
+    return texelFetch(depthTexture, pixel + ivec2(depthOrigin), 0).r;
+}
 // Eye-space depth (m, along the view axis) of window depth d.
 float eyeDepthOf(float d) { return 1.0 / max(d * viewDepth.x + viewDepth.y, 1e-30); }
 // Whether window depth d is a surface (not the cleared far plane).

@@ -67,8 +67,10 @@ TEST_F(BigSceneGLTest, RaymarchTilesLoseNoCloud) {
         marcher.render(s, view, target.framebuffer(), false);
         const Image alpha = channels(target.readColor(), 3, 1);
         const ImageDifference d = compareImages(alpha, exact, 0.05);
-        std::printf("[ figure ] 401 clouds around the eye, frustum L %.1f: alpha MAE %.6f, max %.5f, pixels off by > 0.05: %.4f\n",
-                    view.frustum.left, d.meanAbs, d.maxAbs, d.fractionOver);
+        std::printf(
+            "[ figure ] 401 clouds around the eye, frustum L %.1f: alpha MAE %.6f, max %.5f, pixels off by > 0.05: "
+            "%.4f\n",
+            view.frustum.left, d.meanAbs, d.maxAbs, d.fractionOver);
         // Measured MAE 6e-6, max 2e-5. Every pixel has matter (the cloud around the eye); a cloud
         // missing from a tile's list leaves a tile-shaped hole of its opacity (up to 0.025 here):
         // without the list every pixel tests (boxes behind the near plane), MAE 0.007, max 0.025.

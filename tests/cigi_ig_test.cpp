@@ -108,7 +108,8 @@ TEST(CigiIgTest, AnswersThreeFramesWithAdvancingStartOfFrame) {
     const std::string record = std::string(NEPHELE_TEST_OUTPUT) + "/cigi-ig-record";
     std::filesystem::remove_all(record);
     const std::string args = "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --width 48 --height 27 --port " +
-                             std::to_string(port) + " --channel 0 --headless --frames 3 --timeout 30 --record " + record;
+                             std::to_string(port) + " --channel 0 --headless --frames 3 --timeout 30 --record " +
+                             record;
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
 
     HostSocket host(1000);
@@ -216,8 +217,8 @@ TEST(CigiIgTest, AerosolAnswersAreTheCloudWaterAtThePoint) {
         }
     ASSERT_EQ(water.size(), 2u) << run.output;
     const double expected = nephele::liquidWaterFromExtinction(densest, nephele::kCumulusDropletRadius);
-    std::printf("[ figure ] cloud water at the point: %.6g g/m^3 answered, %.6g expected (extinction %.4g /m)\n", water[1],
-                expected, densest);
+    std::printf("[ figure ] cloud water at the point: %.6g g/m^3 answered, %.6g expected (extinction %.4g /m)\n",
+                water[1], expected, densest);
     // The float of the packet, and the drift summed frame by frame against wind x t: 1e-3.
     EXPECT_NEAR(water[1], expected, 1e-3 * expected + 1e-7);
     EXPECT_EQ(water[2], 0.0);
@@ -262,8 +263,8 @@ TEST(CigiIgTest, AWindowShowsEachFrame) {
         EXPECT_GT(sky / (3.0 * linear.width * linear.height), 0.1) << f << ": the window is dark";
     }
     for (const char* both : {" --window --headless", ""}) {
-        const nephele::test::BoundedRun bad = nephele::test::runBounded(
-            "ig " + scene + " --port " + std::to_string(freePort()) + both, 4096, 60);
+        const nephele::test::BoundedRun bad =
+            nephele::test::runBounded("ig " + scene + " --port " + std::to_string(freePort()) + both, 4096, 60);
         EXPECT_EQ(bad.code, 2) << both << "\n" << bad.output;
         EXPECT_NE(bad.output.find("exactly one of --headless and --window"), std::string::npos) << bad.output;
     }
@@ -271,10 +272,10 @@ TEST(CigiIgTest, AWindowShowsEachFrame) {
 
 TEST(CigiIgTest, ABadOriginIsRefusedBeforeAnyWork) {
     for (const char* origin : {"91,0,0", "47.5,8.5", "47.5,nan,0", "1,2,3x", "0,0,200000"}) {
-        const nephele::test::BoundedRun run = nephele::test::runBounded(
-            "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --port " + std::to_string(freePort()) +
-                " --headless --origin " + origin,
-            4096, 60);
+        const nephele::test::BoundedRun run =
+            nephele::test::runBounded("ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --port " +
+                                          std::to_string(freePort()) + " --headless --origin " + origin,
+                                      4096, 60);
         EXPECT_EQ(run.code, 2) << origin << "\n" << run.output;
         EXPECT_NE(run.output.find("--origin"), std::string::npos) << run.output;
         EXPECT_EQ(run.output.find("listening"), std::string::npos) << run.output;
@@ -283,11 +284,12 @@ TEST(CigiIgTest, ABadOriginIsRefusedBeforeAnyWork) {
 
 TEST(CigiIgTest, TimesOutBeforeItsFramesWithExit1) {
     const nephele::test::BoundedRun run = nephele::test::runBounded(
-        "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --width 16 --height 9 --port " + std::to_string(freePort()) +
-            " --headless --frames 2 --timeout 0.5",
+        "ig " + std::string(NEPHELE_SCENES) + "/layer_flight.json --width 16 --height 9 --port " +
+            std::to_string(freePort()) + " --headless --frames 2 --timeout 0.5",
         4096, 120);
     EXPECT_EQ(run.code, 1) << run.output;
-    EXPECT_NE(run.output.find("no datagram from the host for 0.5 s after 0 of 2 frames"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("no datagram from the host for 0.5 s after 0 of 2 frames"), std::string::npos)
+        << run.output;
 }
 
 namespace {
@@ -375,10 +377,11 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
     for (Ig& ig : igs) {
         ig.port = freePort();
         ig.record = dir + "/ig" + std::to_string(&ig - igs.data());
-        const std::string args = "ig " + scene + " --width " + std::to_string(ig.width) + " --height " + std::to_string(kSize) +
-                                 " --light-size 64x64x16 --port " + std::to_string(ig.port) + " --channel " +
-                                 std::to_string(ig.channel) + " --headless --frames " + std::to_string(kFrames) +
-                                 " --timeout 30 --transition " + std::to_string(ig.transition) + " --record " + ig.record;
+        const std::string args = "ig " + scene + " --width " + std::to_string(ig.width) + " --height " +
+                                 std::to_string(kSize) + " --light-size 64x64x16 --port " + std::to_string(ig.port) +
+                                 " --channel " + std::to_string(ig.channel) + " --headless --frames " +
+                                 std::to_string(kFrames) + " --timeout 30 --transition " +
+                                 std::to_string(ig.transition) + " --record " + ig.record;
         ig.run = std::async(std::launch::async, [args] { return nephele::test::runBounded(args, 4096, 300); });
     }
     auto weather = [](float coverage) {
@@ -420,7 +423,8 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
             b.resize(std::size_t(n));
             if (const auto d = parseIgDatagram(b))
                 for (Ig& ig : igs)
-                    if (ig.port == ntohs(from.sin_port)) ig.answers[d->startOfFrame.lastHostFrameNumber] = d->startOfFrame;
+                    if (ig.port == ntohs(from.sin_port))
+                        ig.answers[d->startOfFrame.lastHostFrameNumber] = d->startOfFrame;
             waiting = 0;
             for (const Ig& ig : igs) waiting += ig.answers.count(frame) ? 0 : 1;
         }
@@ -471,12 +475,15 @@ TEST(CigiIgTest, ThreeChannelsAreOneWideViewThroughATransition) {
     // The ramp: frame 2 shows the weather before (s = 0 in the frame of the change), where
     // --transition 0 would show the weather after; frame 5 shows the weather after; frames 3 and
     // 4 lie strictly between, each closer to the end it is nearer.
-    auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
+    auto distance = [](const nephele::Image& a, const nephele::Image& b) {
+        return nephele::compareImages(a, b, 1.0).meanAbs;
+    };
     const double change = distance(middle[2], middle[5]);
-    std::printf("[ figure ] the change: %.2f/255 mean; frame 3: %.2f/255 from before, %.2f/255 from after; frame 4: "
-                "%.2f/255, %.2f/255\n",
-                change * 255, distance(middle[3], middle[2]) * 255, distance(middle[3], middle[5]) * 255,
-                distance(middle[4], middle[2]) * 255, distance(middle[4], middle[5]) * 255);
+    std::printf(
+        "[ figure ] the change: %.2f/255 mean; frame 3: %.2f/255 from before, %.2f/255 from after; frame 4: "
+        "%.2f/255, %.2f/255\n",
+        change * 255, distance(middle[3], middle[2]) * 255, distance(middle[3], middle[5]) * 255,
+        distance(middle[4], middle[2]) * 255, distance(middle[4], middle[5]) * 255);
     EXPECT_GT(change, 5.0 / 255) << "coverage 30 % -> 70 % should change the view";
     EXPECT_LE(distance(middle[1], middle[2]), 0.1 / 255) << "frame 2 is the ramp's start: the weather before";
     for (std::uint32_t f : {3u, 4u}) {
@@ -500,7 +507,8 @@ TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
     const std::string scene = writeStaticScene(dir), record = dir + "/frames";
     const nephele::EnuFrame enu(nephele::Geodetic{47.5, 8.5, 400});
     const int port = freePort();
-    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " + std::to_string(port) +
+    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " +
+                             std::to_string(port) +
                              " --headless --frames 5 --timeout 30 --origin 47.5,8.5,400 --record " + record;
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
     auto entity = [&](std::uint16_t id, const nephele::Vec3& at, float yaw, float pitch) {
@@ -515,23 +523,27 @@ TEST(CigiIgTest, EntitiesAndTheSunComeFromTheHost) {
     const float pitch = float(std::atan(0.35) * 180 / 3.14159265358979323846);  // the scene camera's
     const nephele::Vec3 eye(0, 0, 800), ahead = eye + 30.0 * glm::normalize(nephele::Vec3(0, 1, 0.35));
     const std::size_t answered = driveIg(port, {1, 2, 3, 4, 5}, [&](std::uint32_t frame, DatagramWriter& w) {
-        if (frame >= 2) w.add(entity(0, eye, 0, frame == 3 ? -30.0f : pitch));
-        if (frame >= 4) w.add(entity(5, ahead, 90, 0));
-        if (frame == 5) {
-            CelestialSphereControl c;
-            c.date = 6212026, c.hour = 23, c.minute = 26;  // 00:00 local solar time at 8.5 E
-            c.sunEnable = c.dateTimeValid = true;
-            w.add(c);
-        }
-    }).size();
+                                     if (frame >= 2) w.add(entity(0, eye, 0, frame == 3 ? -30.0f : pitch));
+                                     if (frame >= 4) w.add(entity(5, ahead, 90, 0));
+                                     if (frame == 5) {
+                                         CelestialSphereControl c;
+                                         c.date = 6212026, c.hour = 23,
+                                         c.minute = 26;  // 00:00 local solar time at 8.5 E
+                                         c.sunEnable = c.dateTimeValid = true;
+                                         w.add(c);
+                                     }
+                                 }).size();
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     ASSERT_EQ(answered, 5u) << run.output;
     std::map<int, nephele::Image> f;
     for (std::uint32_t k = 1; k <= 5; ++k) f[int(k)] = displayedRgb(recordedFrame(record, k));
-    auto distance = [](const nephele::Image& a, const nephele::Image& b) { return nephele::compareImages(a, b, 1.0).meanAbs; };
-    std::printf("[ figure ] entity eye vs scene camera %.3f/255; pitched down %.1f/255; mean brightness day %.3f, night %.4f\n",
-                distance(f[1], f[2]) * 255, distance(f[1], f[3]) * 255, meanOf(f[4]), meanOf(f[5]));
+    auto distance = [](const nephele::Image& a, const nephele::Image& b) {
+        return nephele::compareImages(a, b, 1.0).meanAbs;
+    };
+    std::printf(
+        "[ figure ] entity eye vs scene camera %.3f/255; pitched down %.1f/255; mean brightness day %.3f, night %.4f\n",
+        distance(f[1], f[2]) * 255, distance(f[1], f[3]) * 255, meanOf(f[4]), meanOf(f[5]));
     // The eye placed and aimed by the host where the scene's camera is: the same frame (the
     // pitch a float of the packet, 1e-6 degree: far below a pixel).
     EXPECT_LE(distance(f[1], f[2]), 0.5 / 255);
@@ -565,9 +577,9 @@ TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
     // one started at 1.
     const std::vector<std::uint32_t> frames{11, 12, 13, 14, 15, 1, 2, 3};
     const int port = freePort();
-    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " + std::to_string(port) +
-                             " --headless --frames " + std::to_string(frames.size()) + " --timeout 30 --transition 0.05 --record " +
-                             record;
+    const std::string args = "ig " + scene + " --width 48 --height 48 --light-size 64x64x16 --port " +
+                             std::to_string(port) + " --headless --frames " + std::to_string(frames.size()) +
+                             " --timeout 30 --transition 0.05 --record " + record;
     auto ig = std::async(std::launch::async, [&] { return nephele::test::runBounded(args, 4096, 240); });
     auto layer = [](std::uint8_t id, bool on) {
         WeatherControl w;
@@ -580,9 +592,9 @@ TEST(CigiIgTest, ARewindKeepsTheHostsLayerIds) {
         return w;
     };
     const std::size_t answered = driveIg(port, frames, [&](std::uint32_t, DatagramWriter& w) {
-        w.add(layer(1, false));
-        w.add(layer(3, true));
-    }).size();
+                                     w.add(layer(1, false));
+                                     w.add(layer(3, true));
+                                 }).size();
     const nephele::test::BoundedRun run = ig.get();
     EXPECT_EQ(run.code, 0) << run.output;
     ASSERT_EQ(answered, frames.size()) << run.output;

@@ -46,13 +46,13 @@ struct Raw {
 // IG Control: every field a value that no neighbouring field shares.
 inline Raw igControlBytes(ByteOrder o) {
     Raw r(24, 1, o);
-    r.u8(2, 3);                                       // major version
-    r.u8(3, 0xFD);                                    // database number -3
-    r.u8(4, (3u << 4) | 0x08 | 0x04 | 0x02);          // minor 3, extrapolation, timestamp valid, IG mode Debug
-    r.u16(6, 0x8000);                                 // the sender's magic, in its order
-    r.u32(8, 0x01020304);                             // host frame number
-    r.u32(12, 0x0A0B0C0D);                            // timestamp
-    r.u32(16, 0x11223344);                            // last IG frame number
+    r.u8(2, 3);                               // major version
+    r.u8(3, 0xFD);                            // database number -3
+    r.u8(4, (3u << 4) | 0x08 | 0x04 | 0x02);  // minor 3, extrapolation, timestamp valid, IG mode Debug
+    r.u16(6, 0x8000);                         // the sender's magic, in its order
+    r.u32(8, 0x01020304);                     // host frame number
+    r.u32(12, 0x0A0B0C0D);                    // timestamp
+    r.u32(16, 0x11223344);                    // last IG frame number
     return r;
 }
 inline IgControl igControlValues() {
@@ -179,7 +179,7 @@ inline Raw celestialBytes(ByteOrder o) {
     r.u8(2, 14);
     r.u8(3, 35);
     r.u8(4, 0x01 | 0x02 | 0x08 | 0x10);  // ephemeris, sun, stars, date valid
-    r.u32(8, 6212026);                     // June 21, 2026
+    r.u32(8, 6212026);                   // June 21, 2026
     r.f32(12, 75.0f);
     return r;
 }
@@ -221,10 +221,10 @@ inline AtmosphereControl atmosphereValues() {
 inline Raw weatherBytes(ByteOrder o) {
     Raw r(56, 12, o);
     r.u16(2, 0x0E0F);
-    r.u8(4, 2);                          // cloud layer 2
-    r.u8(5, 80);                         // humidity
-    r.u8(6, 0x01 | 0x04 | (9u << 4));    // weather enable, random winds, stratocumulus
-    r.u8(7, 1u | (4u << 2));             // regional, severity 4
+    r.u8(4, 2);                        // cloud layer 2
+    r.u8(5, 80);                       // humidity
+    r.u8(6, 0x01 | 0x04 | (9u << 4));  // weather enable, random winds, stratocumulus
+    r.u8(7, 1u | (4u << 2));           // regional, severity 4
     r.f32(8, -5.0f);
     r.f32(12, 8000.0f);
     r.f32(16, 10.0f);
@@ -286,9 +286,9 @@ inline EnvironmentalConditionsRequest envRequestValues() {
 inline Raw startOfFrameBytes(ByteOrder o) {
     Raw r(24, 101, o);
     r.u8(2, 3);
-    r.u8(3, 0x7F);                              // database 127
-    r.u8(4, 6);                                 // IG status
-    r.u8(5, (3u << 4) | 0x08 | 0x04 | 0x01);    // minor 3, host-defined earth model, timestamp valid, Operate
+    r.u8(3, 0x7F);                            // database 127
+    r.u8(4, 6);                               // IG status
+    r.u8(5, (3u << 4) | 0x08 | 0x04 | 0x01);  // minor 3, host-defined earth model, timestamp valid, Operate
     r.u16(6, 0x8000);
     r.u32(8, 0xCAFEBABE);
     r.u32(12, 123456);

@@ -38,8 +38,7 @@ struct LogCapture {
     std::vector<std::string> messages;
     nephele::LogCallback previous;
     LogCapture() {
-        previous = nephele::setLogCallback(
-            [this](nephele::LogLevel, std::string_view m) { messages.emplace_back(m); });
+        previous = nephele::setLogCallback([this](nephele::LogLevel, std::string_view m) { messages.emplace_back(m); });
     }
     ~LogCapture() { nephele::setLogCallback(previous); }
     bool any(const std::string& part) const {
@@ -211,7 +210,8 @@ TEST(CigiTest, SizeByteZeroOrOneEndsTheDatagram) {
         LogCapture log;
         Raw bad = weatherBytes(ByteOrder::BigEndian);
         bad.b[1] = size;
-        const auto d = parseHostDatagram(cat({igControlBytes(ByteOrder::BigEndian).b, bad.b, entityBytes(ByteOrder::BigEndian).b}));
+        const auto d = parseHostDatagram(
+            cat({igControlBytes(ByteOrder::BigEndian).b, bad.b, entityBytes(ByteOrder::BigEndian).b}));
         ASSERT_TRUE(d.has_value());
         EXPECT_FALSE(d->complete);
         EXPECT_TRUE(d->packets.empty());  // the entity after it is not reached
@@ -223,7 +223,8 @@ TEST(CigiTest, SizePastTheEndEndsTheDatagram) {
     LogCapture log;
     Raw bad = entityBytes(ByteOrder::BigEndian);
     bad.b[1] = 200;
-    const auto d = parseHostDatagram(cat({igControlBytes(ByteOrder::BigEndian).b, weatherBytes(ByteOrder::BigEndian).b, bad.b}));
+    const auto d =
+        parseHostDatagram(cat({igControlBytes(ByteOrder::BigEndian).b, weatherBytes(ByteOrder::BigEndian).b, bad.b}));
     ASSERT_TRUE(d.has_value());
     EXPECT_FALSE(d->complete);
     ASSERT_EQ(d->packets.size(), 1u);  // the weather before it is kept
@@ -302,8 +303,8 @@ TEST(CigiTest, DatagramWithoutIgControlFirstIsDropped) {
 TEST(CigiTest, PacketsOfTheOtherSideAreSkipped) {
     LogCapture log;
     const ByteOrder o = ByteOrder::BigEndian;
-    const auto d = parseHostDatagram(cat({igControlBytes(o).b, startOfFrameBytes(o).b, igControlBytes(o).b, aerosolBytes(o).b,
-                                          weatherBytes(o).b}));
+    const auto d = parseHostDatagram(
+        cat({igControlBytes(o).b, startOfFrameBytes(o).b, igControlBytes(o).b, aerosolBytes(o).b, weatherBytes(o).b}));
     ASSERT_TRUE(d.has_value());
     EXPECT_EQ(d->skipped, 3);
     ASSERT_EQ(d->packets.size(), 1u);
@@ -373,8 +374,8 @@ TEST(CigiTest, CelestialSphereControlSetsTheSunOfItsDateAndTime) {
     EXPECT_GT(applyCelestial(celestial(6212026, 12, 0, false, true), lat, lon, day).sun.intensity, 1.0);  // on again
     // Out of range: named, and the light kept.
     const CelestialLight before = day;
-    for (const auto& [date, field] : std::vector<std::pair<std::uint32_t, std::string>>{
-             {13012026, "month"}, {2302026, "day"}, {6211500, "year"}}) {
+    for (const auto& [date, field] :
+         std::vector<std::pair<std::uint32_t, std::string>>{{13012026, "month"}, {2302026, "day"}, {6211500, "year"}}) {
         try {
             applyCelestial(celestial(date, 12, 0), lat, lon, day);
             ADD_FAILURE() << date << " accepted";
@@ -402,7 +403,8 @@ TEST(CigiTest, EntityControlIsAPoseInTheScenesFrame) {
     const double s30 = 0.5, c30 = std::sqrt(3.0) / 2;
     // 1 km above the origin: the heading clockwise from north, the pitch nose up, the roll right wing down.
     const EntityPose level = pose(47.5, 8.5, 1400, 0, 0, 0);
-    EXPECT_TRUE(near(level.position, {0, 0, 1000}, 1e-6)) << level.position.x << " " << level.position.y << " " << level.position.z;
+    EXPECT_TRUE(near(level.position, {0, 0, 1000}, 1e-6))
+        << level.position.x << " " << level.position.y << " " << level.position.z;
     EXPECT_TRUE(near(level.forward, {0, 1, 0}, 1e-9));
     EXPECT_TRUE(near(level.up, {0, 0, 1}, 1e-9));
     EXPECT_TRUE(near(pose(47.5, 8.5, 1400, 90, 0, 0).forward, {1, 0, 0}, 1e-6));

@@ -60,7 +60,8 @@ inline CliResult spawnCli(const std::vector<std::string>& args, const SpawnOptio
     if (pid == 0) {
         if (!o.asanOptions.empty()) {
             const char* before = std::getenv("ASAN_OPTIONS");
-            ::setenv("ASAN_OPTIONS", ((before && *before ? std::string(before) + ":" : std::string()) + o.asanOptions).c_str(), 1);
+            ::setenv("ASAN_OPTIONS",
+                     ((before && *before ? std::string(before) + ":" : std::string()) + o.asanOptions).c_str(), 1);
         }
         ::dup2(fds[1], 1), ::dup2(fds[1], 2);
         ::close(fds[0]), ::close(fds[1]);
@@ -82,7 +83,8 @@ inline CliResult spawnCli(const std::vector<std::string>& args, const SpawnOptio
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     r.maxRssKb = u.ru_maxrss;
     r.peakMb = double(u.ru_maxrss) / 1024.0;
-    r.cpuSeconds = double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+    r.cpuSeconds =
+        double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
     return r;
 }
 

@@ -100,19 +100,38 @@ TEST_F(CliTest, SyntaxErrorNamesFile) {
 TEST_F(CliTest, BadArgumentsExit2AndWriteNothing) {
     const std::string scene = write("good.json", kGood);
     const std::string out = " -o " + path("out.png");
-    for (const std::string& args : {
-             std::string("--method nonsense"), std::string("--method layered --layers 1"), std::string("--light-size 8x8"), std::string("--spp 0"), std::string("--gl vulkan"),
-             std::string("--width 0"), std::string("--width 16385"), std::string("--height -4"),
-             std::string("--scale 0"), std::string("--scale 1000"), std::string("--scale 2 --width 100"),
-             std::string("--width abc"), std::string("--alpha ") + path("out.png"),
-             std::string("--min-tile 3"), std::string("--max-tile 0"), std::string("--min-tile 64 --max-tile 32"),
-             std::string("--atlas 100"), std::string("--atlas 0x10"), std::string("--atlas 64x64x"),
-             std::string("--precision f32"), std::string("--draws some"), std::string("--flythrough sideways"),
-             std::string("--colour-matrix maybe"), std::string("--composite front-to-back"),
-             std::string("--exact-order random"), std::string("--density-alpha ") + path("out.png"),
-             std::string("--reuse maybe"), std::string("--reuse-error 0"), std::string("--reuse-budget -1"), std::string("--march-downsample 0"),
-             std::string("--march-downsample 5"),
-             std::string("--pfm ") + path("missing-folder/x.pfm")}) {
+    for (const std::string& args : {std::string("--method nonsense"),
+                                    std::string("--method layered --layers 1"),
+                                    std::string("--light-size 8x8"),
+                                    std::string("--spp 0"),
+                                    std::string("--gl vulkan"),
+                                    std::string("--width 0"),
+                                    std::string("--width 16385"),
+                                    std::string("--height -4"),
+                                    std::string("--scale 0"),
+                                    std::string("--scale 1000"),
+                                    std::string("--scale 2 --width 100"),
+                                    std::string("--width abc"),
+                                    std::string("--alpha ") + path("out.png"),
+                                    std::string("--min-tile 3"),
+                                    std::string("--max-tile 0"),
+                                    std::string("--min-tile 64 --max-tile 32"),
+                                    std::string("--atlas 100"),
+                                    std::string("--atlas 0x10"),
+                                    std::string("--atlas 64x64x"),
+                                    std::string("--precision f32"),
+                                    std::string("--draws some"),
+                                    std::string("--flythrough sideways"),
+                                    std::string("--colour-matrix maybe"),
+                                    std::string("--composite front-to-back"),
+                                    std::string("--exact-order random"),
+                                    std::string("--density-alpha ") + path("out.png"),
+                                    std::string("--reuse maybe"),
+                                    std::string("--reuse-error 0"),
+                                    std::string("--reuse-budget -1"),
+                                    std::string("--march-downsample 0"),
+                                    std::string("--march-downsample 5"),
+                                    std::string("--pfm ") + path("missing-folder/x.pfm")}) {
         const CliRun r = run("render " + scene + out + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
         EXPECT_FALSE(r.output.empty()) << args;
@@ -137,7 +156,8 @@ TEST_F(CliTest, AnOutputNamedForTheOtherFormatIsRefused) {
 }
 
 TEST_F(CliTest, LayeredMethodDrawsTheLayers) {
-    const std::string scene = write("layers.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0.3]},
+    const std::string scene =
+        write("layers.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0.3]},
       "layers": [{"base": 2000, "thickness": 400}]})");
     const CliRun r = run("render " + scene + " -o " + path("out.png") +
                          " --method layered --width 64 --height 48 --light-size 16x16x4 --no-cache");
@@ -152,7 +172,8 @@ TEST_F(CliTest, LayeredMethodDrawsTheLayers) {
 TEST_F(CliTest, ChannelFlagsFrameTheCameraAndAreValidated) {
     auto scene = [&](const std::string& name, const std::string& direction, int width) {
         return write(name, R"({"cloudscene": 1, "camera": {"position": [0, -3000, 1000], "direction": )" + direction +
-                               R"(, "fov_y_deg": 53.13010235415598, "width": )" + std::to_string(width) + R"(, "height": 32},
+                               R"(, "fov_y_deg": 53.13010235415598, "width": )" + std::to_string(width) +
+                               R"(, "height": 32},
           "generate": [{"type": "cumulus", "seed": 4, "center": [200, 0, 1200], "count": 30}]})");
     };
     const std::string level = scene("level.json", "[0, 1, 0]", 96);
@@ -163,7 +184,8 @@ TEST_F(CliTest, ChannelFlagsFrameTheCameraAndAreValidated) {
     };
     auto seamDifference = [](const Image& a, const Image& b) { return compareImages(a, b, 1.0).meanAbs; };
     // The symmetric frustum of fov_y 53.13 (tan 0.5) at aspect 3 is the camera's own.
-    EXPECT_LE(compareImages(render(level, "--frustum -1.5,1.5,-0.5,0.5"), render(level, ""), 1.0 / 255).maxAbs, 1.0 / 255);
+    EXPECT_LE(compareImages(render(level, "--frustum -1.5,1.5,-0.5,0.5"), render(level, ""), 1.0 / 255).maxAbs,
+              1.0 / 255);
     // Three 32 px channels side by side are the 96 px wide view.
     const Image wide = render(level, "");
     Image stitched(96, 32, 3);
@@ -177,16 +199,19 @@ TEST_F(CliTest, ChannelFlagsFrameTheCameraAndAreValidated) {
     EXPECT_LE(seamDifference(stitched, wide), 1.0 / 255);
     // Yaw 20 (right) and pitch 10 (up) are the camera turned so.
     const double y = 20 * std::numbers::pi / 180, p = 10 * std::numbers::pi / 180;
-    const std::string turned = scene("turned.json", "[" + std::to_string(std::sin(y) * std::cos(p)) + ", " +
-                                                        std::to_string(std::cos(y) * std::cos(p)) + ", " +
-                                                        std::to_string(std::sin(p)) + "]", 96);
-    EXPECT_LE(compareImages(render(level, "--yaw-offset 20 --pitch-offset 10"), render(turned, ""), 1.0 / 255).fractionOver,
-              0.01);
+    const std::string turned =
+        scene("turned.json",
+              "[" + std::to_string(std::sin(y) * std::cos(p)) + ", " + std::to_string(std::cos(y) * std::cos(p)) +
+                  ", " + std::to_string(std::sin(p)) + "]",
+              96);
+    EXPECT_LE(
+        compareImages(render(level, "--yaw-offset 20 --pitch-offset 10"), render(turned, ""), 1.0 / 255).fractionOver,
+        0.01);
     fs::remove(path("out.png"));
-    for (const std::string& args : {std::string("--frustum 1,0,0,1"), std::string("--frustum 1,2,3"),
-                                    std::string("--frustum a,b,c,d"), std::string("--frustum -200,1,-1,1"),
-                                    std::string("--yaw-offset 400"), std::string("--pitch-offset 95"),
-                                    std::string("--pitch-offset nan")}) {
+    for (const std::string& args :
+         {std::string("--frustum 1,0,0,1"), std::string("--frustum 1,2,3"), std::string("--frustum a,b,c,d"),
+          std::string("--frustum -200,1,-1,1"), std::string("--yaw-offset 400"), std::string("--pitch-offset 95"),
+          std::string("--pitch-offset nan")}) {
         const CliRun r = run("render " + level + " -o " + path("out.png") + " " + args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
         const std::string flag = args.substr(0, args.find(' '));
@@ -197,8 +222,8 @@ TEST_F(CliTest, ChannelFlagsFrameTheCameraAndAreValidated) {
 
 // `bench --weather` in its quick run: the CSV per frame, the table, the chart.
 TEST_F(CliTest, WeatherBenchWritesCsvChartAndTable) {
-    const CliRun r = run("bench --weather --quick --width 96 --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
-                         path("w"));
+    const CliRun r =
+        run("bench --weather --quick --width 96 --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " + path("w"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* f : {"weather_bench.csv", "weather_bench.md", "weather_bench.png"})
         EXPECT_TRUE(fs::exists(path(std::string("w/") + f))) << f;
@@ -251,8 +276,8 @@ TEST_F(CliTest, FlythroughRecordsFrameTimesAndTilesRendered) {
     int rendered[2] = {0, 0};
     for (int on = 0; on < 2; ++on) {
         const std::string reuse = on ? "on" : "off";
-        const CliRun r = run("flythrough " + scene + " --method ellipsoid --reuse " + reuse + " --out-dir " + path(reuse) +
-                             " --fps 2 --width 64" + (on ? " --timings" : ""));
+        const CliRun r = run("flythrough " + scene + " --method ellipsoid --reuse " + reuse + " --out-dir " +
+                             path(reuse) + " --fps 2 --width 64" + (on ? " --timings" : ""));
         ASSERT_EQ(r.code, 0) << r.output;
         std::ifstream in(path(reuse + "/flythrough.json"));
         const nlohmann::json j = nlohmann::json::parse(in);
@@ -262,7 +287,7 @@ TEST_F(CliTest, FlythroughRecordsFrameTimesAndTilesRendered) {
         EXPECT_EQ(j.contains("tiles_ms"), on == 1);
         if (on) {
             for (const char* part : {"plan_ms", "tiles_ms", "composite_ms"}) ASSERT_EQ(j[part].size(), 101u) << part;
-            EXPECT_GT(j["tiles_ms"][0].get<double>(), 0.0);      // the first frame renders every tile
+            EXPECT_GT(j["tiles_ms"][0].get<double>(), 0.0);  // the first frame renders every tile
             EXPECT_GT(j["composite_ms"][0].get<double>(), 0.0);
         }
         for (std::size_t k = 0; k < 101; ++k) {
@@ -275,7 +300,8 @@ TEST_F(CliTest, FlythroughRecordsFrameTimesAndTilesRendered) {
 }
 
 TEST_F(CliTest, GenerateIsValidatedThenExpanded) {
-    const std::string bad = write("gen_bad.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
+    const std::string bad =
+        write("gen_bad.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
       "generate": [{"type": "cumulus", "center": [0, 500, 0], "axiom": "X"}]})");
     CliRun r = run("render " + bad + " -o " + path("out.png"));
     EXPECT_EQ(r.code, 2);
@@ -296,7 +322,7 @@ TEST_F(CliTest, GenerateIsValidatedThenExpanded) {
 TEST_F(CliTest, RenderWritesPngAlphaAndPfmAtTheAskedSize) {
     const std::string scene = write("good.json", kGood);
     const CliRun r = run("render " + scene + " -o " + path("out.png") + " --alpha " + path("a.png") + " --pfm " +
-                      path("o.pfm") + " --width 64");
+                         path("o.pfm") + " --width 64");
     ASSERT_EQ(r.code, 0) << r.output;
     const Image png = readPng(path("out.png"));
     EXPECT_EQ(png.width, 64);
@@ -333,14 +359,16 @@ TEST_F(CliTest, EllipsoidsRenderWithOpacityAndStats) {
 TEST_F(CliTest, GardnerExactNeedsNoGl) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/two_clouds.json";
     const std::string noGl = "GALLIUM_DRIVER=no-such-driver ";
-    const std::string cmd = std::string(NEPHELE_BINARY) + " render " + scene + " --method ellipsoid --width 80 -o " + path("n.png");
+    const std::string cmd =
+        std::string(NEPHELE_BINARY) + " render " + scene + " --method ellipsoid --width 80 -o " + path("n.png");
     if (std::system((noGl + cmd + " > /dev/null 2>&1").c_str()) == 0)
         GTEST_SKIP() << "GALLIUM_DRIVER does not take GL away here (not Mesa's gallium?): the test would mean nothing";
     for (const char* backend : {"egl", "osmesa"}) {
         const std::string out = path(std::string("c_") + backend + ".png");
         const int status = std::system((noGl + std::string(NEPHELE_BINARY) + " render " + scene +
                                         " --method gardner-exact --width 80 -o " + out + " --gl " + backend + " > " +
-                                        path("log.txt") + " 2>&1").c_str());
+                                        path("log.txt") + " 2>&1")
+                                           .c_str());
         std::ifstream log(path("log.txt"));
         std::stringstream text;
         text << log.rdbuf();
@@ -352,7 +380,9 @@ TEST_F(CliTest, GardnerExactNeedsNoGl) {
         s.camera.width = 80;
         ASSERT_EQ(png.height, s.camera.height);
         const NoiseSettings ns;
-        Image exact = channels(renderGardnerExact(s, makeView(s.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns), 0, 3);
+        Image exact = channels(
+            renderGardnerExact(s, makeView(s.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns), 0,
+            3);
         for (float& v : exact.pixels) v = std::clamp(v, 0.0f, 1.0f);
         Image linear = png;
         for (float& v : linear.pixels) v = srgbToLinear(v);
@@ -400,12 +430,15 @@ TEST_F(CliTest, FlythroughWritesFramesSummaryAndFlickerIndex) {
     EXPECT_FALSE(fs::exists(path("ref/frame_0006.png")));
     EXPECT_NE(r.output.find("\"mean_change\":"), std::string::npos) << r.output;
     // Against itself as the reference: the flicker index is 0.
-    r = run("flythrough " + scene + " --out-dir " + path("again") + " --fps 0.25 --width 48 --reference-dir " + path("ref"));
+    r = run("flythrough " + scene + " --out-dir " + path("again") + " --fps 0.25 --width 48 --reference-dir " +
+            path("ref"));
     ASSERT_EQ(r.code, 0) << r.output;
     EXPECT_NE(r.output.find("\"flicker_index\":0.0"), std::string::npos) << r.output;
     // A reference of another size is refused; so is a non-empty out-dir and a scene without a path.
     EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("other") + " --fps 0.25 --width 64 --reference-dir " +
-                  path("ref")).code, 2);
+                  path("ref"))
+                  .code,
+              2);
     EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("ref") + " --fps 0.25 --width 48").code, 2);
     EXPECT_EQ(run("flythrough " + std::string(NEPHELE_SCENES) + "/single.json --out-dir " + path("np")).code, 2);
     EXPECT_EQ(run("flythrough " + scene + " --out-dir " + path("f0") + " --fps 0").code, 2);
@@ -420,9 +453,16 @@ TEST_F(CliTest, FlythroughWritesFramesSummaryAndFlickerIndex) {
 // printed constants fails.
 TEST_F(CliTest, CompareTwoRenders) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/single.json";
-    ASSERT_EQ(run("render " + scene + " --width 64 -o " + path("a.png") + " --alpha " + path("aa.png") + " --pfm " + path("a.pfm")).code, 0);
-    ASSERT_EQ(run("render " + scene + " --width 64 --method gardner-exact -o " + path("b.png") + " --alpha " + path("ba.png") + " --pfm " + path("b.pfm")).code, 0);
-    CliRun r = run("compare " + path("a.pfm") + " " + path("b.pfm") + " --alpha-a " + path("aa.png") + " --alpha-b " + path("ba.png"));
+    ASSERT_EQ(run("render " + scene + " --width 64 -o " + path("a.png") + " --alpha " + path("aa.png") + " --pfm " +
+                  path("a.pfm"))
+                  .code,
+              0);
+    ASSERT_EQ(run("render " + scene + " --width 64 --method gardner-exact -o " + path("b.png") + " --alpha " +
+                  path("ba.png") + " --pfm " + path("b.pfm"))
+                  .code,
+              0);
+    CliRun r = run("compare " + path("a.pfm") + " " + path("b.pfm") + " --alpha-a " + path("aa.png") + " --alpha-b " +
+                   path("ba.png"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* key : {"\"exposure\":", "\"rmse\":", "\"psnr\":", "\"ssim\":", "\"alpha_mae\":", "\"alpha_iou\":"})
         EXPECT_NE(r.output.find(key), std::string::npos) << key << " in " << r.output;
@@ -432,8 +472,10 @@ TEST_F(CliTest, CompareTwoRenders) {
     EXPECT_GT(close["ssim"].get<double>(), 0.98) << r.output;
     EXPECT_LT(close["alpha_mae"].get<double>(), 0.005) << r.output;
     EXPECT_GT(close["alpha_iou"].get<double>(), 0.95) << r.output;
-    ASSERT_EQ(run("render " + std::string(NEPHELE_SCENES) + "/two_clouds.json --width 64 -o " + path("c.png") + " --pfm " +
-                  path("c.pfm")).code, 0);
+    ASSERT_EQ(run("render " + std::string(NEPHELE_SCENES) + "/two_clouds.json --width 64 -o " + path("c.png") +
+                  " --pfm " + path("c.pfm"))
+                  .code,
+              0);
     r = run("compare " + path("a.pfm") + " " + path("c.pfm"));
     ASSERT_EQ(r.code, 0) << r.output;
     const nlohmann::json far = nlohmann::json::parse(r.output.substr(r.output.find('{')));
@@ -457,9 +499,11 @@ TEST_F(CliTest, OSMesaBackendRenders) {
     ASSERT_EQ(osmesa.width, 40);
     ASSERT_EQ(osmesa.height, egl.height);
     float worst = 0;
-    for (std::size_t i = 0; i < osmesa.pixels.size(); ++i) worst = std::max(worst, std::abs(osmesa.pixels[i] - egl.pixels[i]));
+    for (std::size_t i = 0; i < osmesa.pixels.size(); ++i)
+        worst = std::max(worst, std::abs(osmesa.pixels[i] - egl.pixels[i]));
     EXPECT_LE(worst, 2.0f / 255) << "OSMesa's frame differs from EGL's";
-    EXPECT_GT(std::abs(osmesa.at(20, 15, 2) - osmesa.at(1, 1, 2)), 10.0f / 255) << "no cloud in the middle of the frame";
+    EXPECT_GT(std::abs(osmesa.at(20, 15, 2) - osmesa.at(1, 1, 2)), 10.0f / 255)
+        << "no cloud in the middle of the frame";
 }
 
 }  // namespace
@@ -467,8 +511,8 @@ TEST_F(CliTest, OSMesaBackendRenders) {
 // A scene with every generator type renders, and `info SCENE` reports what each one made.
 TEST_F(CliTest, GenerateSceneRendersAndInfoReportsIt) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/generated.json";
-    CliRun r = run("render " + scene + " -o " + path("gen.png") + " --alpha " + path("gen_a.png") +
-                   " --width 96 --height 54");
+    CliRun r =
+        run("render " + scene + " -o " + path("gen.png") + " --alpha " + path("gen_a.png") + " --width 96 --height 54");
     ASSERT_EQ(r.code, 0) << r.output;
     const Image img = readPng(path("gen.png"));
     EXPECT_EQ(img.width, 96);
@@ -484,8 +528,8 @@ TEST_F(CliTest, GenerateSceneRendersAndInfoReportsIt) {
     EXPECT_GT(clear, 96 * 54 / 2) << "over half of the frame is cloud";
     r = run("info " + scene);
     EXPECT_EQ(r.code, 0) << r.output;
-    for (const char* name : {"generate cumulus_big: placed 200, pruned ", "generate castellanus: placed ",
-                             "generate anvil: placed "})
+    for (const char* name :
+         {"generate cumulus_big: placed 200, pruned ", "generate castellanus: placed ", "generate anvil: placed "})
         EXPECT_NE(r.output.find(name), std::string::npos) << r.output;
     const std::string bad = write("bad.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
       "generate": [{"type": "mesh", "path": "missing.obj"}]})");
@@ -503,10 +547,12 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     // release the layered sky's errors keep their order there: 0.014-0.041 at 8 layers against
     // 0.052-0.137 at 2).
     const int w = test::kSanitized ? 32 : 64;
-    const CliRun r = run("bench --accuracy --quick --width " + std::to_string(w) + " --spp 4 --frames 1 --no-cache --scenes " +
-                         std::string(NEPHELE_SCENES) + " --out-dir " + path("acc"));
+    const CliRun r =
+        run("bench --accuracy --quick --width " + std::to_string(w) + " --spp 4 --frames 1 --no-cache --scenes " +
+            std::string(NEPHELE_SCENES) + " --out-dir " + path("acc"));
     ASSERT_EQ(r.code, 0) << r.output;
-    for (const char* f : {"accuracy.csv", "accuracy.md", "accuracy_chart.png", "accuracy_distance.png", "accuracy_views.png"})
+    for (const char* f :
+         {"accuracy.csv", "accuracy.md", "accuracy_chart.png", "accuracy_distance.png", "accuracy_views.png"})
         EXPECT_TRUE(fs::exists(path(std::string("acc/") + f))) << f;
     {  // The cases side by side: reference, compositor, ray-marcher, each column drawn (not the black fill).
         const Image views = readPng(path("acc/accuracy_views.png"));
@@ -536,7 +582,8 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
         std::stringstream s;
         s << in.rdbuf();
         text = s.str();
-        EXPECT_EQ(text.rfind("<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy` on ", 0), 0u);
+        EXPECT_EQ(text.rfind("<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy` on ", 0),
+                  0u);
         EXPECT_NE(text.find("](accuracy_chart.png)"), std::string::npos);
         EXPECT_EQ(text.find("](docs/"), std::string::npos);
         const std::string endLine = "<!-- END GENERATED: accuracy bench -->\n";
@@ -546,8 +593,9 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
     // The docs/ regeneration step: the section replaces the page's, the text around it kept, and
     // the run's own CSVs and charts are copied beside the page (not its markdown: the page holds it).
     fs::create_directories(path("docs"));
-    const std::string page = write("docs/benchmarks.md", "before\n<!-- BEGIN GENERATED: accuracy bench -->\nold\n"
-                                                         "<!-- END GENERATED: accuracy bench -->\nafter\n");
+    const std::string page = write("docs/benchmarks.md",
+                                   "before\n<!-- BEGIN GENERATED: accuracy bench -->\nold\n"
+                                   "<!-- END GENERATED: accuracy bench -->\nafter\n");
     const CliRun published = run("bench --publish " + path("docs") + " --out-dir " + path("acc"));
     ASSERT_EQ(published.code, 0) << published.output;
     {
@@ -556,7 +604,8 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
         s << in.rdbuf();
         text = s.str();
     }
-    EXPECT_EQ(text.rfind("before\n<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy`", 0), 0u);
+    EXPECT_EQ(text.rfind("before\n<!-- BEGIN GENERATED: accuracy bench -->\nMeasured by `nephele bench --accuracy`", 0),
+              0u);
     EXPECT_EQ(text.find("old\n"), std::string::npos);
     EXPECT_NE(text.find("<!-- END GENERATED: accuracy bench -->\nafter\n"), std::string::npos);
     for (const char* f : {"accuracy.csv", "accuracy_layered.csv", "accuracy_chart.png", "accuracy_distance.png",
@@ -590,8 +639,8 @@ TEST_F(CliTest, AccuracyBenchWritesCsvChartsAndReadmeSection) {
 // with exit code 2, the page left as it was.
 TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
     // (a cache folder of its own: the lighting volume is computed once, not once per renderer)
-    const CliRun r = run("bench --layered --quick --cache " + path("cache") + " --scenes " + std::string(NEPHELE_SCENES) +
-                         " --out-dir " + path("lay"));
+    const CliRun r = run("bench --layered --quick --cache " + path("cache") + " --scenes " +
+                         std::string(NEPHELE_SCENES) + " --out-dir " + path("lay"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* f : {"layered_bench.csv", "layered_bench.md", "layered_bench.png"})
         EXPECT_TRUE(fs::exists(path(std::string("lay/") + f))) << f;
@@ -606,7 +655,8 @@ TEST_F(CliTest, LayeredBenchWritesCsvChartAndTable) {
     std::ifstream md(path("lay/layered_bench.md"));
     std::stringstream text;
     text << md.rdbuf();
-    EXPECT_EQ(text.str().rfind("<!-- BEGIN GENERATED: layered bench -->\nMeasured by `nephele bench --layered` on ", 0), 0u);
+    EXPECT_EQ(text.str().rfind("<!-- BEGIN GENERATED: layered bench -->\nMeasured by `nephele bench --layered` on ", 0),
+              0u);
     EXPECT_NE(text.str().find("`--method auto` on near_and_far.json"), std::string::npos);
     EXPECT_NE(text.str().find("<!-- END GENERATED: layered bench -->\n"), std::string::npos);
     fs::create_directories(path("docs"));
@@ -627,8 +677,8 @@ TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
     // Under the sanitizers at 32 px (the CPU reference is most of the time): in release the
     // same index there as at 48 px, to 0.00004.
     const std::string width = test::kSanitized ? "32" : "48";
-    const CliRun r = run("bench --flicker --quick --width " + width + " --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
-                         path("flk"));
+    const CliRun r = run("bench --flicker --quick --width " + width + " --scenes " + std::string(NEPHELE_SCENES) +
+                         " --out-dir " + path("flk"));
     ASSERT_EQ(r.code, 0) << r.output;
     for (const char* f : {"flicker.csv", "flicker_series.csv", "flicker.md", "flicker.png"})
         EXPECT_TRUE(fs::exists(path(std::string("flk/") + f))) << f;
@@ -657,8 +707,8 @@ TEST_F(CliTest, FlickerBenchReportsTheIndexAgainstTheExactModel) {
 // ray-marcher 1.011 and 1.099. The test asks that the detail roughen the compositor's silhouette
 // by more than 0.05 (it fails if the tiles skip the detail, sabotage 116's slip).
 TEST_F(CliTest, SilhouetteBenchMeasuresTheDetail) {
-    const CliRun r = run("bench --silhouette --quick --width 160 --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
-                         path("sil"));
+    const CliRun r = run("bench --silhouette --quick --width 160 --scenes " + std::string(NEPHELE_SCENES) +
+                         " --out-dir " + path("sil"));
     ASSERT_EQ(r.code, 0) << r.output;
     std::ifstream csv(path("sil/silhouette_bench.csv"));
     std::string line;
@@ -674,8 +724,8 @@ TEST_F(CliTest, SilhouetteBenchMeasuresTheDetail) {
     }
     ASSERT_EQ(dims.size(), 4u) << r.output;
     EXPECT_GT(dims["ellipsoid,1.5"], dims["ellipsoid,0"] + 0.05);
-    const CliRun one = run("render " + std::string(NEPHELE_SCENES) + "/single.json --width 64 --method ellipsoid --silhouette -o " +
-                           path("s.png"));
+    const CliRun one = run("render " + std::string(NEPHELE_SCENES) +
+                           "/single.json --width 64 --method ellipsoid --silhouette -o " + path("s.png"));
     ASSERT_EQ(one.code, 0) << one.output;
     EXPECT_NE(one.output.find("silhouette dimension "), std::string::npos) << one.output;
 }
@@ -688,8 +738,9 @@ TEST_F(CliTest, QueryBenchTimesEveryQuery) {
     std::ifstream csv(path("q/query_bench.csv"));
     std::string line;
     std::getline(csv, line);
-    EXPECT_EQ(line, "scene,ellipsoids,near_clouds,layers,density_us,transmittance_1km_us,transmittance_10km_us,inside_us,"
-                    "mean_depth_m,floor_us");
+    EXPECT_EQ(line,
+              "scene,ellipsoids,near_clouds,layers,density_us,transmittance_1km_us,transmittance_10km_us,inside_us,"
+              "mean_depth_m,floor_us");
     ASSERT_TRUE(std::getline(csv, line)) << r.output;
     std::vector<std::string> f;
     std::stringstream fields(line);
@@ -820,14 +871,17 @@ TEST_F(CliTest, FlythroughStreamsFramesInBoundedMemory) {
     // Under AddressSanitizer freed blocks wait in a quarantine of up to 256 MB, which would
     // grow with the frames even though they are freed: none for this measurement.
     const std::string noQuarantine = "quarantine_size_mb=0";
-    const Spawned few = spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("few"), "--fps", "1", "--width", "320"},
-                              noQuarantine);
-    const Spawned many = spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("many"), "--fps", "5", "--width", "320"},
-                               noQuarantine);
+    const Spawned few =
+        spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("few"), "--fps", "1", "--width", "320"},
+              noQuarantine);
+    const Spawned many =
+        spawn({"flythrough", scene, "--method", "ellipsoid", "--out-dir", path("many"), "--fps", "5", "--width", "320"},
+              noQuarantine);
     ASSERT_EQ(few.code, 0) << few.output;
     ASSERT_EQ(many.code, 0) << many.output;
     EXPECT_TRUE(fs::exists(path("many/frame_0100.png")));
-    std::printf("[ figure ] flythrough peak RSS: 21 frames %ld MB, 101 frames %ld MB\n", few.maxRssKb / 1024, many.maxRssKb / 1024);
+    std::printf("[ figure ] flythrough peak RSS: 21 frames %ld MB, 101 frames %ld MB\n", few.maxRssKb / 1024,
+                many.maxRssKb / 1024);
     // 25 MB: a third of the growth frames held in memory would cause, well above allocator noise
     // (the two runs measured within 1 MB of each other).
     EXPECT_LT(many.maxRssKb - few.maxRssKb, 25 * 1024);
@@ -836,12 +890,15 @@ TEST_F(CliTest, FlythroughStreamsFramesInBoundedMemory) {
 // A path of 10^7 s at 1000 fps would be 10^10 frames: refused by flag with the limit (the int
 // count overflowed: exit 0, "frames": -2147483647 and no frames).
 TEST_F(CliTest, FlythroughFrameCountIsCheckedAgainstItsLimit) {
-    const std::string scene = write("long.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
-      "path": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}, {"t": 1e7, "position": [0,1000,0], "look_at": [0,2000,0]}]})");
+    const std::string scene =
+        write("long.json", R"({"cloudscene": 1, "camera": {"position": [0,0,0], "look_at": [0,1,0]},
+      "path": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}, )"
+                           R"({"t": 1e7, "position": [0,1000,0], "look_at": [0,2000,0]}]})");
     const Spawned r = spawn({"flythrough", scene, "--out-dir", path("frames"), "--fps", "1000"});
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("--fps 1000: the path (t from 0 to 1e+07 s) makes 1e+10 frames; at most 100000"),
-              std::string::npos) << r.output;
+              std::string::npos)
+        << r.output;
     expectNoOutputs({"long.json"});
 }
 
@@ -851,27 +908,32 @@ TEST_F(CliTest, FlythroughFrameCountIsCheckedAgainstItsLimit) {
 TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
     const std::string scene = write("good.json", kGood);
     const std::vector<std::pair<std::string, std::string>> bad{
-        {"--width", "16385"},     {"--height", "0"},         {"--scale", "nan"},        {"--min-tile", "32768"},
-        {"--max-tile", "0"},      {"--step", "1e-30"},       {"--step", "inf"},         {"--lod-distance", "-1"},
-        {"--light-grid", "1"},    {"--octaves", "9"},        {"--layers", "1"},         {"--lod0-radius", "-5"},
-        {"--lod0-spacing", "0"},  {"--layer-downsample", "5"}, {"--near-radius", "1e308"}, {"--blend-band", "nan"},
-        {"--spp", "0"},           {"--bounces", "10001"},    {"--seed", "-1"},          {"--time", "nan"},
-        {"--time", "1e300"},      {"--light-grid", "129"},   {"--photons", "1e9"},      {"--photons", "-1"},
-        {"--yaw-offset", "361"},  {"--pitch-offset", "nan"}, {"--frustum", "1,0,0,1"},  {"--frustum", "0,1,0,inf"}};
+        {"--width", "16385"},    {"--height", "0"},           {"--scale", "nan"},         {"--min-tile", "32768"},
+        {"--max-tile", "0"},     {"--step", "1e-30"},         {"--step", "inf"},          {"--lod-distance", "-1"},
+        {"--light-grid", "1"},   {"--octaves", "9"},          {"--layers", "1"},          {"--lod0-radius", "-5"},
+        {"--lod0-spacing", "0"}, {"--layer-downsample", "5"}, {"--near-radius", "1e308"}, {"--blend-band", "nan"},
+        {"--spp", "0"},          {"--bounces", "10001"},      {"--seed", "-1"},           {"--time", "nan"},
+        {"--time", "1e300"},     {"--light-grid", "129"},     {"--photons", "1e9"},       {"--photons", "-1"},
+        {"--yaw-offset", "361"}, {"--pitch-offset", "nan"},   {"--frustum", "1,0,0,1"},   {"--frustum", "0,1,0,inf"}};
     for (const auto& [flag, value] : bad) {
         const Spawned r = spawn({"render", scene, "-o", path("out.png"), flag, value});
         EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
         EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
     }
-    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
-             {"--fps", "0"}, {"--fps", "1001"}}) {
+    for (const auto& [flag, value] :
+         std::vector<std::pair<std::string, std::string>>{{"--fps", "0"}, {"--fps", "1001"}}) {
         const Spawned r = spawn({"flythrough", scene, "--out-dir", path("f"), flag, value});
         EXPECT_EQ(r.code, 2) << r.output;
         EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
     }
-    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
-             {"--counts", "0"}, {"--scale-counts", "0"}, {"--frames", "1001"}, {"--width", "15"}, {"--layer-counts", "1"}, {"--extents", "nan"},
-             {"--fps", "0"}, {"--spp", "0"}}) {
+    for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{{"--counts", "0"},
+                                                                                      {"--scale-counts", "0"},
+                                                                                      {"--frames", "1001"},
+                                                                                      {"--width", "15"},
+                                                                                      {"--layer-counts", "1"},
+                                                                                      {"--extents", "nan"},
+                                                                                      {"--fps", "0"},
+                                                                                      {"--spp", "0"}}) {
         const Spawned r = spawn({"bench", "--out-dir", path("b"), flag, value});
         EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;
         EXPECT_EQ(r.output.rfind("nephele: " + flag + ": ", 0), 0u) << r.output;
@@ -885,12 +947,16 @@ TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
     // The billboard slices, set by two or three flags, named by them.
     Spawned r = spawn({"render", scene, "-o", path("out.png"), "--lod0-spacing", "1"});
     EXPECT_EQ(r.code, 2);
-    EXPECT_NE(r.output.find("--near-radius + --blend-band + 1000 = 4500) / --lod0-spacing 1 makes 4500 billboard slices; at most 4096"),
-              std::string::npos) << r.output;
+    EXPECT_NE(
+        r.output.find(
+            "--near-radius + --blend-band + 1000 = 4500) / --lod0-spacing 1 makes 4500 billboard slices; at most 4096"),
+        std::string::npos)
+        << r.output;
     // In range, but more than this machine holds: said before any work, by flag.
     r = spawn({"render", scene, "-o", path("out.png"), "--light-size", "2048x2048x2048"});
     EXPECT_EQ(r.code, 1) << r.output;
-    EXPECT_NE(r.output.find("--light-size 2048x2048x2048: the lighting volume needs 85.9 GB of memory"), std::string::npos)
+    EXPECT_NE(r.output.find("--light-size 2048x2048x2048: the lighting volume needs 85.9 GB of memory"),
+              std::string::npos)
         << r.output;
     EXPECT_EQ(spawn({"render", scene, "-o", path("out.png"), "--light-size", "4096x4096x1024"}).code, 2);
     // --help shows the ranges.
@@ -911,8 +977,8 @@ TEST_F(CliTest, LargestImageRendersOrSaysWhyNot) {
     const Spawned info = spawn({"info"});
     ASSERT_EQ(info.code, 0) << info.output;
     const bool llvmpipe = info.output.find("llvmpipe") != std::string::npos;
-    const Spawned r =
-        spawn({"render", scene, "--method", "ellipsoid", "-o", path("big.png"), "--pfm", path("big.pfm"), "--width", "16384"});
+    const Spawned r = spawn({"render", scene, "--method", "ellipsoid", "-o", path("big.png"), "--pfm", path("big.pfm"),
+                             "--width", "16384"});
     if (r.code == 0) {
         EXPECT_FALSE(llvmpipe) << "llvmpipe rendered 16384x12288, past its 1 GB a texture: " << info.output;
         EXPECT_TRUE(fs::exists(path("big.png")));
@@ -939,7 +1005,8 @@ TEST_F(CliTest, LargestImageRendersOrSaysWhyNot) {
         return;
     }
     EXPECT_EQ(r.code, 1) << r.output;
-    EXPECT_TRUE(r.output.find("(GL_OUT_OF_MEMORY)") != std::string::npos || r.output.find("of memory, more than") != std::string::npos)
+    EXPECT_TRUE(r.output.find("(GL_OUT_OF_MEMORY)") != std::string::npos ||
+                r.output.find("of memory, more than") != std::string::npos)
         << r.output;
     EXPECT_NE(r.output.find("16384x12288"), std::string::npos) << r.output;
     expectNoOutputs({"good.json"});

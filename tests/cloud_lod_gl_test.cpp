@@ -10,16 +10,17 @@
 #include <limits>
 
 using namespace nephele;
-using nephele::test::sharedScene;
-using nephele::test::Flight;
 using nephele::test::db;
+using nephele::test::Flight;
 using nephele::test::save;
+using nephele::test::sharedScene;
 
 namespace {
 
 double meanChange(const Image& a, const Image& b) {
     double s = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i) s += std::abs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
+    for (std::size_t i = 0; i < a.pixels.size(); ++i)
+        s += std::abs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
     return s / double(a.pixels.size());
 }
 
@@ -340,7 +341,8 @@ TEST_F(CloudLodGLTest, TheReducedCompositeKeepsToTheFramesDepth) {
             double diff = 0;
             for (int c = 0; c < 3; ++c) {
                 const std::size_t i = 3 * (std::size_t(y) * W + x) + c;
-                diff = std::max(diff, double(std::abs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f))));
+                diff = std::max(
+                    diff, double(std::abs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f))));
             }
             double& worst = edge ? worstEdge : o ? worstInside : worstAway;
             worst = std::max(worst, diff);
@@ -371,7 +373,8 @@ Steps stepsOf(const Image& a, const Image& b) {
         int down = 0;
         for (int c = 0; c < 3; ++c) {
             const std::size_t i = p * std::size_t(a.channels) + std::size_t(c);
-            const int d = int(std::lround(255 * linearToSrgb(a.pixels[i]))) - int(std::lround(255 * linearToSrgb(b.pixels[i])));
+            const int d =
+                int(std::lround(255 * linearToSrgb(a.pixels[i]))) - int(std::lround(255 * linearToSrgb(b.pixels[i])));
             se += double(d) * d;
             down += std::max(-d, 0);
         }
@@ -415,6 +418,6 @@ TEST_F(CloudLodGLTest, DefaultsStayWithinTheBoundOfFreshTilesWithoutTheLod) {
         cheaper += on.last.tilePixelsRendered < off.last.tilePixelsRendered ? 1 : 0;
     }
     EXPECT_LE(darkest, 36) << "worst " << worst << " dB";
-    EXPECT_GT(impostors, 0);          // the far LOD was drawn
-    EXPECT_GT(cheaper, 0);  // and tiles were kept or held smaller than fresh
+    EXPECT_GT(impostors, 0);  // the far LOD was drawn
+    EXPECT_GT(cheaper, 0);    // and tiles were kept or held smaller than fresh
 }

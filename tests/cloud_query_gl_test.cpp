@@ -204,7 +204,8 @@ TEST_F(CloudQueryGLTest, TransmittanceIsTheFieldsIntegral) {
         double worst = 0;
         for (int r = 0; r < 12; ++r) {
             const Vec3 o(600 + 200 * u(rng), 300 * u(rng), 1000 + 100 * u(rng));
-            const Vec3 target(1700 + 300 * u(rng), -300 + 400 * u(rng), k.layer ? 2300 + 300 * u(rng) : 1150 + 80 * u(rng));
+            const Vec3 target(1700 + 300 * u(rng), -300 + 400 * u(rng),
+                              k.layer ? 2300 + 300 * u(rng) : 1150 + 80 * u(rng));
             const Vec3 d = glm::normalize(target - o);
             const double length = glm::length(target - o) * 1.5;
             const double dt = 0.25;

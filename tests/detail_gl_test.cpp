@@ -27,7 +27,8 @@ std::string probeShaderDir() {
     const fs::path dir = fs::path(test::outputDir()) / "detail_probe_shaders";
     fs::create_directories(dir);
     for (const auto& f : fs::directory_iterator(fs::path(NEPHELE_TEST_DATA) / ".." / ".." / "shaders"))
-        if (f.path().extension() == ".glsl") fs::copy_file(f.path(), dir / f.path().filename(), fs::copy_options::overwrite_existing);
+        if (f.path().extension() == ".glsl")
+            fs::copy_file(f.path(), dir / f.path().filename(), fs::copy_options::overwrite_existing);
     fs::copy_file(fs::path(NEPHELE_TEST_DATA) / "shaders" / "detail_probe.comp", dir / "detail_probe.comp",
                   fs::copy_options::overwrite_existing);
     return dir.string();
@@ -101,7 +102,8 @@ TEST_P(DetailGLTest, GlslTwinMatchesCpu) {
         const model::DetailParams p = detailParams(d, eye);
         double largest = 0;
         for (std::size_t i = 0; i < rel.size(); ++i)
-            largest = std::max(largest, double(std::abs(gpu[i] - model::detailValue(detailVolume(), p, glm::vec3(rel[i])))));
+            largest =
+                std::max(largest, double(std::abs(gpu[i] - model::detailValue(detailVolume(), p, glm::vec3(rel[i])))));
         EXPECT_LT(largest, 2e-4) << int(kind);
         std::printf("kind %d: largest |GPU - CPU| %.3g\n", int(kind), largest);
     }
@@ -114,7 +116,8 @@ TEST_P(DetailGLTest, ErosionZeroChangesNoPixel) {
     Scene zero = plain;
     zero.medium.detail.kind = Medium::Detail::Kind::Reference;
     zero.medium.detail.scale = 50;
-    for (bool raymarch : {false, true}) EXPECT_EQ(renderFast(plain, raymarch).pixels, renderFast(zero, raymarch).pixels) << raymarch;
+    for (bool raymarch : {false, true})
+        EXPECT_EQ(renderFast(plain, raymarch).pixels, renderFast(zero, raymarch).pixels) << raymarch;
 }
 
 // The silhouette dimension of dense_cumulus with the detail from 1 km at 320 x 240. Measured:

@@ -64,7 +64,10 @@ Scene oneCloud(double erosion, Medium::Detail::Kind kind = Medium::Detail::Kind:
 // 0.1-1 (no sabotage patch: the shared source's constants are compiled into about 40 files).
 TEST(DetailTest, ReferenceKindMatchesToolsReference) {
     EXPECT_NEAR(model::detailPerlin(glm::vec3(0.3f, 1.7f, -2.2f), model::kDetailSeed), -0.195971644, 2e-6);
-    struct Check { Vec3 origin, rel; double d; };
+    struct Check {
+        Vec3 origin, rel;
+        double d;
+    };
     const Check checks[] = {
         {{0, 0, 0}, {10, 0, 0}, 1.753371065},
         {{0, -1900, 1300}, {-20, 1900, 300}, 0.915292651},
@@ -213,7 +216,8 @@ TEST(DetailTest, SilhouetteDimensionOfKnownShapes) {
 TEST(DetailTest, LoaderChecksTheDetail) {
     const auto load = [](const std::string& detail) {
         return parseScene(R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]},
-                              "medium": {"detail": )" + detail + "}}",
+                              "medium": {"detail": )" +
+                              detail + "}}",
                           "scene.json");
     };
     const Scene s = load(R"({"kind": "reference", "erosion": 1.5, "scale": 128, "smallest": 2, "wind": [3, 4, 0]})");
@@ -259,8 +263,8 @@ TEST(DetailTest, RadianceGridsSeeTheErosion) {
         if (t0 < 0.9) ++shadowed;
         if (t0 < 0.9 && t1 > t0 + 0.05) ++lifted;
     }
-    std::printf("faint: largest difference %.2g; eroded: %d of %d shadowed voxels lifted by > 0.05, %d below\n", faintMax,
-                lifted, shadowed, below);
+    std::printf("faint: largest difference %.2g; eroded: %d of %d shadowed voxels lifted by > 0.05, %d below\n",
+                faintMax, lifted, shadowed, below);
     EXPECT_LT(faintMax, 1e-3);
     EXPECT_EQ(below, 0);
     EXPECT_GT(lifted, shadowed / 4);

@@ -54,8 +54,8 @@ Gpu renderGpu(const Scene& scene, const EllipsoidSettings& settings = {}) {
 
 Image renderExact(const Scene& scene, CompositeOrder order = CompositeOrder::PerEllipsoid) {
     const NoiseSettings ns;
-    return renderGardnerExact(scene, makeView(scene.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns,
-                              order);
+    return renderGardnerExact(scene, makeView(scene.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed),
+                              ns, order);
 }
 
 EllipsoidSettings weightedSettings() {
@@ -81,15 +81,16 @@ Scene flythroughAt(double t) {
 // meshes: this is about the weights, not the Gouraud interpolation of the light and noise
 // coordinates, which the back-to-front tests bound at the default tessellation. Returns the
 // GPU image.
-Image expectCompositeMatchesExact(const std::string& name, const Scene& scene, CompositeOrder order, const std::string& label,
-                                  double bound) {
+Image expectCompositeMatchesExact(const std::string& name, const Scene& scene, CompositeOrder order,
+                                  const std::string& label, double bound) {
     EllipsoidSettings fine;
     fine.order = order;
     fine.tessellation = 32;
     const Image gpu = clamped(renderGpu(scene, fine).rgba);
     const Image exact = clamped(renderExact(scene, order));
     const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
-    std::printf("[ figure ] %-18s %s GPU vs gardner-exact %s PSNR %.1f dB\n", name.c_str(), label.c_str(), label.c_str(), db);
+    std::printf("[ figure ] %-18s %s GPU vs gardner-exact %s PSNR %.1f dB\n", name.c_str(), label.c_str(),
+                label.c_str(), db);
     EXPECT_GT(db, bound) << name;
     if (db <= bound) {
         save(label + "_gpu_" + name, gpu);
@@ -116,8 +117,11 @@ class EllipsoidGLTest : public test::EglTest {};
 // single 38.3, two_clouds 38.9, cumulus27 31.6, flythrough 25.1, example 40.5: each under its
 // bound (single's is 2.7 dB under what it measures, since its dim sun costs only 4.4 dB).
 TEST_F(EllipsoidGLTest, MatchesGardnerExactOnSharedScenes) {
-    const std::pair<const char*, double> scenes[] = {
-        {"single.json", 40.0}, {"two_clouds.json", 40.0}, {"cumulus27.json", 38.0}, {"flythrough.json", 30.0}, {"example.json", 42.0}};
+    const std::pair<const char*, double> scenes[] = {{"single.json", 40.0},
+                                                     {"two_clouds.json", 40.0},
+                                                     {"cumulus27.json", 38.0},
+                                                     {"flythrough.json", 30.0},
+                                                     {"example.json", 42.0}};
     for (const auto& [name, bound] : scenes) {
         const Scene scene = sharedScene(name);
         const Image gpu = clamped(renderGpu(scene).rgba);
@@ -146,9 +150,10 @@ TEST_F(EllipsoidGLTest, WeightedCompositeMatchesGardnerExactWeighted) {
     std::vector<std::pair<std::string, Scene>> scenes;
     // Under the sanitizers the same code on two of the views: outside the cloud and inside it
     // (most of the test's CPU is the exact model's).
-    const std::vector<const char*> names = test::kSanitized ? std::vector<const char*>{"cumulus27.json"}
-                                                            : std::vector<const char*>{"single.json", "two_clouds.json", "cumulus27.json",
-                                                                                       "flythrough.json", "example.json"};
+    const std::vector<const char*> names =
+        test::kSanitized ? std::vector<const char*>{"cumulus27.json"}
+                         : std::vector<const char*>{"single.json", "two_clouds.json", "cumulus27.json",
+                                                    "flythrough.json", "example.json"};
     for (const char* name : names) scenes.push_back({name, sharedScene(name)});
     for (double t : test::kSanitized ? std::vector<double>{5.0} : std::vector<double>{5.0, 8.5})
         scenes.push_back({"flythrough t=" + std::to_string(t).substr(0, 3), flythroughAt(t)});
@@ -188,8 +193,8 @@ TEST_F(EllipsoidGLTest, WeightedCompositeKeepsTheBackToFrontOpacity) {
             const Image a = channels(renderGpu(scene, weighted).rgba, 3, 1);
             const Image b = channels(renderGpu(scene, backToFront).rgba, 3, 1);
             const ImageDifference d = compareImages(a, b, 1e-4);
-            std::printf("[ figure ] %-22s %-8s weighted vs back-to-front opacity: max |difference| %.2g\n", name.c_str(),
-                        mode == FlyThrough::Fraction ? "fraction" : "stencil", d.maxAbs);
+            std::printf("[ figure ] %-22s %-8s weighted vs back-to-front opacity: max |difference| %.2g\n",
+                        name.c_str(), mode == FlyThrough::Fraction ? "fraction" : "stencil", d.maxAbs);
             // The same per-tile opacities, multiplied in another order in 32-bit floats
             // (product of (1 - a) vs repeated "over" in the frame's floats): rounding only.
             EXPECT_LE(d.maxAbs, 1e-4) << name;
@@ -211,7 +216,8 @@ TEST_F(EllipsoidGLTest, WeightedCompositeIsTheSameOverPassesAndDrawPaths) {
     ASSERT_GT(many.stats.passes, 3);
     // Sums are added in another order: equal up to float rounding.
     EXPECT_LE(compareImages(many.rgba, single.rgba, 1e-3).maxAbs, 1e-3);
-    EXPECT_LE(compareImages(renderGpu(scene, weightedSettings()).rgba, renderGpu(scene, baseline).rgba, 1e-3).maxAbs, 1e-3);
+    EXPECT_LE(compareImages(renderGpu(scene, weightedSettings()).rgba, renderGpu(scene, baseline).rgba, 1e-3).maxAbs,
+              1e-3);
 }
 
 // Many clouds: each has its own slot in the grid of light volumes (here 5 x 4 slots).
@@ -250,7 +256,8 @@ TEST_F(EllipsoidGLTest, ManyCloudsFindTheirOwnLightVolumes) {
 // With medium.noise = 0 the opacity the compositor renders (its --alpha) must follow
 // 1 - exp(-tau) of the format's density field (issue #3's bounds on single.json).
 TEST_F(EllipsoidGLTest, OpacityFollowsTheDensityField) {
-    const std::pair<const char*, double> scenes[] = {{"single.json", 0.0022}, {"cumulus27.json", 0.0014}, {"two_clouds.json", 0.00042}};
+    const std::pair<const char*, double> scenes[] = {
+        {"single.json", 0.0022}, {"cumulus27.json", 0.0014}, {"two_clouds.json", 0.00042}};
     for (const auto& [name, maeBound] : scenes) {
         Scene scene = sharedScene(name);
         scene.medium.noise = 0;
@@ -316,7 +323,7 @@ TEST_F(EllipsoidGLTest, OneDrawPerEllipsoidBaselineGivesTheSameImage) {
     const Gpu a = renderGpu(scene), b = renderGpu(scene, baseline);
     EXPECT_LE(compareImages(a.rgba, b.rgba, 1e-3).maxAbs, 1e-3);
     EXPECT_LE(a.stats.drawCalls, 4 * a.stats.passes + 1);  // a few per pass, none per ellipsoid
-    EXPECT_GE(b.stats.drawCalls, 2 * a.stats.visible);  // one per ellipsoid, twice
+    EXPECT_GE(b.stats.drawCalls, 2 * a.stats.visible);     // one per ellipsoid, twice
 }
 
 // The light volumes are cached across frames; whatever they depend on must refresh them
@@ -359,8 +366,8 @@ TEST_F(EllipsoidGLTest, ClosedFormFalloffMatchesTheFalloffTexture) {
     const Scene scene = sharedScene("cumulus27.json");
     EllipsoidSettings texture;
     texture.falloffTexture = true;
-    const double db = psnr(channels(clamped(renderGpu(scene).rgba), 0, 3),
-                           channels(clamped(renderGpu(scene, texture).rgba), 0, 3));
+    const double db =
+        psnr(channels(clamped(renderGpu(scene).rgba), 0, 3), channels(clamped(renderGpu(scene, texture).rgba), 0, 3));
     std::printf("[ figure ] cumulus27 closed-form vs texture falloff PSNR %.1f dB\n", db);
     EXPECT_GT(db, 50.0);
 }
@@ -433,7 +440,7 @@ Scene boxInCloud() {
     s.clouds.push_back({"c", {e}});
     Object box;
     box.type = Object::Type::Box;
-    box.center = {0, 0, 0};  // at the centre: 150 m of dense cloud in front
+    box.center = {0, 0, 0};    // at the centre: 150 m of dense cloud in front
     box.size = {400, 20, 60};  // wider than the cloud: its ends stick out into clear air
     box.color = {1, 0.2, 0.2};
     s.objects.push_back(box);
@@ -563,9 +570,8 @@ TEST(EllipsoidWindowGLTest, DrawsIntoAWindowsDefaultFramebuffer) {
         auto egl = test::makeContext(GlBackend::Egl);
         offscreen = renderGpu(scene).rgba;
     }
-    const Image window = test::renderInWindow(scene, [&](const View& view, GLuint fb) {
-        EllipsoidRenderer().render(scene, view, fb, true);
-    });
+    const Image window = test::renderInWindow(
+        scene, [&](const View& view, GLuint fb) { EllipsoidRenderer().render(scene, view, fb, true); });
     // The window's buffer is 8-bit: every blend into it rounds to 1/255 (the sky, then each
     // tile over it, each with half a step of error), and the colours are compared against
     // the float frame. Measured: at most 4.5/255, mean 0.3/255; allow 6/255 per pixel and a
@@ -585,7 +591,8 @@ TEST_F(EllipsoidGLTest, EightBitAtlasStaysClose) {
     const Scene scene = sharedScene("cumulus27.json");
     EllipsoidSettings u8;
     u8.precision = AtlasPrecision::Unorm8;
-    const double db = psnr(channels(clamped(renderGpu(scene, u8).rgba), 0, 3), channels(clamped(renderExact(scene)), 0, 3));
+    const double db =
+        psnr(channels(clamped(renderGpu(scene, u8).rgba), 0, 3), channels(clamped(renderExact(scene)), 0, 3));
     std::printf("[ figure ] cumulus27 8-bit atlas vs gardner-exact PSNR %.1f dB\n", db);
     // Measured 42.1 dB on llvmpipe; broken (the sun 25% too dim, tests/sabotage/05-eight-bit
     // -atlas-sun-dimmed.sabotage) 31.7 dB. The old bound, 30 dB, passed that dim sun.
@@ -612,7 +619,8 @@ TEST_F(EllipsoidGLTest, BackLitMeshTilesAreLitPerPixel) {
     EXPECT_GT(db, 45.0);
     // Lit from the side, the mesh keeps its per-vertex light: the two differ.
     scene.sun.direction = glm::normalize(Vec3(-h.y, h.x, 0.3));
-    const double side = psnr(channels(clamped(renderGpu(scene).rgba), 0, 3), channels(clamped(renderGpu(scene, polygon).rgba), 0, 3));
+    const double side =
+        psnr(channels(clamped(renderGpu(scene).rgba), 0, 3), channels(clamped(renderGpu(scene, polygon).rgba), 0, 3));
     std::printf("[ figure ] side-lit cumulus27, mesh vs polygon tiles: PSNR %.1f dB\n", side);
     EXPECT_LT(side, db);
     if (db <= 45.0) {
@@ -664,7 +672,7 @@ TEST_F(EllipsoidGLTest, SmallLightGridsShareATextureSlot) {
     const std::size_t slot = std::size_t(32 * 32 * 32) * (4 * 8 + kSunRefinement * kSunRefinement * kSunRefinement * 2);
     EXPECT_LE(textures.textureBytes(), 4 * slot);
     EXPECT_EQ(textures.update(placed), 0);  // resident: nothing uploaded again
-    placed.resize(10);  // fewer grids: their places stay, nothing is uploaded
+    placed.resize(10);                      // fewer grids: their places stay, nothing is uploaded
     EXPECT_EQ(textures.update(placed), 0);
     EXPECT_LE(textures.textureBytes(), 4 * slot);
     // A grid whose sun transmittance does not match its size is refused, not read past.
@@ -698,12 +706,15 @@ TEST_F(EllipsoidGLTest, PassesMatchTheirGoldenImages) {
     plain.light.sunPhotons = plain.light.skyPhotons = 0;
     EllipsoidSettings weighted = weightedSettings();
     weighted.light = plain.light;
-    test::expectMatchesGolden(channels(renderGpu(cumulus, plain).rgba, 0, 3), "ellipsoid_back_to_front", kCompositorGolden);
-    test::expectMatchesGolden(channels(renderGpu(cumulus, weighted).rgba, 0, 3), "ellipsoid_weighted", kCompositorGolden);
+    test::expectMatchesGolden(channels(renderGpu(cumulus, plain).rgba, 0, 3), "ellipsoid_back_to_front",
+                              kCompositorGolden);
+    test::expectMatchesGolden(channels(renderGpu(cumulus, weighted).rgba, 0, 3), "ellipsoid_weighted",
+                              kCompositorGolden);
     EllipsoidSettings stencil = plain;
     stencil.flyThrough = FlyThrough::Stencil;
     const Scene flythrough = sharedScene("flythrough.json");
-    test::expectMatchesGolden(channels(renderGpu(flythrough, stencil).rgba, 0, 3), "ellipsoid_stencil", kCompositorGolden);
+    test::expectMatchesGolden(channels(renderGpu(flythrough, stencil).rgba, 0, 3), "ellipsoid_stencil",
+                              kCompositorGolden);
     // The goldens are the code's own output: a wrong image promoted by tests/promote_golden.sh
     // would pass the comparison above for ever. So each golden is also held against the exact
     // CPU model of the same light (gardner-exact, photons off as above), independently of the

@@ -84,8 +84,10 @@ TEST_F(FailureCaseGLTest, TileSizeJumpOnApproachDoesNotPop) {
         prevGpu = gpu;
         prevExact = exact;
     }
-    std::printf("[ figure ] tile sizes used: %zu, worst |GPU change - exact change| / (0.1 exact change + 1e-4) = %.2f "
-                "(mean exact change %.5f)\n", tiles.size(), worst, meanExactChange);
+    std::printf(
+        "[ figure ] tile sizes used: %zu, worst |GPU change - exact change| / (0.1 exact change + 1e-4) = %.2f "
+        "(mean exact change %.5f)\n",
+        tiles.size(), worst, meanExactChange);
     ASSERT_GE(tiles.size(), 3u) << "the approach must cross at least two tile-size jumps to test them";
     // At every step, tile jumps included, the GPU's change stays within 10% (+1e-4) of the
     // exact model's: measured at most 0.58 of that margin on llvmpipe (the 1024 -> 4096 px^2
@@ -130,7 +132,8 @@ TEST_F(FailureCaseGLTest, EllipsoidCutByTheNearPlaneMatchesTheExactModel) {
     EllipsoidRenderer().render(s, view, target.framebuffer(), false);
     const Image gpu = clamped(target.readColor());
     const NoiseSettings ns;
-    const Image exact = clamped(renderGardnerExact(s, view, makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns));
+    const Image exact =
+        clamped(renderGardnerExact(s, view, makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns));
     const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
     std::printf("[ figure ] near-plane cut: GPU vs exact %.1f dB\n", db);
     if (db <= 33) save("failure_near_cut_gpu", gpu), save("failure_near_cut_exact", exact);
@@ -165,7 +168,8 @@ TEST_F(FailureCaseGLTest, RaymarchGrowingStepOnApproachDoesNotPop) {
         const View view = makeView(s.camera);
         const Image alpha = alphaOf(marcher, view), ref = alphaOf(reference, view);
         if (k > 0) {
-            worst = std::max(worst, std::fabs(meanClampedDifference(alpha, prevGpu) - meanClampedDifference(ref, prevRef)));
+            worst =
+                std::max(worst, std::fabs(meanClampedDifference(alpha, prevGpu) - meanClampedDifference(ref, prevRef)));
             meanRefChange += meanClampedDifference(ref, prevRef) / steps;
         }
         prevGpu = alpha;
@@ -204,7 +208,8 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
         return target.readColor();
     };
     Image prev[4];
-    double worst[3] = {0, 0, 0}, exactWorst = 0;  // excess of weighted, back-to-front, moments (GPU); the exact model's change
+    double worst[3] = {0, 0, 0},
+           exactWorst = 0;  // excess of weighted, back-to-front, moments (GPU); the exact model's change
     int worstFrame[3] = {0, 0, 0};
     const int steps = 6;  // 8 fps
     const int flip = 4;   // the step across 8.5 s, where the centre distances cross
@@ -216,8 +221,9 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
         c.width = 96;
         c.height = 72;
         const View view = makeView(c);
-        const Image frames[4] = {gpu(weighted, view), gpu(backToFront, view), gpu(moments, view),
-                                 renderGardnerExact(s, view, noise, ns, CompositeOrder::PerPixel, model::kWeightExponent, {}, &light)};
+        const Image frames[4] = {
+            gpu(weighted, view), gpu(backToFront, view), gpu(moments, view),
+            renderGardnerExact(s, view, noise, ns, CompositeOrder::PerPixel, model::kWeightExponent, {}, &light)};
         if (k > 0) {
             exactWorst = std::max(exactWorst, meanClampedDifference(frames[3], prev[3]));
             for (int m = 0; m < 3; ++m) {
@@ -235,11 +241,12 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
         for (int m = 0; m < 4; ++m) prev[m] = frames[m];
         if (k == flip) save("order_flip_weighted", frames[0]), save("order_flip_back_to_front", frames[1]);
     }
-    std::printf("[ figure ] order flip, worst excess change over the exact per-pixel order: weighted %.4f (step %d), "
-                "back-to-front %.4f (step %d), moments %.4f (step %d); the exact model's own worst change %.4f; "
-                "across the flip: weighted %.4f, back-to-front %.4f, moments %.4f\n",
-                worst[0], worstFrame[0], worst[1], worstFrame[1], worst[2], worstFrame[2], exactWorst, atFlip[0], atFlip[1],
-                atFlip[2]);
+    std::printf(
+        "[ figure ] order flip, worst excess change over the exact per-pixel order: weighted %.4f (step %d), "
+        "back-to-front %.4f (step %d), moments %.4f (step %d); the exact model's own worst change %.4f; "
+        "across the flip: weighted %.4f, back-to-front %.4f, moments %.4f\n",
+        worst[0], worstFrame[0], worst[1], worstFrame[1], worst[2], worstFrame[2], exactWorst, atFlip[0], atFlip[1],
+        atFlip[2]);
     ASSERT_GT(exactWorst, 0.005) << "the camera must move for the test to mean anything";
     // No step may pop: a quarter of the light's own change in a step. Measured on llvmpipe
     // (96 x 72): weighted 0.0054, back to front 0.0061 (worst at the flip, 8.5 s), moments
@@ -247,8 +254,12 @@ TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
     // noise thinned the rims (Gardner's threshold) back to front popped by 0.035 here (weighted
     // 0.012, moments 0.018), which this bound caught.
     for (int m = 0; m < 3; ++m)
-        EXPECT_LT(worst[m], 0.25 * exactWorst) << (m == 0 ? "weighted" : m == 1 ? "back to front" : "moments") << " pops";
-    EXPECT_EQ(worstFrame[1], flip) << "back to front's worst step is no longer the flip at 8.5 s: the test lost its failure case";
+        EXPECT_LT(worst[m], 0.25 * exactWorst) << (m == 0   ? "weighted"
+                                                   : m == 1 ? "back to front"
+                                                            : "moments")
+                                               << " pops";
+    EXPECT_EQ(worstFrame[1], flip)
+        << "back to front's worst step is no longer the flip at 8.5 s: the test lost its failure case";
     // Today back to front's pop is small, and a quarter of the light's change would pass it
     // too: so across the flip the order-independent composites must also stay well below back
     // to front, as GardnerExactTest.WeightedOrderKeepsOpacityAndDoesNotPop asks of the exact

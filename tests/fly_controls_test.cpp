@@ -95,11 +95,18 @@ TEST(FlyControlsTest, ArrowsAndMouseTurn) {
 
 TEST(FlyControlsTest, KeysDriveTheDocumentedControls) {
     FlyInput in;
-    const std::pair<int, bool FlyInput::*> keys[] = {
-        {GLFW_KEY_W, &FlyInput::forward}, {GLFW_KEY_S, &FlyInput::back},        {GLFW_KEY_A, &FlyInput::left},
-        {GLFW_KEY_D, &FlyInput::right},   {GLFW_KEY_E, &FlyInput::up},          {GLFW_KEY_Q, &FlyInput::down},
-        {GLFW_KEY_LEFT, &FlyInput::yawLeft}, {GLFW_KEY_RIGHT, &FlyInput::yawRight}, {GLFW_KEY_UP, &FlyInput::pitchUp},
-        {GLFW_KEY_DOWN, &FlyInput::pitchDown}, {GLFW_KEY_LEFT_SHIFT, &FlyInput::fast}, {GLFW_KEY_RIGHT_SHIFT, &FlyInput::fast}};
+    const std::pair<int, bool FlyInput::*> keys[] = {{GLFW_KEY_W, &FlyInput::forward},
+                                                     {GLFW_KEY_S, &FlyInput::back},
+                                                     {GLFW_KEY_A, &FlyInput::left},
+                                                     {GLFW_KEY_D, &FlyInput::right},
+                                                     {GLFW_KEY_E, &FlyInput::up},
+                                                     {GLFW_KEY_Q, &FlyInput::down},
+                                                     {GLFW_KEY_LEFT, &FlyInput::yawLeft},
+                                                     {GLFW_KEY_RIGHT, &FlyInput::yawRight},
+                                                     {GLFW_KEY_UP, &FlyInput::pitchUp},
+                                                     {GLFW_KEY_DOWN, &FlyInput::pitchDown},
+                                                     {GLFW_KEY_LEFT_SHIFT, &FlyInput::fast},
+                                                     {GLFW_KEY_RIGHT_SHIFT, &FlyInput::fast}};
     for (auto [key, held] : keys) {
         EXPECT_TRUE(applyKey(in, key, true));
         EXPECT_TRUE(in.*held) << key;
@@ -124,7 +131,8 @@ TEST(FlyControlsTest, PoseAndCameraRoundTrip) {
 TEST(FlyScriptTest, KeyframesPlayAsTheScenePath) {
     const Flight f = parseFlight(R"({"flight": 1, "fps": 4, "keyframes": [
         {"t": 1, "position": [0, 0, 100], "look_at": [0, 100, 100]},
-        {"t": 2, "position": [0, 40, 100], "look_at": [0, 140, 100]}]})", "f.json");
+        {"t": 2, "position": [0, 40, 100], "look_at": [0, 140, 100]}]})",
+                                 "f.json");
     EXPECT_EQ(f.frameCount(), 5);
     Scene scene;
     const std::vector<Camera> cams = flightCameras(f, scene);
@@ -135,7 +143,8 @@ TEST(FlyScriptTest, KeyframesPlayAsTheScenePath) {
 
 TEST(FlyScriptTest, InputsReplayAtTheFixedStep) {
     const Flight f = parseFlight(R"({"flight": 1, "fps": 10, "start": {"position": [0, 0, 500], "heading_deg": 90},
-        "inputs": [{"t": 0, "hold": ["forward"]}, {"t": 1, "hold": []}, {"t": 1.5, "mouse": [100, 0]}], "end": 2})", "f.json");
+        "inputs": [{"t": 0, "hold": ["forward"]}, {"t": 1, "hold": []}, {"t": 1.5, "mouse": [100, 0]}], "end": 2})",
+                                 "f.json");
     Scene scene;
     const std::vector<Camera> cams = flightCameras(f, scene);
     ASSERT_EQ(cams.size(), 21u);
@@ -176,10 +185,13 @@ TEST(FlyScriptTest, BadFlightsNameTheJsonPath) {
         {R"({"fps": 10, "keyframes": []})", "f.json: expected \"flight\": 1"},
         {R"({"flight": 1})", "expected either \"keyframes\" or \"inputs\""},
         {R"({"flight": 1, "fps": 0, "inputs": [{"t": 0}]})", "f.json: fps: must be in (0, 1000]"},
-        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}]})", "keyframes: expected at least 2"},
-        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}, {"t": 0, "position": [0,0,0], "look_at": [0,1,0]}]})",
+        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}]})",
+         "keyframes: expected at least 2"},
+        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0,0], "look_at": [0,1,0]}, )"
+         R"({"t": 0, "position": [0,0,0], "look_at": [0,1,0]}]})",
          "keyframes[1].t: must be greater than the previous t"},
-        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0], "look_at": [0,1,0]}, {"t": 1, "position": [0,0,0], "look_at": [0,1,0]}]})",
+        {R"({"flight": 1, "keyframes": [{"t": 0, "position": [0,0], "look_at": [0,1,0]}, )"
+         R"({"t": 1, "position": [0,0,0], "look_at": [0,1,0]}]})",
          "keyframes[0].position: expected [x, y, z]"},
         {R"({"flight": 1, "inputs": [{"t": 0, "hold": ["sideways"]}]})", "inputs[0].hold[0]: expected a control"},
         {R"({"flight": 1, "inputs": [{"t": 1}, {"t": 0}]})", "inputs[1].t: must not be less than the previous t"},
@@ -217,10 +229,12 @@ TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
     const std::string scene = std::string(NEPHELE_SCENES) + "/example.json";  // no path
     const std::string rec = (dir / "rec").string();
     const std::pair<std::string, std::string> cases[] = {
-        {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record " + rec, "bad.json: keyframes[1].t: must be greater"},
+        {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record " + rec,
+         "bad.json: keyframes[1].t: must be greater"},
         {"fly " + scene + " --record " + rec, "example.json: path: "},
         {"fly " + scene + " --record " + (dir / "full").string(), "exists and is not an empty folder"},
-        {"fly " + scene + " --script " + (dir / "bad.json").string(), "bad.json: keyframes[1].t: must be greater"},  // the window's
+        {"fly " + scene + " --script " + (dir / "bad.json").string(),
+         "bad.json: keyframes[1].t: must be greater"},  // the window's
         {"fly " + scene + " --headless", "--headless needs --record"},
         {"fly " + scene + " --script " + (dir / "bad.json").string() + " --record-input " + (dir / "in.json").string(),
          "does not go with --script"},
@@ -228,7 +242,8 @@ TEST(FlyCliTest, BadInputExitsTwoAndWritesNothing) {
         {"fly " + (dir / "missing.json").string() + " --record " + rec, "missing.json"},
         {"fly " + scene + " --record " + (dir / "no" / "such" / "rec").string(), "does not exist"},
         {"fly " + scene + " --width 0", "--width"},
-        {"fly " + scene + " --record " + rec + " --record-input " + (dir / "in.json").string(), "does not go with --record"},
+        {"fly " + scene + " --record " + rec + " --record-input " + (dir / "in.json").string(),
+         "does not go with --record"},
     };
     for (const auto& [args, message] : cases) {
         const test::CliResult r = runNephele(args);

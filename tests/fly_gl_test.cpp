@@ -59,7 +59,8 @@ fs::path freshDir(const std::string& name) {
 
 // Records the scene's 2 s path at 1 fps (3 frames, 320x180) and compares `frames` with
 // `nephele render --time` of the same moments.
-void expectRecordingMatchesRender(const std::string& name, const std::string& extra, std::initializer_list<int> frames) {
+void expectRecordingMatchesRender(const std::string& name, const std::string& extra,
+                                  std::initializer_list<int> frames) {
     const fs::path dir = freshDir(name);
     std::string out;
     ASSERT_EQ(run("fly " + kScene + " --record " + dir.string() + " --fps 1 --no-video " + extra, &out), 0) << out;
@@ -151,7 +152,7 @@ TEST(FlyGLTest, InjectedKeysAndMouseMoveTheCameraAsDocumented) {
     in.release(GLFW_KEY_W);
     EXPECT_NEAR(glm::length(app.pose().position - expected.position), 0, 1e-9);
     EXPECT_GT(app.pose().position.y - (-1500), 15);  // heading north: moved north
-    ASSERT_TRUE(app.frame(0.5));  // no key: slowing to a hover
+    ASSERT_TRUE(app.frame(0.5));                     // no key: slowing to a hover
     EXPECT_LT(glm::length(app.pose().velocity), glm::length(expected.velocity));
     const double heading = app.pose().heading, pitch = app.pose().pitch;
     in.drag(100, 0);  // mouse-look: right
@@ -211,7 +212,8 @@ Footprint footprint(const Image& with, const Image& without) {
             double d = 0;
             for (int c = 0; c < 3; ++c) d = std::max(d, double(std::abs(with.at(x, y, c) - without.at(x, y, c))));
             if (d <= 0.1) continue;
-            f.x0 = std::min(f.x0, x), f.y0 = std::min(f.y0, y), f.x1 = std::max(f.x1, x), f.y1 = std::max(f.y1, y), ++f.pixels;
+            f.x0 = std::min(f.x0, x), f.y0 = std::min(f.y0, y), f.x1 = std::max(f.x1, x), f.y1 = std::max(f.y1, y),
+            ++f.pixels;
         }
     return f;
 }
@@ -240,17 +242,18 @@ TEST(FlyGLTest, HudAndDebugViewsToggleWithoutGlErrors) {
     const int w = none.width, h = none.height;
     enum class Anchor { TopLeft, Centre, TopRight, BottomLeft, Scene };
     const std::tuple<int, const char*, Anchor> views[] = {
-        {GLFW_KEY_F1, "hud", Anchor::TopLeft},       {GLFW_KEY_H, "help", Anchor::Centre},     {GLFW_KEY_TAB, "controls", Anchor::TopRight},
-        {GLFW_KEY_F2, "atlas", Anchor::BottomLeft}, {GLFW_KEY_F3, "tiles", Anchor::Scene},     {GLFW_KEY_F4, "cells", Anchor::Scene}};
+        {GLFW_KEY_F1, "hud", Anchor::TopLeft},        {GLFW_KEY_H, "help", Anchor::Centre},
+        {GLFW_KEY_TAB, "controls", Anchor::TopRight}, {GLFW_KEY_F2, "atlas", Anchor::BottomLeft},
+        {GLFW_KEY_F3, "tiles", Anchor::Scene},        {GLFW_KEY_F4, "cells", Anchor::Scene}};
     for (auto [key, name, anchor] : views) {
-        in.tap(key);  // on: each view draws something over the frame, without a GL error
+        in.tap(key);                            // on: each view draws something over the frame, without a GL error
         ASSERT_NO_THROW(app.frame(0)) << name;  // ImGui sizes a new window in its first frame, shows it in the next
         const Image on = capture(name);
         const ImageDifference d = compareImages(on, none, 0.1);
         EXPECT_GT(d.fractionOver, 0.002) << name << ": nothing drawn";
         const Footprint f = footprint(on, none);
-        std::printf("view %-8s: %5.2f%% of the %dx%d window, in x %d..%d, y %d..%d\n", name, 100 * d.fractionOver, w, h, f.x0,
-                    f.x1, f.y0, f.y1);
+        std::printf("view %-8s: %5.2f%% of the %dx%d window, in x %d..%d, y %d..%d\n", name, 100 * d.fractionOver, w, h,
+                    f.x0, f.x1, f.y0, f.y1);
         // A panel's corner sits 8 px in from the window's; its border and shadow may reach a
         // few pixels further.
         auto near = [](int v, int want) { return std::abs(v - want) <= 4; };
@@ -325,7 +328,10 @@ TEST(FlyGLTest, ResizesAndClosesCleanly) {
     const fs::path replay = freshDir("fly_replay");
     std::string out;
     EXPECT_EQ(run("fly " + kScene + " --script " + inputs.string() + " --record " + replay.string() +
-                  " --headless --method ellipsoid --width 64 --no-video", &out), 0) << out;
+                      " --headless --method ellipsoid --width 64 --no-video",
+                  &out),
+              0)
+        << out;
     EXPECT_TRUE(fs::exists(replay / "frame_0000.png"));
 }
 
@@ -362,10 +368,12 @@ TEST(FlyGLTest, ABadEditOfTheSceneKeepsTheLastGoodOne) {
     rewrite("\"max_radius\": 110", "\"max_radius\": 220");  // a good edit the ellipsoid view shows: larger puffs
     const Image fixed = capture("fixed");
     EXPECT_EQ(app.sceneError(), "");
-    const ImageDifference same = compareImages(kept, before, 1.5 / 255), changed = compareImages(fixed, before, 2.0 / 255);
-    std::printf("[ figure ] reload: bad edit vs before: %.4f of the pixels differ (max %.1f/255); fixed edit vs before: "
-                "%.3f differ (mean %.2f/255)\n",
-                same.fractionOver, same.maxAbs * 255, changed.fractionOver, changed.meanAbs * 255);
+    const ImageDifference same = compareImages(kept, before, 1.5 / 255),
+                          changed = compareImages(fixed, before, 2.0 / 255);
+    std::printf(
+        "[ figure ] reload: bad edit vs before: %.4f of the pixels differ (max %.1f/255); fixed edit vs before: "
+        "%.3f differ (mean %.2f/255)\n",
+        same.fractionOver, same.maxAbs * 255, changed.fractionOver, changed.meanAbs * 255);
     // Measured 0 pixels differing: the same scene at the same time draws the same frame.
     // Broken (the last good scene's clouds dropped on a bad edit, tests/sabotage/06-fly-bad
     // -edit-drops-the-scene.sabotage): 1.15% of the pixels differ (up to 45/255). 0.1% leaves

@@ -49,7 +49,7 @@ inline json fullScene() {
 // Every number of `j`: its JSON pointer and its path as scene messages write it
 // ("clouds[0].ellipsoids[0].radii[1]").
 inline void numbersOf(const json& j, const json::json_pointer& at, const std::string& path,
-               std::vector<std::pair<json::json_pointer, std::string>>& out) {
+                      std::vector<std::pair<json::json_pointer, std::string>>& out) {
     if (j.is_number()) out.push_back({at, path});
     if (j.is_object())
         for (const auto& [k, v] : j.items()) numbersOf(v, at / k, path.empty() ? k : path + "." + k, out);
@@ -68,8 +68,7 @@ inline json everyTinyAccepted(const json& base, const std::string& file) {
         try {
             parseScene(j.dump(), file);
             all = j;
-        } catch (const SceneError&) {
-        }
+        } catch (const SceneError&) {}
     }
     return all;
 }

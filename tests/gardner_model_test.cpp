@@ -96,12 +96,12 @@ TEST(GardnerModelTest, EquationTwoIsTheOpacityOfTheNoisyDensityField) {
                 EXPECT_GE(gTerm, -1e-6f);
                 EXPECT_LE(gTerm, 1.0f);
                 const double expected = 1.0 - std::pow(1.0 - double(a), 1.0 + amp * n);
-                EXPECT_NEAR(model::gardnerAlpha(iOverD, gTerm), expected, 2e-6) << "ac " << ac << " A " << a << " n " << n;
+                EXPECT_NEAR(model::gardnerAlpha(iOverD, gTerm), expected, 2e-6)
+                    << "ac " << ac << " A " << a << " n " << n;
             }
         }
     // No matter, no opacity, whatever the noise; and noise above 1 cannot make density negative.
-    for (float n : {-1.0f, 0.0f, 1.0f})
-        EXPECT_NEAR(alphaOf(0.8f, 0.0f, 0.3f, n), 0.0f, 1e-6f);
+    for (float n : {-1.0f, 0.0f, 1.0f}) EXPECT_NEAR(alphaOf(0.8f, 0.0f, 0.3f, n), 0.0f, 1e-6f);
     EXPECT_NEAR(alphaOf(0.8f, 0.5f, 2.0f, -1.0f), 0.0f, 1e-6f);
 }
 
@@ -190,7 +190,8 @@ TEST(CloudLightModelTest, SunInScatterIsTheExactConvolutionOfAnHgLobe) {
         EXPECT_NEAR(model::sunInScatter(field, d, g), sum, 0.01 * sum) << d.x << " " << d.y << " " << d.z;
     }
     // No flux: isotropic, phi0 / 4 pi whatever the direction; no light, none.
-    EXPECT_NEAR(model::sunInScatter(glm::vec4(0, 0, 0, phi0), glm::vec3(0, 0, 1), g), phi0 / (4 * std::numbers::pi), 1e-6);
+    EXPECT_NEAR(model::sunInScatter(glm::vec4(0, 0, 0, phi0), glm::vec3(0, 0, 1), g), phi0 / (4 * std::numbers::pi),
+                1e-6);
     EXPECT_EQ(model::sunInScatter(glm::vec4(0.0f), glm::vec3(0, 0, 1), g), 0.0f);
 }
 
@@ -254,9 +255,11 @@ TEST(CloudLightModelTest, SkyInScatterIsTheExactConvolutionOfItsHarmonics) {
 TEST(CloudLightModelTest, SingleScatteringIsThePhaseTimesTheSunsTransmittance) {
     const glm::vec3 s = glm::normalize(glm::vec3(0.3f, 0.2f, 0.9f));
     // (s . s of a unit float vector is 1 - 6e-8, where HG's peak falls by 5e-6 of itself.)
-    EXPECT_NEAR(model::singleScatter(s, s, 0.85f, 0.0f), model::hgPhase(1.0f, 0.85f), 1e-4f * model::hgPhase(1.0f, 0.85f));
+    EXPECT_NEAR(model::singleScatter(s, s, 0.85f, 0.0f), model::hgPhase(1.0f, 0.85f),
+                1e-4f * model::hgPhase(1.0f, 0.85f));
     EXPECT_NEAR(model::singleScatter(-s, s, 0.85f, 2.0f), model::hgPhase(-1.0f, 0.85f) * std::exp(-2.0f), 1e-9f);
-    EXPECT_GT(model::singleScatter(s, s, 0.85f, 1.0f), 100 * model::singleScatter(-s, s, 0.85f, 1.0f));  // the silver lining
+    EXPECT_GT(model::singleScatter(s, s, 0.85f, 1.0f),
+              100 * model::singleScatter(-s, s, 0.85f, 1.0f));  // the silver lining
 }
 
 // The chord's samples stand where the opacity in front of them reaches their share of the chord's
@@ -266,7 +269,8 @@ TEST(CloudLightModelTest, SingleScatteringIsThePhaseTimesTheSunsTransmittance) {
 TEST(CloudLightModelTest, ChordSamplesAreGaussLegendrePointsInTheOpacitySeen) {
     for (int degree = 0; degree <= 6; ++degree) {
         double sum = 0;
-        for (int k = 0; k < model::kChordSamples; ++k) sum += model::chordWeight(k) * std::pow(model::chordShare(k), degree);
+        for (int k = 0; k < model::kChordSamples; ++k)
+            sum += model::chordWeight(k) * std::pow(model::chordShare(k), degree);
         if (degree <= 5) EXPECT_NEAR(sum, 1.0 / (degree + 1), 1e-6) << degree;
         else EXPECT_GT(std::abs(sum - 1.0 / 7), 1e-4);  // the rule's order: degree 6 is not exact
     }
@@ -377,7 +381,7 @@ TEST(GardnerModelTest, CompositeWeightIsAScaleFreePowerOfDepth) {
         const float ratio = model::compositeWeight(1.5f * tRef, tRef, k) / model::compositeWeight(3.0f * tRef, tRef, k);
         EXPECT_NEAR(ratio, std::pow(2.0f, k), 1e-4f * std::pow(2.0f, k)) << tRef;
         EXPECT_FLOAT_EQ(model::compositeWeight(tRef, tRef, k), 1.0f);
-        EXPECT_FLOAT_EQ(model::compositeWeight(0.5f * tRef, tRef, k), 1.0f);  // nearer than tRef: clamped
+        EXPECT_FLOAT_EQ(model::compositeWeight(0.5f * tRef, tRef, k), 1.0f);       // nearer than tRef: clamped
         EXPECT_NEAR(model::compositeWeight(1.001f * tRef, tRef, k), 1.0f, 0.01f);  // continuous
     }
     EXPECT_GT(model::compositeWeight(1e9f, 0.5f, k), 0.0f);
@@ -403,8 +407,8 @@ TEST(GardnerExactTest, KeptLightIsTheLightOfTheSceneAsItIsNow) {
     scene.camera.width = 32, scene.camera.height = 24;
     ExactLight kept;
     auto render = [&](const Scene& s, ExactLight* light) {
-        return renderGardnerExact(s, makeView(s.camera), noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent, {},
-                                  light);
+        return renderGardnerExact(s, makeView(s.camera), noise, ns, CompositeOrder::PerEllipsoid,
+                                  model::kWeightExponent, {}, light);
     };
     const Image first = render(scene, &kept);
     EXPECT_TRUE(first.pixels == render(scene, nullptr).pixels);
@@ -416,8 +420,8 @@ TEST(GardnerExactTest, KeptLightIsTheLightOfTheSceneAsItIsNow) {
     Scene moved = scene;  // the cloud and the camera 500 m east: the same view of a moved cloud
     for (Ellipsoid& e : moved.clouds[0].ellipsoids) e.center += Vec3(500, 0, 0);
     moved.camera.position += Vec3(500, 0, 0);
-    for (const auto& [name, changed] : {std::pair{"sun turned", turned}, std::pair{"medium thicker", thicker},
-                                        std::pair{"cloud moved", moved}}) {
+    for (const auto& [name, changed] :
+         {std::pair{"sun turned", turned}, std::pair{"medium thicker", thicker}, std::pair{"cloud moved", moved}}) {
         render(scene, &kept);  // the kept light is the first scene's again
         const Image withKept = render(changed, &kept), fresh = render(changed, nullptr);
         EXPECT_TRUE(withKept.pixels == fresh.pixels) << name << ": " << meanDifference(withKept, fresh, 0, 3);
@@ -439,7 +443,8 @@ TEST(GardnerExactTest, WeightedOrderKeepsOpacityAndDoesNotPop) {
         return renderGardnerExact(scene, makeView(c), f.noise, ns, order);
     };
     const Scene one = loadScene(std::string(NEPHELE_SCENES) + "/single.json");
-    EXPECT_LT(meanDifference(still(one, CompositeOrder::Weighted), still(one, CompositeOrder::PerEllipsoid), 0, 4), 1e-6);
+    EXPECT_LT(meanDifference(still(one, CompositeOrder::Weighted), still(one, CompositeOrder::PerEllipsoid), 0, 4),
+              1e-6);
     const auto [weighted, popping] = f.acrossTheFlip(CompositeOrder::Weighted);
     const double before = excessChange(f.at(8.0, CompositeOrder::Weighted), f.at(8.25, CompositeOrder::Weighted),
                                        f.at(8.0, CompositeOrder::PerPixel), f.at(8.25, CompositeOrder::PerPixel));
@@ -518,8 +523,8 @@ TEST(GardnerModelTest, MomentTransmittanceReconstructsTheOrder) {
 TEST(GardnerExactTest, MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop) {
     const FlipFrames f;
     const auto [moments, popping] = f.acrossTheFlip(CompositeOrder::Moments);
-    std::cout << "[ figure ] excess change across the flip over per-pixel order: moments " << moments << ", per-ellipsoid "
-              << popping << "\n";
+    std::cout << "[ figure ] excess change across the flip over per-pixel order: moments " << moments
+              << ", per-ellipsoid " << popping << "\n";
     EXPECT_LT(moments, 0.5 * popping);
 
     const Scene backLit = test::backLit(loadScene(std::string(NEPHELE_SCENES) + "/cumulus27.json"));
@@ -529,7 +534,8 @@ TEST(GardnerExactTest, MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop)
     const View view = makeView(c);
     auto render = [&](CompositeOrder order) { return renderGardnerExact(backLit, view, f.noise, f.ns, order); };
     const Image pixel = render(CompositeOrder::PerPixel);
-    const double weighted = colourRms(render(CompositeOrder::Weighted), pixel), moment = colourRms(render(CompositeOrder::Moments), pixel),
+    const double weighted = colourRms(render(CompositeOrder::Weighted), pixel),
+                 moment = colourRms(render(CompositeOrder::Moments), pixel),
                  ellipsoid = colourRms(render(CompositeOrder::PerEllipsoid), pixel);
     std::cout << "[ figure ] back-lit cumulus27 from 2 km, rms colour difference from the per-pixel order: weighted "
               << weighted << ", moments " << moment << ", per-ellipsoid " << ellipsoid << "\n";

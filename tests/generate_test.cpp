@@ -240,8 +240,8 @@ TEST(GenerateTest, ContainedPruningKeepsNoEllipsoidInsideAnother) {
 }
 
 TEST(GenerateTest, RotationDegreesRoundTrip) {
-    for (const Vec3 deg : {Vec3(0), Vec3(10, 20, 30), Vec3(-170, 80, 100), Vec3(45, 90, 0), Vec3(30, -90, 0),
-                           Vec3(179, -45, -120)}) {
+    for (const Vec3 deg :
+         {Vec3(0), Vec3(10, 20, 30), Vec3(-170, 80, 100), Vec3(45, 90, 0), Vec3(30, -90, 0), Vec3(179, -45, -120)}) {
         const glm::dmat3 R = rotationFromDegrees(deg);
         const glm::dmat3 back = rotationFromDegrees(degreesFromRotation(R));
         for (int c = 0; c < 3; ++c)
@@ -396,7 +396,8 @@ double meanExtinctionOverVolume(const Scene& s) {
         for (const Ellipsoid& e : c.ellipsoids) {
             lo = glm::min(lo, e.center - e.maxRadius()), hi = glm::max(hi, e.center + e.maxRadius());
             const glm::dmat3 scale(1 / e.radii.x, 0, 0, 0, 1 / e.radii.y, 0, 0, 0, 1 / e.radii.z);
-            shapes.push_back({scale * glm::transpose(rotationFromDegrees(e.rotationDeg)), e.center, e.density, e.maxRadius()});
+            shapes.push_back(
+                {scale * glm::transpose(rotationFromDegrees(e.rotationDeg)), e.center, e.density, e.maxRadius()});
         }
     const int n = 96;
     double sum = 0;
@@ -425,9 +426,11 @@ double meanExtinctionOverVolume(const Scene& s) {
 TEST(GenerateTest, CumulusMediumGivesRealCumulusDensity) {
     const std::string head = R"({"cloudscene": 1, "camera": {"position": [0, -3000, 1500], "look_at": [0, 0, 1500]}, )";
     const std::string small = R"({"type": "cumulus", "center": [0, 0, 1500], "medium": "cumulus"})";
-    const std::string big = R"({"type": "cumulus", "center": [0, 0, 1500], "count": 200, "seed": 3, "sigma": [450, 350, 150], "max_radius": 230, "medium": "cumulus"})";
+    const std::string big = R"({"type": "cumulus", "center": [0, 0, 1500], "count": 200, "seed": 3, )"
+                            R"("sigma": [450, 350, 150], "max_radius": 230, "medium": "cumulus"})";
     for (const auto& [medium, entry] :
-         {std::pair{std::string(R"("medium": {"extinction": 0.04})"), small}, std::pair{std::string(R"("medium": {"extinction": 0.5})"), small},
+         {std::pair{std::string(R"("medium": {"extinction": 0.04})"), small},
+          std::pair{std::string(R"("medium": {"extinction": 0.5})"), small},
           std::pair{std::string(R"("medium": {"liquid_water_content": 0.1, "droplet_effective_radius": 20})"), small},
           std::pair{std::string(R"("medium": {"extinction": 0.04})"), big}}) {
         {
@@ -464,12 +467,16 @@ TEST(GenerateTest, CumulusMediumRules) {
         return std::string("accepted");
     };
     EXPECT_EQ(fault(R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "cumulus", "density": 2}])"),
-              "test.json: generate[0].density: give either 'density' or \"medium\": \"cumulus\" (which sets the density), not both");
-    EXPECT_EQ(fault(R"("medium": {"extinction": 0}, "generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "cumulus"}])"),
-              "test.json: generate[0].medium: 'cumulus' sets the density to 0.328125 / medium.extinction, and medium.extinction is 0");
+              "test.json: generate[0].density: give either 'density' or \"medium\": \"cumulus\" (which sets the "
+              "density), not both");
+    EXPECT_EQ(fault(R"("medium": {"extinction": 0}, "generate": )"
+                    R"([{"type": "cumulus", "center": [0, 0, 0], "medium": "cumulus"}])"),
+              "test.json: generate[0].medium: 'cumulus' sets the density to 0.328125 / medium.extinction, and "
+              "medium.extinction is 0");
     EXPECT_EQ(fault(R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "medium": "stratus"}])"),
               "test.json: generate[0].medium: must be one of 'scene', 'cumulus', got 'stratus'");
-    EXPECT_EQ(fault(R"("generate": [{"type": "lsystem", "center": [0, 0, 0], "axiom": "F", "rules": {}, "medium": "cumulus"}])"),
+    EXPECT_EQ(fault(R"("generate": [{"type": "lsystem", "center": [0, 0, 0], )"
+                    R"("axiom": "F", "rules": {}, "medium": "cumulus"}])"),
               "test.json: generate[0].medium: 'medium' is not a key of a lsystem generator");
 }
 

@@ -118,9 +118,9 @@ inline void save(const std::string& name, const Image& image) {
 }
 
 struct GoldenTolerance {
-    double pixel;          // per-channel difference (in [0,1] of 8-bit sRGB) that counts a pixel as off
-    double fractionOff;    // largest allowed fraction of pixels that are off
-    double mean;           // largest allowed mean absolute difference over all channels
+    double pixel;        // per-channel difference (in [0,1] of 8-bit sRGB) that counts a pixel as off
+    double fractionOff;  // largest allowed fraction of pixels that are off
+    double mean;         // largest allowed mean absolute difference over all channels
 };
 
 // Compares an sRGB-encoded rendering with tests/golden/NAME.png. On failure, or when the
@@ -175,10 +175,12 @@ struct HostileGlState {
         sampler = Sampler::create();
         glSamplerParameteri(sampler.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glSamplerParameteri(sampler.id(), GL_TEXTURE_WRAP_S, GL_MIRRORED_REPEAT);
-        constexpr std::array<GLenum, 4> kTargets{GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE};
+        constexpr std::array<GLenum, 4> kTargets{GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY,
+                                                 GL_TEXTURE_RECTANGLE};
         for (GLenum target : kTargets) {
             textures.push_back(Texture::create(target));
-            if (target == GL_TEXTURE_2D || target == GL_TEXTURE_RECTANGLE) glTextureStorage2D(textures.back().id(), 1, GL_RGBA8, 4, 4);
+            if (target == GL_TEXTURE_2D || target == GL_TEXTURE_RECTANGLE)
+                glTextureStorage2D(textures.back().id(), 1, GL_RGBA8, 4, 4);
             else glTextureStorage3D(textures.back().id(), 1, GL_RGBA8, 4, 4, 4);
         }
         other = Framebuffer::create();
@@ -191,7 +193,8 @@ struct HostileGlState {
         glActiveTexture(GL_TEXTURE5);
         glUseProgram(program.id());
         glBindVertexArray(vao.id());
-        for (GLenum target : {GL_PIXEL_UNPACK_BUFFER, GL_PIXEL_PACK_BUFFER, GL_ARRAY_BUFFER, GL_UNIFORM_BUFFER, GL_DRAW_INDIRECT_BUFFER})
+        for (GLenum target : {GL_PIXEL_UNPACK_BUFFER, GL_PIXEL_PACK_BUFFER, GL_ARRAY_BUFFER, GL_UNIFORM_BUFFER,
+                              GL_DRAW_INDIRECT_BUFFER})
             glBindBuffer(target, buffer.id());
         for (GLuint i = 0; i < 8; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffer.id());
         glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, buffer.id(), 0, 128);

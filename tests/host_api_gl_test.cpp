@@ -360,12 +360,14 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     Weather weather = Weather::of(scene);
     sky.update(0.1, weather, view.eye);
     HostTarget target(96, 64);
-    const Image before = frameOf(scene, view, target, [&] { EXPECT_EQ(sky.draw(viewDescOf(view, target.fbo.id())).layered.pendingLayers, 0); });
+    const Image before = frameOf(
+        scene, view, target, [&] { EXPECT_EQ(sky.draw(viewDescOf(view, target.fbo.id())).layered.pendingLayers, 0); });
     weather.layers.begin()->second.layer.thickness = 900;
     const SkyUpdateStats up = sky.update(0.0, weather, view.eye);
     EXPECT_GE(up.backgroundJobs, 1);
     SkyStats during;
-    const Image drawnDuring = frameOf(scene, view, target, [&] { during = sky.draw(viewDescOf(view, target.fbo.id())); });
+    const Image drawnDuring =
+        frameOf(scene, view, target, [&] { during = sky.draw(viewDescOf(view, target.fbo.id())); });
     EXPECT_EQ(during.layered.pendingLayers, 1);
     EXPECT_EQ(during.layered.uploads, 0);
     sky.waitForBackgroundWork();
@@ -388,12 +390,14 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
     other.waitForBackgroundWork();
     other.update(0.0, Weather::of(thicker), view.eye);
     const Image fresh = frameOf(thicker, view, target, [&] { other.draw(viewDescOf(view, target.fbo.id())); });
-    const double afterErr = compareImages(after, fresh, 1.0).meanAbs, duringErr = compareImages(drawnDuring, fresh, 1.0).meanAbs;
+    const double afterErr = compareImages(after, fresh, 1.0).meanAbs,
+                 duringErr = compareImages(drawnDuring, fresh, 1.0).meanAbs;
     const double duringAlpha = compareImages(channels(drawnDuring, 3, 1), channels(fresh, 3, 1), 1.0).meanAbs;
     const double beforeAlpha = compareImages(channels(before, 3, 1), channels(fresh, 3, 1), 1.0).meanAbs;
-    std::printf("against a renderer made for the thicker layer: mean |difference| after the job %.2e, during it %.2e "
-                "(alpha %.2e; the thinner layer's alpha %.2e)\n",
-                afterErr, duringErr, duringAlpha, beforeAlpha);
+    std::printf(
+        "against a renderer made for the thicker layer: mean |difference| after the job %.2e, during it %.2e "
+        "(alpha %.2e; the thinner layer's alpha %.2e)\n",
+        afterErr, duringErr, duringAlpha, beforeAlpha);
     // Measured: after the job 6.5e-9 (the same frame); during it 1.4e-2, its opacity 0 (the
     // thinner layer's 4.0e-2). A slot that forgets its volume while the job runs
     // (tests/sabotage/17-layer-slot-dropped-while-its-job-runs.sabotage: the counters the same)
@@ -484,8 +488,7 @@ TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
     EXPECT_EQ(later.lightStandIns, 0);
     // With tiles that last (SkyRenderer's default) the new light reaches the tiles over a few
     // frames, within the reuse budget: draw until a frame renders no tile.
-    for (int k = 0; k < 50 && sky.draw(viewDescOf(view, target.fbo.id())).ellipsoids.tilesRendered > 0; ++k) {
-    }
+    for (int k = 0; k < 50 && sky.draw(viewDescOf(view, target.fbo.id())).ellipsoids.tilesRendered > 0; ++k) {}
     const Image after = draw();
     EXPECT_GT(compareImages(during, before, 1.0).meanAbs, 1e-4) << "the new sun's single scattering shows at once";
     EXPECT_GT(compareImages(after, during, 1.0).meanAbs, 1e-5) << "then the new grids";
@@ -505,13 +508,15 @@ TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
     settings.ellipsoid.light.sunPhotons = settings.ellipsoid.light.skyPhotons = test::kSanitized ? 1 << 20 : 1 << 22;
     settings.background.priority = BackgroundSettings::Priority::Low;
     Scene scene = testScene(64, 48);
-    scene.layers[0].nearLod = false;  // no near clouds: they would spawn once the layer's lighting is made, on stand-ins
+    scene.layers[0].nearLod =
+        false;  // no near clouds: they would spawn once the layer's lighting is made, on stand-ins
     {
         SkyRenderer waiting(settings);
         waiting.prepare(scene);
         EXPECT_EQ(waiting.pending(), 0);
         const SkyUpdateStats firstFrame = waiting.update(0, Weather::of(scene), scene.camera.position);
-        EXPECT_EQ(firstFrame.lightStandIns, 0) << "a prepare() that waits lights the first frame with the clouds' own grids";
+        EXPECT_EQ(firstFrame.lightStandIns, 0)
+            << "a prepare() that waits lights the first frame with the clouds' own grids";
     }
     settings.prepareWaits = false;
     std::atomic<int> signals{0}, workerNice{-100}, pendingSeen{-1};
@@ -520,8 +525,7 @@ TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
         workerNice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
         SkyRenderer* s = self.load();
         const int p = s ? s->pending() : -2;
-        for (int seen = pendingSeen.load(); p > seen && !pendingSeen.compare_exchange_weak(seen, p);) {
-        }
+        for (int seen = pendingSeen.load(); p > seen && !pendingSeen.compare_exchange_weak(seen, p);) {}
         ++signals;
     };
     SkyRenderer sky(settings);

@@ -60,8 +60,8 @@ struct FramebufferSpec {
     std::string name;
     GLenum depthFormat = GL_DEPTH24_STENCIL8;  // GL_NONE: no depth
     bool depthRenderbuffer = false;
-    int samples = 0;        // > 0: multisampled colour and depth (renderbuffers)
-    int colorBuffers = 1;   // GL_COLOR_ATTACHMENT0.. of colorFormat, all in the draw-buffer list
+    int samples = 0;       // > 0: multisampled colour and depth (renderbuffers)
+    int colorBuffers = 1;  // GL_COLOR_ATTACHMENT0.. of colorFormat, all in the draw-buffer list
     GLenum colorFormat = GL_RGBA32F;
 };
 
@@ -102,7 +102,8 @@ struct HostFramebuffer {
                 glNamedFramebufferTexture(fbo.id(), point, depth.id(), 0);
             }
         }
-        EXPECT_EQ(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE)) << spec.name;
+        EXPECT_EQ(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE))
+            << spec.name;
     }
 };
 
@@ -188,9 +189,12 @@ protected:
 // either (measured: identical in every format; a copy that fails draws nothing: mean 0.197).
 TEST_F(HostFramebufferGLTest, EveryDepthFormatGivesTheSameImage) {
     const FramebufferSpec specs[] = {
-        {"depth32f", GL_DEPTH_COMPONENT32F},       {"depth24", GL_DEPTH_COMPONENT24},
-        {"depth16", GL_DEPTH_COMPONENT16},         {"depth32f_stencil8", GL_DEPTH32F_STENCIL8},
-        {"depth32f_renderbuffer", GL_DEPTH_COMPONENT32F, true}, {"depth24_stencil8_renderbuffer", GL_DEPTH24_STENCIL8, true},
+        {"depth32f", GL_DEPTH_COMPONENT32F},
+        {"depth24", GL_DEPTH_COMPONENT24},
+        {"depth16", GL_DEPTH_COMPONENT16},
+        {"depth32f_stencil8", GL_DEPTH32F_STENCIL8},
+        {"depth32f_renderbuffer", GL_DEPTH_COMPONENT32F, true},
+        {"depth24_stencil8_renderbuffer", GL_DEPTH24_STENCIL8, true},
     };
     for (const FramebufferSpec& spec : specs) {
         HostFramebuffer target(kW, kH, spec);
@@ -408,7 +412,8 @@ TEST_F(HostFramebufferGLTest, CloudShadowsOnTheHostsPixelsAreOptIn) {
                 darker += delta > 0.02f;
                 brighter += delta < -1e-6f;
             }
-    std::printf("[ figure ] cloud shadows: %d channel values darker by > 0.02 with them, %d brighter\n", darker, brighter);
+    std::printf("[ figure ] cloud shadows: %d channel values darker by > 0.02 with them, %d brighter\n", darker,
+                brighter);
     EXPECT_EQ(brighter, 0);
     EXPECT_GT(darker, 2000);  // measured 2565 of 27648; with the opt-in ignored (shadows always): 0
 }

@@ -309,7 +309,8 @@ TEST(WeatherTest, BlendMovesEachFieldLinearlyAndEndsAtTheTarget) {
     const Weather from = twoLayers();
     Weather to = from;
     Layer& l = to.layers.at(1).layer;
-    l.coverage = 0.8, l.density = 0.4, l.base = 1400, l.thickness = 500, l.extent = 10000, l.wind = Vec2(-4, 8), l.seed = 7;
+    l.coverage = 0.8, l.density = 0.4, l.base = 1400, l.thickness = 500, l.extent = 10000, l.wind = Vec2(-4, 8),
+    l.seed = 7;
     to.sun.intensity = 1, to.sun.color = Vec3(1, 0.5, 0.25);
     to.sky.zenith = Vec3(0.3);
     const Weather half = blendWeather(from, to, 0.5);
@@ -320,7 +321,7 @@ TEST(WeatherTest, BlendMovesEachFieldLinearlyAndEndsAtTheTarget) {
     EXPECT_DOUBLE_EQ(h.thickness, 400);
     EXPECT_DOUBLE_EQ(h.extent, 15000);
     EXPECT_EQ(h.wind, Vec2(0, 4));
-    EXPECT_EQ(h.seed, 7u);  // the pattern's identity: the target's at once
+    EXPECT_EQ(h.seed, 7u);                       // the pattern's identity: the target's at once
     EXPECT_DOUBLE_EQ(h.lightingThickness, 500);  // lit for the thickness it goes to: one volume per change
     EXPECT_DOUBLE_EQ(half.sun.intensity, 2);
     EXPECT_EQ(half.sun.color, Vec3(1, 0.75, 0.625));

@@ -85,7 +85,8 @@ TEST_F(HostileInputTest, CompareHoldsTwoLargestImagesWithinItsBudget) {
     EXPECT_NE(same.output.find("\"ssim\":1"), std::string::npos) << same.output;
     // Measured 1598 MB peak (two 805 MB images); 7.2 GB before. 2 GiB is the README's budget.
     EXPECT_LT(same.peakMb, 2048 + test::kMemoryOverheadMb) << same.output;
-    std::cout << "compare " << side << "^2 with itself: " << same.peakMb << " MB peak, " << same.cpuSeconds << " s CPU\n";
+    std::cout << "compare " << side << "^2 with itself: " << same.peakMb << " MB peak, " << same.cpuSeconds
+              << " s CPU\n";
     // Sizes are compared from the headers, before either image is decoded: measured 60 MB
     // (the process itself); 1.6 GB before (the 8192^2 image decoded first).
     for (const auto& [a, b] : {std::pair{big, small}, std::pair{small, big}}) {
@@ -122,10 +123,13 @@ TEST_F(HostileInputTest, NumbersBelowFloatRangeRenderWithoutNanUnderLayeredAndAu
                                       std::pair{"dim_sun", dimSun}, std::pair{"all_tiny", all}}) {
         const std::string file = write(std::string(name) + ".json", scene.dump());
         // auto draws the layered far field too: under the sanitizers it alone checks both.
-        for (const char* method : test::kSanitized ? std::vector<const char*>{"auto"} : std::vector<const char*>{"layered", "auto"}) {
+        for (const char* method :
+             test::kSanitized ? std::vector<const char*>{"auto"} : std::vector<const char*>{"layered", "auto"}) {
             SCOPED_TRACE(std::string(name) + " " + method);
             const std::string pfm = path(std::string(name) + "_" + method + ".pfm");
-            const CliResult r = nephele({"render", file, "-o", path("out.png"), "--pfm", pfm, "--method", method, "--light-size", "32x32x8"}, 120);
+            const CliResult r = nephele(
+                {"render", file, "-o", path("out.png"), "--pfm", pfm, "--method", method, "--light-size", "32x32x8"},
+                120);
             ASSERT_EQ(r.code, 0) << r.output;
             EXPECT_TRUE(allFinite(readPfm(pfm))) << r.output;
         }
@@ -175,15 +179,16 @@ TEST_F(HostileInputTest, TheSceneIsNeverItsOwnOutput) {
     const std::string text = fullScene().dump();
     const std::string file = write("scene.json", text);
     fs::create_symlink(file, path("link.png"));
-    for (const auto& [flag, out] : {std::pair{"-o", file}, std::pair{"-o", path("link.png")}, std::pair{"--alpha", file},
-                                    std::pair{"--pfm", path("link.png")}}) {
+    for (const auto& [flag, out] : {std::pair{"-o", file}, std::pair{"-o", path("link.png")},
+                                    std::pair{"--alpha", file}, std::pair{"--pfm", path("link.png")}}) {
         SCOPED_TRACE(std::string(flag) + " " + out);
         std::vector<std::string> args{"render", file, "-o", path("o.png")};
         if (std::string(flag) == "-o") args[3] = out;
         else args.insert(args.end(), {flag, out});
         const CliResult r = nephele(args, 30);
         EXPECT_EQ(r.code, 2) << r.output;
-        EXPECT_NE(r.output.find(std::string(flag) + ": '" + out + "' is the scene file"), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(std::string(flag) + ": '" + out + "' is the scene file"), std::string::npos)
+            << r.output;
         std::ifstream in(file);
         EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), text);
         EXPECT_FALSE(fs::exists(path("o.png")));
@@ -192,17 +197,20 @@ TEST_F(HostileInputTest, TheSceneIsNeverItsOwnOutput) {
 
 TEST_F(HostileInputTest, IntegerFlagsSayTheyNeedAnInteger) {
     const std::string file = write("scene.json", fullScene().dump());
-    for (const auto& [flag, value] : {std::pair{"--width", "1e3"}, std::pair{"--height", "12.5"}, std::pair{"--spp", "1e2"}}) {
+    for (const auto& [flag, value] :
+         {std::pair{"--width", "1e3"}, std::pair{"--height", "12.5"}, std::pair{"--spp", "1e2"}}) {
         const CliResult r = nephele({"render", file, "-o", path("o.png"), flag, value}, 30);
         EXPECT_EQ(r.code, 2) << r.output;
-        EXPECT_NE(r.output.find(std::string(flag) + ": '" + value + "' is not an integer"), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(std::string(flag) + ": '" + value + "' is not an integer"), std::string::npos)
+            << r.output;
         EXPECT_FALSE(fs::exists(path("o.png")));
     }
 }
 
 TEST_F(HostileInputTest, FlightScriptsFailAsScenesDoWithTheirPlace) {
     const std::string scene = write("scene.json", fullScene().dump());
-    const std::string good = R"({"flight": 1, "fps": 4, "keyframes": [{"t": 0, "position": [0, -3000, 1200], "look_at": [0, 0, 1200]},
+    const std::string good =
+        R"({"flight": 1, "fps": 4, "keyframes": [{"t": 0, "position": [0, -3000, 1200], "look_at": [0, 0, 1200]},
       {"t": 1, "position": [0, -2900, 1200], "look_at": [0, 0, 1200]}]})";
     const std::pair<std::string, std::string> cases[] = {
         {good.substr(0, 60), "syntax error at line 1, column 61"},
@@ -210,7 +218,8 @@ TEST_F(HostileInputTest, FlightScriptsFailAsScenesDoWithTheirPlace) {
         {R"({"flight": 1, "flight": 1})", "duplicate key 'flight'"},
         {std::string(100, '[') + std::string(100, ']'), "nested deeper than the limit"},
         {R"({"flight": 1, "keyframes": [{"t": 0, "position": [9e6, 0, 0], "look_at": [9e6, 1e-3, 0]},
-            {"t": 1, "position": [0, 0, 0], "look_at": [0, 1, 0]}]})", "keyframes[0].look_at: is too close to the position"},
+            {"t": 1, "position": [0, 0, 0], "look_at": [0, 1, 0]}]})",
+         "keyframes[0].look_at: is too close to the position"},
     };
     for (const auto& [text, fault] : cases) {
         SCOPED_TRACE(fault);
@@ -241,7 +250,8 @@ TEST_F(HostileInputTest, ControlAndBidiCharactersInPathsArePrintedEscaped) {
     const std::string file = write("scene.json", fullScene().dump());
     for (const std::vector<std::string>& args :
          {std::vector<std::string>{"render", file, "-o", path("no" + rlo + "dir/o.png")},
-          std::vector<std::string>{"fly", file, "--script", path("f" + rlo + ".json"), "--record", path("r"), "--headless"},
+          std::vector<std::string>{"fly", file, "--script", path("f" + rlo + ".json"), "--record", path("r"),
+                                   "--headless"},
           std::vector<std::string>{"compare", path("a" + rlo + ".png"), path("b.png")}}) {
         const CliResult r = nephele(args, 30);
         EXPECT_EQ(r.code, 2) << r.output;
@@ -270,7 +280,8 @@ using test::BoundedRun;
 using test::runBounded;
 
 TEST_F(HostileFileTest, CommandLineFailsClearlyWithinBoundedMemoryAndTime) {
-    const std::string deep = write("deep.json", R"({"cloudscene": 1, "_": )" + std::string(200000, '[') + std::string(200000, ']') + "}");
+    const std::string deep =
+        write("deep.json", R"({"cloudscene": 1, "_": )" + std::string(200000, '[') + std::string(200000, ']') + "}");
     const std::string tail = write("tail.json", sceneWith(R"("clouds": [])") + std::string(1, '\0') + "}");
     fifo("fifo.json");
     const std::pair<std::string, std::string> cases[] = {
@@ -286,7 +297,8 @@ TEST_F(HostileFileTest, CommandLineFailsClearlyWithinBoundedMemoryAndTime) {
         EXPECT_EQ(r.output.rfind("nephele: " + file + ": ", 0), 0u) << r.output;
         EXPECT_NE(r.output.find(fault), std::string::npos) << r.output;
     }
-    const BoundedRun bomb = runBounded("compare " + write("bomb.png", claimingPng(20000, 20000)) + " " + path("bomb.png"), 512, 20);
+    const BoundedRun bomb =
+        runBounded("compare " + write("bomb.png", claimingPng(20000, 20000)) + " " + path("bomb.png"), 512, 20);
     EXPECT_EQ(bomb.code, 2) << bomb.output;
     EXPECT_NE(bomb.output.find(limitText(kImageSide)), std::string::npos) << bomb.output;
 }

@@ -48,9 +48,7 @@ inline std::string claimingPng(std::uint32_t w, std::uint32_t h) {
         }
         return c ^ 0xffffffffu;
     };
-    auto be32 = [](std::uint32_t v) {
-        return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)};
-    };
+    auto be32 = [](std::uint32_t v) { return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)}; };
     auto chunk = [&](const std::string& type, const std::string& data) {
         return be32(std::uint32_t(data.size())) + type + data + be32(crc32(type + data));
     };

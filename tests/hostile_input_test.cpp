@@ -122,9 +122,9 @@ TEST(HostileNumbersTest, EveryDirectionVectorNeedsALengthThatMeansSomethingInFlo
     // look_at - position, of the camera and of path keyframes: zero in float, or too close
     // against the coordinates (float positions 9e6 m out differ by 1 m steps).
     for (const char* at : {"/camera", "/path/1"}) {
-        for (const auto& [position, lookAt] :
-             {std::pair{json{0, 0, 1200}, json{0, 0, 1200 + 1e-200}}, std::pair{json{9e6, 0, 1200}, json{9e6 + 1e-3, 0, 1200}},
-              std::pair{json{9e6, 0, 1200}, json{9e6, 0.5, 1200}}}) {
+        for (const auto& [position, lookAt] : {std::pair{json{0, 0, 1200}, json{0, 0, 1200 + 1e-200}},
+                                               std::pair{json{9e6, 0, 1200}, json{9e6 + 1e-3, 0, 1200}},
+                                               std::pair{json{9e6, 0, 1200}, json{9e6, 0.5, 1200}}}) {
             SCOPED_TRACE(std::string(at) + " " + position.dump() + " -> " + lookAt.dump());
             json j = fullScene();
             j[json::json_pointer(at)]["position"] = position;
@@ -133,7 +133,8 @@ TEST(HostileNumbersTest, EveryDirectionVectorNeedsALengthThatMeansSomethingInFlo
                 parseScene(j.dump(), file);
                 ADD_FAILURE() << "accepted";
             } catch (const SceneError& e) {
-                EXPECT_EQ(e.jsonPath(), std::string(at) == "/camera" ? "camera.look_at" : "path[1].look_at") << e.what();
+                EXPECT_EQ(e.jsonPath(), std::string(at) == "/camera" ? "camera.look_at" : "path[1].look_at")
+                    << e.what();
             }
         }
         json j = fullScene();  // 20 m apart at 9e6 m: accepted
@@ -182,8 +183,8 @@ TEST(HostileCumulusTest, ARadianceGridCostsLittleMoreForManyEllipsoidsThanForFew
     std::cout << "radiance grid: " << few.ellipsoids.size() << " ellipsoids " << cpu[0] << " s CPU, "
               << many.ellipsoids.size() << " ellipsoids " << cpu[1] << " s CPU\n";
     if (!test::kSanitized) {
-        EXPECT_LT(cpu[1], 13 * cpu[0]) << few.ellipsoids.size() << " ellipsoids: " << cpu[0] << " s; " << many.ellipsoids.size()
-                                       << ": " << cpu[1] << " s";
+        EXPECT_LT(cpu[1], 13 * cpu[0]) << few.ellipsoids.size() << " ellipsoids: " << cpu[0] << " s; "
+                                       << many.ellipsoids.size() << ": " << cpu[1] << " s";
     }
 }
 

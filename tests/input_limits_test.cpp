@@ -35,8 +35,8 @@ namespace {
 using namespace limits;
 
 using test::claimingPng;
-using test::kCamera;
 using test::HostileFileTest;
+using test::kCamera;
 using test::sceneWith;
 
 std::string repeated(const std::string& item, std::size_t n) {
@@ -130,7 +130,8 @@ TEST(HostileSceneTest, NulByteAfterAValidSceneFails) {
     EXPECT_NO_THROW(parseScene(valid, "hostile.json"));
     const SceneError e = rejection(valid + std::string(1, '\0') + "garbage");
     EXPECT_EQ(e.jsonPath(), "");
-    EXPECT_EQ(e.fault(), "contains a NUL byte at line 1, column " + std::to_string(valid.size() + 1) + ": not a text file");
+    EXPECT_EQ(e.fault(),
+              "contains a NUL byte at line 1, column " + std::to_string(valid.size() + 1) + ": not a text file");
     const SceneError inString = rejection(sceneWith(R"("clouds": [{"name": "a\u0000b", "ellipsoids": []}])"));
     EXPECT_EQ(inString.jsonPath(), "clouds[0].name");
     EXPECT_NE(inString.fault().find("NUL character"), std::string::npos);
@@ -156,7 +157,8 @@ TEST(HostileSceneTest, KeysInMessagesArePrintableAndShort) {
 // 2-10 s). A key that long is no typo of a short name, and its lengths alone say so.
 TEST(HostileSceneTest, LongUnknownKeysAreRejectedInTimeLinearInTheirLength) {
     const std::string key(4'000'000, 'f');
-    const std::string inCamera = R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], ")" + key + "\": 1}}";
+    const std::string inCamera =
+        R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], ")" + key + "\": 1}}";
     const double cpu = cpuTime([&] {
         const SceneError e = rejection(inCamera);
         EXPECT_NE(e.fault().find("unknown key 'fff"), std::string::npos) << e.what();
@@ -208,13 +210,15 @@ TEST(HostileSceneTest, CountsAtTheirLimitLoadAndPastItFail) {
     // Keyframes: t must increase, so each one differs.
     std::string path;
     for (std::size_t i = 0; i <= std::size_t(kKeyframes.value); ++i)
-        path += (i ? "," : "") + std::string(R"({"t": )") + std::to_string(i) + R"(, "position": [0, 0, 0], "look_at": [0, 1, 0]})";
+        path += (i ? "," : "") + std::string(R"({"t": )") + std::to_string(i) +
+                R"(, "position": [0, 0, 0], "look_at": [0, 1, 0]})";
     expectLimit(sceneWith("\"path\": [" + path + "]"), "path", kKeyframes);
 }
 
 TEST(HostileSceneTest, EllipsoidCountFailsBeforeReadingThem) {
     // 1000001 elements that are not even ellipsoids: the count is checked first, in time linear in the text.
-    const std::string text = sceneWith(R"("clouds": [{"ellipsoids": [)" + repeated("0", std::size_t(kEllipsoids.value) + 1) + "]}]");
+    const std::string text =
+        sceneWith(R"("clouds": [{"ellipsoids": [)" + repeated("0", std::size_t(kEllipsoids.value) + 1) + "]}]");
     const double cpu = cpuTime([&] { expectLimit(text, "clouds", kEllipsoids); });
     EXPECT_LT(cpu, 5.0 * test::kTimeScale);
 }
@@ -225,7 +229,8 @@ TEST(HostileSceneTest, ManyEllipsoidsInOneCloudLoadInLinearTime) {
     // 200k take about 1 s of CPU in the release build (9-14 s under ASan beside another test).
     const std::string one = R"({"center": [1, 2, 3], "radii": [10, 20, 30], "density": 0.5})";
     auto load = [&](int count, Scene& s) {
-        const std::string text = sceneWith(R"("clouds": [{"ellipsoids": [)" + repeated(one, std::size_t(count)) + "]}]");
+        const std::string text =
+            sceneWith(R"("clouds": [{"ellipsoids": [)" + repeated(one, std::size_t(count)) + "]}]");
         return cpuTime([&] { s = parseScene(text, "many.json"); });
     };
     Scene small, s;
@@ -265,7 +270,8 @@ TEST(HostileSceneTest, GeneratedEllipsoidsShareTheScenesBudget) {
 
 TEST(HostileSceneTest, LSystemSymbolsArePerSceneAndBranchesBounded) {
     // 8^8 = 16.8 million symbols each: one fits, the second passes the scene's 20 million.
-    const std::string entry = R"({"type": "lsystem", "center": [0, 0, 0], "axiom": "A", "rules": {"A": "AAAAAAAA"}, "iterations": 8})";
+    const std::string entry =
+        R"({"type": "lsystem", "center": [0, 0, 0], "axiom": "A", "rules": {"A": "AAAAAAAA"}, "iterations": 8})";
     EXPECT_NO_THROW(parseScene(sceneWith(R"("generate": [)" + entry + "]"), "hostile.json"));
     const SceneError e = rejection(sceneWith(R"("generate": [)" + entry + "," + entry + "]"));
     EXPECT_EQ(e.jsonPath(), "generate[1]");
@@ -307,7 +313,8 @@ TEST(HostileSceneTest, LargeCumulusIsFastAndPrunedExactly) {
             std::vector<std::size_t> order(full.ellipsoids.size());
             for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
             auto radius = [&](std::size_t i) { return full.ellipsoids[i].radii.x / t.aspect.x; };
-            std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return radius(a) > radius(b); });
+            std::stable_sort(order.begin(), order.end(),
+                             [&](std::size_t a, std::size_t b) { return radius(a) > radius(b); });
             std::vector<bool> keep(order.size(), true);
             std::vector<std::size_t> kept;
             for (std::size_t j : order) {
@@ -341,9 +348,7 @@ TEST(HostileSceneTest, PhysicalRangesAtTheirLimitLoadAndPastItFail) {
         return R"("clouds": [{"ellipsoids": [{"center": )" + center + R"(, "radii": )" + radii + R"(, "density": )" +
                density + "}]}]";
     };
-    const auto layer = [](const std::string& keys) {
-        return R"("layers": [{"base": 1000, )" + keys + "}]";
-    };
+    const auto layer = [](const std::string& keys) { return R"("layers": [{"base": 1000, )" + keys + "}]"; };
     const Case cases[] = {
         {kCoordinate, ellipsoid("[1e7, 0, 0]", "[1, 1, 1]"), ellipsoid("[0, -1.0001e7, 0]", "[1, 1, 1]"),
          "clouds[0].ellipsoids[0].center[1]"},
@@ -352,15 +357,15 @@ TEST(HostileSceneTest, PhysicalRangesAtTheirLimitLoadAndPastItFail) {
         {kSmallestRadius, ellipsoid("[0, 0, 0]", "[0.01, 1, 1]"), ellipsoid("[0, 0, 0]", "[1, 1, 0.009]"),
          "clouds[0].ellipsoids[0].radii[2]"},
         // 0.04 x density x 16/15 x 1000 m: 10000 at density 234.375.
-        {kOpticalDepth, ellipsoid("[0, 0, 0]", "[1000, 1, 1]", "234.37"), ellipsoid("[0, 0, 0]", "[1000, 1, 1]", "234.4"),
-         "clouds[0].ellipsoids[0].density"},
+        {kOpticalDepth, ellipsoid("[0, 0, 0]", "[1000, 1, 1]", "234.37"),
+         ellipsoid("[0, 0, 0]", "[1000, 1, 1]", "234.4"), "clouds[0].ellipsoids[0].density"},
         {kExtinction, R"("medium": {"extinction": 10})", R"("medium": {"extinction": 10.5})", "medium.extinction"},
         {kNoiseAmplitude, R"("medium": {"noise": 10})", R"("medium": {"noise": 11})", "medium.noise"},
         {kNoiseScale, R"("medium": {"noise_scale": 1e6})", R"("medium": {"noise_scale": 2e6})", "medium.noise_scale"},
         {kSmallestNoiseScale, R"("medium": {"noise_scale": 0.01})", R"("medium": {"noise_scale": 0.001})",
          "medium.noise_scale"},
-        {kLayerThickness, layer(R"("thickness": 20000, "density": 0.1)"), layer(R"("thickness": 20001, "density": 0.1)"),
-         "layers[0].thickness"},
+        {kLayerThickness, layer(R"("thickness": 20000, "density": 0.1)"),
+         layer(R"("thickness": 20001, "density": 0.1)"), "layers[0].thickness"},
         {kLayerOpticalDepth, R"("medium": {"extinction": 1}, )" + layer(R"("thickness": 10000)"),
          R"("medium": {"extinction": 1}, )" + layer(R"("thickness": 10001)"), "layers[0].thickness"},
         {kLayerExtent, layer(R"("thickness": 10, "extent": 5e5)"), layer(R"("thickness": 10, "extent": 6e5)"),
@@ -388,31 +393,34 @@ TEST(HostileSceneTest, PhysicalRangesAtTheirLimitLoadAndPastItFail) {
 TEST(HostileSceneTest, GeneratedEllipsoidsKeepTheLimits) {
     // A cumulus clamped far out places ellipsoids beyond the coordinate limit; a tiny one has
     // radii under the smallest; the message names the generator and the ellipsoid.
-    const SceneError far = rejection(sceneWith(
-        R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "count": 5, "sigma": [1e6, 1, 1], "clamp_lo": [20, -2, -2], "clamp_hi": [21, 2, 2]}])"));
+    const SceneError far = rejection(
+        sceneWith(R"("generate": [{"type": "cumulus", "center": [0, 0, 0], "count": 5, "sigma": [1e6, 1, 1], )"
+                  R"("clamp_lo": [20, -2, -2], "clamp_hi": [21, 2, 2]}])"));
     EXPECT_EQ(far.jsonPath(), "generate[0]");
     EXPECT_NE(far.fault().find("makes ellipsoid 0 (centre ["), std::string::npos) << far.what();
     EXPECT_NE(far.fault().find(limitText(kCoordinate)), std::string::npos) << far.what();
-    const SceneError tiny =
-        rejection(sceneWith(R"("generate": [{"type": "lsystem", "center": [0, 0, 0], "axiom": "F", "rules": {}, "radius": 0.005}])"));
+    const SceneError tiny = rejection(sceneWith(
+        R"("generate": [{"type": "lsystem", "center": [0, 0, 0], "axiom": "F", "rules": {}, "radius": 0.005}])"));
     EXPECT_EQ(tiny.jsonPath(), "generate[0]");
     EXPECT_NE(tiny.fault().find(limitText(kSmallestRadius)), std::string::npos) << tiny.what();
 }
 
 TEST(HostileSceneTest, KeyframeLookingAlongUpNamesFileAndPath) {
     const std::string k0 = R"({"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 0]})";
-    const SceneError up = rejection(sceneWith(R"("path": [)" + k0 + R"(, {"t": 1, "position": [5, 5, 5], "look_at": [5, 5, 50]}])"));
+    const SceneError up =
+        rejection(sceneWith(R"("path": [)" + k0 + R"(, {"t": 1, "position": [5, 5, 5], "look_at": [5, 5, 50]}])"));
     EXPECT_EQ(up.jsonPath(), "path[1].look_at");
     EXPECT_NE(up.fault().find("parallel to camera.up"), std::string::npos) << up.what();
     // North to south at the same height, over the top: straight up half way, at t = 5.
-    const SceneError through = rejection(sceneWith(
-        R"("path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 10]}, {"t": 10, "position": [0, 0, 0], "look_at": [0, -10, 10]}])"));
+    const SceneError through =
+        rejection(sceneWith(R"("path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 10]}, )"
+                            R"({"t": 10, "position": [0, 0, 0], "look_at": [0, -10, 10]}])"));
     EXPECT_EQ(through.jsonPath(), "path[1]");
     EXPECT_NE(through.fault().find("(at t = 5)"), std::string::npos) << through.what();
     // Turning past the vertical without reaching it is fine.
-    EXPECT_NO_THROW(parseScene(sceneWith(
-        R"("path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 10]}, {"t": 10, "position": [0, 0, 0], "look_at": [1, -10, 10]}])"),
-        "hostile.json"));
+    EXPECT_NO_THROW(parseScene(sceneWith(R"("path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 10]}, )"
+                                         R"({"t": 10, "position": [0, 0, 0], "look_at": [1, -10, 10]}])"),
+                               "hostile.json"));
 }
 
 // ---------------------------------------------------------------- files that are not files
@@ -478,9 +486,10 @@ TEST_F(HostileFileTest, ObjMustBeARegularFileWithinItsLimits) {
 TEST_F(HostileFileTest, PngBombsFailBeforeAllocating) {
     const std::string huge = write("huge.png", claimingPng(20000, 20000));
     const std::string big = write("big.png", claimingPng(8000, 8000));
-    for (const auto& [file, expect] : {std::pair{huge, std::string("Image width exceeds user limit in IHDR, over the limit ") +
-                                                            limitText(kImageSide)},
-                                        std::pair{big, std::string("claims 8000x8000 pixels, more than its ")}}) {
+    for (const auto& [file, expect] :
+         {std::pair{huge,
+                    std::string("Image width exceeds user limit in IHDR, over the limit ") + limitText(kImageSide)},
+          std::pair{big, std::string("claims 8000x8000 pixels, more than its ")}}) {
         SCOPED_TRACE(file);
         try {
             readPng(file);
@@ -519,7 +528,8 @@ TEST(ImageReadTest, InterlacedPngReadsEveryPass) {
 
 TEST_F(HostileFileTest, ShaderIncludesReadLongLinesWithoutRecursion) {
     const std::string spaces(50000, ' ');
-    write("a.frag", "// a\n" + spaces + "\n  #  include   \"b.glsl\"  \n" + spaces + "x\n#include \"b.glsl\" trailing\n");
+    write("a.frag",
+          "// a\n" + spaces + "\n  #  include   \"b.glsl\"  \n" + spaces + "x\n#include \"b.glsl\" trailing\n");
     write("b.glsl", "float b() { return 1.0; }\n");
     ::setenv("NEPHELE_SHADER_DIR", dir_.c_str(), 1);
     std::vector<std::string> files;

@@ -74,8 +74,9 @@ TEST(LayerVolumeTest, UniformLayerTrackersMatchTheAnalyticSlab) {
     const double exact = std::exp(-sigma * kThickness / d.z);
     detail::Pcg32 rng(7, 11);
     const int n = 100000;
-    const MeanAndError free =
-        meanOf(n, [&](int) { return detail::layerFreeFlight(*layers, o, o, d, ray, rng) == detail::kNoCollision ? 1.0 : 0.0; });
+    const MeanAndError free = meanOf(n, [&](int) {
+        return detail::layerFreeFlight(*layers, o, o, d, ray, rng) == detail::kNoCollision ? 1.0 : 0.0;
+    });
     const MeanAndError ratio = meanOf(n, [&](int) { return detail::layerTransmittance(*layers, o, o, d, ray, rng); });
     std::printf("[ figure ] uniform slab: exact T %.5f, delta %.5f +- %.5f, ratio %.5f +- %.5f\n", exact, free.mean,
                 free.error, ratio.mean, ratio.error);
@@ -102,7 +103,8 @@ TEST(LayerVolumeTest, UniformLayerOpacityIsTheAnalyticSlab) {
             sum += diff, variance += sd * sd;
         }
     const double meanZ = sum / std::sqrt(variance);
-    std::printf("[ figure ] uniform slab opacity: worst pixel %.2f sd, the sum of differences %.2f sd\n", worstZ, meanZ);
+    std::printf("[ figure ] uniform slab opacity: worst pixel %.2f sd, the sum of differences %.2f sd\n", worstZ,
+                meanZ);
     EXPECT_LT(worstZ, 4.5);  // 48 pixels: beyond 4.5 sd has odds below 1e-3 for an unbiased estimate
     EXPECT_LT(std::fabs(meanZ), 3.5);
 }
@@ -159,7 +161,8 @@ TEST(LayerVolumeTest, UniformLayerShadowsAnObjectBelowIt) {
     const double shadowed = double(renderPathTraced(scene, view, s, nullptr).at(0, 0, 0));
     const double expected = lit * std::exp(-0.04 * 0.3 * 0.5 * kThickness / scene.sun.direction.z);
     // Binary estimates (majorant = extinction): sd = lit sqrt(T (1 - T) / 4000), about 0.006 lit.
-    std::printf("[ figure ] object under the layer: unshadowed %.4f, shadowed %.4f, expected %.4f\n", lit, shadowed, expected);
+    std::printf("[ figure ] object under the layer: unshadowed %.4f, shadowed %.4f, expected %.4f\n", lit, shadowed,
+                expected);
     EXPECT_GT(lit, 0.05);
     EXPECT_NEAR(shadowed, expected, 0.025 * lit);
 }
@@ -177,17 +180,19 @@ TEST(LayerVolumeTest, OpacityAlongRaysIsTheCpuIntegralOfTheLayersDensity) {
     double worst = 0, sum = 0, largest = 0, smallest = 1;
     for (int y = 0; y < image.height; ++y)
         for (int x = 0; x < image.width; ++x) {
-            const double tau = scene.medium.extinction *
-                               layerDensityIntegral(layer, s.layers->modulation(0), ls.modulation, s.layers->lighting(0),
-                                                    view.eye, view.rayDirection(x + 0.5, y + 0.5), 1e9, t, 1.0, 100000);
+            const double tau =
+                scene.medium.extinction *
+                layerDensityIntegral(layer, s.layers->modulation(0), ls.modulation, s.layers->lighting(0), view.eye,
+                                     view.rayDirection(x + 0.5, y + 0.5), 1e9, t, 1.0, 100000);
             const double expected = 1 - std::exp(-tau);
             worst = std::max(worst, std::fabs(image.at(x, y, 3) - expected));
             sum += image.at(x, y, 3) - expected;
             largest = std::max(largest, expected), smallest = std::min(smallest, expected);
         }
     const double bias = sum / (image.width * image.height);
-    std::printf("[ figure ] layer opacity against the CPU integral: max |diff| %.4f, mean diff %.5f (alpha %.3f..%.3f)\n",
-                worst, bias, smallest, largest);
+    std::printf(
+        "[ figure ] layer opacity against the CPU integral: max |diff| %.4f, mean diff %.5f (alpha %.3f..%.3f)\n",
+        worst, bias, smallest, largest);
     EXPECT_GT(largest - smallest, 0.3);  // a varied field, not a uniform one
     // 256 ratio-tracking samples per pixel: standard deviation below about 0.02 per pixel (the
     // estimate's spread is at most about T, T <= 1, over 16); 0.06 is 3 of them. The mean of 108
@@ -238,7 +243,9 @@ TEST(LayerVolumeTest, ExtinctionIsTheLayeredSkysDensityMovedByTheWind) {
     for (int i = 0; i < 500; ++i) {
         const Vec3 p(37.0 * i, -23.0 * i + 400, kBase + 0.4 * i);
         const double sigma = now.extinction(p, eye);
-        EXPECT_NEAR(sigma, scene.medium.extinction * layerDensity(scene.layers[0], now.modulation(0), ls.modulation, now.lighting(0), p, 0),
+        EXPECT_NEAR(sigma,
+                    scene.medium.extinction *
+                        layerDensity(scene.layers[0], now.modulation(0), ls.modulation, now.lighting(0), p, 0),
                     1e-12);
         EXPECT_NEAR(later.extinction(p + Vec3(250.0 * scene.layers[0].wind, 0.0), eye), sigma, 1e-9);
         nonZero += sigma > 0;
@@ -261,7 +268,8 @@ TEST(LayerVolumeTest, ExtinctionIsTheLayeredSkysDensityMovedByTheWind) {
                                  layerDensity(scene.layers[0], now.modulation(0), ls.modulation, now.lighting(0), p, 0);
             return whole > 0 ? now.extinction(p, eye) / whole : -1.0;
         };
-        const double inside = ratioAt(extent - band - 1), middle = ratioAt(extent - 0.5 * band), rim = ratioAt(extent - 0.01 * extent);
+        const double inside = ratioAt(extent - band - 1), middle = ratioAt(extent - 0.5 * band),
+                     rim = ratioAt(extent - 0.01 * extent);
         if (inside < 0 || middle < 0 || rim < 0) continue;  // no matter at one of the three: another direction
         ++checkedRim;
         EXPECT_NEAR(inside, 1.0, 1e-9) << a;

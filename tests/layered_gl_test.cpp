@@ -131,8 +131,9 @@ Image volumeOpacity(const Scene& scene, const Result& r, const LayeredSettings& 
             for (int j = 0; j < k; ++j)
                 for (int i = 0; i < k; ++i) {
                     const Vec3 d = view.rayDirection(x + (i + 0.5) / k, y + (j + 0.5) / k);
-                    const double tau = scene.medium.extinction *
-                                       layerDensityIntegral(layer, r.modulation, s.modulation, r.light, view.eye, d, reach, 0, 20, 2000);
+                    const double tau =
+                        scene.medium.extinction * layerDensityIntegral(layer, r.modulation, s.modulation, r.light,
+                                                                       view.eye, d, reach, 0, 20, 2000);
                     sum += 1 - std::exp(-tau);
                 }
             out.at(x, y, 0) = float(sum / (k * k));
@@ -236,7 +237,8 @@ TEST_F(LayeredGLTest, ADistantLayerIsAsOpaqueAsItsVolume) {
         const char* name;
         double z, pitch;
     };
-    for (const ViewCase& v : {ViewCase{"below, looking up 6 degrees", 500, 6}, ViewCase{"above, looking down 6 degrees", 4100, -6}}) {
+    for (const ViewCase& v :
+         {ViewCase{"below, looking up 6 degrees", 500, 6}, ViewCase{"above, looking down 6 degrees", 4100, -6}}) {
         Scene scene = layerScene(v.z, v.pitch);
         scene.camera.width = 96, scene.camera.height = 54;
         const Result r = render(scene, s);
@@ -248,8 +250,8 @@ TEST_F(LayeredGLTest, ADistantLayerIsAsOpaqueAsItsVolume) {
             for (int x = 0; x < volume.width; ++x)
                 if (inBand(view, x, y, 4000, 18000)) layered += r.rgba.at(x, y, 3), exact += volume.at(x, y, 0), ++n;
         ASSERT_GT(n, 200) << v.name;
-        std::printf("[ figure ] %s: mean opacity 4-18 km away, layered %.3f, volume %.3f (%d pixels)\n", v.name, layered / n,
-                    exact / n, n);
+        std::printf("[ figure ] %s: mean opacity 4-18 km away, layered %.3f, volume %.3f (%d pixels)\n", v.name,
+                    layered / n, exact / n, n);
         // 0.03: measured +0.007 and +0.014 (the N slabs' clear parts are drawn independently of
         // each other, where the threshold's clear columns go through all of them); eq. (16) on
         // the fetched means alone measured -0.073 and -0.056.
@@ -337,7 +339,8 @@ TEST_F(LayeredGLTest, LightningBrightensOnlyWhileActive) {
     l.intensity = 3e7;  // I / d^2 at 3 km: about 3, brighter than the sun's irradiance
     l.start = 5, l.duration = 0.2;
     scene.lightning.push_back(l);
-    const Image before = render(scene, s, 4.9).rgba, during = render(scene, s, 5.1).rgba, after = render(scene, s, 5.2).rgba;
+    const Image before = render(scene, s, 4.9).rgba, during = render(scene, s, 5.1).rgba,
+                after = render(scene, s, 5.2).rgba;
     EXPECT_EQ(before.pixels, dark.pixels);
     EXPECT_EQ(after.pixels, dark.pixels);
     double gain = 0;
@@ -378,12 +381,14 @@ TEST_F(LayeredGLTest, GrazingViewsHaveFewGapsAtTheDefaultLayerCount) {
     struct ViewCase {
         double z, pitch;
     };
-    const ViewCase views[] = {{0, 2}, {0, 10}, {0, 30}, {1500, 0}, {2300, 0}, {2300, 89.5}, {3200, 0}, {5000, -2}, {5000, -30}};
+    const ViewCase views[] = {{0, 2},       {0, 10},   {0, 30},    {1500, 0},  {2300, 0},
+                              {2300, 89.5}, {3200, 0}, {5000, -2}, {5000, -30}};
     const int defaultN = LayeredSettings{}.layers;
     // The other counts only print the table beside the default's; under the sanitizers the
     // default alone (the same code checked, a quarter of the renders).
     const std::vector<int> counts = test::kSanitized ? std::vector<int>{defaultN} : std::vector<int>{2, 4, 8, 16};
-    std::printf("gaps (%% of the band) at coverage 1, gap/hole: rows = eye z (m) / pitch (deg), columns = N\n%-14s", "view");
+    std::printf("gaps (%% of the band) at coverage 1, gap/hole: rows = eye z (m) / pitch (deg), columns = N\n%-14s",
+                "view");
     for (int n : counts) std::printf("%14d", n);
     std::printf("\n");
     double worstDefault = 0;
@@ -439,9 +444,10 @@ TEST_F(LayeredGLTest, TheBillboardDiscsRimLeavesNoLine) {
         return n ? sum / n : 0.0;
     };
     const double disc = rowLuminance(rim), annuli = rowLuminance(1000);
-    std::printf("[ figure ] rays reaching the base 0.85-1.3 disc radii away: luminance %.4f with the disc's rim among them, "
-                "%.4f with annuli alone (ratio %.3f)\n",
-                disc, annuli, disc / annuli);
+    std::printf(
+        "[ figure ] rays reaching the base 0.85-1.3 disc radii away: luminance %.4f with the disc's rim among them, "
+        "%.4f with annuli alone (ratio %.3f)\n",
+        disc, annuli, disc / annuli);
     ASSERT_GT(annuli, 0.0);
     // 5%: measured 1.011 (the disc's billboards stand for the rays' first stretch in the slab,
     // the annuli's fetches for the rest); with the rim as a hard switch 1.179.
@@ -461,8 +467,8 @@ TEST_F(LayeredGLTest, UnderADeckTheSunsLightMatchesThePathTracer) {
     scene.camera.fovYDeg = 30;
     scene.layers[0].extent = 40000;
     scene.sky = {Vec3(0.0), Vec3(0.0), Vec3(0.0)};  // the sun's light alone
-    scene.medium.noise = 0;  // no explicit clouds: the noise volume would go unused
-    const LayeredSettings settings;  // the default textures and photons, as the renderer ships
+    scene.medium.noise = 0;                         // no explicit clouds: the noise volume would go unused
+    const LayeredSettings settings;                 // the default textures and photons, as the renderer ships
     const Result layered = render(scene, settings);
     PathTraceSettings ps{.spp = 32};
     ps.layers = std::make_shared<LayerVolumes>(scene, settings, 0.0);
@@ -472,10 +478,13 @@ TEST_F(LayeredGLTest, UnderADeckTheSunsLightMatchesThePathTracer) {
     for (int y = 0; y < reference.height; ++y)
         for (int x = 0; x < reference.width; ++x) {
             if (reference.at(x, y, 3) < 0.5f) continue;
-            auto luminance = [&](const Image& im) { return 0.2126 * im.at(x, y, 0) + 0.7152 * im.at(x, y, 1) + 0.0722 * im.at(x, y, 2); };
+            auto luminance = [&](const Image& im) {
+                return 0.2126 * im.at(x, y, 0) + 0.7152 * im.at(x, y, 1) + 0.0722 * im.at(x, y, 2);
+            };
             mine += luminance(layered.rgba), theirs += luminance(reference), ++n;
         }
-    std::printf("[ figure ] under a deck, the sun's light: layered / path tracer %.3f over %d pixels\n", mine / theirs, n);
+    std::printf("[ figure ] under a deck, the sun's light: layered / path tracer %.3f over %d pixels\n", mine / theirs,
+                n);
     ASSERT_GT(n, 1000);
     // 15%: the light tables' own approximation (the mean light of the layer's points with the
     // same column depths), their photons' noise and 32 spp over 2300 pixels (under 1% noise).

@@ -128,10 +128,12 @@ TEST_P(LayeredShadowResolutionGLTest, ShaderMatchesSunTransmittanceOnObjectsAndG
             }
             EXPECT_EQ(r.rgba.at(x, y, 3), 0.0f);  // the shadow leaves the cloud opacity alone
         }
-    std::printf("box %d px, ground %d px, worst |GPU - CPU| %.2e (ground %.2e); box top under cloud (S < 0.7) %.3f of its sunlit "
-                "radiance (%d px), under clear sky %.3f (%d px)\n",
-                boxPixels, groundPixels, worst, worstGround, cloudPixels ? cloudLit / cloudPixels : 0.0, cloudPixels,
-                clearPixels ? clearLit / clearPixels : 0.0, clearPixels);
+    std::printf(
+        "box %d px, ground %d px, worst |GPU - CPU| %.2e (ground %.2e); box top under cloud (S < 0.7) %.3f of its "
+        "sunlit "
+        "radiance (%d px), under clear sky %.3f (%d px)\n",
+        boxPixels, groundPixels, worst, worstGround, cloudPixels ? cloudLit / cloudPixels : 0.0, cloudPixels,
+        clearPixels ? clearLit / clearPixels : 0.0, clearPixels);
     EXPECT_GT(boxPixels, 5000);
     EXPECT_GT(groundPixels, 1000);
     // Radiance here is at most 0.8 * 3 / pi = 0.76. Ground points are exact planes on both
@@ -142,8 +144,10 @@ TEST_P(LayeredShadowResolutionGLTest, ShaderMatchesSunTransmittanceOnObjectsAndG
     EXPECT_LT(worstGround, 1e-5);
     EXPECT_LT(worst, 5e-3);
     if (worst >= 5e-3 || worstGround >= 1e-5) {
-        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_actual.png", r.rgba, Encoding::Srgb);
-        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_diff.png", diff, Encoding::Linear);
+        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_actual.png", r.rgba,
+                 Encoding::Srgb);
+        writePng(test::outputDir() + "/layered_shadow_" + std::to_string(GetParam()) + "_diff.png", diff,
+                 Encoding::Linear);
     }
     // Darker where the layer's modulation is cloud than where it is clear: at C = 0.5 and
     // D = 1, eq. (19) gives S < 0.7 where r < 0.2 and exactly 1 where r >= C.
@@ -200,9 +204,10 @@ TEST_F(LayeredShadowGLTest, ShadowsMoveWithTheWind) {
             }
     const double darkShare = double(dark) / std::max(lit, 1);
     const ImageDifference moves = compareImages(now, start, 2e-3);
-    std::printf("[ figure ] wind: moved-world frame differs at %.4f of the pixels; %.3f of the lit pixels under S < 0.7; "
-                "t = 0 and t = %.0f s differ at %.3f of the pixels\n",
-                d.fractionOver, darkShare, kTime, moves.fractionOver);
+    std::printf(
+        "[ figure ] wind: moved-world frame differs at %.4f of the pixels; %.3f of the lit pixels under S < 0.7; "
+        "t = 0 and t = %.0f s differ at %.3f of the pixels\n",
+        d.fractionOver, darkShare, kTime, moves.fractionOver);
     // Measured 0.0000 (float texture coordinates may differ in their last bits); the wind
     // ignored (tests/sabotage/12-layered-shadows-ignore-the-wind.sabotage) 0.931.
     EXPECT_LT(d.fractionOver, 0.01);
@@ -221,7 +226,8 @@ TEST_F(LayeredShadowGLTest, ShadowPassLeavesHostStateUnchanged) {
     OpaquePass().draw(scene, view, target.framebuffer());
     LayeredRenderer sky(testSettings());
     const test::HostileGlState hostile;
-    test::expectStateUnchanged([&](int frame) { EXPECT_EQ(sky.render(scene, view, target.framebuffer(), frame).shadowLayers, 1); }, 2);
+    test::expectStateUnchanged(
+        [&](int frame) { EXPECT_EQ(sky.render(scene, view, target.framebuffer(), frame).shadowLayers, 1); }, 2);
 }
 
 // The layers drawn at half resolution and upsampled with the frame's depth against the same
@@ -250,8 +256,8 @@ TEST_F(LayeredShadowGLTest, HalfResolutionMatchesFullResolutionAndKeepsSilhouett
     double alphaDiff = 0;
     for (int y = 0; y < a.height; ++y)
         for (int x = 0; x < a.width; ++x) {
-            const bool onBox = intersectObjects(scene, view.eye, view.rayDirection(x + 0.5, y + 0.5), scene.camera.nearClip,
-                                                scene.camera.farClip)
+            const bool onBox = intersectObjects(scene, view.eye, view.rayDirection(x + 0.5, y + 0.5),
+                                                scene.camera.nearClip, scene.camera.farClip)
                                    .has_value();
             if (onBox) {
                 ++boxPixels;
@@ -315,10 +321,11 @@ TEST_F(LayeredGlowGLTest, GlowingLayerIsLitFromBelowOnlyWithGlow) {
             if (c > 0.1) gainCity += d, ++city;
         }
     const double r = (sgc / n - sg / n * sc / n) / std::sqrt((sgg / n - sg * sg / n / n) * (scc / n - sc * sc / n / n));
-    std::printf("glow: mean red gain %.4f, %d pixels brighter; against the city map at the layer's base: correlation %.3f, "
-                "mean gain %.4f where no city (%d px), %.4f where city > 0.1 (%d px)\n",
-                gain / (dark.width * dark.height), brighter, r, gainNoCity / std::max(noCity, 1), noCity,
-                gainCity / std::max(city, 1), city);
+    std::printf(
+        "glow: mean red gain %.4f, %d pixels brighter; against the city map at the layer's base: correlation %.3f, "
+        "mean gain %.4f where no city (%d px), %.4f where city > 0.1 (%d px)\n",
+        gain / (dark.width * dark.height), brighter, r, gainNoCity / std::max(noCity, 1), noCity,
+        gainCity / std::max(city, 1), city);
     EXPECT_GT(brighter, dark.width * dark.height / 10);  // the city map covers part of the layer's view
     EXPECT_EQ(darker, 0);
     // Measured: correlation 0.921; mean gain 0.0052 where the map has no city, 0.2338 where it has
@@ -358,14 +365,16 @@ TEST_P(LayeredShadowResolutionGLTest, TwoLayersMultiplyTheirShadows) {
             bool nearBox = false;
             for (int dy = -2; dy <= 2; ++dy)
                 for (int dx = -2; dx <= 2; ++dx)
-                    nearBox = nearBox || intersectObjects(scene, view.eye, view.rayDirection(x + 0.5 + dx, y + 0.5 + dy),
-                                                          scene.camera.nearClip, scene.camera.farClip);
+                    nearBox =
+                        nearBox || intersectObjects(scene, view.eye, view.rayDirection(x + 0.5 + dx, y + 0.5 + dy),
+                                                    scene.camera.nearClip, scene.camera.farClip);
             if (nearBox) continue;
             const Vec3 d = view.rayDirection(x + 0.5, y + 0.5);
             const Vec3 point = view.eye + d * (-view.eye.z / d.z);
             double s = 1;
             for (int i = 0; i < 2; ++i)
-                s *= sunTransmittance(scene.layers[i], *sky.modulation(i), settings.modulation, scene.sun.direction, point, kTime);
+                s *= sunTransmittance(scene.layers[i], *sky.modulation(i), settings.modulation, scene.sun.direction,
+                                      point, kTime);
             minS = std::min(minS, s);
             const double expected = scene.sky.ground.x * (1 - share * (1 - s));
             worst = std::max(worst, std::abs(rgba.at(x, y, 0) - expected));
@@ -374,6 +383,6 @@ TEST_P(LayeredShadowResolutionGLTest, TwoLayersMultiplyTheirShadows) {
     std::printf("two layers, downsample %d: %d ground px, worst |GPU - CPU| %.2e, darkest S %.3f\n", GetParam(), pixels,
                 worst, minS);
     EXPECT_GT(pixels, 1000);
-    EXPECT_LT(minS, 0.6);     // both layers' shadows show
-    EXPECT_LT(worst, 1e-5);   // the ground plane is exact on both sides (see the first test)
+    EXPECT_LT(minS, 0.6);    // both layers' shadows show
+    EXPECT_LT(worst, 1e-5);  // the ground plane is exact on both sides (see the first test)
 }

@@ -52,13 +52,15 @@ TEST(LayeredTest, ColumnDepthsAreTheIntegralOfTheThresholdedDensity) {
                     const int steps = 4000;
                     for (int m = 0; m < steps; ++m) {
                         const double zz = (m + 0.5) / steps;
-                        const double rho = 0.7 * p.extinction * std::max(v.sampleDensity(u, w, zz) - theta, 0.0) * p.thickness / steps;
+                        const double rho =
+                            0.7 * p.extinction * std::max(v.sampleDensity(u, w, zz) - theta, 0.0) * p.thickness / steps;
                         (zz > z ? above : below) += rho;
                     }
                     auto tolerance = [](double tau) { return 0.7 * 4 * (0.5 / 255) * std::exp(tau / 0.7 / 4) + 0.01; };
                     EXPECT_NEAR(depths.x, above, tolerance(above)) << i << " " << j << " " << k << " theta " << theta;
                     // below = the column's depth minus the depth above: both encoded, their errors add.
-                    EXPECT_NEAR(depths.y, below, tolerance(above + below) + tolerance(above)) << i << " " << j << " " << k << " theta " << theta;
+                    EXPECT_NEAR(depths.y, below, tolerance(above + below) + tolerance(above))
+                        << i << " " << j << " " << k << " theta " << theta;
                     deepest = std::max(deepest, above + below);
                     ++checked;
                 }
@@ -95,7 +97,7 @@ TEST(LayeredTest, SkyTablesConserveEnergyInAWhiteFurnace) {
         sum += phi0;
         squares += (phi0 - 1) * (phi0 - 1);
         worst = std::max(worst, std::abs(phi0 - 1));
-        EXPECT_NEAR((a.y + b.y) / (4 * kPi), 0, 0.15) << n;   // Monte Carlo noise of the nodes' few scores
+        EXPECT_NEAR((a.y + b.y) / (4 * kPi), 0, 0.15) << n;  // Monte Carlo noise of the nodes' few scores
         EXPECT_NEAR((a.z + b.z) / (4 * kPi), 0, 0.15) << n;
     }
     const double rms = std::sqrt(squares / nodes);
@@ -209,7 +211,8 @@ TEST(LayeredTest, LightingFileRoundTripsAndRefusesMismatches) {
     };
     LightingSettings bigger = s;
     bigger.width = 32;
-    EXPECT_NE(message(path, bigger, p).find("size is 16x16x8, expected 32x16x8"), std::string::npos) << message(path, bigger, p);
+    EXPECT_NE(message(path, bigger, p).find("size is 16x16x8, expected 32x16x8"), std::string::npos)
+        << message(path, bigger, p);
     LightingParameters thicker = p;
     thicker.thickness = 900;
     EXPECT_NE(message(path, s, thicker).find("thickness is 600, expected 900"), std::string::npos);
@@ -262,7 +265,8 @@ TEST(LayeredTest, ModulationIsDeterministicAndCoverageFollowsC) {
     layer.coverage = 0.5;
     layer.wind = {6, -2};
     for (double x : {100.0, 2345.0})
-        EXPECT_NEAR(layerModulation(layer, a, ms, x + 60, 700 - 20, 10), layerModulation(layer, a, ms, x, 700, 0), 1e-6);
+        EXPECT_NEAR(layerModulation(layer, a, ms, x + 60, 700 - 20, 10), layerModulation(layer, a, ms, x, 700, 0),
+                    1e-6);
 }
 
 TEST(LayeredTest, NearFadeAndShadow) {
@@ -296,7 +300,7 @@ TEST(LayeredTest, NearFadeAndShadow) {
         shadowed += t < 1;
     }
     EXPECT_GT(shadowed, 5);
-    EXPECT_EQ(sunTransmittance(layer, m, ms, sun, Vec3(0, 0, 3000), 0), 1.0);       // above the layer
+    EXPECT_EQ(sunTransmittance(layer, m, ms, sun, Vec3(0, 0, 3000), 0), 1.0);         // above the layer
     EXPECT_EQ(sunTransmittance(layer, m, ms, Vec3(1, 0, 0), Vec3(0, 0, 0), 0), 1.0);  // sun on the horizon
 }
 
@@ -370,7 +374,7 @@ TEST(LayeredTest, DamagedOrSpecialCacheFilesAreRebuiltWithAWarning) {
     std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2);
     expectRebuilt("truncated");
     ASSERT_TRUE(test::replaceWithFifo(file));
-    expectRebuilt("a FIFO");  // would block forever if opened as a file
+    expectRebuilt("a FIFO");                      // would block forever if opened as a file
     EXPECT_TRUE(std::filesystem::is_fifo(file));  // left alone: not a file to replace
     std::filesystem::remove_all(dir);
 }

@@ -32,7 +32,8 @@ Scene twoClouds() {
 }
 
 // The cache's update, waiting for every grid; `computed` receives how many it made.
-std::vector<PlacedRadiance> update(CloudRadianceCache& cache, const Scene& s, const RadianceGridSettings& g, int* computed) {
+std::vector<PlacedRadiance> update(CloudRadianceCache& cache, const Scene& s, const RadianceGridSettings& g,
+                                   int* computed) {
     RadianceUpdateStats stats;
     auto placed = cache.update(s, g, nullptr, &stats);
     *computed = stats.computed;
@@ -55,9 +56,9 @@ void expectSame(const std::vector<PlacedRadiance>& placed, const Scene& s, const
         double worst = 0;
         for (const Ellipsoid& e : s.clouds[c].ellipsoids) {
             const RadianceSample a = placed[c].sample(e.center), b = sampleRadiance(fresh, e.center);
-            worst = std::max({worst, double(glm::length(a.sunFew - b.sunFew)), double(glm::length(a.sunMany - b.sunMany)),
-                              double(glm::length(a.skyTau - b.skyTau)),
-                              double(glm::length(a.skyFlux - b.skyFlux))});
+            worst =
+                std::max({worst, double(glm::length(a.sunFew - b.sunFew)), double(glm::length(a.sunMany - b.sunMany)),
+                          double(glm::length(a.skyTau - b.skyTau)), double(glm::length(a.skyFlux - b.skyFlux))});
         }
         // The same photons through the same voxels up to the rounding of world coordinates of a
         // few km (double): far below a half-float texel.
@@ -314,7 +315,7 @@ TEST(CloudRadianceTest, TheSunsLightSplitsIntoAForwardPeakAndABroadPart) {
     };
     ASSERT_GT(centre.sunFew.w, 0.0f);
     ASSERT_GT(centre.sunMany.w, 0.0f);
-    EXPECT_GT(meanCosine(centre.sunFew), 0.3);                              // along the sun's travel
+    EXPECT_GT(meanCosine(centre.sunFew), 0.3);                               // along the sun's travel
     EXPECT_GT(meanCosine(centre.sunFew), meanCosine(centre.sunMany) + 0.2);  // and more so than the rest
     EXPECT_LT(meanCosine(centre.sunMany), 0.5);
     const Scene thin = sphere(0.3);
@@ -466,7 +467,8 @@ TEST(CloudRadianceTest, TiledCloudsConserveTheSunsFlux) {
                 double transmittance = 0;  // the mean of the finer grid's over the voxel
                 const int k = kSunRefinement, m = r.sunSize();
                 for (int c = 0; c < k * k * k; ++c)
-                    transmittance += r.sunTransmittance[(std::size_t(k * z + c / (k * k)) * m + k * y + c / k % k) * m + k * x + c % k];
+                    transmittance += r.sunTransmittance[(std::size_t(k * z + c / (k * k)) * m + k * y + c / k % k) * m +
+                                                        k * x + c % k];
                 const double direct = s.sun.direction.z * transmittance / (k * k * k);
                 net[std::size_t(z)] += direct - double(r.sunFew[i].z + r.sunMany[i].z);
             }
@@ -474,9 +476,10 @@ TEST(CloudRadianceTest, TiledCloudsConserveTheSunsFlux) {
     }
     double lo = net[0], hi = net[0];
     for (double v : net) lo = std::min(lo, v), hi = std::max(hi, v);
-    std::printf("[ figure ] tiled layer, sun at 50 degrees, albedo 1: net downward flux per unit irradiance %.4f to %.4f "
-                "(top %.4f, bottom %.4f; the sun's %.4f)\n",
-                lo, hi, net[std::size_t(n - 1)], net[0], s.sun.direction.z);
+    std::printf(
+        "[ figure ] tiled layer, sun at 50 degrees, albedo 1: net downward flux per unit irradiance %.4f to %.4f "
+        "(top %.4f, bottom %.4f; the sun's %.4f)\n",
+        lo, hi, net[std::size_t(n - 1)], net[0], s.sun.direction.z);
     ASSERT_GT(lo, 0.0);
     // 5%: the direct sun's transmittance is averaged over kSunRefinement^3 points of a voxel, not
     // over all of it, and 2^18 photons leave about 1% of noise per slice.
@@ -503,8 +506,9 @@ TEST(CloudRadianceTest, TiledCloudsAreShadowedByTheTilesBeyond) {
         const int m = r.sunSize();
         for (int i = 0; i < m * m; ++i) floor -= std::log(double(r.sunTransmittance[std::size_t(i)]));
         floor /= double(m) * m;
-        std::printf("[ figure ] sun at 20 degrees, %s: optical depth to the sun from the floor %.2f, the layer's %.2f\n",
-                    tiled ? "tiled" : "alone", floor, column / std::sin(elevation));
+        std::printf(
+            "[ figure ] sun at 20 degrees, %s: optical depth to the sun from the floor %.2f, the layer's %.2f\n",
+            tiled ? "tiled" : "alone", floor, column / std::sin(elevation));
         // The lowest voxels' centres lie 6.25 m up, under 1% of the kernel's matter below them.
         if (tiled) EXPECT_NEAR(floor, column / std::sin(elevation), 0.1 * column / std::sin(elevation));
         else EXPECT_LT(floor, 0.6 * column / std::sin(elevation));

@@ -55,10 +55,12 @@ Components lightModel(const Scene& scene) {
     none.sunPhotons = none.skyPhotons = 0;
     Scene empty = scene;
     empty.clouds.clear();
-    const Image sunEmpty = renderGardnerExact(sunOnly(empty), view, noise, ns), skyEmpty = renderGardnerExact(skyOnly(empty), view, noise, ns);
+    const Image sunEmpty = renderGardnerExact(sunOnly(empty), view, noise, ns),
+                skyEmpty = renderGardnerExact(skyOnly(empty), view, noise, ns);
     const Scene sunLit = sunOnly(scene);
     const double single = cloudLight(
-        renderGardnerExact(sunLit, view, noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent, none), sunEmpty);
+        renderGardnerExact(sunLit, view, noise, ns, CompositeOrder::PerEllipsoid, model::kWeightExponent, none),
+        sunEmpty);
     const double sun = cloudLight(renderGardnerExact(sunLit, view, noise, ns), sunEmpty);
     return {single, sun - single, cloudLight(renderGardnerExact(skyOnly(scene), view, noise, ns), skyEmpty)};
 }
@@ -99,14 +101,16 @@ TEST(LightComponentsTest, EachComponentAgainstThePathTracersOwn) {
     std::vector<Case> cases = {Case{"single.json", component("single.json", 48), 0.03},
                                Case{"cumulus27.json back-lit", test::backLit(component("cumulus27.json", 48)), 0.03}};
     if (!test::kSanitized)  // the same code on three more scenes (most of the test's CPU is the path tracer's)
-        for (Case c : {Case{"cumulus27.json", component("cumulus27.json", 48), 0.03},
-                       Case{"cumulus27.json back-lit, 10 degrees", test::backLit(component("cumulus27.json", 48), 10), 0.03},
-                       Case{"two_clouds.json", component("two_clouds.json", 48), 0.07}})
+        for (Case c :
+             {Case{"cumulus27.json", component("cumulus27.json", 48), 0.03},
+              Case{"cumulus27.json back-lit, 10 degrees", test::backLit(component("cumulus27.json", 48), 10), 0.03},
+              Case{"two_clouds.json", component("two_clouds.json", 48), 0.07}})
             cases.push_back(std::move(c));
     for (const Case& c : cases) {
         const Components m = lightModel(c.scene), p = pathTraced(c.scene, 256);
-        std::printf("[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
-                    c.name, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
+        std::printf(
+            "[ figure ] %s: model / path tracer: sun's single scattering %.3f, multiple %.3f, sky and ground %.3f\n",
+            c.name, m.single / p.single, m.multiple / p.multiple, m.sky / p.sky);
         EXPECT_NEAR(m.single / p.single, 1.0, c.singleTolerance) << c.name;
         // The photon grids' parts, held to what they measure with room for the path tracer's noise
         // in them (multiple: 1.05-1.12, 0.95-0.97, 0.87, 0.86 and 1.06; sky: 1.01, 0.97, 0.99, 0.99

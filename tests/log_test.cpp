@@ -21,7 +21,8 @@ struct Captured {
 class LogCapture {
 public:
     LogCapture() {
-        previous_ = setLogCallback([this](LogLevel l, std::string_view m) { got.messages.emplace_back(l, std::string(m)); });
+        previous_ =
+            setLogCallback([this](LogLevel l, std::string_view m) { got.messages.emplace_back(l, std::string(m)); });
     }
     ~LogCapture() { setLogCallback(previous_); }
     Captured got;

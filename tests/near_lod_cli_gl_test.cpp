@@ -32,7 +32,8 @@ TEST_F(NearLodGLTest, AutoWithoutLayersIsTheCompositor) {
         std::replace(name.begin(), name.end(), ' ', '_');
         const std::string out = dir + "/near_lod_auto_vs_" + name + ".png";
         std::filesystem::remove(out);
-        const test::CliResult r = test::runCli("render " + scene + " -o " + out + " --method " + method + " --width 128");
+        const test::CliResult r =
+            test::runCli("render " + scene + " -o " + out + " --method " + method + " --width 128");
         EXPECT_EQ(r.code, 0) << r.output;
         return readPng(out);
     };

@@ -66,7 +66,8 @@ Scene layerScene(const Vec3& eye, double pitchDeg, int width, int height, double
 // --method auto: the library's SkyRenderer (nephele/sky.hpp), which FrameRenderer draws with.
 struct Auto {
     SkyRenderer sky;
-    explicit Auto(const LayeredSettings& ls, const EllipsoidSettings& es = testEllipsoid()) : sky(SkySettings{ls, {}, es}) {}
+    explicit Auto(const LayeredSettings& ls, const EllipsoidSettings& es = testEllipsoid())
+        : sky(SkySettings{ls, {}, es}) {}
 
     struct Result {
         Image rgba;
@@ -85,7 +86,9 @@ struct Auto {
 };
 
 // The fly-through's frame change: mean |difference| of linear RGB clamped to [0, 1].
-double meanChange(const Image& a, const Image& b) { return meanClampedDifference(channels(a, 0, 3), channels(b, 0, 3)); }
+double meanChange(const Image& a, const Image& b) {
+    return meanClampedDifference(channels(a, 0, 3), channels(b, 0, 3));
+}
 
 class NearLodGLTest : public test::EglTest {};
 
@@ -163,7 +166,8 @@ TEST_F(NearLodGLTest, NoPopAcrossTheBlendBand) {
     const Scene base = layerScene(Vec3(0, 0, 1000), 0, 96, 64);
     const LayeredSettings probeSettings = testLayered(kNear, kBand);
     const ModulationTexture modulation = makeModulation(probeSettings.modulation, base.layers[0].seed);
-    const LightingVolume light = precomputeLighting(probeSettings.lighting, lightingParameters(base.medium, base.layers[0]));
+    const LightingVolume light =
+        precomputeLighting(probeSettings.lighting, lightingParameters(base.medium, base.layers[0]));
     NearCell target;
     for (std::int64_t i = 3; i < 12; ++i) {
         const NearCell c = makeNearCell(base, 0, i, 0, {}, modulation, probeSettings.modulation, light);
@@ -195,9 +199,10 @@ TEST_F(NearLodGLTest, NoPopAcrossTheBlendBand) {
             previous = r.rgba;
         }
         run.meanQuiet = run.quiet ? quietSum / run.quiet : 0;
-        std::printf("band %.0f m: %d steps with spawns/retirements, max change %.5f; %d quiet steps, mean change %.5f; "
-                    "ratio %.2f (bound %.2f)\n",
-                    ls.blendBand, run.events, run.maxEvent, run.quiet, run.meanQuiet, run.maxEvent / run.meanQuiet, kMaxRatio);
+        std::printf(
+            "band %.0f m: %d steps with spawns/retirements, max change %.5f; %d quiet steps, mean change %.5f; "
+            "ratio %.2f (bound %.2f)\n",
+            ls.blendBand, run.events, run.maxEvent, run.quiet, run.meanQuiet, run.maxEvent / run.meanQuiet, kMaxRatio);
         return run;
     };
     const Run faded = fly(testLayered(kNear, kBand));
@@ -256,10 +261,12 @@ struct HandOffEye {
 constexpr HandOffEye kHandOffEyes[] = {{"inside, level", kBase + 0.5 * kThickness, 0.0},
                                        {"100 m under the base, looking up 20 degrees", kBase - 100, 20.0}};
 
-HandOff handOff(const HandOffEye& eye, double coverage, const LayeredSettings& ls, unsigned seed = 5, double headingDeg = 0) {
+HandOff handOff(const HandOffEye& eye, double coverage, const LayeredSettings& ls, unsigned seed = 5,
+                double headingDeg = 0) {
     Scene scene = layerScene(Vec3(0, 0, eye.height), eye.pitch, 96, 54, headingDeg);
     scene.layers[0].coverage = coverage, scene.layers[0].seed = seed;
-    return measureHandOff(scene, makeView(scene.camera), ls, kHandOffNear, kHandOffNear + kHandOffBand, testEllipsoid());
+    return measureHandOff(scene, makeView(scene.camera), ls, kHandOffNear, kHandOffNear + kHandOffBand,
+                          testEllipsoid());
 }
 
 // ... at coverages 0.3-0.9 with the tests' small textures and the test layer's seed.
@@ -271,10 +278,11 @@ void forEachHandOff(const std::function<void(const char*, double, const HandOff&
     for (const HandOffEye& c : kHandOffEyes)
         for (double coverage : coverages) {
             const HandOff h = handOff(c, coverage, ls);
-            std::printf("[ figure ] %s, coverage %.1f: opacity near %.3f, layer %.3f, volume %.3f; band radiance near %.4f, "
-                        "layer %.4f (%d, %d pixels)\n",
-                        c.name, coverage, h.nearOpacity, h.layerOpacity, h.volumeOpacity, h.nearRadiance, h.layerRadiance,
-                        h.reachPixels, h.bandPixels);
+            std::printf(
+                "[ figure ] %s, coverage %.1f: opacity near %.3f, layer %.3f, volume %.3f; band radiance near %.4f, "
+                "layer %.4f (%d, %d pixels)\n",
+                c.name, coverage, h.nearOpacity, h.layerOpacity, h.volumeOpacity, h.nearRadiance, h.layerRadiance,
+                h.reachPixels, h.bandPixels);
             ASSERT_GT(h.reachPixels, 100) << c.name;
             check(c.name, coverage, h);
         }
@@ -312,10 +320,11 @@ TEST_F(NearLodGLTest, NearCloudsCoverTheSkyAsTheLayerDoes) {
 TEST_F(NearLodGLTest, NearAndFarRadianceAgreeAcrossTheBand) {
     constexpr double kMeanTolerance = 0.05, kViewTolerance = 0.20;
     const test::TempDir cache("nephele_hand_off_");
-    LayeredSettings ls;  // the default textures and photons
+    LayeredSettings ls;                                       // the default textures and photons
     ls.cacheDir = test::runCacheDirOr(cache.dir().string());  // one lighting volume per coverage
     // Under the sanitizers, which check the same code, the middle coverage only.
-    const std::vector<double> coverages = test::kSanitized ? std::vector<double>{0.6} : std::vector<double>{0.3, 0.6, 0.9};
+    const std::vector<double> coverages =
+        test::kSanitized ? std::vector<double>{0.6} : std::vector<double>{0.3, 0.6, 0.9};
     for (const HandOffEye& e : kHandOffEyes)
         for (double coverage : coverages) {
             double sum = 0;
@@ -327,16 +336,16 @@ TEST_F(NearLodGLTest, NearAndFarRadianceAgreeAcrossTheBand) {
                     ASSERT_GT(ho.bandPixels, 500) << e.name;
                     ASSERT_GT(ho.layerRadiance, 0) << e.name;
                     const double ratio = ho.nearRadiance / ho.layerRadiance;
-                    EXPECT_NEAR(ratio, 1.0, kViewTolerance) << e.name << ", coverage " << coverage << ", seed " << seed
-                                                            << ", heading " << headingDeg;
+                    EXPECT_NEAR(ratio, 1.0, kViewTolerance)
+                        << e.name << ", coverage " << coverage << ", seed " << seed << ", heading " << headingDeg;
                     sum += ratio, ++views;
                     char buf[16];
                     std::snprintf(buf, sizeof buf, " %.3f", ratio);
                     ratios += buf;
                 }
             const double mean = sum / views;
-            std::printf("[ figure ] %s, coverage %.1f: band radiance near / layer %.3f (views:%s)\n", e.name, coverage, mean,
-                        ratios.c_str());
+            std::printf("[ figure ] %s, coverage %.1f: band radiance near / layer %.3f (views:%s)\n", e.name, coverage,
+                        mean, ratios.c_str());
             EXPECT_NEAR(mean, 1.0, kMeanTolerance) << e.name << ", coverage " << coverage;
         }
 }

@@ -40,7 +40,8 @@ bool sameCloud(const Cloud& a, const Cloud& b) {
     if (a.ellipsoids.size() != b.ellipsoids.size() || a.noiseId != b.noiseId) return false;
     for (std::size_t k = 0; k < a.ellipsoids.size(); ++k) {
         const Ellipsoid &x = a.ellipsoids[k], &y = b.ellipsoids[k];
-        if (x.center != y.center || x.radii != y.radii || x.rotationDeg != y.rotationDeg || x.density != y.density) return false;
+        if (x.center != y.center || x.radii != y.radii || x.rotationDeg != y.rotationDeg || x.density != y.density)
+            return false;
     }
     return true;
 }
@@ -87,7 +88,8 @@ TEST(NearLodTest, SameCellSameCloudWhateverTheEyePath) {
         EXPECT_TRUE(sameCloud(ca[k]->cloud, cb[k]->cloud)) << ca[k]->cloud.name;
         // and the same as a cell made from scratch
         const NearLodSettings ns;
-        const NearCell fresh = makeNearCell(scene, 0, ca[k]->i, ca[k]->j, ns, modulation, layeredSettings().modulation, light);
+        const NearCell fresh =
+            makeNearCell(scene, 0, ca[k]->i, ca[k]->j, ns, modulation, layeredSettings().modulation, light);
         EXPECT_TRUE(sameCloud(ca[k]->cloud, fresh.cloud)) << ca[k]->cloud.name;
         clouds += !ca[k]->cloud.ellipsoids.empty();
     }
@@ -153,9 +155,11 @@ TEST(NearLodTest, CloudsLieInTheLayerWhereItHasCloud) {
             const Cloud& cloud = clouds.at(k++);
             // where the layer has cloud, at the time of the frame (the pattern moved with the wind)
             const Vec2 world = c->center + t * wind;
-            EXPECT_LE(std::max(std::abs(c->center.x / 1000 - (c->i + 0.5)), std::abs(c->center.y / 1000 - (c->j + 0.5))), 0.5)
+            EXPECT_LE(
+                std::max(std::abs(c->center.x / 1000 - (c->i + 0.5)), std::abs(c->center.y / 1000 - (c->j + 0.5))), 0.5)
                 << "the centre lies in its cell";
-            EXPECT_GT(layerModulation(scene.layers[0], modulation, layeredSettings().modulation, world.x, world.y, t), 0);
+            EXPECT_GT(layerModulation(scene.layers[0], modulation, layeredSettings().modulation, world.x, world.y, t),
+                      0);
             double lo = 1e30, hi = -1e30;
             for (const Ellipsoid& e : cloud.ellipsoids) {
                 lo = std::min(lo, e.center.z - e.radii.z), hi = std::max(hi, e.center.z + e.radii.z);
@@ -230,8 +234,8 @@ TEST(NearLodTest, WeightsAreOneInsideTheNearRadiusAndZeroAtTheBandsOuterEdge) {
     EXPECT_EQ(weightAt(0), 1.0);
     EXPECT_EQ(weightAt(kNear - 1), 1.0);
     EXPECT_NEAR(weightAt(kNear + 0.5 * kBand), 0.5, 1e-9);  // smoothstep's midpoint
-    EXPECT_LT(weightAt(kNear + kBand - 0.01), 1e-9);         // spawns with weight ~0 ...
-    EXPECT_EQ(weightAt(kNear + kBand + 0.01), -1.0);          // ... and not beyond
+    EXPECT_LT(weightAt(kNear + kBand - 0.01), 1e-9);        // spawns with weight ~0 ...
+    EXPECT_EQ(weightAt(kNear + kBand + 0.01), -1.0);        // ... and not beyond
     // The cloud and the layer share the optical depth: weight + nearFade = 1 across the band.
     for (double d = 0; d < kNear + kBand; d += 250) EXPECT_NEAR(weightAt(d) + nearFade(ls, d), 1.0, 1e-12) << d;
 }
@@ -389,13 +393,16 @@ TEST(NearLodTest, NearCloudsCarryTheLayersOpticalDepth) {
                     const Vec3 d = kind == 0 ? Vec3(0, 0, 1) : Vec3(std::cos(angle), std::sin(angle), 0);
                     const double length = kind == 0 ? kThickness + 20 : 1500;
                     nearSum += 1 - std::exp(-nearDepth(clouds, extinction, o, d, length));
-                    const double layerTau =
-                        extinction * layerDensityIntegral(layer, modulation, ls.modulation, light, o, d, length, 0, 5.0, 100000);
+                    const double layerTau = extinction * layerDensityIntegral(layer, modulation, ls.modulation, light,
+                                                                              o, d, length, 0, 5.0, 100000);
                     layerSum += 1 - std::exp(-layerTau);
                     ++rays;
                 }
             std::printf("[ figure ] coverage %.1f, %s rays: mean opacity near %.3f, layer %.3f\n", coverage,
-                        kind == 0 ? "vertical" : kind == 1 ? "level (1/3)" : "level (1/2)", nearSum / rays, layerSum / rays);
+                        kind == 0   ? "vertical"
+                        : kind == 1 ? "level (1/3)"
+                                    : "level (1/2)",
+                        nearSum / rays, layerSum / rays);
             EXPECT_NEAR(nearSum / rays, layerSum / rays, 0.05) << "coverage " << coverage << " kind " << kind;
             if (coverage == 0.9) {
                 EXPECT_GT(layerSum / rays, 0.2) << "a layer with matter on these rays: kind " << kind;

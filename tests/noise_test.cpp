@@ -94,7 +94,8 @@ TEST(NoiseTest, PerlinIsContinuous) {
     for (const auto& p : randomPoints(100, 12)) {
         for (float face : {-1.0f, 0.0f, 3.0f, 8.0f}) {
             const glm::vec3 q(face, p.y, p.z);
-            EXPECT_NEAR(perlinNoise(q - glm::vec3(1e-3f, 0, 0), 8, 11), perlinNoise(q + glm::vec3(1e-3f, 0, 0), 8, 11), 1e-2f);
+            EXPECT_NEAR(perlinNoise(q - glm::vec3(1e-3f, 0, 0), 8, 11), perlinNoise(q + glm::vec3(1e-3f, 0, 0), 8, 11),
+                        1e-2f);
         }
     }
 }
@@ -167,7 +168,8 @@ TEST(NoiseTest, VolumeIsRescaledFbmWithZeroMeanAndUnitMax) {
     EXPECT_GT(s, 0.0f);
     for (int n = 0; n < 50; ++n) {
         const int i = (n * 7) % 16, j = (n * 5 + 3) % 16, k = (n * 11 + 1) % 16;
-        EXPECT_NEAR(texel(v, i, j, k) - texel(v, 0, 0, 0), s * (raw(i, j, k) - raw(0, 0, 0)), 1e-4f) << i << " " << j << " " << k;
+        EXPECT_NEAR(texel(v, i, j, k) - texel(v, 0, 0, 0), s * (raw(i, j, k) - raw(0, 0, 0)), 1e-4f)
+            << i << " " << j << " " << k;
     }
 }
 
@@ -185,7 +187,8 @@ TEST(NoiseTest, SampleMatchesTexelsAtCentresAndMeansMidway) {
                     glm::ivec3 next(i, j, k);
                     next[a] += 1;
                     const float mean = 0.5f * (texel(v, i, j, k) + texel(v, next.x, next.y, next.z));
-                    EXPECT_FLOAT_EQ(v.sample(centre + kAxes[a] * (0.5f / n)), mean) << i << " " << j << " " << k << " axis " << a;
+                    EXPECT_FLOAT_EQ(v.sample(centre + kAxes[a] * (0.5f / n)), mean)
+                        << i << " " << j << " " << k << " axis " << a;
                 }
             }
 }
@@ -196,9 +199,10 @@ TEST(NoiseTest, SampleIsLinearRepeatOnARamp) {
     // it interpolates 3 -> 0 through the seam.
     NoiseVolume ramp{4, {}};
     for (int n = 0; n < 64; ++n) ramp.texels.push_back(float(n % 4));
-    const struct { float u, expected; } cases[] = {
-        {0.125f, 0}, {0.25f, 0.5f}, {0.5f, 1.5f}, {0.875f, 3}, {0.9375f, 2.25f}, {1.0f, 1.5f},
-        {0.0f, 1.5f}, {0.0625f, 0.75f}, {-0.125f, 3}, {2.3125f, 0.75f}, {-1.75f, 0.5f}};
+    const struct {
+        float u, expected;
+    } cases[] = {{0.125f, 0},  {0.25f, 0.5f},    {0.5f, 1.5f}, {0.875f, 3},      {0.9375f, 2.25f}, {1.0f, 1.5f},
+                 {0.0f, 1.5f}, {0.0625f, 0.75f}, {-0.125f, 3}, {2.3125f, 0.75f}, {-1.75f, 0.5f}};
     for (const auto& c : cases)
         for (float yz : {0.1f, 0.6f, -3.3f}) EXPECT_FLOAT_EQ(ramp.sample({c.u, yz, yz}), c.expected) << "u " << c.u;
     EXPECT_EQ(NoiseVolume{}.sample({0.5f, 0.5f, 0.5f}), 0.0f);

@@ -51,11 +51,10 @@ class ObjectLightGLTest : public test::EglTest, public ::testing::WithParamInter
 class ObjectLightHostGLTest : public test::EglTest {};
 
 // The target (#34, section 4): each object's mean radiance within 15% of the path
-// tracer's, drawn by the compositor and by the ray-marcher. aircraft_edge.json: a red box in the sun at a dense cumulus' flank and a blue sphere
-// in its shadow under the cloud's edge; aircraft_shadow.json: a low sun behind a flat cumulus, a
-// box in its rim and a sphere beyond its grid's box, both in its shadow, lit by the sky and the
-// cloud alone. At 160 px against 256 spp the ratios are 1.016, 1.001, 1.076 and 1.056
-// (docs/light.md, "Objects lit by the clouds").
+// tracer's, drawn by the compositor and by the ray-marcher. aircraft_edge.json: a red box in the sun at a dense
+// cumulus' flank and a blue sphere in its shadow under the cloud's edge; aircraft_shadow.json: a low sun behind a flat
+// cumulus, a box in its rim and a sphere beyond its grid's box, both in its shadow, lit by the sky and the cloud alone.
+// At 160 px against 256 spp the ratios are 1.016, 1.001, 1.076 and 1.056 (docs/light.md, "Objects lit by the clouds").
 TEST_P(ObjectLightGLTest, FastMethodsLightObjectsAsThePathTracer) {
     const Scene scene = test::sharedScene(GetParam(), 64);
     ASSERT_EQ(scene.objectLight, ObjectLight::All);
@@ -69,13 +68,14 @@ TEST_P(ObjectLightGLTest, FastMethodsLightObjectsAsThePathTracer) {
     const std::vector<double> reference = objectMeans(scene, view, renderPathTraced(scene, view, ps, nullptr));
     for (std::size_t k = 0; k < scene.objects.size(); ++k) {
         ASSERT_GT(reference[k], 0) << "object " << k << " not in view";
-        std::printf("[ figure ] %s object %zu: path tracer %.4f, compositor %.4f (ratio %.3f), ray-marcher %.4f (%.3f)\n",
-                    GetParam(), k, reference[k], compositor[k], compositor[k] / reference[k], marcher[k],
-                    marcher[k] / reference[k]);
-        EXPECT_NEAR(compositor[k] / reference[k], 1.0, 0.15) << "object " << k << ": compositor " << compositor[k]
-                                                             << ", path tracer " << reference[k];
-        EXPECT_NEAR(marcher[k] / reference[k], 1.0, 0.15) << "object " << k << ": ray-marcher " << marcher[k]
-                                                          << ", path tracer " << reference[k];
+        std::printf(
+            "[ figure ] %s object %zu: path tracer %.4f, compositor %.4f (ratio %.3f), ray-marcher %.4f (%.3f)\n",
+            GetParam(), k, reference[k], compositor[k], compositor[k] / reference[k], marcher[k],
+            marcher[k] / reference[k]);
+        EXPECT_NEAR(compositor[k] / reference[k], 1.0, 0.15)
+            << "object " << k << ": compositor " << compositor[k] << ", path tracer " << reference[k];
+        EXPECT_NEAR(marcher[k] / reference[k], 1.0, 0.15)
+            << "object " << k << ": ray-marcher " << marcher[k] << ", path tracer " << reference[k];
     }
 }
 
@@ -118,11 +118,13 @@ TEST_P(ObjectLightGLTest, LightAtIsWhatTheCompositorLightsObjectsBy) {
                 // float; the CPU reads the same grids in float: 1% holds the rounding (0.07% measured).
                 const double off = std::fabs(image.at(x, y, k) - expected[k]) / std::max(expected[k], 1e-3);
                 worst = std::max(worst, off);
-                EXPECT_NEAR(image.at(x, y, k), expected[k], 0.01 * std::max(expected[k], 1e-3)) << "pixel " << x << ", " << y;
+                EXPECT_NEAR(image.at(x, y, k), expected[k], 0.01 * std::max(expected[k], 1e-3))
+                    << "pixel " << x << ", " << y;
             }
             ++compared;
         }
-    std::printf("[ figure ] %s: lightAt against the compositor's objects: %d pixels, worst %.4f\n", GetParam(), compared, worst);
+    std::printf("[ figure ] %s: lightAt against the compositor's objects: %d pixels, worst %.4f\n", GetParam(),
+                compared, worst);
     EXPECT_GT(compared, 20);
 }
 
@@ -142,8 +144,9 @@ TEST_F(ObjectLightHostGLTest, SkyRendererLightsAHostsAircraftByTheClouds) {
     const SurfaceLight box = sky.lightAt(scene.objects[0].center, 2.0 * scene.sun.direction);
     const SurfaceLight sphere = sky.lightAt(scene.objects[1].center, scene.sun.direction);
     const double sun = scene.sun.intensity;
-    std::printf("[ figure ] lightAt facing the sun: box sun %.3f diffuse %.3f, sphere sun %.3f diffuse %.3f (E_sun %.1f)\n",
-                box.sun.g, box.diffuse.g, sphere.sun.g, sphere.diffuse.g, sun);
+    std::printf(
+        "[ figure ] lightAt facing the sun: box sun %.3f diffuse %.3f, sphere sun %.3f diffuse %.3f (E_sun %.1f)\n",
+        box.sun.g, box.diffuse.g, sphere.sun.g, sphere.diffuse.g, sun);
     EXPECT_GT(box.sun.g, 0.9 * sun);
     EXPECT_LT(sphere.sun.g, 0.1 * sun);
     EXPECT_GT(sphere.diffuse.g, 0.1);
@@ -185,12 +188,13 @@ TEST_F(ObjectLightHostGLTest, LitObjectsLeaveTheCloudsAndTheHostStateUnchanged) 
             bool clear = true;
             for (int dy = -1; dy <= 1; ++dy)
                 for (int dx = -1; dx <= 1; ++dx)
-                    clear = clear && !intersectObjects(scene, view.eye, view.rayDirection(x + dx + 0.5, y + dy + 0.5), 0,
-                                                       view.camera.farClip);
+                    clear = clear && !intersectObjects(scene, view.eye, view.rayDirection(x + dx + 0.5, y + dy + 0.5),
+                                                       0, view.camera.farClip);
             if (!clear) continue;
             ++others;
             for (int k = 0; k < 4; ++k) {
-                ASSERT_EQ(allCompositor.at(x, y, k), sunCompositor.at(x, y, k)) << "compositor, pixel " << x << ", " << y;
+                ASSERT_EQ(allCompositor.at(x, y, k), sunCompositor.at(x, y, k))
+                    << "compositor, pixel " << x << ", " << y;
                 ASSERT_EQ(allMarcher.at(x, y, k), sunMarcher.at(x, y, k)) << "ray-marcher, pixel " << x << ", " << y;
             }
         }

@@ -59,7 +59,8 @@ TEST(ObjectLightTest, HarmonicIrradianceIsThatOfTheRadianceItsHarmonicsDescribe)
     };
     for (const Vec3& n : kNormals) {
         const double exact = irradiance([&](const Vec3& w) { return radiance(-w); }, n);
-        EXPECT_NEAR(model::harmonicIrradiance(float(phi0), glm::vec3(phi1), float(c20), glm::vec3(n)), exact, 1e-4 * exact)
+        EXPECT_NEAR(model::harmonicIrradiance(float(phi0), glm::vec3(phi1), float(c20), glm::vec3(n)), exact,
+                    1e-4 * exact)
             << "normal " << n.x << " " << n.y << " " << n.z;
     }
 }
@@ -80,15 +81,16 @@ TEST(ObjectLightTest, LobeIrradianceIsAHenyeyGreensteinLobesToBandTwo) {
     for (const Vec3& n : {-m, glm::normalize(glm::cross(m, Vec3(1, 0, 0))), Vec3(0, 0, -1), Vec3(1, 0, 0)}) {
         const double exact = irradiance([&](const Vec3& w) { return radiance(-w); }, n);
         const double bound = phi0 * (3.0 / 32 * std::pow(g, 4) + 2 * 13.0 / 256 * std::pow(g, 6));
-        EXPECT_NEAR(model::lobeIrradiance(lobe, glm::vec3(n)), exact, bound) << "normal " << n.x << " " << n.y << " " << n.z;
+        EXPECT_NEAR(model::lobeIrradiance(lobe, glm::vec3(n)), exact, bound)
+            << "normal " << n.x << " " << n.y << " " << n.z;
     }
 }
 
 TEST(ObjectLightTest, OpenSkyIrradianceIsTheFormatsSkyIntegrated) {
     Sky sky;  // the format's default zenith, horizon and ground
     for (const Vec3& n : kNormals) {
-        const glm::vec3 e = model::openSkyIrradiance(glm::vec3(sky.zenith), glm::vec3(sky.horizon), glm::vec3(sky.ground),
-                                                     glm::vec3(n));
+        const glm::vec3 e = model::openSkyIrradiance(glm::vec3(sky.zenith), glm::vec3(sky.horizon),
+                                                     glm::vec3(sky.ground), glm::vec3(n));
         for (int k = 0; k < 3; ++k) {
             // The ground's edge at the horizon is a step in the integrand: the quadrature is good
             // to about 1e-4 of E there.

@@ -126,7 +126,9 @@ TEST(GlLayerGLTest, AllocationAndFramebufferFaultsAreClearErrors) {
         checkFramebuffer(empty.id(), "an empty framebuffer");
         FAIL() << "no GlError";
     } catch (const GlError& e) {
-        EXPECT_STREQ(e.what(), "an empty framebuffer: framebuffer incomplete: GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT (0x8CD7)");
+        EXPECT_STREQ(
+            e.what(),
+            "an empty framebuffer: framebuffer incomplete: GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT (0x8CD7)");
     }
     GLint max = 0;
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max);
@@ -134,7 +136,8 @@ TEST(GlLayerGLTest, AllocationAndFramebufferFaultsAreClearErrors) {
         FrameTarget tooWide(max + 1, 8);
         FAIL() << "no GlError";
     } catch (const GlError& e) {
-        EXPECT_NE(std::string(e.what()).find("GL_MAX_TEXTURE_SIZE " + std::to_string(max)), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("GL_MAX_TEXTURE_SIZE " + std::to_string(max)), std::string::npos)
+            << e.what();
     }
     // Each branch asserts what it promises. llvmpipe (this machine's driver, and CI's) must take
     // the refusal (measured: GL_OUT_OF_MEMORY, "could not allocate 4.3 GB"); a colour target in
@@ -161,10 +164,11 @@ TEST(GlLayerGLTest, AllocationAndFramebufferFaultsAreClearErrors) {
         }
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
     } catch (const GlError& e) {
-        EXPECT_NE(std::string(e.what()).find("could not allocate 4.3 GB (GL_OUT_OF_MEMORY)"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("could not allocate 4.3 GB (GL_OUT_OF_MEMORY)"), std::string::npos)
+            << e.what();
     }
     EXPECT_NO_THROW(checkAlways("after the faults"));  // nothing left pending
-    EXPECT_NO_THROW(FrameTarget(64, 48));               // and the context still works
+    EXPECT_NO_THROW(FrameTarget(64, 48));              // and the context still works
 }
 
 TEST(GlLayerGLTest, HandlesAreMoveOnlyAndDelete) {
@@ -205,9 +209,7 @@ TEST(ShaderGLTest, CompileErrorNamesStageFileLineAndLog) {
     }
 }
 
-TEST(ShaderGLTest, UnknownShaderFileIsAnError) {
-    EXPECT_THROW(shaderFileText("no_such_shader.frag"), ShaderError);
-}
+TEST(ShaderGLTest, UnknownShaderFileIsAnError) { EXPECT_THROW(shaderFileText("no_such_shader.frag"), ShaderError); }
 
 TEST(ContextGLTest, EglAndOSMesaAreOpenGL45Core) {
     for (GlBackend b : {GlBackend::Egl, GlBackend::OSMesa}) {

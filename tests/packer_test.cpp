@@ -56,7 +56,8 @@ AssertionResult checkPacking(const std::vector<TileRequest>& tiles, int w, int h
         if (p.x % p.size || p.y % p.size) return AssertionFailure() << describe(p) << " is not aligned to its size";
         maxPass = std::max(maxPass, p.pass);
     }
-    if (r.passes != maxPass + 1) return AssertionFailure() << r.passes << " passes reported, " << maxPass + 1 << " used";
+    if (r.passes != maxPass + 1)
+        return AssertionFailure() << r.passes << " passes reported, " << maxPass + 1 << " used";
     if (int(r.utilisation.size()) != r.passes)
         return AssertionFailure() << r.utilisation.size() << " utilisation entries for " << r.passes << " passes";
 
@@ -86,7 +87,8 @@ AssertionResult checkPacking(const std::vector<TileRequest>& tiles, int w, int h
     for (int k = 0; k < r.passes; ++k) {
         const double expected = area[k] / (double(w) * h);
         if (std::abs(r.utilisation[k] - expected) > 1e-12 || r.utilisation[k] < 0.0 || r.utilisation[k] > 1.0)
-            return AssertionFailure() << "pass " << k << " utilisation " << r.utilisation[k] << ", expected " << expected;
+            return AssertionFailure() << "pass " << k << " utilisation " << r.utilisation[k] << ", expected "
+                                      << expected;
         sum += expected;
     }
     const double mean = r.passes ? sum / r.passes : 0.0;
@@ -140,8 +142,8 @@ AssertionResult checkFirstFitBruteForce(int w, int h, const PackResult& r) {
                 for (int x = 0; x + s <= w; x += s)
                     if (morton(x, y) < first && slotFree(x, y)) fx = x, fy = y, first = morton(x, y);
             if (q < p.pass && fx >= 0)
-                return AssertionFailure() << describe(p) << " would have fitted into pass " << q << " at " << fx << ","
-                                          << fy;
+                return AssertionFailure()
+                       << describe(p) << " would have fitted into pass " << q << " at " << fx << "," << fy;
             if (q == p.pass && (fx != p.x || fy != p.y))
                 return AssertionFailure() << describe(p) << " is not at the first free slot " << fx << "," << fy;
         }
@@ -278,7 +280,7 @@ TEST(PackerTest, ScanOrderIsMortonFromTheBottomLeft) {
 TEST(PackerTest, SmallerTilesBackfillEarlierPasses) {
     // 1280x720 holds two 512 tiles; the third spills, then a 256 still fits into pass 0 beside them.
     const PackResult r = packTiles({{0, 512}, {1, 512}, {2, 512}, {3, 256}, {4, 256}, {5, 256}}, 1280, 720);
-    const std::vector<TilePlacement> expected = {{0, 0, 0, 0, 512},   {1, 0, 512, 0, 512}, {2, 1, 0, 0, 512},
+    const std::vector<TilePlacement> expected = {{0, 0, 0, 0, 512},    {1, 0, 512, 0, 512},    {2, 1, 0, 0, 512},
                                                  {3, 0, 1024, 0, 256}, {4, 0, 1024, 256, 256}, {5, 1, 512, 0, 256}};
     EXPECT_EQ(r.placements, expected);
     EXPECT_EQ(r.passes, 2);
@@ -382,35 +384,35 @@ TEST(PackerTest, CheckerCatchesBrokenResults) {
     EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) { r.placements.pop_back(); })));
     EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) { r.placements[3].size *= 2; })));
     EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) { r.placements[3].id = r.placements[4].id; })));
-    EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) {
-        std::swap(r.placements.front(), r.placements.back());
-    })));
+    EXPECT_FALSE(checkPacking(tiles, 100, 80,
+                              mutated([](PackResult& r) { std::swap(r.placements.front(), r.placements.back()); })));
     EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) { ++r.passes; })));
     EXPECT_FALSE(checkPacking(tiles, 100, 80, mutated([](PackResult& r) { r.utilisation[0] *= 0.99; })));
     // The last (smallest) tile moved to a new pass of its own, everything else kept consistent:
     // only the first-pass-with-room check can object.
     const AssertionResult late = checkPacking(tiles, 100, 80, mutated([](PackResult& r) {
-        TilePlacement& t = r.placements.back();
-        const double a = double(t.size) * t.size / 8000.0;
-        r.utilisation[t.pass] -= a;
-        r.utilisation.push_back(a);
-        t.pass = r.passes++;
-        t.x = t.y = 0;
-    }));
+                                                  TilePlacement& t = r.placements.back();
+                                                  const double a = double(t.size) * t.size / 8000.0;
+                                                  r.utilisation[t.pass] -= a;
+                                                  r.utilisation.push_back(a);
+                                                  t.pass = r.passes++;
+                                                  t.x = t.y = 0;
+                                              }));
     EXPECT_FALSE(late);
     EXPECT_NE(std::string(late.message()).find("would still have fitted"), std::string::npos) << late.message();
     // Overlap: the second tile of pass 0 moved onto the first.
     const AssertionResult overlap = checkPacking(tiles, 100, 80, mutated([&](PackResult& r) {
-        TilePlacement& t = r.placements[firstOf(0, 1)];
-        t.x = r.placements[firstOf(0, 0)].x, t.y = r.placements[firstOf(0, 0)].y;
-    }));
+                                                     TilePlacement& t = r.placements[firstOf(0, 1)];
+                                                     t.x = r.placements[firstOf(0, 0)].x,
+                                                     t.y = r.placements[firstOf(0, 0)].y;
+                                                 }));
     EXPECT_FALSE(overlap);
     EXPECT_NE(std::string(overlap.message()).find("overlaps"), std::string::npos) << overlap.message();
 }
 
 // The main property test: many random inputs over several atlas shapes.
 TEST(PackerTest, RandomInputsSatisfyAllProperties) {
-    const std::vector<std::pair<int, int>> atlases = {{1280, 720}, {512, 512}, {1000, 333}, {64, 64},
+    const std::vector<std::pair<int, int>> atlases = {{1280, 720},  {512, 512},   {1000, 333}, {64, 64},
                                                       {1024, 1024}, {1920, 1080}, {333, 1000}, {7, 5}};
     std::mt19937 rng(20240601);
     for (int c = 0; c < 200; ++c) {

@@ -66,7 +66,8 @@ double opticalDepth(const Scene& s, const Vec3& o, const Vec3& d, double t0, dou
         for (const Ellipsoid& e : c.ellipsoids) {
             const glm::dmat3 m = ellipsoidToUnit(e);
             tau += s.medium.extinction * e.density *
-                   model::segmentDepth(glm::vec3(m * (o - e.center)), glm::vec3(m * d), float(t0), float(std::min(t1, 1e30)));
+                   model::segmentDepth(glm::vec3(m * (o - e.center)), glm::vec3(m * d), float(t0),
+                                       float(std::min(t1, 1e30)));
         }
     return tau;
 }
@@ -133,7 +134,8 @@ TEST(PathTraceTest, TrackersMatchAHomogeneousSlab) {
     std::vector<MajorantSegment> segs;
     const std::vector<MajorantPiece> pieces{{0, 4, 0.5}, {3, 9, 0.45}};
     detail::buildMajorant(pieces, events, segs);
-    checkTrackers("slab", segs, [](double t) { return t >= 2 && t <= 7 ? 0.3 : 0.0; }, std::exp(-0.3 * 5));
+    checkTrackers(
+        "slab", segs, [](double t) { return t >= 2 && t <= 7 ? 0.3 : 0.0; }, std::exp(-0.3 * 5));
 }
 
 TEST(PathTraceTest, TrackersMatchAHomogeneousSphere) {
@@ -228,7 +230,8 @@ TEST(PathTraceTest, SingleScatteringMatchesQuadrature) {
                     scene.sun.intensity * std::exp(-opticalDepth(scene, eye + t * d, l, 0, 1e30)) * dt;
     }
     const MeanAndError rendered = meanOf(16, [&](int k) {
-        return double(renderPathTraced(scene, view, {.spp = 2000, .maxBounces = 0, .seed = unsigned(k + 1)}, nullptr).at(0, 0, 1));
+        return double(renderPathTraced(scene, view, {.spp = 2000, .maxBounces = 0, .seed = unsigned(k + 1)}, nullptr)
+                          .at(0, 0, 1));
     });
     std::printf("[ figure ] single scattering: quadrature %.6f, path traced %.6f +- %.6f\n", expected, rendered.mean,
                 rendered.error);
@@ -254,8 +257,9 @@ TEST(PathTraceTest, ErrorFallsAsOneOverSqrtSpp) {
     };
     const double e16 = meanRmse(16, 1000), e64 = meanRmse(64, 2000);
     // The reference's own noise adds 1/2048 to both variances: the expected ratio is about 1.98.
-    std::printf("[ figure ] convergence: RMSE 16 spp %.5f, 64 spp %.5f, ratio %.3f (ideal 2); 2048 spp reference %.2f s\n",
-                e16, e64, e16 / e64, referenceSeconds);
+    std::printf(
+        "[ figure ] convergence: RMSE 16 spp %.5f, 64 spp %.5f, ratio %.3f (ideal 2); 2048 spp reference %.2f s\n", e16,
+        e64, e16 / e64, referenceSeconds);
     EXPECT_GT(e16 / e64, 1.6);
     EXPECT_LT(e16 / e64, 2.5);
 }
@@ -384,13 +388,16 @@ TEST(PathTraceTest, NoisePathIsUnbiasedOnAConstantVolume) {
     smooth.medium.extinction *= 1.3;
     const View view = makeView(noisy.camera);
     const double alpha = exactAlpha(smooth, view, 0, 0);
-    auto render = [&](const Scene& s, int k) { return renderPathTraced(s, view, {.spp = 256, .seed = unsigned(k + 1)}, &constant); };
+    auto render = [&](const Scene& s, int k) {
+        return renderPathTraced(s, view, {.spp = 256, .seed = unsigned(k + 1)}, &constant);
+    };
     const MeanAndError a = meanOf(16, [&](int k) { return double(render(noisy, k).at(0, 0, 3)); });
     const MeanAndError ln = meanOf(16, [&](int k) { return double(render(noisy, k).at(0, 0, 2)); });
     const MeanAndError ls = meanOf(16, [&](int k) { return double(render(smooth, k + 100).at(0, 0, 2)); });
     const double both = std::hypot(ln.error, ls.error);
-    std::printf("[ figure ] constant noise: alpha %.5f +- %.5f (closed form %.5f); blue %.5f +- %.5f vs smooth %.5f +- %.5f\n",
-                a.mean, a.error, alpha, ln.mean, ln.error, ls.mean, ls.error);
+    std::printf(
+        "[ figure ] constant noise: alpha %.5f +- %.5f (closed form %.5f); blue %.5f +- %.5f vs smooth %.5f +- %.5f\n",
+        a.mean, a.error, alpha, ln.mean, ln.error, ls.mean, ls.error);
     EXPECT_NEAR(a.mean, alpha, 3 * a.error + 1e-6);
     EXPECT_NEAR(ln.mean, ls.mean, 3 * both);
     EXPECT_THROW(renderPathTraced(noisy, view, {}, nullptr), std::invalid_argument);  // noise needs a volume
@@ -509,8 +516,9 @@ TEST(PathTraceTest, ScatteringOrdersSplitExactly) {
         worst = std::max(worst, double(std::fabs(all.pixels[i] - (low.pixels[i] + high.pixels[i]))));
         highSum += high.pixels[i], allSum += all.pixels[i];
     }
-    std::printf("[ figure ] orders 6-40 carry %.1f%% of the light; |all - (low + high)| <= %.1e\n", 100 * highSum / allSum, worst);
-    EXPECT_LT(worst, 1e-5);  // float images of double sums: round-off (radiances are O(1))
+    std::printf("[ figure ] orders 6-40 carry %.1f%% of the light; |all - (low + high)| <= %.1e\n",
+                100 * highSum / allSum, worst);
+    EXPECT_LT(worst, 1e-5);             // float images of double sums: round-off (radiances are O(1))
     EXPECT_GT(highSum, 0.01 * allSum);  // the split is not trivially empty
 }
 
@@ -524,15 +532,17 @@ TEST(PathTraceTest, TheDefaultBouncesHoldTheLightOfDeepMatter) {
     const View view = makeView(scene.camera);
     auto share = [&](int first) {  // of the orders first.. (to 20000) in the image of them all
         const Image all = renderPathTraced(scene, view, {.spp = 64, .maxBounces = 20000}, nullptr);
-        const Image past = renderPathTraced(scene, view, {.spp = 64, .maxBounces = 20000, .firstBounce = first}, nullptr);
+        const Image past =
+            renderPathTraced(scene, view, {.spp = 64, .maxBounces = 20000, .firstBounce = first}, nullptr);
         double a = 0, p = 0;
         for (std::size_t i = 0; i < all.pixels.size(); ++i)
             if (i % 4 != 3) a += all.pixels[i], p += past.pixels[i];
         return p / a;
     };
     const double past32 = share(33), pastDefault = share(PathTraceSettings{}.maxBounces + 1);
-    std::printf("[ figure ] a cloud of optical depth 120: the orders past 32 carry %.2f%% of the light, past %d %.4f%%\n",
-                100 * past32, PathTraceSettings{}.maxBounces, 100 * pastDefault);
+    std::printf(
+        "[ figure ] a cloud of optical depth 120: the orders past 32 carry %.2f%% of the light, past %d %.4f%%\n",
+        100 * past32, PathTraceSettings{}.maxBounces, 100 * pastDefault);
     EXPECT_GT(past32, 0.03);       // deep enough that the old default lost light (measured 7.5%)
     EXPECT_LT(pastDefault, 1e-4);  // the default loses none that shows
 }
@@ -557,7 +567,10 @@ TEST(PathTraceTest, GradedMajorantsAreTightAndUnbiasedOnDeepChords) {
         return bound * (f(t - 1) - f(-1));
     };
     for (double bound : {2e4, 1e12}) {
-        auto sigma = [&](double t) { const double h = 1 - (t - 1) * (t - 1); return h > 0 ? bound * h * h : 0.0; };
+        auto sigma = [&](double t) {
+            const double h = 1 - (t - 1) * (t - 1);
+            return h > 0 ? bound * h * h : 0.0;
+        };
         std::vector<double> breaks;
         std::vector<MajorantPiece> pieces;
         detail::chordPieces(chord, bound, breaks, pieces);
@@ -569,7 +582,10 @@ TEST(PathTraceTest, GradedMajorantsAreTightAndUnbiasedOnDeepChords) {
         detail::buildMajorant(pieces, events, segs);
         detail::Pcg32 rng(99, 7);
         long evaluations = 0;
-        auto counted = [&](double t) { ++evaluations; return sigma(t); };
+        auto counted = [&](double t) {
+            ++evaluations;
+            return sigma(t);
+        };
         const int n = 20000;
         // At t where the exact CDF is 0.25, 0.5 and 0.75 (found by bisection on depth()).
         double at[3];
@@ -591,8 +607,8 @@ TEST(PathTraceTest, GradedMajorantsAreTightAndUnbiasedOnDeepChords) {
             EXPECT_NEAR(below[q] / double(n), 0.25 * (q + 1), 0.014) << "bound " << bound << ", quartile " << q + 1;
         }
         const double perFlight = double(evaluations) / n;
-        std::printf("[ figure ] bound %.0e: %zu pieces, %.1f tentative collisions per free flight\n", bound, pieces.size(),
-                    perFlight);
+        std::printf("[ figure ] bound %.0e: %zu pieces, %.1f tentative collisions per free flight\n", bound,
+                    pieces.size(), perFlight);
         // Uniform pieces take about 10^3 (bound 2e4) and 10^8 (bound 1e12) per flight.
         EXPECT_LT(perFlight, 20) << bound;
     }
@@ -606,7 +622,10 @@ TEST(PathTraceTest, RatioTrackingRouletteIsUnbiased) {
     const double sigma = 1, length = 26, exact = std::exp(-26.0);
     const std::vector<MajorantSegment> segs{{0, length, 10 * sigma}};
     detail::Pcg32 rng(5, 11);
-    const MeanAndError m = meanOf(200000, [&](int) { return detail::ratioTrack(segs, [&](double) { return sigma; }, rng); });
+    const MeanAndError m = meanOf(200000, [&](int) {
+        return detail::ratioTrack(
+            segs, [&](double) { return sigma; }, rng);
+    });
     std::printf("[ figure ] roulette: exact %.3e, ratio %.3e +- %.1e\n", exact, m.mean, m.error);
     EXPECT_NEAR(m.mean, exact, 4 * m.error);
     EXPECT_LT(m.error, 0.03 * exact);  // the test can see a bias of a few percent
@@ -622,8 +641,9 @@ TEST(PathTraceTest, HugeDensitiesFinishInBoundedTime) {
         const char* what;
         double extinction, density, noise;
     };
-    for (const Case& c : {Case{"density 1e12", 0.04, 1e12, 0}, Case{"extinction 1e308", 1e308, 1, 0},
-                          Case{"extinction 1e308, density 1e300", 1e308, 1e300, 0}, Case{"density 1e12, noise 1", 0.04, 1e12, 1}}) {
+    for (const Case& c :
+         {Case{"density 1e12", 0.04, 1e12, 0}, Case{"extinction 1e308", 1e308, 1, 0},
+          Case{"extinction 1e308, density 1e300", 1e308, 1e300, 0}, Case{"density 1e12, noise 1", 0.04, 1e12, 1}}) {
         Scene scene = cloudScene(16, 12);
         scene.medium.extinction = c.extinction;
         scene.medium.noise = c.noise;
@@ -633,7 +653,8 @@ TEST(PathTraceTest, HugeDensitiesFinishInBoundedTime) {
         const double took = seconds(start);
         std::printf("[ figure ] %s: %.2f s\n", c.what, took);
         EXPECT_LT(took, 60.0) << c.what;  // a bound for a loaded 2-core machine, not a performance claim
-        for (std::size_t i = 0; i < image.pixels.size(); ++i) ASSERT_TRUE(std::isfinite(image.pixels[i])) << c.what << " at " << i << ": " << image.pixels[i];
+        for (std::size_t i = 0; i < image.pixels.size(); ++i)
+            ASSERT_TRUE(std::isfinite(image.pixels[i])) << c.what << " at " << i << ": " << image.pixels[i];
         EXPECT_GT(image.at(8, 6, 3), 0.999f) << c.what;  // the cloud fills the centre: opaque
     }
     Scene scene = cloudScene(8, 6);

@@ -74,29 +74,29 @@ void placeEllipsoid(Ellipsoid& e, const View& v, Rng& rng, int mode) {
     const double rMin = std::min({e.radii.x, e.radii.y, e.radii.z});
     const double n = v.camera.nearClip;
     switch (mode) {
-    case 0: {  // in front, anywhere in (and a little beyond) the view
-        const double d = rng.uni(n + 0.2 * rMin, 6 * rMax + 2 * n);
-        e.center = v.eye + d * v.forward + rng.uni(-1.3, 1.3) * d * v.tanHalfX * v.right +
-                   rng.uni(-1.3, 1.3) * d * v.tanHalfY * v.up;
-        break;
-    }
-    case 1:  // the eye inside: eye = c + A u with |u| < 1
-        e.center = v.eye - (ellipsoidPoint(e, rng.unit() * rng.uni(0.0, 0.98)) - e.center);
-        break;
-    case 2: {  // around the near plane, the eye (usually) outside
-        const double d = rng.uni(-rMax, rMax) + n;
-        e.center = v.eye + d * v.forward + rng.uni(-1, 1) * rMax * v.right + rng.uni(-1, 1) * rMax * v.up;
-        break;
-    }
-    case 3:  // anywhere, including behind the eye and beyond the far plane
-        e.center = v.eye + rng.unit() * rng.logUni(1, 4 * v.camera.farClip + 1000);
-        break;
-    default: {  // in the view, its box ending just beyond the near plane (ill-conditioned silhouettes)
-        placeEllipsoid(e, v, rng, 0);
-        const double boxFront = projectEllipsoid(e, v).boxMax.z;  // eye-space z of the box's front face
-        e.center += (boxFront + n * (1 + rng.logUni(1e-9, 1e-2))) * v.forward;
-        break;
-    }
+        case 0: {  // in front, anywhere in (and a little beyond) the view
+            const double d = rng.uni(n + 0.2 * rMin, 6 * rMax + 2 * n);
+            e.center = v.eye + d * v.forward + rng.uni(-1.3, 1.3) * d * v.tanHalfX * v.right +
+                       rng.uni(-1.3, 1.3) * d * v.tanHalfY * v.up;
+            break;
+        }
+        case 1:  // the eye inside: eye = c + A u with |u| < 1
+            e.center = v.eye - (ellipsoidPoint(e, rng.unit() * rng.uni(0.0, 0.98)) - e.center);
+            break;
+        case 2: {  // around the near plane, the eye (usually) outside
+            const double d = rng.uni(-rMax, rMax) + n;
+            e.center = v.eye + d * v.forward + rng.uni(-1, 1) * rMax * v.right + rng.uni(-1, 1) * rMax * v.up;
+            break;
+        }
+        case 3:  // anywhere, including behind the eye and beyond the far plane
+            e.center = v.eye + rng.unit() * rng.logUni(1, 4 * v.camera.farClip + 1000);
+            break;
+        default: {  // in the view, its box ending just beyond the near plane (ill-conditioned silhouettes)
+            placeEllipsoid(e, v, rng, 0);
+            const double boxFront = projectEllipsoid(e, v).boxMax.z;  // eye-space z of the box's front face
+            e.center += (boxFront + n * (1 + rng.logUni(1e-9, 1e-2))) * v.forward;
+            break;
+        }
     }
 }
 
@@ -251,7 +251,7 @@ TEST(ProjectionTest, RectContainsSilhouetteOfRandomEllipsoids) {
 TEST(ProjectionTest, RectContainsExactSilhouetteAndBoxIsTightAabb) {
     Rng rng(3);
     int checked = 0;
-    double worstMiss = 0, worstExcess = 0;  // NDC: silhouette outside rect / rect beyond the silhouette
+    double worstMiss = 0, worstExcess = 0;                  // NDC: silhouette outside rect / rect beyond the silhouette
     constexpr int kCases = test::kSanitized ? 1000 : 4000;  // the sanitizers check the same code on fewer
     for (int k = 0; k < kCases; ++k) {
         const View v = randomView(rng);
@@ -281,10 +281,12 @@ TEST(ProjectionTest, RectContainsExactSilhouetteAndBoxIsTightAabb) {
         EXPECT_TRUE(rectContains(p.rect, sc.x0, sc.y0) && rectContains(p.rect, sc.x1, sc.y1))
             << describe(k, e, v, p) << " silhouette [" << s.x0 << "," << s.x1 << "]x[" << s.y0 << "," << s.y1 << "]";
         worstMiss = std::max({worstMiss, p.rect.x0 - sc.x0, p.rect.y0 - sc.y0, sc.x1 - p.rect.x1, sc.y1 - p.rect.y1});
-        worstExcess = std::max({worstExcess, sc.x0 - p.rect.x0, sc.y0 - p.rect.y0, p.rect.x1 - sc.x1, p.rect.y1 - sc.y1});
+        worstExcess =
+            std::max({worstExcess, sc.x0 - p.rect.x0, sc.y0 - p.rect.y0, p.rect.x1 - sc.x1, p.rect.y1 - sc.y1});
     }
     EXPECT_GT(checked, kCases / 4);
-    std::printf("exact silhouette vs rect (%d cases), NDC: worst miss %.3g, worst excess %.3g\n", checked, worstMiss, worstExcess);
+    std::printf("exact silhouette vs rect (%d cases), NDC: worst miss %.3g, worst excess %.3g\n", checked, worstMiss,
+                worstExcess);
     // Measured 5.3e-6 NDC of excess (near-plane cases, whose rect is conservative); the
     // widened rect (tests/sabotage/11-rect-wider.sabotage) 0.04. 2e-5 is 4x the
     // measured, still a hundredth of a pixel at 1000 px.
@@ -333,8 +335,10 @@ TEST(ProjectionTest, RectIsTightForEllipsoidsWellInFront) {
     }
     EXPECT_GT(checked, 500);
     RecordProperty("worst_area_ratio", std::to_string(worst));
-    std::printf("worst rect / sampled silhouette-bounds area ratio: %.4f, worst rect beyond the exact silhouette %.3g NDC (%d cases)\n",
-                worst, worstExcess, checked);
+    std::printf(
+        "worst rect / sampled silhouette-bounds area ratio: %.4f, worst rect beyond the exact silhouette %.3g NDC (%d "
+        "cases)\n",
+        worst, worstExcess, checked);
 }
 
 TEST(ProjectionTest, TileProjectionMapsRectToUnitSquare) {
@@ -389,12 +393,12 @@ TEST(ProjectionTest, CullsWhatCannotBeSeen) {
         e.center = v.eye + fwd * v.forward + rightOff * v.right + upOff * v.up;
         return projectEllipsoid(e, v);
     };
-    EXPECT_FALSE(at(-500, 0, 0).visible);         // behind the eye
+    EXPECT_FALSE(at(-500, 0, 0).visible);  // behind the eye
     EXPECT_FALSE(at(-500, 0, 0).crossesNear);
-    EXPECT_FALSE(at(1000, 5000, 0).visible);      // far right of the view
-    EXPECT_FALSE(at(1000, 0, -4000).visible);     // far below the view
-    EXPECT_FALSE(at(3500, 0, 0).visible);         // beyond the far plane
-    EXPECT_TRUE(at(2950, 0, 0).visible);          // straddles the far plane
+    EXPECT_FALSE(at(1000, 5000, 0).visible);   // far right of the view
+    EXPECT_FALSE(at(1000, 0, -4000).visible);  // far below the view
+    EXPECT_FALSE(at(3500, 0, 0).visible);      // beyond the far plane
+    EXPECT_TRUE(at(2950, 0, 0).visible);       // straddles the far plane
     EXPECT_TRUE(at(1000, 0, 0).visible);
     EXPECT_FALSE(at(1000, 0, 0).crossesNear);
     // Between the eye and the near plane, eye outside: nothing reaches the frustum.
@@ -418,7 +422,8 @@ TEST(ProjectionTest, CloudsCulledWholeKeepWhatEllipsoidsKeep) {
         View v = randomView(rng);
         if (trial % 3 == 0) {
             const double l = rng.uni(-1.5, 0.5), b = rng.uni(-1.2, 0.4);
-            v = makeView(v.camera, Frustum{l, l + rng.uni(0.2, 1.5), b, b + rng.uni(0.2, 1.2)}, rng.uni(-60, 60), rng.uni(-20, 20));
+            v = makeView(v.camera, Frustum{l, l + rng.uni(0.2, 1.5), b, b + rng.uni(0.2, 1.2)}, rng.uni(-60, 60),
+                         rng.uni(-20, 20));
         }
         Scene scene;
         scene.medium.extinction = 0.05;
@@ -482,7 +487,8 @@ TEST(ProjectionTest, EyeInsideGivesFullView) {
         // The full-view tile projection is the camera's.
         for (int i = 0; i < 4; ++i)
             for (int j = 0; j < 4; ++j)
-                EXPECT_NEAR(p.projection[i][j], v.projectionMatrix[i][j], 1e-12 * (1 + std::abs(v.projectionMatrix[i][j])));
+                EXPECT_NEAR(p.projection[i][j], v.projectionMatrix[i][j],
+                            1e-12 * (1 + std::abs(v.projectionMatrix[i][j])));
     }
     // Just inside vs just outside the surface.
     const View v = simpleView();

@@ -126,9 +126,10 @@ TEST_F(RaymarchGLTest, OpacityFollowsTheDensityFieldAndConvergesWithTheStep) {
                 save(std::string("raymarch_exact_alpha_") + name, exact);
             }
         }
-        std::printf("[ figure ] %-14s raymarch alpha vs density field: MAE %.2e / max %.2e (step 50), %.2e / %.2e (25), "
-                    "%.2e / %.2e (10)\n",
-                    name, mae[0], worst[0], mae[1], worst[1], mae[2], worst[2]);
+        std::printf(
+            "[ figure ] %-14s raymarch alpha vs density field: MAE %.2e / max %.2e (step 50), %.2e / %.2e (25), "
+            "%.2e / %.2e (10)\n",
+            name, mae[0], worst[0], mae[1], worst[1], mae[2], worst[2]);
         // The default step (25 m, growing to ~37 m at these 2 km by the LOD) against chords of
         // 200-600 m: the midpoint rule on the smooth (1 - q)^2 profile, float rounding and the
         // 1e-4 transmittance cut. Measured on llvmpipe: MAE 1.5e-5 (single) and 6.9e-5
@@ -158,9 +159,10 @@ TEST_F(RaymarchGLTest, ObjectInsideACloudIsHiddenOnlyByTheMatterInFront) {
     const double errObject = box.errObject, errWhole = box.errWhole;
     const int n = box.n;
     const double mae = meanAbs(alpha, exact);
-    std::printf("[ figure ] box in thin cloud: alpha MAE %.5f over the image; on the %d box pixels inside the cloud "
-                "%.5f against the matter in front, %.5f against the whole chord\n",
-                mae, n, errObject, errWhole);
+    std::printf(
+        "[ figure ] box in thin cloud: alpha MAE %.5f over the image; on the %d box pixels inside the cloud "
+        "%.5f against the matter in front, %.5f against the whole chord\n",
+        mae, n, errObject, errWhole);
     // The 24-bit depth (the object's distance to ~1 mm here) and the quadrature as above:
     // measured MAE 8e-5 over the image and 4.3e-4 on the box pixels. Covering the box with the
     // whole chord costs 0.038 there; 0.005 sits between with room on both sides.
@@ -195,7 +197,8 @@ TEST_F(RaymarchGLTest, ARayPerBlockKeepsTheImageOfARayPerPixel) {
                 double ma[4] = {0, 0, 0, 0}, mb[4] = {0, 0, 0, 0};
                 for (int j = 0; j < 4; ++j)
                     for (int i = 0; i < 4; ++i)
-                        for (int c = 0; c < 4; ++c) ma[c] += a.at(x + i, y + j, c) / 16.0, mb[c] += b.at(x + i, y + j, c) / 16.0;
+                        for (int c = 0; c < 4; ++c)
+                            ma[c] += a.at(x + i, y + j, c) / 16.0, mb[c] += b.at(x + i, y + j, c) / 16.0;
                 if (std::max(ma[3], mb[3]) < 0.02) continue;
                 for (int c = 0; c < 3; ++c) se += (ma[c] - mb[c]) * (ma[c] - mb[c]), sum += mb[c];
                 n += 3;
@@ -214,9 +217,10 @@ TEST_F(RaymarchGLTest, ARayPerBlockKeepsTheImageOfARayPerPixel) {
             const Image full = render(scene).rgba, &half = halfFrame.rgba;
             const double blocks = blockError(half, full);
             const double alphaMae = meanAbs(alphaOf(half), alphaOf(full));
-            std::printf("[ figure ] %-14s noise %.1f: a ray per 2x2 pixels against a ray per pixel: 4x4 blocks %.2f%% "
-                        "(relative RMS), alpha MAE %.5f\n",
-                        name, scene.medium.noise, 100 * blocks, alphaMae);
+            std::printf(
+                "[ figure ] %-14s noise %.1f: a ray per 2x2 pixels against a ray per pixel: 4x4 blocks %.2f%% "
+                "(relative RMS), alpha MAE %.5f\n",
+                name, scene.medium.noise, 100 * blocks, alphaMae);
             // Measured on llvmpipe: blocks 0.37% (single) and 0.47% (cumulus27), alpha MAE 0.0010
             // and 0.0044 (the clouds' edges: a pixel's blur), with and without noise. The
             // accuracy bench's errors against the path tracer are 3-17%. A ray per 4x4 pixels
@@ -244,9 +248,10 @@ TEST_F(RaymarchGLTest, ARayPerBlockKeepsToTheFramesDepth) {
     const double errObject = box.errObject, errWhole = box.errWhole;
     const int n = box.n;
     const ImageDifference d = compareImages(alpha, exact, 0.05);
-    std::printf("[ figure ] box in thin cloud, a ray per 2x2 pixels: alpha MAE %.5f, max %.4f, pixels off by > 0.05: "
-                "%.4f; on the %d box pixels inside the cloud %.5f against the matter in front, %.5f against the whole chord\n",
-                d.meanAbs, d.maxAbs, d.fractionOver, n, errObject, errWhole);
+    std::printf(
+        "[ figure ] box in thin cloud, a ray per 2x2 pixels: alpha MAE %.5f, max %.4f, pixels off by > 0.05: "
+        "%.4f; on the %d box pixels inside the cloud %.5f against the matter in front, %.5f against the whole chord\n",
+        d.meanAbs, d.maxAbs, d.fractionOver, n, errObject, errWhole);
     // Measured on llvmpipe: MAE 1.2e-4, max 0.0033, 5.6e-4 on the box pixels (a ray per pixel:
     // 8e-5, 4.4e-4 and 4.3e-4, ObjectInsideACloudIsHiddenOnlyByTheMatterInFront); covering the
     // box with the whole chord costs 0.038 there. Upsampled bilinearly, without the depth: max
@@ -266,18 +271,20 @@ TEST_F(RaymarchGLTest, ARayPerPixelWithinTheSunsPhasePeak) {
     const View view = makeView(scene.camera);
     const double halfX = std::atan(view.tanHalfX);
     const Vec3 f = view.forward, r = view.right;
-    auto toward = [&](double yaw) { return glm::normalize(std::cos(yaw) * f + std::sin(yaw) * r); };  // yaw right of the axis
+    auto toward = [&](double yaw) {
+        return glm::normalize(std::cos(yaw) * f + std::sin(yaw) * r);
+    };  // yaw right of the axis
     struct Case {
         const char* what;
         Vec3 sun;
         int downsample;
     };
     const double deg = std::numbers::pi / 180;
-    for (const Case& c : {Case{"the sun ahead", f, 1}, Case{"the sun behind", -f, 2},
-                          Case{"10 degrees beyond the right edge", toward(halfX + 10 * deg), 1},
-                          Case{"10 degrees beyond the left edge", toward(-halfX - 10 * deg), 1},
-                          Case{"40 degrees beyond the right edge", toward(halfX + 40 * deg), 2},
-                          Case{"straight up", view.up, 2}}) {
+    for (const Case& c :
+         {Case{"the sun ahead", f, 1}, Case{"the sun behind", -f, 2},
+          Case{"10 degrees beyond the right edge", toward(halfX + 10 * deg), 1},
+          Case{"10 degrees beyond the left edge", toward(-halfX - 10 * deg), 1},
+          Case{"40 degrees beyond the right edge", toward(halfX + 40 * deg), 2}, Case{"straight up", view.up, 2}}) {
         scene.sun.direction = c.sun;
         RaymarchRenderer clouds;  // the default: a ray per 2x2 pixels
         EXPECT_EQ(render(clouds, scene).stats.downsample, c.downsample) << c.what;
@@ -308,8 +315,7 @@ TEST_F(RaymarchGLTest, ARayPerBlockDrawsIntoAChannelsViewport) {
             for (int k = 0; k < 4; ++k) {
                 if (x >= 40 && x < 136 && y >= 18 && y < 82)
                     worst = std::max(worst, double(std::fabs(image.at(x, y, k) - alone.rgba.at(x - 40, y - 18, k))));
-                else
-                    outside += image.at(x, y, k) != marker[k];
+                else outside += image.at(x, y, k) != marker[k];
             }
     // Rasterised at other window positions, interpolants round in the last bits of a float; a
     // depth or ray read at the wrong place moves the box's silhouette by pixels (differences of
@@ -380,10 +386,11 @@ TEST_F(RaymarchGLTest, RadianceMatchesTheLightModelIntegratedOnTheCpu) {
                 const double dT = std::exp(-sigma * dl);
                 // The shared light model with the grid read on the CPU.
                 const RadianceSample r = sampleRadiance(grid, p);
-                const glm::vec3 scalars =
-                    model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d), glm::vec3(scene.sun.direction), float(m.hgG));
+                const glm::vec3 scalars = model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
+                                                              glm::vec3(scene.sun.direction), float(m.hgG));
                 radiance += T * (1 - dT) *
-                            Vec3(model::sourceFromScalars(scalars, sun, model::skyChroma(glm::vec3(r.skyTau)), float(m.albedo)));
+                            Vec3(model::sourceFromScalars(scalars, sun, model::skyChroma(glm::vec3(r.skyTau)),
+                                                          float(m.albedo)));
                 T *= dT;
             }
             const Vec3 bg(background.at(x, y, 0), background.at(x, y, 1), background.at(x, y, 2));
@@ -428,8 +435,9 @@ TEST_F(RaymarchGLTest, NoisyFieldMatchesItsCpuTwin) {
             cpu.at(x, y, 0) = float(1 - std::exp(-scene.medium.extinction * depth));
         }
     const double mae = meanAbs(alpha, cpu), changed = meanAbs(smoothAlpha, cpu);
-    std::printf("[ figure ] cumulus27 noise 0.3: GPU vs CPU twin alpha MAE %.5f (the noise itself changes alpha by %.4f)\n",
-                mae, changed);
+    std::printf(
+        "[ figure ] cumulus27 noise 0.3: GPU vs CPU twin alpha MAE %.5f (the noise itself changes alpha by %.4f)\n",
+        mae, changed);
     // A step of 10 m against the CPU's 2 m across fBm detail down to 60 m / 2^4, and the
     // texture's float filtering against NoiseVolume::sample's: measured 9e-5. The noise must
     // matter (changed >> mae), or this test proves nothing: without noise on the GPU, with the
@@ -474,8 +482,8 @@ TEST_F(RaymarchGLTest, ManyCandidatesAndCloudsPerRayStayExact) {
     fine.lodDistance = 0;
     const Image alpha = alphaOf(render(s, fine).rgba);
     const double mae = meanAbs(alpha, exact), worst = maxAbs(alpha, exact);
-    std::printf("[ figure ] 80 ellipsoids and 12 clouds on a ray: alpha MAE %.6f, max %.5f (exact centre alpha %.3f)\n", mae,
-                worst, exact.at(80, 60, 0));
+    std::printf("[ figure ] 80 ellipsoids and 12 clouds on a ray: alpha MAE %.6f, max %.5f (exact centre alpha %.3f)\n",
+                mae, worst, exact.at(80, 60, 0));
     ASSERT_GT(exact.at(80, 60, 0), 0.5);  // the probe must have matter to measure
     ASSERT_LT(exact.at(80, 60, 0), 0.99);
     // Measured MAE 3e-6, max 3e-5 (float rounding). Marching only the first gather of
@@ -566,11 +574,12 @@ TEST_F(RaymarchGLTest, CloudsBehindTheEyeLeaveTheFrameUntouched) {
 }
 
 TEST_F(RaymarchGLTest, RejectsBadSettings) {
-    for (auto change : {+[](RaymarchSettings& s) { s.step = 0; }, +[](RaymarchSettings& s) { s.lodDistance = -1; },
-                        +[](RaymarchSettings& s) { s.light.size = 1; }, +[](RaymarchSettings& s) { s.octaves = 0; },
-                        +[](RaymarchSettings& s) { s.maxSteps = 0; }, +[](RaymarchSettings& s) { s.maxSteps = 1 << 20; },
-                        +[](RaymarchSettings& s) { s.step = NAN; }, +[](RaymarchSettings& s) { s.downsample = 0; },
-                        +[](RaymarchSettings& s) { s.downsample = 5; }}) {
+    for (auto change :
+         {+[](RaymarchSettings& s) { s.step = 0; }, +[](RaymarchSettings& s) { s.lodDistance = -1; },
+          +[](RaymarchSettings& s) { s.light.size = 1; }, +[](RaymarchSettings& s) { s.octaves = 0; },
+          +[](RaymarchSettings& s) { s.maxSteps = 0; }, +[](RaymarchSettings& s) { s.maxSteps = 1 << 20; },
+          +[](RaymarchSettings& s) { s.step = NAN; }, +[](RaymarchSettings& s) { s.downsample = 0; },
+          +[](RaymarchSettings& s) { s.downsample = 5; }}) {
         RaymarchSettings s;
         change(s);
         EXPECT_THROW(RaymarchRenderer{s}, std::invalid_argument);
@@ -605,7 +614,7 @@ TEST_F(RaymarchGLTest, HugeCloudsAndTinyStepsEndInBoundedTime) {
         const Image alpha = alphaOf(render(c.scene, s).rgba);
         const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("[ figure ] %s: %.2f s\n", c.what, took);
-        EXPECT_LT(took, 60.0) << c.what;  // a bound on a loaded 2-core machine, not a speed claim
+        EXPECT_LT(took, 60.0) << c.what;                  // a bound on a loaded 2-core machine, not a speed claim
         EXPECT_GT(alpha.at(16, 12, 0), 0.99f) << c.what;  // the centre of the frame is cloud
     }
     // The CPU march along a radius of the 1e9 m sphere (noise 0: the closed form is r 8/15)
@@ -627,9 +636,8 @@ TEST(RaymarchWindowGLTest, DrawsIntoAWindowsDefaultFramebuffer) {
         auto egl = test::makeContext(GlBackend::Egl);
         offscreen = render(scene).rgba;
     }
-    const Image window = test::renderInWindow(scene, [&](const View& view, GLuint fb) {
-        RaymarchRenderer().render(scene, view, fb, true);
-    });
+    const Image window = test::renderInWindow(
+        scene, [&](const View& view, GLuint fb) { RaymarchRenderer().render(scene, view, fb, true); });
     // The window's buffer is 8-bit: the sky and the clouds over it each round to 1/255
     // (measured 1.6/255 at most). Without the depth (the box covered by the whole chord) the
     // box's pixels change by up to 6.5/255.

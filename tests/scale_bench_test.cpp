@@ -27,10 +27,14 @@ TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
     // Under the sanitizers 16 and 48 ellipsoids (160's radiance grids and CPU reference are
     // most of the time; the code checked is the same).
     const std::string counts[2] = {"16", nephele::test::kSanitized ? "48" : "160"};
-    const auto r = nephele::test::runBounded("bench --scale --quick --scale-counts " + counts[0] + " " + counts[1] + " --out-dir " + dir.string(), 4096, 300);
+    const auto r = nephele::test::runBounded(
+        "bench --scale --quick --scale-counts " + counts[0] + " " + counts[1] + " --out-dir " + dir.string(), 4096,
+        300);
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string csv = slurp(dir / "scale_bench.csv");
-    EXPECT_EQ(csv.rfind("ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n", 0), 0u);
+    EXPECT_EQ(
+        csv.rfind("ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n", 0),
+        0u);
     int rows = 0;
     for (const char* method : {"ellipsoid", "auto", "raymarch", "gardner-exact"})
         for (const std::string& count : counts) {
@@ -44,14 +48,17 @@ TEST(ScaleBenchTest, QuickRunWritesPhasesAndExponents) {
         }
     EXPECT_EQ(rows, 8);
     const std::string section = slurp(dir / "scale_bench.md");
-    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: scale bench -->\nMeasured by `nephele bench --scale` on ", 0), 0u) << section;
+    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: scale bench -->\nMeasured by `nephele bench --scale` on ", 0), 0u)
+        << section;
     EXPECT_NE(section.find("| ellipsoid | "), std::string::npos);
     EXPECT_NE(section.find("Growth exponent"), std::string::npos);
     EXPECT_NE(section.find("<!-- END GENERATED: scale bench -->\n"), std::string::npos);
     // The docs/ regeneration step puts it into benchmarks.md and copies its CSV beside it.
     fs::create_directories(dir / "docs");
-    std::ofstream(dir / "docs" / "benchmarks.md") << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
-    const auto p = nephele::test::runBounded("bench --publish " + (dir / "docs").string() + " --out-dir " + dir.string(), 1024, 30);
+    std::ofstream(dir / "docs" / "benchmarks.md")
+        << "# x\n<!-- BEGIN GENERATED: scale bench -->\nold\n<!-- END GENERATED: scale bench -->\n";
+    const auto p = nephele::test::runBounded(
+        "bench --publish " + (dir / "docs").string() + " --out-dir " + dir.string(), 1024, 30);
     ASSERT_EQ(p.code, 0) << p.output;
     const std::string page = slurp(dir / "docs" / "benchmarks.md");
     EXPECT_EQ(page.find("old\n"), std::string::npos);
@@ -76,9 +83,8 @@ namespace {
 // and the generated section it writes for docs/benchmarks.md.
 TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
     const fs::path dir = nephele::test::freshProcessDir("nephele_grid_bench_test_");
-    const auto r = nephele::test::runBounded("bench --grids --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " +
-                                                 dir.string(),
-                                             4096, 120);
+    const auto r = nephele::test::runBounded(
+        "bench --grids --quick --scenes " + std::string(NEPHELE_SCENES) + " --out-dir " + dir.string(), 4096, 120);
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string csv = slurp(dir / "grid_bench.csv");
     ASSERT_EQ(csv.rfind("scene,cloud,ellipsoids,optical_radius,size,ms,mb\n", 0), 0u) << csv;
@@ -91,7 +97,8 @@ TEST(GridBenchTest, QuickRunWritesEachCloudsTimeAndMemory) {
     const double ms = std::stod(row.substr(row.find(",16,") + 4));
     EXPECT_GT(ms, 0.0);
     const std::string section = slurp(dir / "grid_bench.md");
-    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: grid bench -->\nMeasured by `nephele bench --grids` on ", 0), 0u) << section;
+    EXPECT_EQ(section.rfind("<!-- BEGIN GENERATED: grid bench -->\nMeasured by `nephele bench --grids` on ", 0), 0u)
+        << section;
     EXPECT_NE(section.find("| `single.json` | 1 | 1 × 16³ |"), std::string::npos) << section;
     EXPECT_NE(section.find("<!-- END GENERATED: grid bench -->\n"), std::string::npos);
     fs::remove_all(dir);

@@ -52,8 +52,8 @@ void expectNear(const Vec3& got, const Vec3& want, double tol = 1e-12) {
 
 TEST(SceneLoaderTest, LoadsEverySharedScene) {
     const std::map<std::string, size_t> ellipsoids{
-        {"cumulus27.json", 27},    {"dense_cumulus.json", 27}, {"example.json", 3}, {"field1000.json", 1000}, {"flythrough.json", 30},
-        {"near_and_far.json", 70}, {"single.json", 1},  {"two_clouds.json", 6}};
+        {"cumulus27.json", 27},  {"dense_cumulus.json", 27}, {"example.json", 3}, {"field1000.json", 1000},
+        {"flythrough.json", 30}, {"near_and_far.json", 70},  {"single.json", 1},  {"two_clouds.json", 6}};
     size_t loaded = 0;
     for (const auto& entry : std::filesystem::directory_iterator(NEPHELE_SCENES)) {
         if (entry.path().extension() != ".json") continue;
@@ -165,7 +165,8 @@ TEST(SceneLoaderTest, MinimalSceneGetsEveryDefault) {
 TEST(SceneLoaderTest, ObjectLightIsSunOrAll) {
     EXPECT_EQ(parseScene(scene(R"("object_light": "sun")"), "t.json").objectLight, ObjectLight::Sun);
     EXPECT_EQ(parseScene(scene(R"("object_light": "all")"), "t.json").objectLight, ObjectLight::All);
-    EXPECT_TRUE(failsAt(scene(R"("object_light": "ambient")"), "object_light", "must be one of 'sun', 'all', got 'ambient'"));
+    EXPECT_TRUE(
+        failsAt(scene(R"("object_light": "ambient")"), "object_light", "must be one of 'sun', 'all', got 'ambient'"));
     EXPECT_TRUE(failsAt(scene(R"("object_light": true)"), "object_light"));
 }
 
@@ -427,8 +428,8 @@ TEST(SceneLoaderTest, PhysicalMediumConvertsToExtinction) {
         double lwc, reff, mean;  // g/m^3, um, 1/m (the expected mean, worked by hand)
     };
     // 0.5 g/m^3 and 10 um: the issue's cumulus, 1.5 / (2e6 * 1e-5) = 0.075 /m; the ends of the ranges.
-    for (const Case c : {Case{0.5, 10, 0.075}, Case{1, 1, 1.5}, Case{5, 100, 0.075}, Case{0.01, 100, 0.00015},
-                         Case{1.5, 3, 0.75}}) {
+    for (const Case c :
+         {Case{0.5, 10, 0.075}, Case{1, 1, 1.5}, Case{5, 100, 0.075}, Case{0.01, 100, 0.00015}, Case{1.5, 3, 0.75}}) {
         const Scene s = parseScene(scene(R"("medium": {"liquid_water_content": )" + std::to_string(c.lwc) +
                                          R"(, "droplet_effective_radius": )" + std::to_string(c.reff) + "}"),
                                    "test.json");
@@ -449,8 +450,9 @@ TEST(SceneLoaderTest, PhysicalMediumConvertsToExtinction) {
 
 TEST(SceneLoaderTest, PhysicalMediumRules) {
     const std::string pair = R"("liquid_water_content": 0.5, "droplet_effective_radius": 10)";
-    EXPECT_TRUE(failsAt(scene(R"("medium": {"extinction": 0.04, )" + pair + "}"), "medium.liquid_water_content",
-                        "give either 'extinction' or the pair 'liquid_water_content' and 'droplet_effective_radius', not both"));
+    EXPECT_TRUE(failsAt(
+        scene(R"("medium": {"extinction": 0.04, )" + pair + "}"), "medium.liquid_water_content",
+        "give either 'extinction' or the pair 'liquid_water_content' and 'droplet_effective_radius', not both"));
     EXPECT_TRUE(failsAt(scene(R"("medium": {"extinction": 0.04, "droplet_effective_radius": 10})"),
                         "medium.droplet_effective_radius", "give either 'extinction' or the pair"));
     EXPECT_TRUE(failsAt(scene(R"("medium": {"liquid_water_content": 0.5})"), "medium.droplet_effective_radius",
@@ -460,11 +462,14 @@ TEST(SceneLoaderTest, PhysicalMediumRules) {
     auto with = [](const std::string& lwc, const std::string& reff) {
         return scene(R"("medium": {"liquid_water_content": )" + lwc + R"(, "droplet_effective_radius": )" + reff + "}");
     };
-    EXPECT_TRUE(failsAt(with("0", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3 (cloud liquid water content), got 0"));
+    EXPECT_TRUE(failsAt(with("0", "10"), "medium.liquid_water_content",
+                        "must be in (0, 5] g/m^3 (cloud liquid water content), got 0"));
     EXPECT_TRUE(failsAt(with("-0.5", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3"));
-    EXPECT_TRUE(failsAt(with("5.01", "10"), "medium.liquid_water_content", "must be in (0, 5] g/m^3 (cloud liquid water content), got 5.01"));
+    EXPECT_TRUE(failsAt(with("5.01", "10"), "medium.liquid_water_content",
+                        "must be in (0, 5] g/m^3 (cloud liquid water content), got 5.01"));
     EXPECT_TRUE(failsAt(with("\"a\"", "10"), "medium.liquid_water_content", "expected a number, got a string"));
-    EXPECT_TRUE(failsAt(with("0.5", "0.99"), "medium.droplet_effective_radius", "must be in [1, 100] micrometres (cloud droplets), got 0.99"));
+    EXPECT_TRUE(failsAt(with("0.5", "0.99"), "medium.droplet_effective_radius",
+                        "must be in [1, 100] micrometres (cloud droplets), got 0.99"));
     EXPECT_TRUE(failsAt(with("0.5", "101"), "medium.droplet_effective_radius", "must be in [1, 100] micrometres"));
     EXPECT_TRUE(failsAt(with("0.5", "null"), "medium.droplet_effective_radius", "expected a number, got null"));
     // 5 g/m^3 of 1 um droplets: 7.5 /m on average, 32.8 /m at density 1, over the extinction limit.
@@ -472,7 +477,8 @@ TEST(SceneLoaderTest, PhysicalMediumRules) {
                         "5 g/m^3 with droplet_effective_radius 1 um gives an extinction of 32.8125 1/m at density 1, "
                         "over the limit 'extinction' (10 1/m)"));
     // The per-ellipsoid optical depth limit sees the converted extinction: 0.328125 * 16/15 * 30000 m = 10500.
-    EXPECT_TRUE(failsAt(scene(R"("medium": {)" + pair + R"(}, "clouds": [{"ellipsoids": [{"center": [0, 0, 0], "radii": [30000, 1, 1]}]}])"),
+    EXPECT_TRUE(failsAt(scene(R"("medium": {)" + pair +
+                              R"(}, "clouds": [{"ellipsoids": [{"center": [0, 0, 0], "radii": [30000, 1, 1]}]}])"),
                         "clouds[0].ellipsoids[0].density", "(medium.extinction 0.328125 x density 1"));
 }
 
@@ -818,11 +824,12 @@ TEST(CameraAtTest, NoPathGivesTheSceneCamera) {
 
 TEST(CameraAtTest, InterpolatesLinearlyAndClamps) {
     // up [1, 1, 0]: keyframe 1 looks straight up, which the default up would not allow.
-    const Scene s = parseScene(R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [1, 1, 0]},
+    const Scene s =
+        parseScene(R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [1, 1, 0]},
         "path": [{"t": 0, "position": [0, 0, 0], "look_at": [0, 10, 0]},
                  {"t": 10, "position": [100, 0, 0], "look_at": [100, 0, 10]},
                  {"t": 20, "position": [100, 0, 100], "look_at": [110, 0, 100]}]})",
-                               "test.json");
+                   "test.json");
     const Camera mid = cameraAt(s, 5);
     expectNear(mid.position, {50, 0, 0});
     expectNear(mid.direction, glm::normalize(Vec3(0, 5, 5)));  // look_at (50, 5, 5)

@@ -19,8 +19,9 @@ inline std::filesystem::path processPath(const std::string& prefix,
 }
 
 // The same folder, emptied: what was left there by an earlier run is gone; made when `make`.
-inline std::filesystem::path freshProcessDir(const std::string& prefix, bool make = true,
-                                             const std::filesystem::path& parent = std::filesystem::temp_directory_path()) {
+inline std::filesystem::path freshProcessDir(
+    const std::string& prefix, bool make = true,
+    const std::filesystem::path& parent = std::filesystem::temp_directory_path()) {
     const std::filesystem::path dir = processPath(prefix, parent);
     std::filesystem::remove_all(dir);
     if (make) std::filesystem::create_directories(dir);
@@ -30,8 +31,10 @@ inline std::filesystem::path freshProcessDir(const std::string& prefix, bool mak
 // A fresh folder for one test, `<parent>/<prefix><pid>_<test name>`, removed at its end.
 class TempDir {
 public:
-    explicit TempDir(const std::string& prefix, const std::filesystem::path& parent = std::filesystem::temp_directory_path())
-        : dir_(processPath(prefix, parent).string() + "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name()) {
+    explicit TempDir(const std::string& prefix,
+                     const std::filesystem::path& parent = std::filesystem::temp_directory_path())
+        : dir_(processPath(prefix, parent).string() + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name()) {
         std::filesystem::remove_all(dir_);
         std::filesystem::create_directories(dir_);
     }

@@ -8,10 +8,10 @@
 #include <functional>
 
 using namespace nephele;
-using nephele::test::sharedScene;
-using nephele::test::Flight;
 using nephele::test::db;
+using nephele::test::Flight;
 using nephele::test::save;
+using nephele::test::sharedScene;
 
 namespace {
 
@@ -26,7 +26,8 @@ EllipsoidSettings reuseOn(CompositeOrder order = CompositeOrder::PerEllipsoid) {
 Scene nearCumulus() {
     Scene scene = sharedScene("cumulus27.json", 320);
     Vec3 centre(0.0);
-    for (const Ellipsoid& e : scene.clouds[0].ellipsoids) centre += e.center / double(scene.clouds[0].ellipsoids.size());
+    for (const Ellipsoid& e : scene.clouds[0].ellipsoids)
+        centre += e.center / double(scene.clouds[0].ellipsoids.size());
     scene.camera.position = centre - scene.camera.direction * 900.0;
     return scene;
 }
@@ -91,14 +92,16 @@ TEST_F(TileReuseGLTest, ACameraCirclingTheCloudStaysCloseToFreshTiles) {
     for (Ellipsoid& e : scene.clouds[0].ellipsoids) e.radii = Vec3((e.radii.x + e.radii.y + e.radii.z) / 3);
     Flight on(reuseOn(), scene), off(EllipsoidSettings{}, scene);
     Vec3 centre(0.0);
-    for (const Ellipsoid& e : scene.clouds[0].ellipsoids) centre += e.center / double(scene.clouds[0].ellipsoids.size());
+    for (const Ellipsoid& e : scene.clouds[0].ellipsoids)
+        centre += e.center / double(scene.clouds[0].ellipsoids.size());
     const Vec3 arm = scene.camera.position - centre;
     int rendered = 0, visible = 0;
     double worst = 1e9, sum = 0;
     for (int k = 0; k < 16; ++k) {
         const double a = glm::radians(1.5 * k);
         Camera c = scene.camera;
-        c.position = centre + Vec3(arm.x * std::cos(a) - arm.y * std::sin(a), arm.x * std::sin(a) + arm.y * std::cos(a), arm.z);
+        c.position =
+            centre + Vec3(arm.x * std::cos(a) - arm.y * std::sin(a), arm.x * std::sin(a) + arm.y * std::cos(a), arm.z);
         c.direction = glm::normalize(centre - c.position);
         const Image reused = on.frame(scene, c), fresh = off.frame(scene, c);
         if (k == 0) continue;  // (the first frame renders every tile: the same image)
@@ -107,8 +110,8 @@ TEST_F(TileReuseGLTest, ACameraCirclingTheCloudStaysCloseToFreshTiles) {
         worst = std::min(worst, d), sum += d;
         rendered += on.last.tilesRendered, visible += on.last.visible;
     }
-    std::printf("circling: worst frame %.1f dB against fresh tiles, mean %.1f dB; %d of %d tiles rendered\n", worst, sum / 15,
-                rendered, visible);
+    std::printf("circling: worst frame %.1f dB against fresh tiles, mean %.1f dB; %d of %d tiles rendered\n", worst,
+                sum / 15, rendered, visible);
     // Measured: worst 47.4 dB, mean 54.2 dB, 147 of 385 tiles rendered. Without the turn in
     // the parallax (tests/sabotage/33-reuse-parallax-drops-the-turn.sabotage): 42.2 and 48.5 dB,
     // 106 rendered.
@@ -218,12 +221,13 @@ TEST_F(TileReuseGLTest, AReshapedOrFadingCloudIsRenderedAgainWithinTheBudget) {
                     on.last.visible, must);
         return must;
     };
-    EXPECT_EQ(fly(16, [&](int k) {
-                  for (std::size_t i = 0; i < start.size(); ++i) {
-                      scene.clouds[0].ellipsoids[i].radii = start[i].radii * (1 + 0.004 * k);
-                      scene.clouds[0].ellipsoids[i].density = start[i].density * (1 + 0.02 * k);
-                  }
-              }),
+    EXPECT_EQ(fly(16,
+                  [&](int k) {
+                      for (std::size_t i = 0; i < start.size(); ++i) {
+                          scene.clouds[0].ellipsoids[i].radii = start[i].radii * (1 + 0.004 * k);
+                          scene.clouds[0].ellipsoids[i].density = start[i].density * (1 + 0.02 * k);
+                      }
+                  }),
               0);
     on.clouds.waitForLights(scene);
     int frames = 0;

@@ -87,8 +87,8 @@ struct Culmination {
 Culmination culmination(int year, int month, int day, double latitudeDeg, double longitudeDeg) {
     Culmination c;
     for (int s = 0; s < 24 * 3600; s += 30) {
-        const SolarPosition p = solarPosition({year, month, day, s / 3600, s / 60 % 60, double(s % 60)}, latitudeDeg,
-                                              longitudeDeg);
+        const SolarPosition p =
+            solarPosition({year, month, day, s / 3600, s / 60 % 60, double(s % 60)}, latitudeDeg, longitudeDeg);
         if (p.elevationDeg > c.elevationDeg) c = {p.elevationDeg, p.azimuthDeg};
     }
     return c;

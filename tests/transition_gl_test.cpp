@@ -18,8 +18,8 @@ using namespace nephele;
 
 namespace {
 
-constexpr double kDt = 0.1;       // s per frame
-constexpr double kRamp = 1.0;     // s: 10 frames
+constexpr double kDt = 0.1;    // s per frame
+constexpr double kRamp = 1.0;  // s: 10 frames
 constexpr int kRampFrames = 10;
 
 // The eye 1 km under a layer (1500-2100 m), looking 35 degrees up: the layer fills the frame. No
@@ -154,7 +154,8 @@ TEST_F(TransitionGLTest, ACoverageChangeRampsTheOpacitySmoothly) {
     EXPECT_TRUE(monotonic(r.start, r.opacity, +1, 1e-4));
     EXPECT_LE(largestStep(r.start, r.opacity), 2.5 * change / kRampFrames)
         << "start " << r.start << ", end " << r.opacity.back() << ", frame 1 " << r.opacity[1];
-    for (int k = 0; k <= kRampFrames; ++k) EXPECT_NEAR(r.updates[k].transition, std::min(1.0, k * kDt / kRamp), 1e-9) << k;
+    for (int k = 0; k <= kRampFrames; ++k)
+        EXPECT_NEAR(r.updates[k].transition, std::min(1.0, k * kDt / kRamp), 1e-9) << k;
     EXPECT_DOUBLE_EQ(r.updates.back().transition, 1.0);
 }
 
@@ -168,7 +169,8 @@ TEST_F(TransitionGLTest, NearCellsFollowARampWithinTheirBudget) {
     const double change = r.opacity.back() - r.start;
     ASSERT_GT(change, 0.1);
     EXPECT_TRUE(monotonic(r.start, r.opacity, +1, 2e-3));
-    EXPECT_LE(largestStep(r.start, r.opacity), 3 * change / kRampFrames) << "start " << r.start << ", end " << r.opacity.back();
+    EXPECT_LE(largestStep(r.start, r.opacity), 3 * change / kRampFrames)
+        << "start " << r.start << ", end " << r.opacity.back();
     int made = 0;
     for (const SkyUpdateStats& u : r.updates) {
         EXPECT_LE(u.nearLod.generated, kCellsPerUpdate);
@@ -223,7 +225,8 @@ TEST_F(TransitionGLTest, ARampEndsWhereTheChangeAtOnceIsAndZeroSecondsIsAtOnce) 
     // The rounding moves a pixel by 4.2e-5 at most here; half the change, by more than 0.02.
     EXPECT_LE(largestDifference(atOnce, expected), 1e-3) << "0 s is not the change at once";
     const Image ramped = frameAfter(kRamp, kRampFrames + 2);  // ten steps of 0.1 s sum to just under 1 s
-    EXPECT_TRUE(ramped.pixels == atOnce.pixels) << "the ramp did not end at the target: " << largestDifference(ramped, atOnce);
+    EXPECT_TRUE(ramped.pixels == atOnce.pixels)
+        << "the ramp did not end at the target: " << largestDifference(ramped, atOnce);
     const Image midway = frameAfter(kRamp, kRampFrames / 2);
     EXPECT_GT(largestDifference(midway, atOnce), 0.02) << "half way is already the target";
 }
@@ -312,7 +315,8 @@ TEST_F(TransitionGLTest, ANewLayersNearCloudsFadeInWithIt) {
     }
     ASSERT_EQ(s.back(), 1.0);
     ASSERT_GT(m.back(), 0.0) << "no near cloud of the new layer on the grid";
-    for (std::size_t k = 0; k < m.size(); ++k) EXPECT_NEAR(m[k], s[k] * m.back(), 1e-9 * m.back()) << "frame " << k << ", s " << s[k];
+    for (std::size_t k = 0; k < m.size(); ++k)
+        EXPECT_NEAR(m[k], s[k] * m.back(), 1e-9 * m.back()) << "frame " << k << ", s " << s[k];
 }
 
 // A layer disabled with a transition fades out (density x (1 - s)) and is gone at its end.
@@ -406,7 +410,8 @@ TEST_F(TransitionGLTest, ASunRampMakesEachCloudsGridOnce) {
     fresh.sky.waitForBackgroundWork();
     fresh.step();
     const Frame expected = fresh.frame();
-    EXPECT_LT(compareImages(last.image, expected.image, 1.0).meanAbs, 1e-5) << "the ramp did not end in the new sun's light";
+    EXPECT_LT(compareImages(last.image, expected.image, 1.0).meanAbs, 1e-5)
+        << "the ramp did not end in the new sun's light";
 }
 
 // transitionSeconds must be a finite number >= 0: update() refuses one that is not, by name.

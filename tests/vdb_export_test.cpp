@@ -50,7 +50,8 @@ protected:
     }
 
     // Runs `nephele export` and reads the grid back (null when the file is not there).
-    openvdb::FloatGrid::Ptr exportAndRead(const std::string& scene, const std::string& file, const std::string& more = "") {
+    openvdb::FloatGrid::Ptr exportAndRead(const std::string& scene, const std::string& file,
+                                          const std::string& more = "") {
         const test::BoundedRun r = test::runBounded("export " + scene + " --vdb " + file + " " + more, 8192, 300);
         EXPECT_EQ(r.code, 0) << r.output;
         if (!fs::exists(file)) return nullptr;
@@ -156,7 +157,8 @@ TEST_F(VdbExportTest, VoxelCentresHoldThePathTracersField) {
         expectCentresHoldTheField(*grid, f, name);
         // The whole field lies within the grid's samples: the box's corners are within half a voxel of a centre.
         const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
-        const openvdb::Vec3d lo = grid->transform().indexToWorld(box.min()), hi = grid->transform().indexToWorld(box.max());
+        const openvdb::Vec3d lo = grid->transform().indexToWorld(box.min()),
+                             hi = grid->transform().indexToWorld(box.max());
         const double v = grid->voxelSize().x();
         for (int a = 0; a < 3; ++a) {
             EXPECT_GE(lo[a], f.field->lo()[a] - 0.5 * v);
@@ -170,7 +172,8 @@ TEST_F(VdbExportTest, VoxelCentresHoldThePathTracersField) {
 TEST_F(VdbExportTest, BetweenCentresTheGridInterpolatesTheField) {
     for (const auto& [name, voxel] : {std::pair{"single.json", 8.0}, std::pair{"cumulus27.json", 6.0}}) {
         SCOPED_TRACE(name);
-        const std::string scene = withNoise(std::string(NEPHELE_SCENES "/") + name, 0), file = path(std::string(name) + ".vdb");
+        const std::string scene = withNoise(std::string(NEPHELE_SCENES "/") + name, 0),
+                          file = path(std::string(name) + ".vdb");
         const openvdb::FloatGrid::Ptr grid = exportAndRead(scene, file, "--voxel " + std::to_string(voxel));
         ASSERT_TRUE(grid);
         EXPECT_DOUBLE_EQ(grid->voxelSize().x(), voxel);
@@ -208,13 +211,18 @@ TEST_F(VdbExportTest, BadArgumentsExitTwoAndWriteNothing) {
     expectRefused(single + " --vdb " + out + " --voxel -2", "--voxel");
     expectRefused(single + " --vdb " + out + " --voxel nan", "--voxel");
     // 640 x 520 x 400 m (and the path tracer's 1e-9 of slack) at 0.1 m: 6402 x 5202 x 4002 voxels.
-    expectRefused(single + " --vdb " + out + " --voxel 0.1",
-                  "--voxel 0.1 m gives 6402 x 5202 x 4002 = 133279422408 voxels over the field's extent (640 x 520 x 400 m), "
-                  "over the limit 'VDB export voxels' (67108864); give a larger --voxel");
+    expectRefused(
+        single + " --vdb " + out + " --voxel 0.1",
+        "--voxel 0.1 m gives 6402 x 5202 x 4002 = 133279422408 voxels over the field's extent (640 x 520 x 400 m), "
+        "over the limit 'VDB export voxels' (67108864); give a larger --voxel");
     expectRefused(path("missing.json") + " --vdb " + out, "missing.json");
-    std::ofstream(path("bad.json")) << R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]}, "medium": {"extinction": 0.04, "liquid_water_content": 1, "droplet_effective_radius": 10}})";
-    expectRefused(path("bad.json") + " --vdb " + out, "bad.json: medium.liquid_water_content: give either 'extinction' or the pair");
-    std::ofstream(path("empty.json")) << R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]}})";
+    std::ofstream(path("bad.json"))
+        << R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]}, )"
+           R"("medium": {"extinction": 0.04, "liquid_water_content": 1, "droplet_effective_radius": 10}})";
+    expectRefused(path("bad.json") + " --vdb " + out,
+                  "bad.json: medium.liquid_water_content: give either 'extinction' or the pair");
+    std::ofstream(path("empty.json"))
+        << R"({"cloudscene": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 1, 0]}})";
     expectRefused(path("empty.json") + " --vdb " + out, "empty.json: the scene holds no cloud matter to export");
     fs::create_directories(path("folder.vdb"));
     const test::BoundedRun r = test::runBounded("export " + single + " --vdb " + path("folder.vdb"), 8192, 60);

@@ -27,7 +27,8 @@ inline CLI::Validator within(double lo, double hi) {
             } catch (const std::exception&) {
                 return "'" + text + "' is not a number";
             }
-            if (!(v >= lo && v <= hi)) return "must be in " + rangeNumber(lo) + ".." + rangeNumber(hi) + ", got " + text;
+            if (!(v >= lo && v <= hi))
+                return "must be in " + rangeNumber(lo) + ".." + rangeNumber(hi) + ", got " + text;
             return "";
         },
         rangeNumber(lo) + ".." + rangeNumber(hi));
@@ -35,7 +36,8 @@ inline CLI::Validator within(double lo, double hi) {
 
 // A path: not empty (an empty -o would name no file).
 inline CLI::Validator nonEmptyPath() {
-    return CLI::Validator([](std::string& text) -> std::string { return text.empty() ? "the path is empty" : ""; }, "PATH");
+    return CLI::Validator([](std::string& text) -> std::string { return text.empty() ? "the path is empty" : ""; },
+                          "PATH");
 }
 
 }  // namespace nephele::cli

@@ -64,7 +64,8 @@ void checkNameLength(const fs::path& p, const Bad& bad) {
     if (name + kPartialSuffix > std::size_t(nameMax))
         bad("has a name of " + std::to_string(name) + " bytes; the longest an output can have here is " +
             std::to_string(std::size_t(nameMax) - kPartialSuffix) + " (the folder allows " + std::to_string(nameMax) +
-            " bytes a name, and the temporary it is written to first adds up to " + std::to_string(kPartialSuffix) + ")");
+            " bytes a name, and the temporary it is written to first adds up to " + std::to_string(kPartialSuffix) +
+            ")");
     if (p.string().size() + kPartialSuffix >= PATH_MAX)
         bad("is a path of " + std::to_string(p.string().size()) + " bytes; the longest an output can have is " +
             std::to_string(PATH_MAX - 1 - kPartialSuffix) + " (the system's PATH_MAX " + std::to_string(PATH_MAX) +
@@ -91,8 +92,10 @@ std::string resolveOutput(const std::string& flag, const std::string& path, bool
             if (errno != ENOENT) bad(std::string("cannot be inspected: ") + std::strerror(errno));
             const fs::path dir = p.parent_path();
             struct stat ds;
-            if (::stat(dir.c_str(), &ds) != 0 || !S_ISDIR(ds.st_mode)) bad("is in folder '" + dir.string() + "', which does not exist");
-            if (::access(dir.c_str(), W_OK | X_OK) != 0) bad("is in folder '" + dir.string() + "', which is not writable");
+            if (::stat(dir.c_str(), &ds) != 0 || !S_ISDIR(ds.st_mode))
+                bad("is in folder '" + dir.string() + "', which does not exist");
+            if (::access(dir.c_str(), W_OK | X_OK) != 0)
+                bad("is in folder '" + dir.string() + "', which is not writable");
             return p.string();
         }
         if (S_ISLNK(st.st_mode)) {  // written through: follow the link
@@ -104,8 +107,8 @@ std::string resolveOutput(const std::string& flag, const std::string& path, bool
         }
         if (folder) {
             if (!S_ISDIR(st.st_mode))
-                bad((links ? "leads to '" + p.string() + "', which is " : std::string("exists and is ")) + kindOf(st.st_mode) +
-                    ", not a folder");
+                bad((links ? "leads to '" + p.string() + "', which is " : std::string("exists and is ")) +
+                    kindOf(st.st_mode) + ", not a folder");
             if (!emptyFolder(p)) bad("exists and is not an empty folder");
             return p.string();
         }
@@ -143,7 +146,8 @@ std::string makePartial(const std::string& target, bool folder) {
     std::string name = target + ".partial-" + std::to_string(::getpid()) + "-XXXXXX";
     const mode_t mask = currentUmask();
     if (folder) {
-        if (!::mkdtemp(name.data())) throw std::runtime_error(target + ": cannot create a temporary folder: " + std::strerror(errno));
+        if (!::mkdtemp(name.data()))
+            throw std::runtime_error(target + ": cannot create a temporary folder: " + std::strerror(errno));
         ::chmod(name.c_str(), 0777 & ~mask);
         const std::string marker = name + "/" + kPartialMarker;
         const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
@@ -152,7 +156,8 @@ std::string makePartial(const std::string& target, bool folder) {
         return name;
     }
     const int fd = ::mkostemp(name.data(), O_CLOEXEC);  // O_EXCL: never through a link planted there
-    if (fd < 0) throw std::runtime_error(target + ": cannot create a temporary file beside it: " + std::strerror(errno));
+    if (fd < 0)
+        throw std::runtime_error(target + ": cannot create a temporary file beside it: " + std::strerror(errno));
     ::fchmod(fd, 0666 & ~mask);
     ::close(fd);
     return name;

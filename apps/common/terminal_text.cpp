@@ -28,11 +28,11 @@ std::size_t utf8At(std::string_view text, std::size_t i, char32_t* cp) {
 bool mustEscape(char32_t c) {
     if (c == '\n' || c == '\t') return false;
     return c < 0x20 || (c >= 0x7f && c <= 0x9f)  // C0, DEL, C1
-           || c == 0x061c                         // ARABIC LETTER MARK
-           || (c >= 0x200b && c <= 0x200f)        // zero-width spaces and joiners, LRM, RLM
-           || (c >= 0x2028 && c <= 0x202e)        // line and paragraph separators, embeddings, overrides
-           || (c >= 0x2060 && c <= 0x2069)        // word joiner, invisible operators, isolates
-           || c == 0xfeff;                        // zero-width no-break space
+           || c == 0x061c                        // ARABIC LETTER MARK
+           || (c >= 0x200b && c <= 0x200f)       // zero-width spaces and joiners, LRM, RLM
+           || (c >= 0x2028 && c <= 0x202e)       // line and paragraph separators, embeddings, overrides
+           || (c >= 0x2060 && c <= 0x2069)       // word joiner, invisible operators, isolates
+           || c == 0xfeff;                       // zero-width no-break space
 }
 
 class EscapingBuf : public std::streambuf {

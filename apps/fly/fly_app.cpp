@@ -26,7 +26,8 @@ Image readWindow(int w, int h) {
     gl::glReadPixels(0, 0, w, h, GL_RGB, GL_FLOAT, bottomUp.pixels.data());
     gl::checkAlways("reading the window");
     const std::size_t row = std::size_t(w) * 3;
-    for (int y = 0; y < h; ++y) std::copy_n(bottomUp.pixels.data() + std::size_t(h - 1 - y) * row, row, image.pixels.data() + y * row);
+    for (int y = 0; y < h; ++y)
+        std::copy_n(bottomUp.pixels.data() + std::size_t(h - 1 - y) * row, row, image.pixels.data() + y * row);
     return image;
 }
 
@@ -66,7 +67,8 @@ void commandKey(FlyApp::State& s, int key) {
         case GLFW_KEY_F4: v.cells = !v.cells; break;
         case GLFW_KEY_M: s.host->setMethod(kFlyMethods[(int(s.host->settings().method) + 1) % 4]); break;
         case GLFW_KEY_O:
-            s.host->setOrder(s.host->order() == CompositeOrder::Weighted ? CompositeOrder::PerEllipsoid : CompositeOrder::Weighted);
+            s.host->setOrder(s.host->order() == CompositeOrder::Weighted ? CompositeOrder::PerEllipsoid
+                                                                         : CompositeOrder::Weighted);
             break;
         case GLFW_KEY_P: s.followPath = !s.followPath && s.scene.path.size() >= 2; break;
         case GLFW_KEY_R: resetToScene(s); break;
@@ -148,7 +150,7 @@ void fly(FlyApp::State& s, double dt) {
 void writeWindow(const std::string& png, int w, int h) { writePng(png, readWindow(w, h), Encoding::Linear); }
 
 Camera frameCamera(const FlyApp::State& s, int fw, int fh) {
-    Camera c = s.playing ? scriptCamera(s)
+    Camera c = s.playing                                  ? scriptCamera(s)
                : s.followPath && s.scene.path.size() >= 2 ? cameraAt(s.scene, s.t)
                                                           : cameraFromPose(s.pose, s.scene.camera);
     c.width = std::max(1, int(std::lround(fw * s.options.renderScale)));
@@ -209,7 +211,8 @@ bool FlyApp::frame(double dt) {
     if (glfwWindowShouldClose(w)) return false;
     const double wall = glfwGetTime();
     if (dt < 0) dt = s.lastWall < 0 ? 0 : std::min(wall - s.lastWall, 0.5);
-    if (s.lastWall >= 0 && wall > s.lastWall) s.fps = s.fps == 0 ? 1 / (wall - s.lastWall) : 0.9 * s.fps + 0.1 / (wall - s.lastWall);
+    if (s.lastWall >= 0 && wall > s.lastWall)
+        s.fps = s.fps == 0 ? 1 / (wall - s.lastWall) : 0.9 * s.fps + 0.1 / (wall - s.lastWall);
     s.lastWall = wall;
     pollReload(s, wall);
     fly(s, dt);
@@ -234,8 +237,7 @@ bool FlyApp::frame(double dt) {
 }
 
 int FlyApp::run() {
-    while (frame()) {
-    }
+    while (frame()) {}
     finish();
     return 0;
 }

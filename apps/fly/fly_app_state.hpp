@@ -30,7 +30,7 @@ struct FlyApp::State {
     bool dragging = false;
     double cursorX = 0, cursorY = 0;
     bool followPath = false;
-    std::vector<Camera> script;    // --script: the flight's cameras, one per step of 1 / scriptFps
+    std::vector<Camera> script;  // --script: the flight's cameras, one per step of 1 / scriptFps
     double scriptStart = 0, scriptFps = 0;
     bool playing = false;          // the script plays (in a loop, until R)
     double t = 0;                  // scene time
@@ -45,7 +45,7 @@ struct FlyApp::State {
     gl::Framebuffer atlasRead, atlasDraw;
     int atlasViewW = 0, atlasViewH = 0;
     bool imgui = false;
-    std::string capture;           // PNG to write from the next frame
+    std::string capture;  // PNG to write from the next frame
     int screenshots = 0;
 };
 

@@ -18,13 +18,17 @@ CLI::App* addFlyCommand(CLI::App& app, FlyOptions& o) {
         ->capture_default_str();
     cmd->add_option("--width", o.width, "Window width (default 1280), or recorded frame width (default the camera's)")
         ->check(cli::within(1, 16384));
-    cmd->add_option("--height", o.height, "Window height (default 720), or recorded frame height (default the camera's)")
+    cmd->add_option("--height", o.height,
+                    "Window height (default 720), or recorded frame height (default the camera's)")
         ->check(cli::within(1, 16384));
     cmd->add_option("--render-scale", o.renderScale, "Draw frames at this fraction of the window (faster), (0, 1]")
-        ->check(cli::within(0.05, 1.0))->capture_default_str();
-    cmd->add_option("--script", o.script, "Flight to play (keyframes or recorded inputs, JSON): recorded with --record, else in the window")
+        ->check(cli::within(0.05, 1.0))
+        ->capture_default_str();
+    cmd->add_option("--script", o.script,
+                    "Flight to play (keyframes or recorded inputs, JSON): recorded with --record, else in the window")
         ->check(cli::nonEmptyPath());
-    cmd->add_option("--record", o.record, "Folder (new or empty) for the frames, frames.csv, flight.json and flight.mp4")
+    cmd->add_option("--record", o.record,
+                    "Folder (new or empty) for the frames, frames.csv, flight.json and flight.mp4")
         ->check(cli::nonEmptyPath());
     cmd->add_option("--record-input", o.recordInput, "Write the interactive flight's inputs to this file (a --script)")
         ->check(cli::nonEmptyPath());
@@ -54,7 +58,8 @@ int runFly(const FlyOptions& given) {
     }
     const auto method = parseFlyMethod(o.method);
     if (!method) {
-        std::cerr << "nephele: --method: unknown method '" << o.method << "' (expected auto, ellipsoid, raymarch or layered)\n";
+        std::cerr << "nephele: --method: unknown method '" << o.method
+                  << "' (expected auto, ellipsoid, raymarch or layered)\n";
         return 2;
     }
     try {

@@ -32,14 +32,14 @@ bool setHeld(FlyInput& input, const std::string& name, bool down);
 bool applyKey(FlyInput& input, int glfwKey, bool down);
 
 struct FlyTuning {
-    double speed = 40;          // m/s, horizontal cruise (about 80 kt)
-    double climbRate = 10;      // m/s
-    double fastFactor = 5;      // speed and climb rate with Shift
-    double yawRate = 45;        // deg/s on the arrows
-    double pitchRate = 30;      // deg/s on the arrows
+    double speed = 40;            // m/s, horizontal cruise (about 80 kt)
+    double climbRate = 10;        // m/s
+    double fastFactor = 5;        // speed and climb rate with Shift
+    double yawRate = 45;          // deg/s on the arrows
+    double pitchRate = 30;        // deg/s on the arrows
     double mouseDegPerPx = 0.15;  // deg of yaw or pitch per pixel of mouse drag
-    double response = 0.5;      // s, time constant of the velocity's approach to the commanded one
-    double maxPitch = 85;       // deg, |pitch| limit
+    double response = 0.5;        // s, time constant of the velocity's approach to the commanded one
+    double maxPitch = 85;         // deg, |pitch| limit
 };
 
 // Heading in degrees clockwise from north (+y) towards east (+x), in [0, 360); pitch in

@@ -59,7 +59,7 @@ struct FlyHost::Renderers {
     };
     OpaquePass opaque;
     std::unique_ptr<FrameTarget> target;
-    Sky skies[std::size(kFlyMethods)];              // by method: auto, ellipsoid, layered (the host API)
+    Sky skies[std::size(kFlyMethods)];  // by method: auto, ellipsoid, layered (the host API)
     std::unique_ptr<RaymarchRenderer> raymarch;
     Program present = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "fly_present.frag"}});
     VertexArray empty = VertexArray::create();
@@ -163,7 +163,9 @@ std::vector<const NearCell*> FlyHost::nearCells() const {
     return sky->nearLod()->cells();
 }
 
-double FlyHost::nearRadius() const { return settings_.method == FlyMethod::Auto ? autoLayeredSettings().nearRadius : 0; }
+double FlyHost::nearRadius() const {
+    return settings_.method == FlyMethod::Auto ? autoLayeredSettings().nearRadius : 0;
+}
 double FlyHost::blendBand() const { return settings_.method == FlyMethod::Auto ? autoLayeredSettings().blendBand : 0; }
 
 }  // namespace nephele::fly

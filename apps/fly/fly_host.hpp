@@ -2,9 +2,9 @@
 // host API as an image generator does (nephele/sky.hpp: prepare once, then update() per frame
 // and draw(ViewDesc) into its frame; ellipsoid and layered are SkyRenderer drawing the scene
 // without layers or without ellipsoid clouds; raymarch, a reference method with no host API,
-// RaymarchRenderer::render), so that a change of that API is a change here. It draws a frame into its own float frame (as `nephele render` does, so that
-// recorded frames match `render --time`), presents it onto a window, and hands the HUD and
-// the debug views what they show.
+// RaymarchRenderer::render), so that a change of that API is a change here. It draws a frame into its own float frame
+// (as `nephele render` does, so that recorded frames match `render --time`), presents it onto a window, and hands the
+// HUD and the debug views what they show.
 #pragma once
 
 #include "nephele/ellipsoid.hpp"
@@ -22,7 +22,8 @@
 namespace nephele::fly {
 
 enum class FlyMethod { Auto, Ellipsoid, Raymarch, Layered };
-inline constexpr FlyMethod kFlyMethods[] = {FlyMethod::Auto, FlyMethod::Ellipsoid, FlyMethod::Raymarch, FlyMethod::Layered};
+inline constexpr FlyMethod kFlyMethods[] = {FlyMethod::Auto, FlyMethod::Ellipsoid, FlyMethod::Raymarch,
+                                            FlyMethod::Layered};
 const char* flyMethodName(FlyMethod method);
 std::optional<FlyMethod> parseFlyMethod(const std::string& name);
 // The composite order a method starts with, as `nephele render` has it.
@@ -58,8 +59,8 @@ public:
     ~FlyHost();
     const FlyHostSettings& settings() const { return settings_; }
     CompositeOrder order() const { return settings_.order.value_or(defaultOrder(settings_.method)); }
-    void setMethod(FlyMethod method);       // the next draw uses it (its renderer made then)
-    void setOrder(CompositeOrder order);    // PerEllipsoid or Weighted; remakes the compositor
+    void setMethod(FlyMethod method);     // the next draw uses it (its renderer made then)
+    void setOrder(CompositeOrder order);  // PerEllipsoid or Weighted; remakes the compositor
 
     // The scene's sky, objects and clouds seen by `camera` (its size) at scene time t: the
     // first draw (and the first after sceneChanged(), a change of method or order, or t going
@@ -78,7 +79,7 @@ public:
     const EllipsoidRenderer* compositor() const;
     std::vector<const NearCell*> nearCells() const;
     double nearRadius() const, blendBand() const;  // m, auto's hand-off (0 for other methods)
-    double nearCellSize() const;                    // m
+    double nearCellSize() const;                   // m
 
 private:
     struct Renderers;

@@ -35,7 +35,8 @@ namespace {
 using namespace gl;
 constexpr double kDeg = std::numbers::pi / 180;
 constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize |
-                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoMove;
+                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav |
+                                    ImGuiWindowFlags_NoMove;
 
 void drawHud(const FlyApp::State& s) {
     const FlyFrameStats& st = s.stats;
@@ -45,17 +46,22 @@ void drawHud(const FlyApp::State& s) {
     ImGui::Begin("HUD", nullptr, kPanel);
     const FlyMethod method = s.host->settings().method;
     const bool compositor = method == FlyMethod::Auto || method == FlyMethod::Ellipsoid;
-    ImGui::Text("%.1f fps   %.0f ms/frame   %dx%d   method %s%s", s.fps, st.totalMs, s.renderW, s.renderH, flyMethodName(method),
-                !compositor ? "" : s.host->order() == CompositeOrder::Weighted ? ", weighted composite" : ", back-to-front composite");
+    ImGui::Text("%.1f fps   %.0f ms/frame   %dx%d   method %s%s", s.fps, st.totalMs, s.renderW, s.renderH,
+                flyMethodName(method),
+                !compositor                                   ? ""
+                : s.host->order() == CompositeOrder::Weighted ? ", weighted composite"
+                                                              : ", back-to-front composite");
     ImGui::Text("ms: opaque %.1f | far field %.1f | near-LOD update %.1f | tiles %.1f | composite %.1f", st.opaqueMs,
                 st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs);
     if (method == FlyMethod::Raymarch)
-        ImGui::Text("    ray-marched volume %.1f (a ray per %dx%d px)", st.volumeMs, st.marchDownsample, st.marchDownsample);
+        ImGui::Text("    ray-marched volume %.1f (a ray per %dx%d px)", st.volumeMs, st.marchDownsample,
+                    st.marchDownsample);
     if (compositor)
-        ImGui::Text("ellipsoids %d: %d visible, %d culled | tiles %d rendered (%d without an image), %d reused%s | passes %d | "
-                    "atlas use %.0f%%",
-                    e.ellipsoids, e.visible, e.ellipsoids - e.visible, e.tilesRendered, e.tilesMust, e.tilesReused,
-                    e.atlasRepacked ? ", atlas repacked" : "", e.passes, 100 * e.utilisation);
+        ImGui::Text(
+            "ellipsoids %d: %d visible, %d culled | tiles %d rendered (%d without an image), %d reused%s | passes %d | "
+            "atlas use %.0f%%",
+            e.ellipsoids, e.visible, e.ellipsoids - e.visible, e.tilesRendered, e.tilesMust, e.tilesReused,
+            e.atlasRepacked ? ", atlas repacked" : "", e.passes, 100 * e.utilisation);
     if (method == FlyMethod::Auto && s.host->order() == CompositeOrder::PerEllipsoid)
         ImGui::Text("cloud LOD: %d clouds as impostors, %d made this frame; %d close tiles at reduced resolution",
                     e.impostors, e.impostorsRendered, e.tilesDownsampled);
@@ -65,12 +71,14 @@ void drawHud(const FlyApp::State& s) {
                     st.layered.drawCalls);
     const double speed = glm::length(s.pose.velocity);
     ImGui::Text("position (%.0f, %.0f) m   altitude %.0f m   heading %03.0f   pitch %+.0f   speed %.1f m/s (%.0f kt)",
-                s.pose.position.x, s.pose.position.y, s.pose.position.z, s.pose.heading, s.pose.pitch, speed, speed * 1.943844);
-    ImGui::Text("t %.1f s%s   scene %s (%s)   H: help", s.t, s.followPath ? ", following the path" : "", s.options.scene.c_str(),
-                s.sceneStatus.c_str());
+                s.pose.position.x, s.pose.position.y, s.pose.position.z, s.pose.heading, s.pose.pitch, speed,
+                speed * 1.943844);
+    ImGui::Text("t %.1f s%s   scene %s (%s)   H: help", s.t, s.followPath ? ", following the path" : "",
+                s.options.scene.c_str(), s.sceneStatus.c_str());
     if (!s.sceneError.empty()) {
         ImGui::PushTextWrapPos(ImGui::GetIO().DisplaySize.x * 0.8f);
-        ImGui::TextColored(ImVec4(1, 0.35f, 0.3f, 1), "scene not reloaded, last good one kept: %s", s.sceneError.c_str());
+        ImGui::TextColored(ImVec4(1, 0.35f, 0.3f, 1), "scene not reloaded, last good one kept: %s",
+                           s.sceneError.c_str());
         ImGui::PopTextWrapPos();
     }
     ImGui::End();
@@ -156,11 +164,13 @@ void drawAtlas(FlyApp::State& s) {
         glNamedFramebufferTextureLayer(s.atlasRead.id(), GL_COLOR_ATTACHMENT0, c->atlasTexture(), 0, l);
         glNamedFramebufferReadBuffer(s.atlasRead.id(), GL_COLOR_ATTACHMENT0);
         glNamedFramebufferTexture(s.atlasDraw.id(), GL_COLOR_ATTACHMENT0, s.atlasViews[l].id(), 0);
-        glBlitNamedFramebuffer(s.atlasRead.id(), s.atlasDraw.id(), 0, 0, size.x, size.y, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_LINEAR);
+        glBlitNamedFramebuffer(s.atlasRead.id(), s.atlasDraw.id(), 0, 0, size.x, size.y, 0, 0, w, h,
+                               GL_COLOR_BUFFER_BIT, GL_LINEAR);
         if (l % columns != 0) ImGui::SameLine();
         ImGui::BeginGroup();
         ImGui::Text("pass %d", l);
-        ImGui::Image(ImTextureID(std::intptr_t(s.atlasViews[l].id())), ImVec2(float(w), float(h)), ImVec2(0, 1), ImVec2(1, 0));
+        ImGui::Image(ImTextureID(std::intptr_t(s.atlasViews[l].id())), ImVec2(float(w), float(h)), ImVec2(0, 1),
+                     ImVec2(1, 0));
         ImGui::EndGroup();
     }
     check("atlas debug view");
@@ -229,7 +239,8 @@ void drawCells(const FlyApp::State& s) {
         if (!layer.nearLod || r1 <= 0) continue;
         for (int k = 0; k < 96; ++k) {
             const double a0 = 2 * std::numbers::pi * k / 96, a1 = 2 * std::numbers::pi * (k + 1) / 96;
-            for (const auto& [r, colour] : {std::pair{r0, IM_COL32(255, 60, 40, 255)}, std::pair{r1, IM_COL32(255, 150, 0, 255)}})
+            for (const auto& [r, colour] :
+                 {std::pair{r0, IM_COL32(255, 60, 40, 255)}, std::pair{r1, IM_COL32(255, 150, 0, 255)}})
                 line(dl, v, Vec3(v.eye.x + r * std::sin(a0), v.eye.y + r * std::cos(a0), layer.base),
                      Vec3(v.eye.x + r * std::sin(a1), v.eye.y + r * std::cos(a1), layer.base), colour, 2.0f);
         }

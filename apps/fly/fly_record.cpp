@@ -44,22 +44,27 @@ struct Recording {
 Recording prepare(const FlyOptions& o) {
     Recording r;
     const auto method = parseFlyMethod(o.method);
-    if (!method) throw std::invalid_argument("--method: unknown method '" + o.method + "' (expected auto, ellipsoid, raymarch or layered)");
+    if (!method)
+        throw std::invalid_argument("--method: unknown method '" + o.method +
+                                    "' (expected auto, ellipsoid, raymarch or layered)");
     r.method = *method;
     cli::resolveOutput("--record", o.record, /*folder=*/true);  // its name and place, before any work
     std::error_code ec;
     if (fs::exists(o.record) && !(fs::is_directory(o.record) && fs::is_empty(o.record, ec)))
         throw std::invalid_argument("--record '" + o.record + "' exists and is not an empty folder");
     const fs::path parent = fs::absolute(o.record).parent_path();
-    if (!fs::is_directory(parent)) throw std::invalid_argument("--record: folder '" + parent.string() + "' does not exist");
+    if (!fs::is_directory(parent))
+        throw std::invalid_argument("--record: folder '" + parent.string() + "' does not exist");
     if (!(o.fps > 0 && o.fps <= 1000)) throw std::invalid_argument("--fps must be in (0, 1000]");
     r.scene = loadScene(o.scene);
     // One of --width / --height alone keeps the camera's aspect, as `render` does.
     Camera& cam = r.scene.camera;
     const double aspect = double(cam.width) / cam.height;
-    if (o.width > 0) cam.width = o.width, cam.height = o.height > 0 ? o.height : std::max(1, int(std::lround(o.width / aspect)));
+    if (o.width > 0)
+        cam.width = o.width, cam.height = o.height > 0 ? o.height : std::max(1, int(std::lround(o.width / aspect)));
     else if (o.height > 0) cam.height = o.height, cam.width = std::max(1, int(std::lround(o.height * aspect)));
-    if (cam.width > 16384 || cam.height > 16384) throw std::invalid_argument("--width/--height: frames of at most 16384 pixels a side");
+    if (cam.width > 16384 || cam.height > 16384)
+        throw std::invalid_argument("--width/--height: frames of at most 16384 pixels a side");
     r.flight = o.script.empty() ? pathFlight(r.scene, o.fps) : loadFlight(o.script);
     return r;
 }
@@ -78,10 +83,23 @@ std::string findOnPath(const std::string& program) {
 }
 
 void writeVideo(const std::string& ffmpeg, const fs::path& dir, double fps) {
-    const std::string rate = std::to_string(fps), frames = (dir / "frame_%04d.png").string(), mp4 = (dir / "flight.mp4").string();
-    std::vector<const char*> argv = {"ffmpeg", "-nostdin", "-loglevel", "error", "-y", "-framerate", rate.c_str(), "-i",
-                                     frames.c_str(), "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p",
-                                     mp4.c_str(), nullptr};
+    const std::string rate = std::to_string(fps), frames = (dir / "frame_%04d.png").string(),
+                      mp4 = (dir / "flight.mp4").string();
+    std::vector<const char*> argv = {"ffmpeg",
+                                     "-nostdin",
+                                     "-loglevel",
+                                     "error",
+                                     "-y",
+                                     "-framerate",
+                                     rate.c_str(),
+                                     "-i",
+                                     frames.c_str(),
+                                     "-vf",
+                                     "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                                     "-pix_fmt",
+                                     "yuv420p",
+                                     mp4.c_str(),
+                                     nullptr};
     pid_t pid = 0;
     int status = 0;
     if (posix_spawn(&pid, ffmpeg.c_str(), nullptr, nullptr, const_cast<char* const*>(argv.data()), environ) != 0 ||
@@ -119,9 +137,9 @@ void play(const Recording& rec, const FlyOptions& o, const fs::path& temp) {
         writePng((temp / name).string(), channels(host.readColor(), 0, 3), Encoding::Srgb);
         const Vec3& p = cameras[k].position;
         char row[256];
-        std::snprintf(row, sizeof row, "%d,%.6f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d\n", k, t, p.x, p.y, p.z,
-                      st.totalMs, st.opaqueMs, st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs, st.volumeMs,
-                      st.ellipsoids.visible, st.ellipsoids.passes);
+        std::snprintf(row, sizeof row, "%d,%.6f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d\n", k, t, p.x,
+                      p.y, p.z, st.totalMs, st.opaqueMs, st.farFieldMs, st.nearLodMs, st.tilesMs, st.compositeMs,
+                      st.volumeMs, st.ellipsoids.visible, st.ellipsoids.passes);
         csv << row;
         reportProgress("recording", double(k + 1) / double(cameras.size()));
     }
@@ -152,11 +170,14 @@ int runFlyRecord(const FlyOptions& o) {
         if (fs::exists(out)) fs::remove(out);
         fs::rename(temp, out);
         std::cerr << "nephele: wrote " << rec.flight.frameCount() << " frames, frames.csv, flight.json"
-                  << (video ? ", flight.mp4" : o.video ? " (no flight.mp4: ffmpeg is not installed)" : "") << " to "
-                  << o.record << "\n";
+                  << (video     ? ", flight.mp4"
+                      : o.video ? " (no flight.mp4: ffmpeg is not installed)"
+                                : "")
+                  << " to " << o.record << "\n";
     } catch (const ContextError& e) {
         fs::remove_all(temp, ec);
-        std::cerr << "nephele: recording failed: " << e.what() << (o.headless ? "" : " (no display? use --headless or xvfb-run)") << "\n";
+        std::cerr << "nephele: recording failed: " << e.what()
+                  << (o.headless ? "" : " (no display? use --headless or xvfb-run)") << "\n";
         return 1;
     } catch (const std::exception& e) {
         fs::remove_all(temp, ec);

@@ -35,7 +35,8 @@ struct At {
     }
     const json& array(std::size_t minSize) const {
         if (!j.is_array()) fail("expected an array");
-        if (j.size() < minSize) fail("expected at least " + std::to_string(minSize) + " element(s), got " + std::to_string(j.size()));
+        if (j.size() < minSize)
+            fail("expected at least " + std::to_string(minSize) + " element(s), got " + std::to_string(j.size()));
         return j;
     }
     Vec3 vec3() const {
@@ -71,8 +72,9 @@ InputSample readInput(const At& a) {
         for (std::size_t i = 0; i < h.j.size(); ++i) {
             const At c = h.item(i);
             if (!c.j.is_string() || !setHeld(s.input, c.j.get<std::string>(), true))
-                c.fail("expected a control: forward, back, left, right, up, down, yaw_left, yaw_right, pitch_up, "
-                       "pitch_down or fast");
+                c.fail(
+                    "expected a control: forward, back, left, right, up, down, yaw_left, yaw_right, pitch_up, "
+                    "pitch_down or fast");
         }
     }
     if (a.has("mouse")) {
@@ -100,14 +102,17 @@ void readInputs(const At& root, Flight& f) {
     in.array(1);
     for (std::size_t i = 0; i < in.j.size(); ++i) {
         f.inputs.push_back(readInput(in.item(i)));
-        if (i > 0 && f.inputs[i].t < f.inputs[i - 1].t) in.item(i).key("t").fail("must not be less than the previous t");
+        if (i > 0 && f.inputs[i].t < f.inputs[i - 1].t)
+            in.item(i).key("t").fail("must not be less than the previous t");
     }
     f.end = root.has("end") ? root.key("end").number() : f.inputs.back().t;
     if (f.end < f.inputs.front().t) root.key("end").fail("must not be less than the first input's t");
 }
 }  // namespace
 
-double Flight::firstTime() const { return keyframes.empty() ? (inputs.empty() ? 0 : inputs.front().t) : keyframes.front().t; }
+double Flight::firstTime() const {
+    return keyframes.empty() ? (inputs.empty() ? 0 : inputs.front().t) : keyframes.front().t;
+}
 double Flight::lastTime() const { return keyframes.empty() ? end : keyframes.back().t; }
 int Flight::frameCount() const { return int(std::floor((lastTime() - firstTime()) * fps + 1e-9)) + 1; }
 
@@ -132,7 +137,8 @@ Flight parseFlight(const std::string& text, const std::string& file) {
         k.array(2);
         for (std::size_t i = 0; i < k.j.size(); ++i) {
             f.keyframes.push_back(readKeyframe(k.item(i)));
-            if (i > 0 && !(f.keyframes[i].t > f.keyframes[i - 1].t)) k.item(i).key("t").fail("must be greater than the previous t");
+            if (i > 0 && !(f.keyframes[i].t > f.keyframes[i - 1].t))
+                k.item(i).key("t").fail("must be greater than the previous t");
         }
     } else {
         readInputs(root, f);
@@ -147,12 +153,17 @@ Flight loadFlight(const std::string& file) {
 }
 
 Flight pathFlight(const Scene& scene, double fps) {
-    if (scene.path.size() < 2) throw SceneError(scene.file, "path", "a recorded flight without --script follows the scene's `path`, which needs at least two keyframes");
+    if (scene.path.size() < 2)
+        throw SceneError(
+            scene.file, "path",
+            "a recorded flight without --script follows the scene's `path`, which needs at least two keyframes");
     Flight f;
     f.fps = fps;
     f.keyframes = scene.path;
     if ((f.lastTime() - f.firstTime()) * fps + 1 > kMaxFlightFrames)
-        throw SceneError(scene.file, "path", "the path makes more than " + std::to_string(kMaxFlightFrames) + " frames at --fps " + std::to_string(fps));
+        throw SceneError(
+            scene.file, "path",
+            "the path makes more than " + std::to_string(kMaxFlightFrames) + " frames at --fps " + std::to_string(fps));
     return f;
 }
 
@@ -164,7 +175,9 @@ std::string flightJson(const Flight& f) {
             j["keyframes"].push_back({{"t", k.t}, {"position", v3(k.position)}, {"look_at", v3(k.lookAt)}});
         return j.dump(1) + "\n";
     }
-    if (f.start) j["start"] = {{"position", v3(f.start->position)}, {"heading_deg", f.start->heading}, {"pitch_deg", f.start->pitch}};
+    if (f.start)
+        j["start"] = {
+            {"position", v3(f.start->position)}, {"heading_deg", f.start->heading}, {"pitch_deg", f.start->pitch}};
     j["inputs"] = json::array();
     for (const InputSample& s : f.inputs) {
         json e = {{"t", s.t}, {"hold", heldNames(s.input)}};

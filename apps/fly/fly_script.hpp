@@ -22,19 +22,19 @@ namespace nephele::fly {
 inline constexpr int kMaxFlightFrames = 100000;
 
 struct InputSample {
-    double t = 0;        // s: the held controls from here on, the mouse moved at this moment
-    FlyInput input;      // mouseDx, mouseDy: px moved since the previous sample
+    double t = 0;    // s: the held controls from here on, the mouse moved at this moment
+    FlyInput input;  // mouseDx, mouseDy: px moved since the previous sample
 };
 
 struct Flight {
-    double fps = 10;                   // frames (and fixed steps) per second of scene time, (0, 1000]
-    std::vector<Keyframe> keyframes;   // either these (at least two) ...
-    std::optional<FlyPose> start;      // ... or a start pose (default: the scene camera)
-    std::vector<InputSample> inputs;   // and inputs (t non-decreasing)
-    double end = 0;                    // inputs: last time (s)
+    double fps = 10;                  // frames (and fixed steps) per second of scene time, (0, 1000]
+    std::vector<Keyframe> keyframes;  // either these (at least two) ...
+    std::optional<FlyPose> start;     // ... or a start pose (default: the scene camera)
+    std::vector<InputSample> inputs;  // and inputs (t non-decreasing)
+    double end = 0;                   // inputs: last time (s)
     double firstTime() const;
     double lastTime() const;
-    int frameCount() const;            // floor((last - first) fps) + 1
+    int frameCount() const;  // floor((last - first) fps) + 1
     double frameTime(int k) const { return firstTime() + k / fps; }
 };
 

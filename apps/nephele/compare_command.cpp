@@ -114,7 +114,8 @@ Loaded loadColor(const std::string& path, const ImageShape& shape, bool fileAlph
 
 Image loadAlpha(const std::string& path, const ImageShape& shape) {
     if (shape.channels != 1)
-        throw UsageError(path + ": an alpha file must be grey (1 channel), this one has " + std::to_string(shape.channels));
+        throw UsageError(path + ": an alpha file must be grey (1 channel), this one has " +
+                         std::to_string(shape.channels));
     if (!isPng(path)) return readPfmChecked(path);
     const int grey[] = {0};
     return decode(path, grey);
@@ -142,8 +143,8 @@ int runCompare(const CompareOptions& o) {
         if (sba) b.alpha = loadAlpha(o.alphaB, *sba);
         if (a.alpha.has_value() != b.alpha.has_value() && !(o.alphaA.empty() && o.alphaB.empty()))
             std::cerr << "nephele: " << (a.alpha ? o.b : o.a) << " gives no alpha; alpha not compared\n";
-        const RenderComparison c = compareRenders(a.color, b.color, a.alpha ? &*a.alpha : nullptr,
-                                                  b.alpha ? &*b.alpha : nullptr);
+        const RenderComparison c =
+            compareRenders(a.color, b.color, a.alpha ? &*a.alpha : nullptr, b.alpha ? &*b.alpha : nullptr);
         std::cout << toJson(c) << "\n" << std::flush;
         return 0;
     } catch (const UsageError& e) {

@@ -87,16 +87,17 @@ void prepareGrid(const ExportOptions& o, ExportGrid& g) {
     }
     g.field = std::make_unique<ExtinctionField>(scene, &g.noise, layers, eye);
     if (g.field->empty())
-        throw std::invalid_argument(o.scene + ": the scene holds no cloud matter to export (no ellipsoid or layer "
-                                              "with density > 0, or medium.extinction 0)");
+        throw std::invalid_argument(o.scene +
+                                    ": the scene holds no cloud matter to export (no ellipsoid or layer "
+                                    "with density > 0, or medium.extinction 0)");
     const Vec3 extent = g.field->hi() - g.field->lo();
     if (g.v == 0) g.v = defaultVoxelSize(extent.x, extent.y, extent.z);
     Vec3 cells;  // centres lo + i v for i in 0..cells-1, the last at or past hi
     for (int a = 0; a < 3; ++a) cells[a] = std::ceil(extent[a] / g.v) + 1;
     const double count = cells.x * cells.y * cells.z;
     if (!withinLimit(count, limits::kExportVoxels))
-        throw std::invalid_argument("--voxel " + metres(g.v) + " m gives " + whole(cells.x) + " x " +
-                                    whole(cells.y) + " x " + whole(cells.z) + " = " + whole(count) +
+        throw std::invalid_argument("--voxel " + metres(g.v) + " m gives " + whole(cells.x) + " x " + whole(cells.y) +
+                                    " x " + whole(cells.z) + " = " + whole(count) +
                                     " voxels over the field's extent (" + metres(extent.x) + " x " + metres(extent.y) +
                                     " x " + metres(extent.z) + " m), over the limit " +
                                     limitText(limits::kExportVoxels) + "; give a larger --voxel");
@@ -136,11 +137,14 @@ std::int64_t writeGrid(const ExportOptions& o, const ExportGrid& g) {
                 }
     }
     OutputFiles files;
-    files.add(o.vdb, [&](const std::string& path) {
-        openvdb::io::File file(path);
-        file.write({grid});
-        file.close();
-    }, "--vdb");
+    files.add(
+        o.vdb,
+        [&](const std::string& path) {
+            openvdb::io::File file(path);
+            file.write({grid});
+            file.close();
+        },
+        "--vdb");
     files.checkPaths();
     files.commit();
     return active;

@@ -9,10 +9,10 @@ namespace nephele::cli {
 
 struct ExportOptions {
     std::string scene;
-    std::string vdb;      // output file (written atomically)
-    double voxel = 0;     // m; 0: chosen from the field's extent (defaultVoxelSize)
-    double time = 0;      // s: the layers' wind and the camera path (the layers are centred on the eye)
-    std::string cacheDir; // the layers' lighting volumes ("" = none)
+    std::string vdb;       // output file (written atomically)
+    double voxel = 0;      // m; 0: chosen from the field's extent (defaultVoxelSize)
+    double time = 0;       // s: the layers' wind and the camera path (the layers are centred on the eye)
+    std::string cacheDir;  // the layers' lighting volumes ("" = none)
 };
 
 // The voxel edge (m) `export` uses when --voxel is not given: the box's volume shared among

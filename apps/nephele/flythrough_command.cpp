@@ -22,8 +22,8 @@ int frameCount(double t0, double t1, double fps) {
     const double frames = std::floor((t1 - t0) * fps + 1e-9) + 1;  // in double: no int overflow
     if (!(frames >= 1 && frames <= kMaxFrames)) {
         char text[160];
-        std::snprintf(text, sizeof text, "--fps %g: the path (t from %g to %g s) makes %.6g frames; at most %d", fps, t0,
-                      t1, frames, kMaxFrames);
+        std::snprintf(text, sizeof text, "--fps %g: the path (t from %g to %g s) makes %.6g frames; at most %d", fps,
+                      t0, t1, frames, kMaxFrames);
         throw UsageError(text);
     }
     return int(frames);
@@ -65,7 +65,8 @@ Prepared prepare(const FlythroughOptions& o) {
     std::error_code ec;
     // A regular file of a summary's size: a FIFO or a device there would block or never end.
     if (!fs::is_regular_file(summary, ec) || fs::file_size(summary, ec) > (1u << 20))
-        throw UsageError("--reference-dir: no flythrough.json (a regular file of at most 1 MB) in '" + o.referenceDir + "'");
+        throw UsageError("--reference-dir: no flythrough.json (a regular file of at most 1 MB) in '" + o.referenceDir +
+                         "'");
     std::ifstream in(summary);
     p.reference = nlohmann::json::parse(in, nullptr, false);
     if (p.reference.is_discarded() || !p.reference.is_object() || !p.reference.contains("mean_change") ||
@@ -86,7 +87,8 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
     nlohmann::json impostors = nlohmann::json::array(), impostorsMade = nlohmann::json::array();
     nlohmann::json downsampled = nlohmann::json::array();
     nlohmann::json must = nlohmann::json::array(), repacked = nlohmann::json::array(), grown = nlohmann::json::array();
-    nlohmann::json planMs = nlohmann::json::array(), tilesMs = nlohmann::json::array(), compositeMs = nlohmann::json::array();
+    nlohmann::json planMs = nlohmann::json::array(), tilesMs = nlohmann::json::array(),
+                   compositeMs = nlohmann::json::array();
     for (int k = 0; k < p.frames; ++k) {
         const Frame f = renderer.render(p.scene, t0 + k / o.fps);
         ms.push_back(std::round(f.ms * 1000) / 1000);
@@ -109,17 +111,23 @@ nlohmann::json renderFrames(const FlythroughOptions& o, const Prepared& p, const
         changes.add(f.color);
         reportProgress("flythrough", double(k + 1) / p.frames);
     }
-    nlohmann::json summary = {{"scene", o.render.scene}, {"method", methodName(o.render.method)},
-                              {"fps", o.fps},           {"frames", p.frames},
-                              {"width", p.scene.camera.width}, {"height", p.scene.camera.height},
+    nlohmann::json summary = {{"scene", o.render.scene},
+                              {"method", methodName(o.render.method)},
+                              {"fps", o.fps},
+                              {"frames", p.frames},
+                              {"width", p.scene.camera.width},
+                              {"height", p.scene.camera.height},
                               {"mean_change", changes.mean()},
                               {"reuse", o.render.ellipsoid.reuse},
                               {"cloud_lod", o.render.ellipsoid.cloudLod},
-                              {"impostors", impostors},       {"impostors_made", impostorsMade},
+                              {"impostors", impostors},
+                              {"impostors_made", impostorsMade},
                               {"tiles_downsampled", downsampled},
-                              {"frame_ms", ms},               {"tiles_rendered", tiles},
+                              {"frame_ms", ms},
+                              {"tiles_rendered", tiles},
                               {"tile_pixels_rendered", tilePixels},
-                              {"tiles_without_image", must},  {"atlas_repacked_frames", repacked},
+                              {"tiles_without_image", must},
+                              {"atlas_repacked_frames", repacked},
                               {"atlas_grown_frames", grown}};
     if (o.timings) {
         summary["plan_ms"] = planMs;

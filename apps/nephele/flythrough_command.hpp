@@ -8,13 +8,13 @@
 namespace nephele::cli {
 
 struct FlythroughOptions {
-    RenderOptions render;       // scene, method, size, backend, compositor settings (output fields unused)
-    std::string outDir;         // must not exist yet, or be an empty folder (a symlink to one is written through)
-    double fps = 10;            // frames per second of scene time, (0, 1000]
-    std::string referenceDir;   // a reference run's out-dir: also report the flicker index
-    bool timings = false;       // --timings: the compositor's plan, tile and composite ms per frame in
-                                // flythrough.json (EllipsoidSettings::timings: a glFinish between the
-                                // parts, so the frames are a little slower)
+    RenderOptions render;      // scene, method, size, backend, compositor settings (output fields unused)
+    std::string outDir;        // must not exist yet, or be an empty folder (a symlink to one is written through)
+    double fps = 10;           // frames per second of scene time, (0, 1000]
+    std::string referenceDir;  // a reference run's out-dir: also report the flicker index
+    bool timings = false;      // --timings: the compositor's plan, tile and composite ms per frame in
+                               // flythrough.json (EllipsoidSettings::timings: a glFinish between the
+                               // parts, so the frames are a little slower)
 };
 
 // At most this many frames per sequence (fly-throughs and the flicker bench).
@@ -30,7 +30,7 @@ class FrameChanges {
 public:
     void add(const Image& frame);
     const std::vector<double>& changes() const { return changes_; }  // frames - 1 values
-    double mean() const;  // 0 for fewer than two frames
+    double mean() const;                                             // 0 for fewer than two frames
 
 private:
     Image last_;

@@ -69,7 +69,8 @@ public:
         buffer.resize(kMaxDatagram);
         for (;;) {
             socklen_t len = sizeof from;
-            const ssize_t n = ::recvfrom(fd_, buffer.data(), buffer.size(), 0, reinterpret_cast<sockaddr*>(&from), &len);
+            const ssize_t n =
+                ::recvfrom(fd_, buffer.data(), buffer.size(), 0, reinterpret_cast<sockaddr*>(&from), &len);
             if (n >= 0) return static_cast<long>(n);
             if (errno == EINTR) continue;
             if (errno == EAGAIN || errno == EWOULDBLOCK) return -1;
@@ -90,11 +91,11 @@ double radians(double degrees) { return degrees * kPi / 180; }
 
 // What the host's packets have set so far.
 struct IgState {
-    Scene scene;       // the starting scene, its sun and layers replaced by `weather`'s
+    Scene scene;  // the starting scene, its sun and layers replaced by `weather`'s
     Weather weather;
     int channel = 0;
     double left = 0, right = 0, bottom = 0, top = 0;  // the channel's half-angles (degrees), View Definition's
-    ChannelOptions view;  // the frustum and yaw/pitch offsets drawn
+    ChannelOptions view;                              // the frustum and yaw/pitch offsets drawn
     double yaw = 0, pitch = 0;
     cigi::AtmosphereControl atmosphere;
     std::optional<EnuFrame> frame;  // the scene's frame (--origin): the host's latitudes, longitudes, altitudes
@@ -106,7 +107,7 @@ struct IgState {
     };
     std::map<std::uint16_t, Entity> entities;  // the last pose of each entity the host placed
     std::vector<Object> sceneObjects;          // the starting scene's own objects
-    std::set<std::string> said;     // messages given once
+    std::set<std::string> said;                // messages given once
 
     void once(const std::string& message) {
         if (said.insert(message).second) logMessage(LogLevel::Warning, "nephele ig: " + message);
@@ -156,14 +157,17 @@ struct IgState {
             once(std::string(e.what()) + " (packet ignored)");
         }
         if (p.ephemerisModelEnable)
-            once("Celestial Sphere Control: the sun moves with the host's date and time only (no ephemeris clock of the IG's own)");
+            once(
+                "Celestial Sphere Control: the sun moves with the host's date and time only (no ephemeris clock of the "
+                "IG's own)");
         if (p.moonEnable || p.starFieldEnable) once("Celestial Sphere Control: the moon and the stars are not drawn");
     }
 
     // Entity Control: each entity's pose; the one the view rides on is the eye.
     void apply(const cigi::EntityControl& p) {
         if (p.attached) {
-            once("Entity Control: entities attached to a parent are not placed (entity " + std::to_string(p.entityId) + ")");
+            once("Entity Control: entities attached to a parent are not placed (entity " + std::to_string(p.entityId) +
+                 ")");
             return;
         }
         try {
@@ -256,29 +260,36 @@ struct IgState {
                 out.add(a);
             }
         }
-        if (r.requestType & 3) once("Environmental Conditions Request: maritime and terrestrial surface conditions are not answered");
+        if (r.requestType & 3)
+            once("Environmental Conditions Request: maritime and terrestrial surface conditions are not answered");
     }
 };
 
 }  // namespace
 
 void addIgOptions(CLI::App* cmd, IgOptions& o) {
-    cmd->add_option("--port", o.port, "UDP port to receive the host's datagrams on")->required()->check(CLI::Range(1, 65535));
+    cmd->add_option("--port", o.port, "UDP port to receive the host's datagrams on")
+        ->required()
+        ->check(CLI::Range(1, 65535));
     cmd->add_option("--address", o.address, "IPv4 address to bind (0.0.0.0: every interface, for a host on another PC)")
         ->capture_default_str();
-    cmd->add_option("--channel", o.channel, "The CIGI View ID this process draws")->check(CLI::Range(0, 65535))->capture_default_str();
+    cmd->add_option("--channel", o.channel, "The CIGI View ID this process draws")
+        ->check(CLI::Range(0, 65535))
+        ->capture_default_str();
     cmd->add_flag("--headless", o.headless, "Render off-screen (EGL, or --gl osmesa)");
     cmd->add_flag("--window", o.window, "Render and show each frame in a window (GLFW: needs a display)");
     cmd->add_option("--record", o.record,
                     "Folder (created if absent) for one PFM per frame, host-frame-NUMBER.pfm (linear); with --window "
                     "also window-frame-NUMBER.pfm, what the window shows (sRGB / 255)");
-    cmd->add_option("--frames", o.frames, "Stop after this many frames (0: no limit)")->check(CLI::Range(0LL, 1000000000LL));
+    cmd->add_option("--frames", o.frames, "Stop after this many frames (0: no limit)")
+        ->check(CLI::Range(0LL, 1000000000LL));
     cmd->add_option("--timeout", o.timeout, "Stop after this many seconds without a datagram")
         ->check(CLI::Range(0.01, 86400.0))
         ->capture_default_str();
-    cmd->add_option("--origin", o.origin,
-                    "LAT,LON,HEIGHT: the WGS84 point (degrees, degrees, m) of the scene's (0, 0, 0), its x east, y north, "
-                    "z up; the host's geodetic positions are taken into this frame")
+    cmd->add_option(
+           "--origin", o.origin,
+           "LAT,LON,HEIGHT: the WGS84 point (degrees, degrees, m) of the scene's (0, 0, 0), its x east, y north, "
+           "z up; the host's geodetic positions are taken into this frame")
         ->capture_default_str();
     cmd->add_option("--transition", o.transition,
                     "Seconds over which a Weather Control change ramps (coverage, base, thickness, wind, a layer on "
@@ -295,8 +306,9 @@ Geodetic parseOrigin(const std::string& text) {
     if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3)
         throw UsageError("--origin must be LAT,LON,HEIGHT (three numbers separated by commas), got '" + text + "'");
     if (!(std::abs(v[0]) <= 90) || !std::isfinite(v[1]) || !(std::abs(v[2]) <= 100000))
-        throw UsageError("--origin: latitude in [-90, 90] degrees, a finite longitude and a height within 100 km, got '" +
-                         text + "'");
+        throw UsageError(
+            "--origin: latitude in [-90, 90] degrees, a finite longitude and a height within 100 km, got '" + text +
+            "'");
     return Geodetic{v[0], v[1], v[2]};
 }
 }  // namespace
@@ -408,8 +420,8 @@ void recordFrame(const IgOptions& o, const Ig& ig, std::uint32_t hostFrame, cons
               "--record");
     if (ig.screen) {
         std::snprintf(name, sizeof name, "window-frame-%010u.pfm", hostFrame);
-        files.add((std::filesystem::path(o.record) / name).string(),
-                  [&](const std::string& p) { writePfm(p, shown); }, "--record");
+        files.add((std::filesystem::path(o.record) / name).string(), [&](const std::string& p) { writePfm(p, shown); },
+                  "--record");
     }
     files.checkPaths();
     files.commit();
@@ -459,12 +471,14 @@ bool drawFrame(const IgOptions& o, Ig& ig, const cigi::IgControl& igc) {
 // frame counter (advanced here), then the answers to the frame's requests.
 std::vector<std::uint8_t> answerFrame(IgState& s, const SkyRenderer& sky, const cigi::HostDatagram& d,
                                       const std::vector<const cigi::EnvironmentalConditionsRequest*>& requests,
-                                      bool operate, std::uint32_t& igFrame, std::chrono::steady_clock::time_point start) {
+                                      bool operate, std::uint32_t& igFrame,
+                                      std::chrono::steady_clock::time_point start) {
     const cigi::IgControl& igc = d.igControl;
     cigi::DatagramWriter reply(d.byteOrder);
     for (const auto* r : requests) {
         if (reply.bytes().size() > 60000) {  // a UDP datagram holds 65507 bytes
-            s.once("more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
+            s.once(
+                "more Environmental Conditions Requests in one frame than one datagram can answer: the rest are not");
             break;
         }
         s.answer(*r, sky, reply);
@@ -513,10 +527,12 @@ int runIg(const IgOptions& o) {
                               << " of " << o.frames << " frames\n";
                     return 1;
                 }
-                std::cerr << "nephele: ig: no datagram for " << o.timeout << " s: stopping after " << rendered << " frames\n";
+                std::cerr << "nephele: ig: no datagram for " << o.timeout << " s: stopping after " << rendered
+                          << " frames\n";
                 return 0;
             }
-            const auto d = cigi::parseHostDatagram(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)));
+            const auto d =
+                cigi::parseHostDatagram(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)));
             if (!d) continue;  // logged by the parser; no Start of Frame for a datagram that is not a frame
             const cigi::IgControl& igc = d->igControl;
             // A host resending its frame (it has not seen the Start of Frame yet) gets the same

@@ -43,7 +43,8 @@ void installConsoleLogging() {
         char bar[41];
         for (int i = 0; i < 40; ++i) bar[i] = i < percent * 40 / 100 ? '#' : '.';
         bar[40] = 0;
-        std::fprintf(stderr, "\r%.*s [%s] %3d%%%s", int(label.size()), label.data(), bar, percent, percent == 100 ? "\n" : "");
+        std::fprintf(stderr, "\r%.*s [%s] %3d%%%s", int(label.size()), label.data(), bar, percent,
+                     percent == 100 ? "\n" : "");
         std::fflush(stderr);
     });
 }
@@ -60,8 +61,8 @@ int runInfoScene(const std::string& file) {
         for (const Cloud& c : scene.clouds) ellipsoids += c.ellipsoids.size();
         std::cout << scene.file << ": " << scene.clouds.size() << " clouds, " << ellipsoids << " ellipsoids\n";
         for (const GenerateStats& g : scene.generated)
-            std::cout << "generate " << g.name << ": placed " << g.placed << ", pruned " << g.prunedHollow << " hollow / "
-                      << g.prunedContained << " contained"
+            std::cout << "generate " << g.name << ": placed " << g.placed << ", pruned " << g.prunedHollow
+                      << " hollow / " << g.prunedContained << " contained"
                       << (g.degenerate ? ", " + std::to_string(g.degenerate) + " degenerate skipped" : "") << ", kept "
                       << g.kept << "\n";
         return 0;
@@ -107,8 +108,9 @@ std::string conversionFault(const CLI::App& app, const std::string& what) {
     const bool integer = type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0;
     const std::size_t colon = type.find(':');
     const std::string range = colon == std::string::npos ? "" : " in " + type.substr(colon + 1);
-    return name + ": '" + value + "' is not " + (integer ? "an integer; it takes a whole number" + range + ", written without an exponent or a fraction"
-                                                         : "a value of its type (" + type + ")");
+    return name + ": '" + value + "' is not " +
+           (integer ? "an integer; it takes a whole number" + range + ", written without an exponent or a fraction"
+                    : "a value of its type (" + type + ")");
 }
 
 int parse(CLI::App& app, int argc, char** argv) {
@@ -137,11 +139,13 @@ CLI::App* addRenderCommand(CLI::App& app, RenderOptions& ro, SceneArgs& args) {
     render->add_option("-o,--output", ro.output, "Output PNG (sRGB, 8-bit)")->required()->check(kPath);
     render->add_option("--alpha", ro.alpha, "Also write the cloud opacity as an 8-bit grey PNG")->check(kPath);
     render->add_option("--pfm", ro.pfm, "Also write linear float RGB as PFM")->check(kPath);
-    render->add_option("--density-alpha", ro.densityAlpha,
-                       "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against")
+    render
+        ->add_option("--density-alpha", ro.densityAlpha,
+                     "Also write the exact opacity of the scene's density field (8-bit grey), to check --alpha against")
         ->check(kPath);
-    render->add_flag("--silhouette", ro.silhouette,
-                     "Print the box-counting dimension of the cloud opacity's alpha > 0.5 silhouette (boxes 2-32 px) on stdout");
+    render->add_flag(
+        "--silhouette", ro.silhouette,
+        "Print the box-counting dimension of the cloud opacity's alpha > 0.5 silhouette (boxes 2-32 px) on stdout");
     render->add_option("--time", ro.time, "Time in seconds (wind, lightning, camera path)")
         ->check(within(-1e9, 1e9))
         ->capture_default_str();
@@ -152,11 +156,15 @@ CLI::App* addRenderCommand(CLI::App& app, RenderOptions& ro, SceneArgs& args) {
 CLI::App* addFlythroughCommand(CLI::App& app, FlythroughOptions& fo, SceneArgs& args) {
     CLI::App* fly = app.add_subcommand("flythrough", "Render the scene's camera path to numbered PNG frames");
     addSceneOptions(fly, args);
-    fly->add_option("--out-dir", fo.outDir, "Folder for the frames and flythrough.json (new or empty)")->required()->check(kPath);
-    fly->add_option("--fps", fo.fps, "Frames per second of scene time (at most " + std::to_string(kMaxFrames) + " frames)")
+    fly->add_option("--out-dir", fo.outDir, "Folder for the frames and flythrough.json (new or empty)")
+        ->required()
+        ->check(kPath);
+    fly->add_option("--fps", fo.fps,
+                    "Frames per second of scene time (at most " + std::to_string(kMaxFrames) + " frames)")
         ->check(within(0.001, 1000))
         ->capture_default_str();
-    fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index")->check(kPath);
+    fly->add_option("--reference-dir", fo.referenceDir, "A reference run's --out-dir: also report the flicker index")
+        ->check(kPath);
     fly->add_flag("--timings", fo.timings,
                   "Also record the compositor's plan, tile-pass and composite ms of every frame in flythrough.json "
                   "(a glFinish between the parts: the frames get a little slower)");
@@ -164,7 +172,8 @@ CLI::App* addFlythroughCommand(CLI::App& app, FlythroughOptions& fo, SceneArgs& 
 }
 
 CLI::App* addCompareCommand(CLI::App& app, CompareOptions& co) {
-    CLI::App* compare = app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
+    CLI::App* compare =
+        app.add_subcommand("compare", "Compare two renders: one JSON line (exposure-fitted RMSE, PSNR, SSIM, alpha)");
     compare->add_option("a", co.a, "Image A (.png sRGB or .pfm linear)")->required()->check(kPath);
     compare->add_option("b", co.b, "Image B, the reference")->required()->check(kPath);
     compare->add_option("--alpha-a", co.alphaA, "A's cloud opacity (grey .png or .pfm)")->check(kPath);
@@ -173,13 +182,21 @@ CLI::App* addCompareCommand(CLI::App& app, CompareOptions& co) {
 }
 
 CLI::App* addExportCommand(CLI::App& app, ExportOptions& eo) {
-    CLI::App* exportCmd = app.add_subcommand("export", "Write the scene's extinction field, as the path tracer renders it, "
-                                                       "to a file (docs/cli.md, \"export\")");
-    exportCmd->add_option("scene", eo.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")->required()->check(kPath);
-    exportCmd->add_option("--vdb", eo.vdb, "Output OpenVDB file: a FloatGrid named 'density', in 1/m")->required()->check(kPath);
-    exportCmd->add_option("--voxel", eo.voxel, "Voxel edge in metres (default: the field's box shared among 256^3 voxels)")
+    CLI::App* exportCmd = app.add_subcommand("export",
+                                             "Write the scene's extinction field, as the path tracer renders it, "
+                                             "to a file (docs/cli.md, \"export\")");
+    exportCmd->add_option("scene", eo.scene, "Scene file (cloudscene JSON, see data/scene-format.md)")
+        ->required()
+        ->check(kPath);
+    exportCmd->add_option("--vdb", eo.vdb, "Output OpenVDB file: a FloatGrid named 'density', in 1/m")
+        ->required()
+        ->check(kPath);
+    exportCmd
+        ->add_option("--voxel", eo.voxel, "Voxel edge in metres (default: the field's box shared among 256^3 voxels)")
         ->check(within(1e-3, 1e6));
-    exportCmd->add_option("--time", eo.time, "Time in seconds (the layers' wind; the camera path, on whose eye the layers centre)")
+    exportCmd
+        ->add_option("--time", eo.time,
+                     "Time in seconds (the layers' wind; the camera path, on whose eye the layers centre)")
         ->check(within(-1e9, 1e9))
         ->capture_default_str();
     return exportCmd;
@@ -192,7 +209,8 @@ struct InfoArgs {
 CLI::App* addInfoCommand(CLI::App& app, InfoArgs& a) {
     CLI::App* info = app.add_subcommand("info", "Make a GL context and print what it is");
     info->add_option("--gl", a.gl, "egl, osmesa or glfw")->check(CLI::IsMember({"egl", "osmesa", "glfw"}));
-    info->add_option("scene", a.scene, "Instead: load this scene and print its clouds and what each `generate` entry made")
+    info->add_option("scene", a.scene,
+                     "Instead: load this scene and print its clouds and what each `generate` entry made")
         ->check(kPath);
     return info;
 }
@@ -259,7 +277,9 @@ int main(int argc, char** argv) {
     try {
         return run(argc, argv);
     } catch (const std::bad_alloc&) {
-        std::fprintf(stderr, "nephele: out of memory (std::bad_alloc); lower the image size or the settings that size the work\n");
+        std::fprintf(
+            stderr,
+            "nephele: out of memory (std::bad_alloc); lower the image size or the settings that size the work\n");
     } catch (const std::exception& e) {
         std::fprintf(stderr, "nephele: %s\n", terminalText(e.what()).c_str());
     }

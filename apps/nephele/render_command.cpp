@@ -24,8 +24,8 @@ namespace nephele::cli {
 
 namespace {
 constexpr std::pair<Method, const char*> kMethods[] = {
-    {Method::Auto, "auto"},           {Method::Ellipsoid, "ellipsoid"}, {Method::Layered, "layered"},
-    {Method::Raymarch, "raymarch"},   {Method::Pathtrace, "pathtrace"}, {Method::GardnerExact, "gardner-exact"}};
+    {Method::Auto, "auto"},         {Method::Ellipsoid, "ellipsoid"}, {Method::Layered, "layered"},
+    {Method::Raymarch, "raymarch"}, {Method::Pathtrace, "pathtrace"}, {Method::GardnerExact, "gardner-exact"}};
 constexpr int kMaxSize = kMaxImageSize;
 }  // namespace
 
@@ -48,12 +48,15 @@ ChannelOptions parseChannel(const std::string& frustum, double yawDeg, double pi
         double v[4];
         char extra = 0;
         if (std::sscanf(frustum.c_str(), "%lf,%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &v[3], &extra) != 4)
-            throw UsageError("--frustum must be four numbers L,R,B,T (the tangents of the edges at unit distance), got '" +
-                             frustum + "'");
+            throw UsageError(
+                "--frustum must be four numbers L,R,B,T (the tangents of the edges at unit distance), got '" + frustum +
+                "'");
         for (double x : v)
             if (!(std::isfinite(x) && std::abs(x) <= 100))
-                throw UsageError("--frustum: each tangent must be a finite number in [-100, 100] (edges within 89.4 "
-                                 "degrees of the axis), got '" + frustum + "'");
+                throw UsageError(
+                    "--frustum: each tangent must be a finite number in [-100, 100] (edges within 89.4 "
+                    "degrees of the axis), got '" +
+                    frustum + "'");
         if (!(v[1] - v[0] >= 1e-4 && v[3] - v[2] >= 1e-4))
             throw UsageError("--frustum: L must be less than R and B less than T, got '" + frustum + "'");
         c.frustum = Frustum{v[0], v[1], v[2], v[3]};
@@ -103,10 +106,16 @@ std::uint64_t frameBytes(const Scene& scene, const RenderOptions& o) {
     std::uint64_t fixed = 64 << 20;  // shaders, meshes, noise and light volumes: tens of MB
     switch (o.method) {
         case Method::Pathtrace:
-        case Method::GardnerExact: break;  // CPU: the image itself is the read-back's RGBA
+        case Method::GardnerExact: break;                  // CPU: the image itself is the read-back's RGBA
         case Method::Raymarch: perPixel += 20 + 4; break;  // GL frame (RGBA32F + depth), depth copy
-        case Method::Layered: perPixel += 20 + 4 + 12; fixed += lightingBytes(o.layered.lighting); break;
-        case Method::Auto: perPixel += 20 + 4 + 12; fixed += lightingBytes(o.layered.lighting); [[fallthrough]];
+        case Method::Layered:
+            perPixel += 20 + 4 + 12;
+            fixed += lightingBytes(o.layered.lighting);
+            break;
+        case Method::Auto:
+            perPixel += 20 + 4 + 12;
+            fixed += lightingBytes(o.layered.lighting);
+            [[fallthrough]];
         case Method::Ellipsoid:
             perPixel += 20 + 4 + 20;  // GL frame, depth copy, the weighted composite's targets
             fixed += std::uint64_t(o.ellipsoid.atlasMegabytes) << 20;
@@ -149,7 +158,8 @@ FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     opaque_ = std::make_unique<OpaquePass>();
     if (o.method == Method::Raymarch) raymarch_ = std::make_unique<RaymarchRenderer>(o.raymarch);
     else if (o.method == Method::Layered) layered_ = std::make_unique<LayeredRenderer>(o.layered);
-    else if (o.method == Method::Auto) sky_ = std::make_unique<SkyRenderer>(SkySettings{o.layered, o.nearLod, o.ellipsoid});
+    else if (o.method == Method::Auto)
+        sky_ = std::make_unique<SkyRenderer>(SkySettings{o.layered, o.nearLod, o.ellipsoid});
     else clouds_ = std::make_unique<EllipsoidRenderer>(o.ellipsoid);
 }
 
@@ -170,8 +180,8 @@ Frame FrameRenderer::render(const Scene& sceneIn, double time) {
     Image rgba;
     Frame frame;
     if (options_.method == Method::GardnerExact) {
-        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder, model::kWeightExponent,
-                                  options_.ellipsoid.light, &exactLight_);
+        rgba = renderGardnerExact(scene, view, noise_, options_.ellipsoid.noise, options_.exactOrder,
+                                  model::kWeightExponent, options_.ellipsoid.light, &exactLight_);
     } else if (options_.method == Method::Pathtrace) {
         PathTraceSettings ps = options_.pathtrace;
         ps.progress = ::isatty(2) != 0;
@@ -209,7 +219,8 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
         if (clouds > 0)
             std::cerr << "nephele: note: --method layered draws the far-field layers only; " << clouds
                       << " explicit ellipsoid cloud(s) left out\n";
-        if (scene.layers.empty()) std::cerr << "nephele: note: the scene has no layers; --method layered draws only the sky\n";
+        if (scene.layers.empty())
+            std::cerr << "nephele: note: the scene has no layers; --method layered draws only the sky\n";
     } else if (!scene.layers.empty() && o.method != Method::Auto && o.method != Method::Pathtrace)
         std::cerr << "nephele: note: --method " << methodName(o.method) << " does not draw far-field layers; "
                   << scene.layers.size() << " layer(s) left out (--method auto or layered draws them)\n";
@@ -219,11 +230,13 @@ Frame renderFrame(const Scene& scene, const RenderOptions& o) {
 namespace {
 // A name that says the other format is refused: the file would hold bytes its name belies
 // (-o x.pfm wrote a PNG under that name).
-void checkFormatName(const std::string& path, const char* flag, const char* wrong, const char* writes, const char* instead) {
+void checkFormatName(const std::string& path, const char* flag, const char* wrong, const char* writes,
+                     const char* instead) {
     std::string tail = path.size() >= 4 ? path.substr(path.size() - 4) : path;
     for (char& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     if (tail == wrong)
-        throw UsageError(std::string(flag) + " writes " + writes + ", but '" + path + "' is named " + wrong + " (" + instead + ")");
+        throw UsageError(std::string(flag) + " writes " + writes + ", but '" + path + "' is named " + wrong + " (" +
+                         instead + ")");
 }
 }  // namespace
 
@@ -231,12 +244,18 @@ int runRender(const RenderOptions& o) {
     Scene scene;
     Frame frame;
     OutputFiles files;  // written only after the frame rendered, all or nothing
-    files.add(o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); }, "-o");
-    if (!o.alpha.empty()) files.add(o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); }, "--alpha");
-    if (!o.pfm.empty()) files.add(o.pfm, [&](const std::string& p) { writePfm(p, frame.color); }, "--pfm");
+    files.add(
+        o.output, [&](const std::string& p) { writePng(p, frame.color, Encoding::Srgb); }, "-o");
+    if (!o.alpha.empty())
+        files.add(
+            o.alpha, [&](const std::string& p) { writePng(p, frame.alpha, Encoding::Linear); }, "--alpha");
+    if (!o.pfm.empty())
+        files.add(
+            o.pfm, [&](const std::string& p) { writePfm(p, frame.color); }, "--pfm");
     if (!o.densityAlpha.empty())
-        files.add(o.densityAlpha, [&](const std::string& p) { writePng(p, frame.densityAlpha, Encoding::Linear); },
-                  "--density-alpha");
+        files.add(
+            o.densityAlpha, [&](const std::string& p) { writePng(p, frame.densityAlpha, Encoding::Linear); },
+            "--density-alpha");
     try {
         if (!std::isfinite(o.time)) throw UsageError("--time must be a finite number of seconds");
         files.checkPaths();
@@ -263,27 +282,30 @@ int runRender(const RenderOptions& o) {
     if (!o.pfm.empty()) std::cerr << ", " << o.pfm;
     if (!o.densityAlpha.empty()) std::cerr << ", " << o.densityAlpha;
     std::cerr << " (" << scene.camera.width << "x" << scene.camera.height << ", method " << methodName(o.method)
-              << (o.method == Method::GardnerExact || o.method == Method::Pathtrace ? ""
-                                                                                : std::string(", ") + backendName(o.backend))
+              << (o.method == Method::GardnerExact || o.method == Method::Pathtrace
+                      ? ""
+                      : std::string(", ") + backendName(o.backend))
               << ")\n";
     if (o.silhouette) std::cout << "silhouette dimension " << silhouetteDimension(frame.alpha) << "\n";
     const EllipsoidStats& st = frame.stats;
     if (st.ellipsoids > 0)
         std::cerr << "nephele: ellipsoids: " << st.visible << " of " << st.ellipsoids << " visible, " << st.passes
                   << " pass(es), atlas use " << std::lround(100 * st.utilisation) << "%, " << st.drawCalls
-                  << " draw calls" << (st.impostors > 0 ? ", " + std::to_string(st.impostors) + " far cloud(s) as impostors" : "")
+                  << " draw calls"
+                  << (st.impostors > 0 ? ", " + std::to_string(st.impostors) + " far cloud(s) as impostors" : "")
                   << "\n";
     if (o.method == Method::Auto && frame.layered.sceneLayers > 0) {
         const NearLodStats& n = frame.nearLod;
-        std::cerr << "nephele: near LOD: " << n.cells << " cell(s) within " << o.layered.nearRadius + o.layered.blendBand
-                  << " m, " << n.clouds << " cumulus spawned (" << n.fading << " fading in the blend band), "
-                  << n.ellipsoids << " ellipsoids\n";
+        std::cerr << "nephele: near LOD: " << n.cells << " cell(s) within "
+                  << o.layered.nearRadius + o.layered.blendBand << " m, " << n.clouds << " cumulus spawned ("
+                  << n.fading << " fading in the blend band), " << n.ellipsoids << " ellipsoids\n";
     }
     if (frame.layered.sceneLayers > 0)
         std::cerr << "nephele: layers: " << frame.layered.sceneLayers << " scene layer(s), " << frame.layered.instances
                   << " instances in " << frame.layered.drawCalls << " draw calls"
                   << (frame.layered.precomputeMs > 0
-                          ? ", lighting precomputed in " + std::to_string(std::lround(frame.layered.precomputeMs)) + " ms"
+                          ? ", lighting precomputed in " + std::to_string(std::lround(frame.layered.precomputeMs)) +
+                                " ms"
                           : std::string(", lighting from the cache"))
                   << "\n";
     return 0;

@@ -34,7 +34,7 @@ const char* methodName(Method m);
 
 // A display channel of the scene camera (--frustum, --yaw-offset, --pitch-offset).
 struct ChannelOptions {
-    std::optional<Frustum> frustum;  // instead of the camera's fov_y
+    std::optional<Frustum> frustum;   // instead of the camera's fov_y
     double yawDeg = 0, pitchDeg = 0;  // the channel's rotation about the eye
 };
 // Throws UsageError naming the flag: --frustum must be four finite tangents L,R,B,T in
@@ -49,7 +49,7 @@ struct RenderOptions {
     std::optional<int> width, height;
     std::optional<double> scale;
     double time = 0;
-    ChannelOptions channel;       // --frustum, --yaw-offset, --pitch-offset
+    ChannelOptions channel;  // --frustum, --yaw-offset, --pitch-offset
     GlBackend backend = GlBackend::Egl;
     EllipsoidSettings ellipsoid;  // --min-tile, --max-tile, --atlas, --precision, --draws, --flythrough
     RaymarchSettings raymarch;    // --step, --lod-distance, --light-grid, --octaves
@@ -59,12 +59,12 @@ struct RenderOptions {
     NearLodSettings nearLod;      // auto: the near LOD's cells
     std::string cacheDir;         // path-traced references are cached here ("" = no cache)
     CompositeOrder exactOrder = CompositeOrder::PerEllipsoid;  // gardner-exact: --exact-order
-    bool silhouette = false;      // --silhouette: print the box-counting dimension of the alpha > 0.5 silhouette
+    bool silhouette = false;  // --silhouette: print the box-counting dimension of the alpha > 0.5 silhouette
 };
 
 struct Frame {
-    Image color;  // RGB linear radiance
-    Image alpha;  // grey, cloud opacity (1 - transmittance of cloud matter)
+    Image color;           // RGB linear radiance
+    Image alpha;           // grey, cloud opacity (1 - transmittance of cloud matter)
     EllipsoidStats stats;  // the ellipsoid compositor's, when it ran
     LayeredStats layered;  // the layered sky's, when it ran
     NearLodStats nearLod;  // auto: what the near LOD spawned

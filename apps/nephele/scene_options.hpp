@@ -26,7 +26,7 @@ struct SceneArgs {
     CLI::Option *widthOpt = nullptr, *heightOpt = nullptr, *scaleOpt = nullptr;
     CLI::Option *nearRadiusOpt = nullptr, *blendBandOpt = nullptr, *lod0RadiusOpt = nullptr;
     RaymarchSettings raymarch;
-    RadianceGridSettings light;   // --light-grid, --photons (sky photons = sun photons)
+    RadianceGridSettings light;       // --light-grid, --photons (sky photons = sun photons)
     std::string lightGridFit = "on";  // --light-grid-fit
     std::string reuse;                // --reuse: on | off; empty: on under auto, off otherwise
     std::string cloudLod;             // --cloud-lod: on | off; empty: on under auto, off otherwise
@@ -36,8 +36,8 @@ struct SceneArgs {
     PathTraceSettings pathtrace;
     LayeredSettings layered;
     std::string lightSize = "256x256x32";
-    std::string frustum;                       // --frustum L,R,B,T
-    double yawOffset = 0, pitchOffset = 0;     // --yaw-offset, --pitch-offset (degrees)
+    std::string frustum;                    // --frustum L,R,B,T
+    double yawOffset = 0, pitchOffset = 0;  // --yaw-offset, --pitch-offset (degrees)
     std::string cache;
     bool noCache = false;
 };

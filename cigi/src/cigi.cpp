@@ -255,12 +255,14 @@ void aerosolResponseFields(IO& io, P& p) {
 // The traits tie a struct to its opcode, size and field list.
 template <class P>
 struct Traits;
-#define NEPHELE_CIGI_TRAITS(Type, fn)                                                   \
-    template <>                                                                         \
-    struct Traits<Type> {                                                               \
-        static constexpr std::uint8_t op = opcode::Type;                                \
-        template <class IO, class Q>                                                    \
-        static void fields(IO& io, Q& p) { fn(io, p); }                                 \
+#define NEPHELE_CIGI_TRAITS(Type, fn)                    \
+    template <>                                          \
+    struct Traits<Type> {                                \
+        static constexpr std::uint8_t op = opcode::Type; \
+        template <class IO, class Q>                     \
+        static void fields(IO& io, Q& p) {               \
+            fn(io, p);                                   \
+        }                                                \
     };
 NEPHELE_CIGI_TRAITS(IgControl, igControlFields)
 NEPHELE_CIGI_TRAITS(EntityControl, entityControlFields)
@@ -300,18 +302,18 @@ void warn(const std::string& message) { logMessage(LogLevel::Warning, "CIGI: " +
 
 const char* name(std::uint8_t op) {
     switch (op) {
-    case opcode::IgControl: return "IG Control";
-    case opcode::EntityControl: return "Entity Control";
-    case opcode::CelestialSphereControl: return "Celestial Sphere Control";
-    case opcode::AtmosphereControl: return "Atmosphere Control";
-    case opcode::WeatherControl: return "Weather Control";
-    case opcode::ViewControl: return "View Control";
-    case opcode::ViewDefinition: return "View Definition";
-    case opcode::EnvironmentalConditionsRequest: return "Environmental Conditions Request";
-    case opcode::StartOfFrame: return "Start of Frame";
-    case opcode::WeatherConditionsResponse: return "Weather Conditions Response";
-    case opcode::AerosolConcentrationResponse: return "Aerosol Concentration Response";
-    default: return "unknown";
+        case opcode::IgControl: return "IG Control";
+        case opcode::EntityControl: return "Entity Control";
+        case opcode::CelestialSphereControl: return "Celestial Sphere Control";
+        case opcode::AtmosphereControl: return "Atmosphere Control";
+        case opcode::WeatherControl: return "Weather Control";
+        case opcode::ViewControl: return "View Control";
+        case opcode::ViewDefinition: return "View Definition";
+        case opcode::EnvironmentalConditionsRequest: return "Environmental Conditions Request";
+        case opcode::StartOfFrame: return "Start of Frame";
+        case opcode::WeatherConditionsResponse: return "Weather Conditions Response";
+        case opcode::AerosolConcentrationResponse: return "Aerosol Concentration Response";
+        default: return "unknown";
     }
 }
 
@@ -320,13 +322,13 @@ const char* name(std::uint8_t op) {
 std::optional<ByteOrder> checkFirst(std::span<const std::uint8_t> bytes, std::uint8_t op, const char* side) {
     const std::size_t size = packetSize(op);
     if (bytes.size() < size) {
-        warn(std::string(side) + " datagram of " + std::to_string(bytes.size()) + " bytes dropped: shorter than its first packet, " +
-             name(op) + " (" + std::to_string(size) + " bytes)");
+        warn(std::string(side) + " datagram of " + std::to_string(bytes.size()) +
+             " bytes dropped: shorter than its first packet, " + name(op) + " (" + std::to_string(size) + " bytes)");
         return std::nullopt;
     }
     if (bytes[0] != op) {
-        warn(std::string(side) + " datagram dropped: its first packet has opcode " + std::to_string(bytes[0]) + ", not " +
-             name(op) + " (" + std::to_string(op) + ") as the standard requires");
+        warn(std::string(side) + " datagram dropped: its first packet has opcode " + std::to_string(bytes[0]) +
+             ", not " + name(op) + " (" + std::to_string(op) + ") as the standard requires");
         return std::nullopt;
     }
     if (bytes[1] != size) {
@@ -335,7 +337,8 @@ std::optional<ByteOrder> checkFirst(std::span<const std::uint8_t> bytes, std::ui
         return std::nullopt;
     }
     if (bytes[2] != kMajorVersion) {
-        warn(std::string(side) + " datagram dropped: CIGI major version " + std::to_string(bytes[2]) + ", this IG speaks 3");
+        warn(std::string(side) + " datagram dropped: CIGI major version " + std::to_string(bytes[2]) +
+             ", this IG speaks 3");
         return std::nullopt;
     }
     const unsigned magic = (unsigned(bytes[6]) << 8) | bytes[7];
@@ -353,23 +356,23 @@ void walk(std::span<const std::uint8_t> bytes, std::size_t offset, const char* s
     while (offset < bytes.size()) {
         const std::size_t left = bytes.size() - offset;
         if (left < 2) {
-            warn(std::string(side) + " datagram: " + std::to_string(left) + " byte left at offset " + std::to_string(offset) +
-                 ", too few for a packet header; the rest is ignored");
+            warn(std::string(side) + " datagram: " + std::to_string(left) + " byte left at offset " +
+                 std::to_string(offset) + ", too few for a packet header; the rest is ignored");
             d.complete = false;
             return;
         }
         const std::uint8_t op = bytes[offset];
         const std::size_t size = bytes[offset + 1];
         if (size < 2) {
-            warn(std::string(side) + " datagram: packet at offset " + std::to_string(offset) + " (opcode " + std::to_string(op) +
-                 ") declares a size of " + std::to_string(size) + " bytes; the rest is ignored");
+            warn(std::string(side) + " datagram: packet at offset " + std::to_string(offset) + " (opcode " +
+                 std::to_string(op) + ") declares a size of " + std::to_string(size) + " bytes; the rest is ignored");
             d.complete = false;
             return;
         }
         if (size > left) {
-            warn(std::string(side) + " datagram: packet at offset " + std::to_string(offset) + " (" + name(op) + ", opcode " +
-                 std::to_string(op) + ") declares " + std::to_string(size) + " bytes but only " + std::to_string(left) +
-                 " remain; the rest is ignored");
+            warn(std::string(side) + " datagram: packet at offset " + std::to_string(offset) + " (" + name(op) +
+                 ", opcode " + std::to_string(op) + ") declares " + std::to_string(size) + " bytes but only " +
+                 std::to_string(left) + " remain; the rest is ignored");
             d.complete = false;
             return;
         }
@@ -396,18 +399,18 @@ void walk(std::span<const std::uint8_t> bytes, std::size_t offset, const char* s
 
 std::size_t packetSize(std::uint8_t op) {
     switch (op) {
-    case opcode::IgControl: return 24;
-    case opcode::EntityControl: return 48;
-    case opcode::CelestialSphereControl: return 16;
-    case opcode::AtmosphereControl: return 32;
-    case opcode::WeatherControl: return 56;
-    case opcode::ViewControl: return 32;
-    case opcode::ViewDefinition: return 32;
-    case opcode::EnvironmentalConditionsRequest: return 32;
-    case opcode::StartOfFrame: return 24;
-    case opcode::WeatherConditionsResponse: return 32;
-    case opcode::AerosolConcentrationResponse: return 8;
-    default: return 0;
+        case opcode::IgControl: return 24;
+        case opcode::EntityControl: return 48;
+        case opcode::CelestialSphereControl: return 16;
+        case opcode::AtmosphereControl: return 32;
+        case opcode::WeatherControl: return 56;
+        case opcode::ViewControl: return 32;
+        case opcode::ViewDefinition: return 32;
+        case opcode::EnvironmentalConditionsRequest: return 32;
+        case opcode::StartOfFrame: return 24;
+        case opcode::WeatherConditionsResponse: return 32;
+        case opcode::AerosolConcentrationResponse: return 8;
+        default: return 0;
     }
 }
 
@@ -419,16 +422,18 @@ std::optional<HostDatagram> parseHostDatagram(std::span<const std::uint8_t> byte
     d.igControl = decode<IgControl>(bytes.first(packetSize(opcode::IgControl)), *order);
     walk(bytes, packetSize(opcode::IgControl), "host", d, [&](std::uint8_t op, std::span<const std::uint8_t> p) {
         switch (op) {
-        case opcode::EntityControl: d.packets.emplace_back(decode<EntityControl>(p, *order)); return true;
-        case opcode::ViewControl: d.packets.emplace_back(decode<ViewControl>(p, *order)); return true;
-        case opcode::ViewDefinition: d.packets.emplace_back(decode<ViewDefinition>(p, *order)); return true;
-        case opcode::CelestialSphereControl: d.packets.emplace_back(decode<CelestialSphereControl>(p, *order)); return true;
-        case opcode::AtmosphereControl: d.packets.emplace_back(decode<AtmosphereControl>(p, *order)); return true;
-        case opcode::WeatherControl: d.packets.emplace_back(decode<WeatherControl>(p, *order)); return true;
-        case opcode::EnvironmentalConditionsRequest:
-            d.packets.emplace_back(decode<EnvironmentalConditionsRequest>(p, *order));
-            return true;
-        default: return false;  // a second IG Control, an IG's packet, or an opcode not handled
+            case opcode::EntityControl: d.packets.emplace_back(decode<EntityControl>(p, *order)); return true;
+            case opcode::ViewControl: d.packets.emplace_back(decode<ViewControl>(p, *order)); return true;
+            case opcode::ViewDefinition: d.packets.emplace_back(decode<ViewDefinition>(p, *order)); return true;
+            case opcode::CelestialSphereControl:
+                d.packets.emplace_back(decode<CelestialSphereControl>(p, *order));
+                return true;
+            case opcode::AtmosphereControl: d.packets.emplace_back(decode<AtmosphereControl>(p, *order)); return true;
+            case opcode::WeatherControl: d.packets.emplace_back(decode<WeatherControl>(p, *order)); return true;
+            case opcode::EnvironmentalConditionsRequest:
+                d.packets.emplace_back(decode<EnvironmentalConditionsRequest>(p, *order));
+                return true;
+            default: return false;  // a second IG Control, an IG's packet, or an opcode not handled
         }
     });
     return d;
@@ -442,11 +447,13 @@ std::optional<IgDatagram> parseIgDatagram(std::span<const std::uint8_t> bytes) {
     d.startOfFrame = decode<StartOfFrame>(bytes.first(packetSize(opcode::StartOfFrame)), *order);
     walk(bytes, packetSize(opcode::StartOfFrame), "IG", d, [&](std::uint8_t op, std::span<const std::uint8_t> p) {
         switch (op) {
-        case opcode::WeatherConditionsResponse: d.packets.emplace_back(decode<WeatherConditionsResponse>(p, *order)); return true;
-        case opcode::AerosolConcentrationResponse:
-            d.packets.emplace_back(decode<AerosolConcentrationResponse>(p, *order));
-            return true;
-        default: return false;
+            case opcode::WeatherConditionsResponse:
+                d.packets.emplace_back(decode<WeatherConditionsResponse>(p, *order));
+                return true;
+            case opcode::AerosolConcentrationResponse:
+                d.packets.emplace_back(decode<AerosolConcentrationResponse>(p, *order));
+                return true;
+            default: return false;
         }
     });
     return d;

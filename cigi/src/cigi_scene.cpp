@@ -30,7 +30,8 @@ std::optional<UtcTime> celestialTime(const CelestialSphereControl& p) {
     return t;
 }
 
-CelestialLight applyCelestial(const CelestialSphereControl& p, double latitudeDeg, double longitudeDeg, CelestialLight& day) {
+CelestialLight applyCelestial(const CelestialSphereControl& p, double latitudeDeg, double longitudeDeg,
+                              CelestialLight& day) {
     if (const std::optional<UtcTime> t = celestialTime(p)) {
         const Daylight d = daylight(*t, latitudeDeg, longitudeDeg);
         day = {d.sun, d.sky};
@@ -42,7 +43,8 @@ CelestialLight applyCelestial(const CelestialSphereControl& p, double latitudeDe
 
 EntityPose entityPose(const EntityControl& p, const EnuFrame& frame) {
     if (!(std::isfinite(p.yaw) && std::isfinite(p.pitch) && std::isfinite(p.roll)))
-        throw std::invalid_argument("Entity Control " + std::to_string(p.entityId) + ": roll, pitch and yaw must be finite");
+        throw std::invalid_argument("Entity Control " + std::to_string(p.entityId) +
+                                    ": roll, pitch and yaw must be finite");
     const Geodetic where{p.latitude, p.longitude, p.altitude};
     const EnuFrame local(where);  // throws for a latitude out of range or a value not finite
     const double y = glm::radians(double(p.yaw)), q = glm::radians(double(p.pitch)), r = glm::radians(double(p.roll));

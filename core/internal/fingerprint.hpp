@@ -15,7 +15,8 @@ namespace nephele {
 class Fingerprint {
 public:
     Fingerprint& bytes(const void* data, std::size_t size) {
-        for (std::size_t i = 0; i < size; ++i) value_ = (value_ ^ static_cast<const unsigned char*>(data)[i]) * 1099511628211ull;
+        for (std::size_t i = 0; i < size; ++i)
+            value_ = (value_ ^ static_cast<const unsigned char*>(data)[i]) * 1099511628211ull;
         return *this;
     }
     template <class T>
@@ -33,7 +34,9 @@ public:
         }
         return *this;
     }
-    Fingerprint& addMedium(const Medium& m) { return add(m.extinction).add(m.albedo).add(m.hgG).add(m.noise).add(m.noiseScale); }
+    Fingerprint& addMedium(const Medium& m) {
+        return add(m.extinction).add(m.albedo).add(m.hgG).add(m.noise).add(m.noiseScale);
+    }
     // medium.detail without its drift (what the field is, not where the wind has carried it).
     Fingerprint& addDetail(const Medium::Detail& d) {
         return add(d.kind).add(d.erosion).add(d.scale).add(d.smallest).add(d.wind);

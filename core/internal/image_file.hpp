@@ -23,7 +23,8 @@ inline FilePtr openFile(const std::string& path, const char* mode) {
 }
 
 inline void checkShape(const Image& image, const std::string& path) {
-    if (image.width <= 0 || image.height <= 0 || image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
+    if (image.width <= 0 || image.height <= 0 ||
+        image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
         throw ImageError(path + ": image has no pixels or an inconsistent size");
 }
 

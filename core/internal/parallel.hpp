@@ -40,8 +40,8 @@ private:
 // Puts the calling thread (a background worker: the clouds' radiance grids, the layers'
 // lighting) where the host's BackgroundSettings say (nephele/background.hpp): its priority (by
 // default SCHED_IDLE, which runs only on a core that nothing else wants; where that is refused,
-// nice 19, per thread on Linux) and its cores. Threads it starts inherit both. Measured with
-// bench --weather at 1280x720: with a nice-19 worker busy the far field took 1.5x its median.
+// nice 19, per thread on Linux) and its cores. Threads it starts inherit both. SCHED_IDLE first
+// because even a nice-19 worker takes time from the frame's threads on a loaded machine.
 // Returns the number of cores a job of this thread may use (for ParallelLimit).
 int enterBackground(const BackgroundSettings& settings);
 inline void makeThisThreadBackground() { enterBackground(BackgroundSettings{}); }

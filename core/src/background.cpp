@@ -12,7 +12,8 @@ void validate(const BackgroundSettings& s) {
     if (s.threads < 1 || s.threads > 256)
         throw std::invalid_argument("BackgroundSettings::threads must be 1..256, got " + std::to_string(s.threads));
     for (int cpu : s.cpus)
-        if (cpu < 0 || cpu > 1023) throw std::invalid_argument("BackgroundSettings::cpus: " + std::to_string(cpu) + " is not a core 0..1023");
+        if (cpu < 0 || cpu > 1023)
+            throw std::invalid_argument("BackgroundSettings::cpus: " + std::to_string(cpu) + " is not a core 0..1023");
     if (s.priority != BackgroundSettings::Priority::Idle && s.priority != BackgroundSettings::Priority::Low &&
         s.priority != BackgroundSettings::Priority::Normal)
         throw std::invalid_argument("BackgroundSettings::priority is none of Idle, Low, Normal");
@@ -22,16 +23,13 @@ int enterBackground(const BackgroundSettings& s) {
 #ifdef __linux__
     const id_t tid = id_t(syscall(SYS_gettid));
     switch (s.priority) {
-    case BackgroundSettings::Priority::Idle: {
-        sched_param none{};
-        if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &none) != 0) setpriority(PRIO_PROCESS, tid, 19);
-        break;
-    }
-    case BackgroundSettings::Priority::Low:
-        setpriority(PRIO_PROCESS, tid, 10);
-        break;
-    case BackgroundSettings::Priority::Normal:
-        break;
+        case BackgroundSettings::Priority::Idle: {
+            sched_param none{};
+            if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &none) != 0) setpriority(PRIO_PROCESS, tid, 19);
+            break;
+        }
+        case BackgroundSettings::Priority::Low: setpriority(PRIO_PROCESS, tid, 10); break;
+        case BackgroundSettings::Priority::Normal: break;
     }
     if (!s.cpus.empty()) {
         cpu_set_t set;

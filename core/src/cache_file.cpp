@@ -45,7 +45,8 @@ struct Fd {
 
 std::string write(const std::string& file, std::string_view payload) {
     struct stat st;
-    if (::lstat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) return file + " is not a regular file; it is left alone";
+    if (::lstat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+        return file + " is not a regular file; it is left alone";
     std::string temp = file + ".tmp-XXXXXX";
     Fd out{::mkostemp(temp.data(), O_CLOEXEC)};
     if (out.fd < 0) return "cannot create a file beside " + file + ": " + std::strerror(errno);

@@ -27,7 +27,9 @@ GLenum depthFormatOf(GLuint framebuffer) {
     const GLint type = attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE);
     if (type == GL_NONE) return GL_NONE;
     GLint format = GL_NONE;
-    const auto name = [&] { return GLuint(attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_NAME)); };
+    const auto name = [&] {
+        return GLuint(attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_NAME));
+    };
     if (type == GL_TEXTURE) {
         const GLint level = attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_TEXTURE_LEVEL);
         glGetTextureLevelParameteriv(name(), level, GL_TEXTURE_INTERNAL_FORMAT, &format);
@@ -35,16 +37,20 @@ GLenum depthFormatOf(GLuint framebuffer) {
         glGetNamedRenderbufferParameteriv(name(), GL_RENDERBUFFER_INTERNAL_FORMAT, &format);
     }
     switch (format) {
-    case GL_DEPTH_COMPONENT16: case GL_DEPTH_COMPONENT24: case GL_DEPTH_COMPONENT32: case GL_DEPTH_COMPONENT32F:
-    case GL_DEPTH24_STENCIL8: case GL_DEPTH32F_STENCIL8:
-        return GLenum(format);
-    default: break;
+        case GL_DEPTH_COMPONENT16:
+        case GL_DEPTH_COMPONENT24:
+        case GL_DEPTH_COMPONENT32:
+        case GL_DEPTH_COMPONENT32F:
+        case GL_DEPTH24_STENCIL8:
+        case GL_DEPTH32F_STENCIL8: return GLenum(format);
+        default: break;
     }
     const GLint bits = attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE);
     if (bits == 0) return GL_NONE;
     const bool isFloat = attachmentParameter(framebuffer, depth, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE) == GL_FLOAT;
-    const bool hasStencil = attachmentParameter(framebuffer, stencil, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE) != GL_NONE &&
-                            attachmentParameter(framebuffer, stencil, GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE) > 0;
+    const bool hasStencil =
+        attachmentParameter(framebuffer, stencil, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE) != GL_NONE &&
+        attachmentParameter(framebuffer, stencil, GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE) > 0;
     if (isFloat) return hasStencil ? GL_DEPTH32F_STENCIL8 : GL_DEPTH_COMPONENT32F;
     if (hasStencil) return GL_DEPTH24_STENCIL8;
     return bits <= 16 ? GL_DEPTH_COMPONENT16 : bits <= 24 ? GL_DEPTH_COMPONENT24 : GL_DEPTH_COMPONENT32;
@@ -52,9 +58,9 @@ GLenum depthFormatOf(GLuint framebuffer) {
 
 std::uint64_t bytesPerTexel(GLenum format) {
     switch (format) {
-    case GL_DEPTH_COMPONENT16: return 2;
-    case GL_DEPTH32F_STENCIL8: return 8;
-    default: return 4;
+        case GL_DEPTH_COMPONENT16: return 2;
+        case GL_DEPTH32F_STENCIL8: return 8;
+        default: return 4;
     }
 }
 
@@ -64,7 +70,8 @@ DepthSource FrameDepth::source(const HostFrame& frame, const View& view) {
     if (!frame.hasDepth) return {};
     if (frame.depth.texture != 0) return frame.depth;
     if (depthFormatOf(frame.framebuffer) == GL_NONE) return {};
-    return {copy(frame.framebuffer, view.origin.x, view.origin.y, view.camera.width, view.camera.height), glm::ivec2(0)};
+    return {copy(frame.framebuffer, view.origin.x, view.origin.y, view.camera.width, view.camera.height),
+            glm::ivec2(0)};
 }
 
 GLuint FrameDepth::copy(GLuint framebuffer, int x, int y, int width, int height) {
@@ -75,16 +82,18 @@ GLuint FrameDepth::copy(GLuint framebuffer, int x, int y, int width, int height)
     if (width_ != width || height_ != height || format_ != format) {
         texture_ = Texture::create(GL_TEXTURE_2D);
         glTextureStorage2D(texture_.id(), 1, format, width, height);
-        checkAllocation("the copy of the frame's depth", std::uint64_t(width) * std::uint64_t(height) * bytesPerTexel(format));
+        checkAllocation("the copy of the frame's depth",
+                        std::uint64_t(width) * std::uint64_t(height) * bytesPerTexel(format));
         fbo_ = Framebuffer::create();
         const bool stencil = format == GL_DEPTH24_STENCIL8 || format == GL_DEPTH32F_STENCIL8;
-        glNamedFramebufferTexture(fbo_.id(), stencil ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT, texture_.id(), 0);
+        glNamedFramebufferTexture(fbo_.id(), stencil ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT, texture_.id(),
+                                  0);
         checkFramebuffer(fbo_.id(), "the copy of the frame's depth");
         width_ = width, height_ = height, format_ = format;
     }
     glDisable(GL_SCISSOR_TEST);  // a blit obeys the scissor test
-    glBlitNamedFramebuffer(framebuffer, fbo_.id(), x, y, x + width, y + height, 0, 0, width, height, GL_DEPTH_BUFFER_BIT,
-                           GL_NEAREST);
+    glBlitNamedFramebuffer(framebuffer, fbo_.id(), x, y, x + width, y + height, 0, 0, width, height,
+                           GL_DEPTH_BUFFER_BIT, GL_NEAREST);
     check("copying the frame's depth");
     return texture_.id();
 }
@@ -103,8 +112,9 @@ void bindFrame(const HostFrame& frame, const View& view) {
         const GLenum target = frame.drawBuffer != GL_NONE ? frame.drawBuffer : GLenum(first);
         const std::string name = "the host's framebuffer " + std::to_string(frame.framebuffer);
         if (target == GL_NONE)
-            throw GlError(name + ": its draw buffer 0 is GL_NONE; name the colour attachment to draw into "
-                                 "(ViewDesc::drawBuffer)");
+            throw GlError(name +
+                          ": its draw buffer 0 is GL_NONE; name the colour attachment to draw into "
+                          "(ViewDesc::drawBuffer)");
         if (frame.framebuffer != 0) {
             if (target < GL_COLOR_ATTACHMENT0 || target >= GL_COLOR_ATTACHMENT0 + 32)
                 throw GlError(name + ": draw buffer " + std::to_string(target) + " is not a GL_COLOR_ATTACHMENTi");

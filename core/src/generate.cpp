@@ -74,7 +74,8 @@ struct Placed {
 int pruneContained(const std::vector<Placed>& placed, const std::vector<size_t>& alive, const Vec3& aspect,
                    std::vector<bool>& keep) {
     std::vector<size_t> order = alive;
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return placed[a].radius > placed[b].radius; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return placed[a].radius > placed[b].radius; });
     if (order.empty()) return 0;
     const double rMax = placed[order.front()].radius, rMin = placed[order.back()].radius;
     const double cell = std::max(rMax - rMin, 1e-6 * rMax) * (1 + 1e-9);
@@ -258,8 +259,9 @@ void readVertex(const std::vector<std::string_view>& w, ObjMesh& mesh, const std
     Vec3 v;
     for (int k = 0; k < 3; ++k)
         if (!parseDouble(w[1 + k], v[k]))
-            throw ObjError(file, lineNo, "vertex coordinate " + std::to_string(k + 1) + " is not a finite number: " +
-                                             quoted(w[1 + k]));
+            throw ObjError(
+                file, lineNo,
+                "vertex coordinate " + std::to_string(k + 1) + " is not a finite number: " + quoted(w[1 + k]));
     mesh.vertices.push_back(v);
 }
 
@@ -273,19 +275,21 @@ void readFace(const std::vector<std::string_view>& w, ObjMesh& mesh, const std::
         long long i = 0;
         const auto r = std::from_chars(ref.data(), ref.data() + ref.size(), i);
         if (ref.empty() || r.ec != std::errc() || r.ptr != ref.data() + ref.size() || i == 0)
-            throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": " + quoted(w[k]) +
-                                             " is not a vertex index (1-based, or negative from the end)");
+            throw ObjError(file, lineNo,
+                           "face vertex " + std::to_string(k) + ": " + quoted(w[k]) +
+                               " is not a vertex index (1-based, or negative from the end)");
         const long long n = static_cast<long long>(mesh.vertices.size());
         const long long resolved = i > 0 ? i - 1 : n + i;  // -1 = the last vertex so far
         if (resolved < 0 || resolved >= n)
-            throw ObjError(file, lineNo, "face vertex " + std::to_string(k) + ": index " + std::to_string(i) +
-                                             " is out of range (" + std::to_string(n) + " vertices defined so far)");
+            throw ObjError(file, lineNo,
+                           "face vertex " + std::to_string(k) + ": index " + std::to_string(i) + " is out of range (" +
+                               std::to_string(n) + " vertices defined so far)");
         idx.push_back(static_cast<size_t>(resolved));
     }
     if (double(mesh.triangles.size() + idx.size() - 2) > limits::kEllipsoidsPerEntry.value)
-        throw ObjError(file, lineNo, "more than " + limitValueText(limits::kEllipsoidsPerEntry) +
-                                         " triangles (one ellipsoid each), over the limit " +
-                                         limitText(limits::kEllipsoidsPerEntry));
+        throw ObjError(file, lineNo,
+                       "more than " + limitValueText(limits::kEllipsoidsPerEntry) +
+                           " triangles (one ellipsoid each), over the limit " + limitText(limits::kEllipsoidsPerEntry));
     for (size_t k = 1; k + 1 < idx.size(); ++k) mesh.triangles.push_back({idx[0], idx[k], idx[k + 1]});
 }
 
@@ -403,11 +407,12 @@ std::string rewrite(const Generator& g, std::size_t maxSymbols) {
             const unsigned char u = static_cast<unsigned char>(c);
             length += hasRule[u] ? rule[u].size() : 1;
             if (length > maxSymbols)
-                throw std::length_error("rewriting " + std::to_string(it + 1) + " of " + std::to_string(g.iterations) +
-                                        " gives more than " + std::to_string(maxSymbols) + " symbols" +
-                                        (maxSymbols < kMaxLSystemSymbols ? " (what the scene's other L-systems left)" : "") +
-                                        ", over the limit " + limitText(limits::kLSystemSymbols) +
-                                        "; use fewer iterations or shorter rules");
+                throw std::length_error(
+                    "rewriting " + std::to_string(it + 1) + " of " + std::to_string(g.iterations) +
+                    " gives more than " + std::to_string(maxSymbols) + " symbols" +
+                    (maxSymbols < kMaxLSystemSymbols ? " (what the scene's other L-systems left)" : "") +
+                    ", over the limit " + limitText(limits::kLSystemSymbols) +
+                    "; use fewer iterations or shorter rules");
         }
         std::string next;
         next.reserve(length);
@@ -452,37 +457,37 @@ Cloud generateLSystem(const Generator& g, GenerateStats* stats, std::size_t maxS
     cloud.ellipsoids.reserve(spheres);
     for (char c : s) {
         switch (c) {
-        case 'F': {
-            const double step = g.step * (1.0 + g.jitter * rng.symmetric());
-            const double radius = g.radius * (1.0 + g.jitter * rng.symmetric());
-            Ellipsoid e;
-            e.center = t.position + 0.5 * step * t.heading;
-            e.radii = Vec3(radius);
-            e.density = g.density;
-            cloud.ellipsoids.push_back(e);
-            t.position += step * t.heading;
-            break;
-        }
-        case '+': turn(t.heading, t.left, angle); break;    // yaw left about up
-        case '-': turn(t.heading, t.left, -angle); break;   // yaw right
-        case '&': turn(t.heading, t.up, -angle); break;     // pitch down about left
-        case '^': turn(t.heading, t.up, angle); break;      // pitch up
-        case '\\': turn(t.left, t.up, angle); break;        // roll left about heading
-        case '/': turn(t.left, t.up, -angle); break;        // roll right
-        case '|': turn(t.heading, t.left, kPi); break;      // turn around
-        case '[':
-            if (double(stack.size()) >= limits::kLSystemDepth.value)
-                throw std::length_error("the rewritten string nests '[' deeper than the limit " +
-                                        limitText(limits::kLSystemDepth));
-            stack.push_back(t);
-            break;
-        case ']':
-            if (!stack.empty()) {
-                t = stack.back();
-                stack.pop_back();
+            case 'F': {
+                const double step = g.step * (1.0 + g.jitter * rng.symmetric());
+                const double radius = g.radius * (1.0 + g.jitter * rng.symmetric());
+                Ellipsoid e;
+                e.center = t.position + 0.5 * step * t.heading;
+                e.radii = Vec3(radius);
+                e.density = g.density;
+                cloud.ellipsoids.push_back(e);
+                t.position += step * t.heading;
+                break;
             }
-            break;
-        default: break;
+            case '+': turn(t.heading, t.left, angle); break;   // yaw left about up
+            case '-': turn(t.heading, t.left, -angle); break;  // yaw right
+            case '&': turn(t.heading, t.up, -angle); break;    // pitch down about left
+            case '^': turn(t.heading, t.up, angle); break;     // pitch up
+            case '\\': turn(t.left, t.up, angle); break;       // roll left about heading
+            case '/': turn(t.left, t.up, -angle); break;       // roll right
+            case '|': turn(t.heading, t.left, kPi); break;     // turn around
+            case '[':
+                if (double(stack.size()) >= limits::kLSystemDepth.value)
+                    throw std::length_error("the rewritten string nests '[' deeper than the limit " +
+                                            limitText(limits::kLSystemDepth));
+                stack.push_back(t);
+                break;
+            case ']':
+                if (!stack.empty()) {
+                    t = stack.back();
+                    stack.pop_back();
+                }
+                break;
+            default: break;
         }
     }
     if (stats) {
@@ -513,13 +518,16 @@ void checkGenerated(const Cloud& cloud, const Medium& medium, const std::string&
     for (size_t k = 0; k < cloud.ellipsoids.size(); ++k) {
         const Ellipsoid& e = cloud.ellipsoids[k];
         auto fail = [&](const std::string& what) {
-            throw SceneError(file, at, "makes ellipsoid " + std::to_string(k) + " (centre " + vectorText(e.center) +
-                                           " m, radii " + vectorText(e.radii) + " m) " + what);
+            throw SceneError(file, at,
+                             "makes ellipsoid " + std::to_string(k) + " (centre " + vectorText(e.center) +
+                                 " m, radii " + vectorText(e.radii) + " m) " + what);
         };
         for (int a = 0; a < 3; ++a) {
             if (!withinLimit(std::abs(e.center[a]), kCoordinate)) fail("beyond the limit " + limitText(kCoordinate));
-            if (!withinLimit(e.radii[a], kEllipsoidRadius)) fail("with a radius over the limit " + limitText(kEllipsoidRadius));
-            if (!withinLimit(e.radii[a], kSmallestRadius)) fail("with a radius under the limit " + limitText(kSmallestRadius));
+            if (!withinLimit(e.radii[a], kEllipsoidRadius))
+                fail("with a radius over the limit " + limitText(kEllipsoidRadius));
+            if (!withinLimit(e.radii[a], kSmallestRadius))
+                fail("with a radius under the limit " + limitText(kSmallestRadius));
         }
         const double tau = medium.extinction * e.density * (16.0 / 15.0) * e.maxRadius();
         if (!withinLimit(tau, kOpticalDepth))
@@ -530,16 +538,18 @@ void checkGenerated(const Cloud& cloud, const Medium& medium, const std::string&
 // Expands one generator within what the scene has left of its budgets.
 Cloud expandOne(const Generator& g, std::size_t room, std::size_t symbolsLeft, GenerateStats& stats,
                 const std::string& file, const std::string& at) {
-    const std::string over = ", over the limit " + limitText(limits::kEllipsoids) + " with the scene's other ellipsoids";
+    const std::string over =
+        ", over the limit " + limitText(limits::kEllipsoids) + " with the scene's other ellipsoids";
     try {
         switch (g.type) {
-        case Generator::Type::Cumulus:
-            if (std::size_t(g.count) > room)
-                throw SceneError(file, at + ".count", "places " + std::to_string(g.count) + " ellipsoids; the scene has room for " +
-                                                          std::to_string(room) + " more" + over);
-            return generateCumulus(g, &stats);
-        case Generator::Type::Mesh: return generateMesh(g, &stats);
-        case Generator::Type::LSystem: return generateLSystem(g, &stats, symbolsLeft);
+            case Generator::Type::Cumulus:
+                if (std::size_t(g.count) > room)
+                    throw SceneError(file, at + ".count",
+                                     "places " + std::to_string(g.count) + " ellipsoids; the scene has room for " +
+                                         std::to_string(room) + " more" + over);
+                return generateCumulus(g, &stats);
+            case Generator::Type::Mesh: return generateMesh(g, &stats);
+            case Generator::Type::LSystem: return generateLSystem(g, &stats, symbolsLeft);
         }
     } catch (const ObjError& e) {
         throw SceneError(file, at + ".path", e.what());
@@ -560,21 +570,25 @@ std::vector<GenerateStats> expandGenerators(Scene& scene) {
     for (size_t i = scene.generated.size(); i < scene.generators.size(); ++i) {
         const std::string at = "generate[" + std::to_string(i) + "]";
         if (double(scene.clouds.size()) + 1 > limits::kClouds.value)
-            throw SceneError(scene.file, at, "makes cloud " + std::to_string(scene.clouds.size() + 1) +
-                                                 ", over the limit " + limitText(limits::kClouds));
-        const std::size_t room = std::size_t(limits::kEllipsoids.value) - std::min(ellipsoids, std::size_t(limits::kEllipsoids.value));
+            throw SceneError(scene.file, at,
+                             "makes cloud " + std::to_string(scene.clouds.size() + 1) + ", over the limit " +
+                                 limitText(limits::kClouds));
+        const std::size_t room =
+            std::size_t(limits::kEllipsoids.value) - std::min(ellipsoids, std::size_t(limits::kEllipsoids.value));
         GenerateStats stats;
         Cloud cloud = expandOne(scene.generators[i], room, std::size_t(limits::kLSystemSymbols.value) - symbols, stats,
                                 scene.file, at);
         if (cloud.ellipsoids.size() > room)
-            throw SceneError(scene.file, at, "makes " + std::to_string(cloud.ellipsoids.size()) +
-                                                 " ellipsoids; the scene has room for " + std::to_string(room) +
-                                                 " more, over the limit " + limitText(limits::kEllipsoids) +
-                                                 " with the scene's other ellipsoids");
+            throw SceneError(scene.file, at,
+                             "makes " + std::to_string(cloud.ellipsoids.size()) +
+                                 " ellipsoids; the scene has room for " + std::to_string(room) +
+                                 " more, over the limit " + limitText(limits::kEllipsoids) +
+                                 " with the scene's other ellipsoids");
         objBytes += stats.objBytes;
         if (double(objBytes) > limits::kObjBytesPerScene.value)
-            throw SceneError(scene.file, at + ".path", "brings the OBJ data read to " + std::to_string(objBytes) +
-                                                           " bytes, over the limit " + limitText(limits::kObjBytesPerScene));
+            throw SceneError(scene.file, at + ".path",
+                             "brings the OBJ data read to " + std::to_string(objBytes) + " bytes, over the limit " +
+                                 limitText(limits::kObjBytesPerScene));
         checkGenerated(cloud, scene.medium, scene.file, at);
         ellipsoids += cloud.ellipsoids.size();
         symbols += std::size_t(stats.symbols);

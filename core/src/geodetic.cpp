@@ -19,7 +19,8 @@ void validate(const Geodetic& g) {
         throw std::invalid_argument("latitude: must be in [-90, 90] degrees, got " + std::to_string(g.latitudeDeg));
     if (!std::isfinite(g.longitudeDeg))
         throw std::invalid_argument("longitude: must be finite, got " + std::to_string(g.longitudeDeg));
-    if (!std::isfinite(g.heightM)) throw std::invalid_argument("height: must be finite, got " + std::to_string(g.heightM));
+    if (!std::isfinite(g.heightM))
+        throw std::invalid_argument("height: must be finite, got " + std::to_string(g.heightM));
 }
 
 }  // namespace

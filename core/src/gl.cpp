@@ -25,8 +25,7 @@ void load(ProcLoader loader) {
     glGetIntegerv(GL_MINOR_VERSION, &minor);
     if (major * 10 + minor < 45) {
         const char* v = reinterpret_cast<const char*>(glGetString(GL_VERSION));
-        throw GlError("OpenGL 4.5 core is required, the context is " +
-                      std::string(v ? v : "of unknown version") +
+        throw GlError("OpenGL 4.5 core is required, the context is " + std::string(v ? v : "of unknown version") +
                       " (on Mesa, try --gl osmesa or set MESA_GL_VERSION_OVERRIDE=4.5)");
     }
     g_loaded = true;
@@ -85,8 +84,7 @@ double PartTimer::lap() {
 void checkAllocation(const std::string& what, std::uint64_t bytes) {
     const GLenum first = glGetError();
     if (first == GL_NO_ERROR) return;
-    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {
-    }
+    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {}
     if (first == GL_OUT_OF_MEMORY)
         throw GlError(what + ": the driver could not allocate " + formatBytes(bytes) +
                       " (GL_OUT_OF_MEMORY); lower the image size or the setting that sizes it");
@@ -118,40 +116,70 @@ void checkFramebuffer(GLuint framebuffer, const std::string& what) {
     for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {  // drained: the next check starts clean
     }
     throw GlError(what + ": framebuffer incomplete: " + framebufferStatusName(status) +
-                  (status == GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT ? " (the driver could not hold an attachment: lower the size)"
-                                                                  : ""));
+                  (status == GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT
+                       ? " (the driver could not hold an attachment: lower the size)"
+                       : ""));
 }
 
 void checkTextureSize(const std::string& what, int width, int height, int depth, int layers) {
     GLint max = 0;
     glGetIntegerv(depth > 0 ? GL_MAX_3D_TEXTURE_SIZE : GL_MAX_TEXTURE_SIZE, &max);
     const int largest = std::max({width, height, depth});
-    std::string size = std::to_string(width) + "x" + std::to_string(height) + (depth > 0 ? "x" + std::to_string(depth) : "");
+    std::string size =
+        std::to_string(width) + "x" + std::to_string(height) + (depth > 0 ? "x" + std::to_string(depth) : "");
     if (std::min(width, height) < 1 || largest > max)
         throw GlError(what + ": a texture of " + size + " texels is outside this driver's " +
                       (depth > 0 ? "GL_MAX_3D_TEXTURE_SIZE " : "GL_MAX_TEXTURE_SIZE ") + std::to_string(max));
     if (layers > 0) {
         glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max);
         if (layers > max)
-            throw GlError(what + ": " + std::to_string(layers) + " layers are over this driver's GL_MAX_ARRAY_TEXTURE_LAYERS " +
-                          std::to_string(max));
+            throw GlError(what + ": " + std::to_string(layers) +
+                          " layers are over this driver's GL_MAX_ARRAY_TEXTURE_LAYERS " + std::to_string(max));
     }
 }
 
 namespace kind {
-GLuint Buffer::create() { GLuint id = 0; glCreateBuffers(1, &id); return id; }
+GLuint Buffer::create() {
+    GLuint id = 0;
+    glCreateBuffers(1, &id);
+    return id;
+}
 void Buffer::destroy(GLuint id) { glDeleteBuffers(1, &id); }
-GLuint VertexArray::create() { GLuint id = 0; glCreateVertexArrays(1, &id); return id; }
+GLuint VertexArray::create() {
+    GLuint id = 0;
+    glCreateVertexArrays(1, &id);
+    return id;
+}
 void VertexArray::destroy(GLuint id) { glDeleteVertexArrays(1, &id); }
-GLuint Texture::create(GLenum target) { GLuint id = 0; glCreateTextures(target, 1, &id); return id; }
+GLuint Texture::create(GLenum target) {
+    GLuint id = 0;
+    glCreateTextures(target, 1, &id);
+    return id;
+}
 void Texture::destroy(GLuint id) { glDeleteTextures(1, &id); }
-GLuint Renderbuffer::create() { GLuint id = 0; glCreateRenderbuffers(1, &id); return id; }
+GLuint Renderbuffer::create() {
+    GLuint id = 0;
+    glCreateRenderbuffers(1, &id);
+    return id;
+}
 void Renderbuffer::destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
-GLuint Framebuffer::create() { GLuint id = 0; glCreateFramebuffers(1, &id); return id; }
+GLuint Framebuffer::create() {
+    GLuint id = 0;
+    glCreateFramebuffers(1, &id);
+    return id;
+}
 void Framebuffer::destroy(GLuint id) { glDeleteFramebuffers(1, &id); }
-GLuint Sampler::create() { GLuint id = 0; glCreateSamplers(1, &id); return id; }
+GLuint Sampler::create() {
+    GLuint id = 0;
+    glCreateSamplers(1, &id);
+    return id;
+}
 void Sampler::destroy(GLuint id) { glDeleteSamplers(1, &id); }
-GLuint Query::create(GLenum target) { GLuint id = 0; glCreateQueries(target, 1, &id); return id; }
+GLuint Query::create(GLenum target) {
+    GLuint id = 0;
+    glCreateQueries(target, 1, &id);
+    return id;
+}
 void Query::destroy(GLuint id) { glDeleteQueries(1, &id); }
 GLuint Shader::create(GLenum stage) { return glCreateShader(stage); }
 void Shader::destroy(GLuint id) { glDeleteShader(id); }
@@ -193,7 +221,8 @@ Sampler linearSampler(GLenum wrap) {
     Sampler s = Sampler::create();
     glSamplerParameteri(s.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glSamplerParameteri(s.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glSamplerParameteri(s.id(), w, GLint(wrap));
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+        glSamplerParameteri(s.id(), w, GLint(wrap));
     return s;
 }
 

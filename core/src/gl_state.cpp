@@ -10,18 +10,28 @@ namespace nephele {
 using namespace gl;
 
 namespace {
-constexpr GLenum kTargets[5] = {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE, GL_TEXTURE_BUFFER};
+constexpr GLenum kTargets[5] = {GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_RECTANGLE,
+                                GL_TEXTURE_BUFFER};
 constexpr GLenum kBindings[5] = {GL_TEXTURE_BINDING_2D, GL_TEXTURE_BINDING_3D, GL_TEXTURE_BINDING_2D_ARRAY,
                                  GL_TEXTURE_BINDING_RECTANGLE, GL_TEXTURE_BINDING_BUFFER};
-GLint geti(GLenum e) { GLint v = 0; glGetIntegerv(e, &v); return v; }
-GLint getii(GLenum e, GLuint i) { GLint v = 0; glGetIntegeri_v(e, i, &v); return v; }
+GLint geti(GLenum e) {
+    GLint v = 0;
+    glGetIntegerv(e, &v);
+    return v;
+}
+GLint getii(GLenum e, GLuint i) {
+    GLint v = 0;
+    glGetIntegeri_v(e, i, &v);
+    return v;
+}
 void enable(GLenum cap, GLboolean on) { on ? glEnable(cap) : glDisable(cap); }
 
 // The pixel store parameters in the order of GlStateSnapshot::PixelStore.
-constexpr GLenum kPack[8] = {GL_PACK_ALIGNMENT,   GL_PACK_ROW_LENGTH, GL_PACK_IMAGE_HEIGHT, GL_PACK_SKIP_PIXELS,
-                             GL_PACK_SKIP_ROWS,   GL_PACK_SKIP_IMAGES, GL_PACK_SWAP_BYTES,  GL_PACK_LSB_FIRST};
-constexpr GLenum kUnpack[8] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH,  GL_UNPACK_IMAGE_HEIGHT, GL_UNPACK_SKIP_PIXELS,
-                               GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES, GL_UNPACK_SWAP_BYTES,  GL_UNPACK_LSB_FIRST};
+constexpr GLenum kPack[8] = {GL_PACK_ALIGNMENT, GL_PACK_ROW_LENGTH,  GL_PACK_IMAGE_HEIGHT, GL_PACK_SKIP_PIXELS,
+                             GL_PACK_SKIP_ROWS, GL_PACK_SKIP_IMAGES, GL_PACK_SWAP_BYTES,   GL_PACK_LSB_FIRST};
+constexpr GLenum kUnpack[8] = {GL_UNPACK_ALIGNMENT,   GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
+                               GL_UNPACK_SKIP_PIXELS, GL_UNPACK_SKIP_ROWS,  GL_UNPACK_SKIP_IMAGES,
+                               GL_UNPACK_SWAP_BYTES,  GL_UNPACK_LSB_FIRST};
 GlStateSnapshot::PixelStore capturePixelStore(const GLenum (&names)[8]) {
     GlStateSnapshot::PixelStore p{};
     GLint* v = &p.alignment;
@@ -80,10 +90,11 @@ void captureFixedFunction(GlStateSnapshot& s) {
     glGetDoublev(GL_DEPTH_RANGE, s.depthRange);
     s.clipOrigin = geti(GL_CLIP_ORIGIN);
     s.clipDepthMode = geti(GL_CLIP_DEPTH_MODE);
-    s.front = {geti(GL_STENCIL_FUNC), geti(GL_STENCIL_REF), geti(GL_STENCIL_VALUE_MASK), geti(GL_STENCIL_WRITEMASK),
-               geti(GL_STENCIL_FAIL), geti(GL_STENCIL_PASS_DEPTH_FAIL), geti(GL_STENCIL_PASS_DEPTH_PASS)};
-    s.back = {geti(GL_STENCIL_BACK_FUNC), geti(GL_STENCIL_BACK_REF), geti(GL_STENCIL_BACK_VALUE_MASK),
-              geti(GL_STENCIL_BACK_WRITEMASK), geti(GL_STENCIL_BACK_FAIL), geti(GL_STENCIL_BACK_PASS_DEPTH_FAIL),
+    s.front = {geti(GL_STENCIL_FUNC),           geti(GL_STENCIL_REF),  geti(GL_STENCIL_VALUE_MASK),
+               geti(GL_STENCIL_WRITEMASK),      geti(GL_STENCIL_FAIL), geti(GL_STENCIL_PASS_DEPTH_FAIL),
+               geti(GL_STENCIL_PASS_DEPTH_PASS)};
+    s.back = {geti(GL_STENCIL_BACK_FUNC),           geti(GL_STENCIL_BACK_REF),  geti(GL_STENCIL_BACK_VALUE_MASK),
+              geti(GL_STENCIL_BACK_WRITEMASK),      geti(GL_STENCIL_BACK_FAIL), geti(GL_STENCIL_BACK_PASS_DEPTH_FAIL),
               geti(GL_STENCIL_BACK_PASS_DEPTH_PASS)};
     glGetFloatv(GL_COLOR_CLEAR_VALUE, s.clearColor);
     glGetDoublev(GL_DEPTH_CLEAR_VALUE, &s.clearDepth);
@@ -202,7 +213,8 @@ void GlStateSnapshot::restore() const {
     for (int i = 0; i < 8; ++i) enable(GL_CLIP_DISTANCE0 + i, clipDistance[i]);
     for (GLuint i = 0; i < 8; ++i) {
         const Range& r = shaderStorage[i];
-        if (r.buffer != 0 && r.size > 0) glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, GLuint(r.buffer), r.start, r.size);
+        if (r.buffer != 0 && r.size > 0)
+            glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, GLuint(r.buffer), r.start, r.size);
         else glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, GLuint(r.buffer));
     }
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, GLuint(shaderStorageBuffer));
@@ -266,8 +278,10 @@ void fixedFunctionDifferences(const GlStateSnapshot& s, const GlStateSnapshot& o
     d.cmpN("depth range", s.depthRange, o.depthRange, 2);
     d.cmp("clip origin", s.clipOrigin, o.clipOrigin);
     d.cmp("clip depth mode", s.clipDepthMode, o.clipDepthMode);
-    const GLint* f = &s.front.func; const GLint* of = &o.front.func;
-    const GLint* b = &s.back.func; const GLint* ob = &o.back.func;
+    const GLint* f = &s.front.func;
+    const GLint* of = &o.front.func;
+    const GLint* b = &s.back.func;
+    const GLint* ob = &o.back.func;
     d.cmpN("stencil front (func ref mask wmask fail zfail pass)", f, of, 7);
     d.cmpN("stencil back (func ref mask wmask fail zfail pass)", b, ob, 7);
     d.cmpN("clear color", s.clearColor, o.clearColor, 4);
@@ -292,14 +306,14 @@ void bindingDifferences(const GlStateSnapshot& s, const GlStateSnapshot& o, Diff
     d.cmp("draw indirect buffer", s.drawIndirectBuffer, o.drawIndirectBuffer);
     d.cmp("active texture", s.activeTexture, o.activeTexture);
     for (int u = 0; u < GlStateSnapshot::kUnits; ++u) {
-        d.cmpN(("texture unit " + std::to_string(u) + " (2D 3D 2DArray Rect Buffer)").c_str(),
-               s.textures[u].data(), o.textures[u].data(), 5);
+        d.cmpN(("texture unit " + std::to_string(u) + " (2D 3D 2DArray Rect Buffer)").c_str(), s.textures[u].data(),
+               o.textures[u].data(), 5);
         d.cmp(("sampler unit " + std::to_string(u)).c_str(), s.samplers[u], o.samplers[u]);
     }
-    d.cmpN("pack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &s.pack.alignment,
-           &o.pack.alignment, 8);
-    d.cmpN("unpack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)", &s.unpack.alignment,
-           &o.unpack.alignment, 8);
+    d.cmpN("pack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)",
+           &s.pack.alignment, &o.pack.alignment, 8);
+    d.cmpN("unpack store (alignment row-length image-height skip-pixels skip-rows skip-images swap lsb)",
+           &s.unpack.alignment, &o.unpack.alignment, 8);
     d.cmpN("clip distance", s.clipDistance.data(), o.clipDistance.data(), 8);
     d.cmp("shader storage buffer", s.shaderStorageBuffer, o.shaderStorageBuffer);
     for (int i = 0; i < 8; ++i) {
@@ -352,18 +366,18 @@ std::vector<GLenum> takePendingErrors() {
 // Sets `error` again by a call GL must reject with it; false when no call can.
 bool raiseAgain(GLenum error) {
     switch (error) {
-    case GL_INVALID_ENUM: glEnable(GL_NONE); return true;
-    case GL_INVALID_VALUE: glScissor(0, 0, -1, -1); return true;
-    case GL_INVALID_OPERATION: glEndQuery(GL_SAMPLES_PASSED); return true;  // no query active
-    default: return false;
+        case GL_INVALID_ENUM: glEnable(GL_NONE); return true;
+        case GL_INVALID_VALUE: glScissor(0, 0, -1, -1); return true;
+        case GL_INVALID_OPERATION: glEndQuery(GL_SAMPLES_PASSED); return true;  // no query active
+        default: return false;
     }
 }
 
 std::vector<GLenum> takeHostErrors() {
     std::vector<GLenum> errors = takePendingErrors();
     for (GLenum e : errors)
-        logMessage(LogLevel::Warning, std::string("a GL error was pending when the host called Nephele: ") + errorName(e) +
-                                          " (the host's; left set for the host)");
+        logMessage(LogLevel::Warning, std::string("a GL error was pending when the host called Nephele: ") +
+                                          errorName(e) + " (the host's; left set for the host)");
     return errors;
 }
 
@@ -375,7 +389,8 @@ void raiseHostErrors(const std::vector<GLenum>& errors) {
 }
 }  // namespace
 
-HostStateScope::HostStateScope() : hostErrors_(innermostScope ? std::vector<GLenum>{} : takeHostErrors()), outer_(innermostScope) {
+HostStateScope::HostStateScope()
+    : hostErrors_(innermostScope ? std::vector<GLenum>{} : takeHostErrors()), outer_(innermostScope) {
     innermostScope = this;
     resetPassState();
     resetPixelStore();

@@ -45,7 +45,8 @@ void readViewMatrix(const glm::dmat4& m, View& v) {
 View makeView(const ViewDesc& d) {
     const glm::ivec4 vp = d.viewport;
     if (vp.z < 1 || vp.w < 1 || vp.z > 16384 || vp.w > 16384)
-        bad("the viewport is " + std::to_string(vp.z) + "x" + std::to_string(vp.w) + " pixels; each side must be 1..16384");
+        bad("the viewport is " + std::to_string(vp.z) + "x" + std::to_string(vp.w) +
+            " pixels; each side must be 1..16384");
     if (vp.x < 0 || vp.y < 0) bad("the viewport's offset must not be negative");
     View v;
     readViewMatrix(d.view, v);
@@ -55,8 +56,9 @@ View makeView(const ViewDesc& d) {
     if (!(w > 0)) bad("the projection must be a perspective frustum looking down -z (clip w = -z_eye)");
     const glm::dmat4 p = d.projection / w;
     const double scale = std::abs(p[0][0]) + std::abs(p[1][1]);
-    const double off = std::abs(p[0][1]) + std::abs(p[1][0]) + std::abs(p[0][2]) + std::abs(p[1][2]) + std::abs(p[0][3]) +
-                       std::abs(p[1][3]) + std::abs(p[3][0]) + std::abs(p[3][1]) + std::abs(p[3][3]);
+    const double off = std::abs(p[0][1]) + std::abs(p[1][0]) + std::abs(p[0][2]) + std::abs(p[1][2]) +
+                       std::abs(p[0][3]) + std::abs(p[1][3]) + std::abs(p[3][0]) + std::abs(p[3][1]) +
+                       std::abs(p[3][3]);
     if (!(p[0][0] > 0 && p[1][1] > 0) || off > 1e-9 * scale)
         bad("the projection is not a perspective frustum (expected the form of glm::frustum: no rotation, "
             "no orthographic part)");
@@ -82,7 +84,8 @@ View makeView(const ViewDesc& d) {
     v.camera.fovYDeg = glm::degrees(2 * std::atan(v.tanHalfY));
     v.camera.nearClip = nearClip;
     v.camera.farClip = std::min(farClip, kMaxFar);
-    if (!(v.camera.farClip > nearClip)) bad("the projection's near plane lies beyond " + std::to_string(kMaxFar) + " m");
+    if (!(v.camera.farClip > nearClip))
+        bad("the projection's near plane lies beyond " + std::to_string(kMaxFar) + " m");
     v.camera.width = vp.z;
     v.camera.height = vp.w;
     v.viewMatrix = glm::lookAt(v.eye, v.eye + v.forward, v.up);
@@ -108,22 +111,30 @@ void checkHostObjects(const ViewDesc& d) {
         GLint target = 0, format = 0, width = 0, height = 0;
         glGetTextureParameteriv(d.depthTexture, GL_TEXTURE_TARGET, &target);
         if (target != GL_TEXTURE_2D)
-            throw std::invalid_argument(name + " is not a GL_TEXTURE_2D (a multisampled depth is copied from the "
-                                               "framebuffer instead: leave depthTexture 0)");
+            throw std::invalid_argument(name +
+                                        " is not a GL_TEXTURE_2D (a multisampled depth is copied from the "
+                                        "framebuffer instead: leave depthTexture 0)");
         glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_INTERNAL_FORMAT, &format);
         glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_WIDTH, &width);
         glGetTextureLevelParameteriv(d.depthTexture, 0, GL_TEXTURE_HEIGHT, &height);
         switch (format) {
-        case GL_DEPTH_COMPONENT: case GL_DEPTH_STENCIL: case GL_DEPTH_COMPONENT16: case GL_DEPTH_COMPONENT24:
-        case GL_DEPTH_COMPONENT32: case GL_DEPTH_COMPONENT32F: case GL_DEPTH24_STENCIL8: case GL_DEPTH32F_STENCIL8:
-            break;
-        default:
-            throw std::invalid_argument(name + " is not of a depth format (internal format " + std::to_string(format) + ")");
+            case GL_DEPTH_COMPONENT:
+            case GL_DEPTH_STENCIL:
+            case GL_DEPTH_COMPONENT16:
+            case GL_DEPTH_COMPONENT24:
+            case GL_DEPTH_COMPONENT32:
+            case GL_DEPTH_COMPONENT32F:
+            case GL_DEPTH24_STENCIL8:
+            case GL_DEPTH32F_STENCIL8: break;
+            default:
+                throw std::invalid_argument(name + " is not of a depth format (internal format " +
+                                            std::to_string(format) + ")");
         }
         if (width < d.viewport.x + d.viewport.z || height < d.viewport.y + d.viewport.w)
             throw std::invalid_argument(name + " is " + std::to_string(width) + "x" + std::to_string(height) +
-                                        ", smaller than the viewport's extent " + std::to_string(d.viewport.x + d.viewport.z) +
-                                        "x" + std::to_string(d.viewport.y + d.viewport.w));
+                                        ", smaller than the viewport's extent " +
+                                        std::to_string(d.viewport.x + d.viewport.z) + "x" +
+                                        std::to_string(d.viewport.y + d.viewport.w));
     }
 }
 
@@ -145,10 +156,13 @@ ColorTarget colorTargetOf(const ViewDesc& d) {
         glBindFramebuffer(GL_DRAW_FRAMEBUFFER, GLuint(bound));
         if (attachment == GL_NONE) return ColorTarget::Unorm8;  // bindFrame reports it
     }
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE,
+                                               &type);
     if (type == GL_NONE) return ColorTarget::Unorm8;  // no colour attachment: bindFrame names it
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
-    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment), GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment),
+                                               GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &encoding);
+    glGetNamedFramebufferAttachmentParameteriv(d.framebuffer, GLenum(attachment),
+                                               GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &component);
     if (encoding == GL_SRGB) return ColorTarget::Srgb8;
     return component == GL_FLOAT ? ColorTarget::Float : ColorTarget::Unorm8;
 }

@@ -22,8 +22,8 @@ const char* typeName(mode_t mode) {
 }
 
 std::string overLimit(const std::string& subject, std::uint64_t bytes, const Limit& maxBytes, bool atLeast = false) {
-    return (subject.empty() ? "" : subject + " ") + "is " + std::string(atLeast ? "more than " : "") + std::to_string(bytes) + " bytes, over the limit " +
-           limitText(maxBytes);
+    return (subject.empty() ? "" : subject + " ") + "is " + std::string(atLeast ? "more than " : "") +
+           std::to_string(bytes) + " bytes, over the limit " + limitText(maxBytes);
 }
 
 }  // namespace
@@ -48,7 +48,8 @@ OpenedFile openRegularFile(const std::string& path, const Limit& maxBytes, const
     }
     if (!S_ISREG(st.st_mode)) {
         const char* type = typeName(st.st_mode);
-        out.fault = (subject.empty() ? "" : subject + " ") + (type ? std::string("is ") + type + ", not a regular file" : "is not a regular file");
+        out.fault = (subject.empty() ? "" : subject + " ") +
+                    (type ? std::string("is ") + type + ", not a regular file" : "is not a regular file");
         ::close(fd);
         return out;
     }
@@ -79,7 +80,8 @@ std::optional<std::string> readRegularFile(const std::string& path, const Limit&
         if (text.size() + n > cap) return overLimit(subject, cap, maxBytes, true);  // it grew while we read
         text.append(buf, n);
     }
-    if (std::ferror(f.file.get())) return "cannot read" + std::string(subject.empty() ? "" : " " + subject) + ": " + std::strerror(errno);
+    if (std::ferror(f.file.get()))
+        return "cannot read" + std::string(subject.empty() ? "" : " " + subject) + ": " + std::strerror(errno);
     if (out) *out = std::move(text);
     return std::nullopt;
 }

@@ -7,12 +7,16 @@ namespace nephele {
 
 namespace {
 using namespace limits;
-constexpr Limit kAll[] = {
-    kSceneFileBytes, kNestingDepth, kJsonValues, kEllipsoids, kClouds, kGenerateEntries, kEllipsoidsPerEntry, kLSystemSymbols, kLSystemDepth,
-    kObjFileBytes, kObjBytesPerScene, kLayers, kLightningFlashes, kObjects, kKeyframes,
-    kCoordinate, kEllipsoidRadius, kSmallestRadius, kOpticalDepth, kExtinction, kNoiseAmplitude, kNoiseScale,
-    kSmallestNoiseScale, kLayerThickness, kLayerExtent, kLayerOpticalDepth, kWindSpeed, kTime, kSmallestNear,
-    kFarClip, kObjectSize, kColour, kIntensity, kImageFileBytes, kImageSide, kImagePixels, kShaderFileBytes};
+constexpr Limit kAll[] = {kSceneFileBytes,   kNestingDepth,      kJsonValues,         kEllipsoids,
+                          kClouds,           kGenerateEntries,   kEllipsoidsPerEntry, kLSystemSymbols,
+                          kLSystemDepth,     kObjFileBytes,      kObjBytesPerScene,   kLayers,
+                          kLightningFlashes, kObjects,           kKeyframes,          kCoordinate,
+                          kEllipsoidRadius,  kSmallestRadius,    kOpticalDepth,       kExtinction,
+                          kNoiseAmplitude,   kNoiseScale,        kSmallestNoiseScale, kLayerThickness,
+                          kLayerExtent,      kLayerOpticalDepth, kWindSpeed,          kTime,
+                          kSmallestNear,     kFarClip,           kObjectSize,         kColour,
+                          kIntensity,        kImageFileBytes,    kImageSide,          kImagePixels,
+                          kShaderFileBytes};
 }  // namespace
 
 std::span<const Limit> allLimits() { return kAll; }
@@ -31,7 +35,9 @@ std::string limitValueText(const Limit& limit) {
     return std::string(buf, end) + (limit.unit.empty() ? "" : " " + std::string(limit.unit));
 }
 
-std::string limitText(const Limit& limit) { return "'" + std::string(limit.name) + "' (" + limitValueText(limit) + ")"; }
+std::string limitText(const Limit& limit) {
+    return "'" + std::string(limit.name) + "' (" + limitValueText(limit) + ")";
+}
 
 std::string limitsHelp() {
     std::string s = "Limits (a scene or file past one is rejected with a message naming it; see data/scene-format.md):";

@@ -22,10 +22,10 @@ ProgressCallback& progressSlot() {
 
 const char* logLevelName(LogLevel level) {
     switch (level) {
-    case LogLevel::Debug: return "debug";
-    case LogLevel::Info: return "info";
-    case LogLevel::Warning: return "warning";
-    case LogLevel::Error: return "error";
+        case LogLevel::Debug: return "debug";
+        case LogLevel::Info: return "info";
+        case LogLevel::Warning: return "warning";
+        case LogLevel::Error: return "error";
     }
     return "?";
 }
@@ -40,8 +40,7 @@ void logMessage(LogLevel level, std::string_view message) {
     if (!callbackSlot()) return;
     try {
         callbackSlot()(level, message);
-    } catch (...) {
-    }
+    } catch (...) {}
 }
 
 ProgressCallback setProgressCallback(ProgressCallback callback) {
@@ -54,8 +53,7 @@ void reportProgress(std::string_view label, double fraction) {
     if (!progressSlot()) return;
     try {
         progressSlot()(label, fraction);
-    } catch (...) {
-    }
+    } catch (...) {}
 }
 
 }  // namespace nephele

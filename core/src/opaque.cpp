@@ -19,8 +19,8 @@ FrameTarget::FrameTarget(int width, int height) : width_(width), height_(height)
     glGetIntegerv(GL_MAX_FRAMEBUFFER_WIDTH, &maxWidth);
     glGetIntegerv(GL_MAX_FRAMEBUFFER_HEIGHT, &maxHeight);
     if (width > maxWidth || height > maxHeight)
-        throw GlError(what + " is over this driver's GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT " + std::to_string(maxWidth) + "x" +
-                      std::to_string(maxHeight));
+        throw GlError(what + " is over this driver's GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT " + std::to_string(maxWidth) +
+                      "x" + std::to_string(maxHeight));
     const std::uint64_t pixels = std::uint64_t(width) * std::uint64_t(height);
     color_ = Texture::create(GL_TEXTURE_2D);
     glTextureStorage2D(color_.id(), 1, GL_RGBA32F, width, height);
@@ -79,8 +79,8 @@ glm::mat4 toFloat(const glm::dmat4& m) { return glm::mat4(m); }
 OpaquePass::OpaquePass() {
     sky_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "sky.frag"}});
     object_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}});
-    sphereProgram_ = Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}},
-                                    "#define SPHERE 1\n");
+    sphereProgram_ =
+        Program::build({{GL_VERTEX_SHADER, "object.vert"}, {GL_FRAGMENT_SHADER, "object.frag"}}, "#define SPHERE 1\n");
     empty_ = VertexArray::create();
     checkAlways("creating the opaque pass");
 }

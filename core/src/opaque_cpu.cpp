@@ -55,8 +55,14 @@ std::optional<std::pair<double, Vec3>> hitBox(const Object& box, const Vec3& o, 
         }
         double t0 = (-half[a] - lo[a]) / ld[a], t1 = (half[a] - lo[a]) / ld[a];
         if (t0 > t1) std::swap(t0, t1);
-        if (t0 > tNear) { tNear = t0; nearAxis = a; }
-        if (t1 < tFar) { tFar = t1; farAxis = a; }
+        if (t0 > tNear) {
+            tNear = t0;
+            nearAxis = a;
+        }
+        if (t1 < tFar) {
+            tFar = t1;
+            farAxis = a;
+        }
     }
     if (tNear > tFar) return std::nullopt;
     const double t = tNear > tMin ? tNear : tFar;
@@ -71,8 +77,7 @@ std::optional<std::pair<double, Vec3>> hitBox(const Object& box, const Vec3& o, 
 
 }  // namespace
 
-std::optional<SurfaceHit> intersectObjects(const Scene& scene, const Vec3& o, const Vec3& d, double tMin,
-                                           double tMax) {
+std::optional<SurfaceHit> intersectObjects(const Scene& scene, const Vec3& o, const Vec3& d, double tMin, double tMax) {
     std::optional<SurfaceHit> best;
     for (const Object& obj : scene.objects) {
         const double limit = best ? best->distance : tMax;

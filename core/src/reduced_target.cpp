@@ -100,7 +100,9 @@ void ReducedTarget::resume(const glm::ivec4& rect) {
     glClearNamedFramebufferfv(current_->colorOnly.id(), GL_COLOR, 0, zero);
 }
 
-DepthSource ReducedTarget::depth() const { return current_ ? DepthSource{current_->depth.id(), {0, 0}} : DepthSource{}; }
+DepthSource ReducedTarget::depth() const {
+    return current_ ? DepthSource{current_->depth.id(), {0, 0}} : DepthSource{};
+}
 
 void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers,
                               const glm::ivec4* rect) {

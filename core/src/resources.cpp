@@ -58,8 +58,8 @@ std::string formatBytes(std::uint64_t bytes) {
 void requireMemory(const std::string& what, std::uint64_t bytes) {
     const std::uint64_t available = availableMemoryBytes();
     if (bytes > available)
-        throw ResourceError(what + " needs " + formatBytes(bytes) + " of memory, more than the " + formatBytes(available) +
-                            " available");
+        throw ResourceError(what + " needs " + formatBytes(bytes) + " of memory, more than the " +
+                            formatBytes(available) + " available");
 }
 
 }  // namespace nephele

@@ -253,7 +253,7 @@ constexpr Range capped(Range r, const Limit& limit) {
     return r;
 }
 constexpr Range coordinate() { return {-kInf, kInf, false, false, &limits::kCoordinate, nullptr, true}; }  // m
-constexpr Range timeOfDay() { return {-kInf, kInf, false, false, &limits::kTime, nullptr, true}; }        // s
+constexpr Range timeOfDay() { return {-kInf, kInf, false, false, &limits::kTime, nullptr, true}; }         // s
 
 // Rejects v past `limit` ("2e+06 is over the limit 'ellipsoid radius' (100000 m)").
 void checkLimit(double v, const Path& p, const Limit& limit, bool magnitude = false) {
@@ -279,10 +279,12 @@ double readNumber(const json& j, const Path& p, Range r = {}) {
     const double given = j.get<double>();
     if (!std::isfinite(given)) fail(p, "must be finite, got " + str(given));
     const double v = flushBelowFloat(given);
-    const std::string flushed = v != given ? " (below float range " + str(double(std::numeric_limits<float>::min())) + ": read as 0)" : "";
+    const std::string flushed =
+        v != given ? " (below float range " + str(double(std::numeric_limits<float>::min())) + ": read as 0)" : "";
     if (!r.contains(v)) fail(p, "must be " + r.text() + ", got " + str(given) + flushed);
     if (r.upper) checkLimit(v, p, *r.upper, r.magnitude);
-    if (r.lower && !withinLimit(v, *r.lower)) fail(p, str(given) + " is under the limit " + limitText(*r.lower) + flushed);
+    if (r.lower && !withinLimit(v, *r.lower))
+        fail(p, str(given) + " is under the limit " + limitText(*r.lower) + flushed);
     return v;
 }
 
@@ -320,7 +322,8 @@ Vec3 unit(const Vec3& v, const Path& p, const std::string& zeroFault) {
     if (!std::isfinite(m)) fail(p, "gives a direction too long to represent");
     if (m == 0) fail(p, zeroFault);
     if (m < kShortestDirection)
-        fail(p, "is too short to give a direction: its largest component " + str(m) + " is under " + str(kShortestDirection));
+        fail(p, "is too short to give a direction: its largest component " + str(m) + " is under " +
+                    str(kShortestDirection));
     return glm::normalize(v / m);
 }
 
@@ -332,8 +335,8 @@ Vec3 unitBetween(const Vec3& from, const Vec3& to, const Path& p, const std::str
     const Vec3 d = to - from;
     const Vec3 a = glm::abs(d);
     const double m = std::max({a.x, a.y, a.z});
-    const double size = std::max({std::abs(from.x), std::abs(from.y), std::abs(from.z), std::abs(to.x), std::abs(to.y),
-                                  std::abs(to.z)});
+    const double size = std::max(
+        {std::abs(from.x), std::abs(from.y), std::abs(from.z), std::abs(to.x), std::abs(to.y), std::abs(to.z)});
     if (m > 0 && m < 1e-6 * size)
         fail(p, "is " + str(m) + " m from position, too close at coordinates of " + str(size) +
                     " m to give a direction in float (at least 1e-06 of the largest coordinate)");
@@ -356,7 +359,7 @@ auto vec3(Range r = {}) {
 }
 auto color() { return vec3(capped(atLeast(0), limits::kColour)); }  // linear RGB, each component >= 0
 auto intensity() { return number(capped(atLeast(0), limits::kIntensity)); }
-auto direction() {                         // non-zero, normalised
+auto direction() {  // non-zero, normalised
     return [](const json& j, const Path& p) { return unit(readVec<3>(j, p), p, "must not be the zero vector"); };
 }
 auto boolean() {
@@ -369,7 +372,8 @@ auto text() {
     return [](const json& j, const Path& p) {
         if (!j.is_string()) fail(p, "expected a string, got " + describe(j));
         const std::string& s = j.get_ref<const std::string&>();
-        if (s.find('\0') != std::string::npos) fail(p, "must not contain a NUL character (\\u0000), got " + inQuotes(s));
+        if (s.find('\0') != std::string::npos)
+            fail(p, "must not contain a NUL character (\\u0000), got " + inQuotes(s));
         return s;
     };
 }
@@ -398,10 +402,8 @@ auto listOf(F read, const Limit* limit = nullptr) {
         if (!j.is_array()) fail(p, "expected an array, got " + describe(j));
         if (limit) checkCount(j.size(), p, *limit);
         auto one = [&](size_t i) {
-            if constexpr (std::is_invocable_v<F, const json&, const Path&, size_t>)
-                return read(j[i], element(p, i), i);
-            else
-                return read(j[i], element(p, i));
+            if constexpr (std::is_invocable_v<F, const json&, const Path&, size_t>) return read(j[i], element(p, i), i);
+            else return read(j[i], element(p, i));
         };
         std::vector<decltype(one(0))> out;
         out.reserve(j.size());
@@ -421,7 +423,8 @@ size_t editDistance(std::string_view a, std::string_view b) {
         row[0] = i;
         for (size_t k = 1; k <= b.size(); ++k) {
             row[k] = std::min({last[k] + 1, row[k - 1] + 1, last[k - 1] + (a[i - 1] != b[k - 1])});
-            if (i > 1 && k > 1 && a[i - 1] == b[k - 2] && a[i - 2] == b[k - 1]) row[k] = std::min(row[k], before[k - 2] + 1);
+            if (i > 1 && k > 1 && a[i - 1] == b[k - 2] && a[i - 2] == b[k - 1])
+                row[k] = std::min(row[k], before[k - 2] + 1);
         }
         std::swap(before, last);
         std::swap(last, row);
@@ -530,9 +533,9 @@ Camera readCamera(const json& j, const Path& p) {
     const json* dir = o.find("direction");
     if (lookAt && dir) fail(p, "has both 'look_at' and 'direction'; give exactly one");
     if (!lookAt && !dir) o.missing({"look_at", "direction"}, p, "needs 'look_at' or 'direction'");
-    c.direction =
-        lookAt ? unitBetween(c.position, readVec<3>(*lookAt, o.at("look_at"), coordinate()), o.at("look_at"), "must differ from position")
-               : direction()(*dir, o.at("direction"));
+    c.direction = lookAt ? unitBetween(c.position, readVec<3>(*lookAt, o.at("look_at"), coordinate()), o.at("look_at"),
+                                       "must differ from position")
+                         : direction()(*dir, o.at("direction"));
     const bool hasUp = o.opt("up", c.up, vec3());
     const Vec3 up = unit(c.up, o.at("up"), "must not be the zero vector");
     if (glm::length(glm::cross(up, c.direction)) < 1e-6)
@@ -540,7 +543,7 @@ Camera readCamera(const json& j, const Path& p) {
                                : "the default up [0, 0, 1] is parallel to the view direction; give another 'up'");
     o.opt("fov_y_deg", c.fovYDeg, number(exclusive(1, 179)));
     o.opt("near", c.nearClip, number(capped(above(0), limits::kSmallestNear)));  // m
-    o.opt("far", c.farClip, number(capped(above(0), limits::kFarClip)));          // m
+    o.opt("far", c.farClip, number(capped(above(0), limits::kFarClip)));         // m
     if (c.nearClip >= c.farClip) fail(o.at("near"), "must be < far (" + str(c.farClip) + "), got " + str(c.nearClip));
     o.opt("width", c.width, integer(1, std::int64_t(limits::kImageSide.value)));  // pixels
     o.opt("height", c.height, integer(1, std::int64_t(limits::kImageSide.value)));
@@ -603,7 +606,7 @@ Medium::Detail readDetail(const json& j, const Path& p) {
     Medium::Detail d;
     o.opt("kind", d.kind, choice<Medium::Detail::Kind>(kDetailKinds));
     o.opt("erosion", d.erosion, number(inclusive(0, 4)));
-    o.opt("scale", d.scale, number(inclusive(limits::kDetailSmallest, limits::kDetailScale)));  // m
+    o.opt("scale", d.scale, number(inclusive(limits::kDetailSmallest, limits::kDetailScale)));        // m
     o.opt("smallest", d.smallest, number(inclusive(limits::kDetailSmallest, limits::kDetailScale)));  // m
     if (d.smallest > d.scale)
         fail(o.at("smallest"), "must be at most detail.scale (" + str(d.scale) + " m), got " + str(d.smallest));
@@ -655,7 +658,8 @@ Cloud readCloud(const json& j, const Path& p, size_t index, const Medium& medium
     Obj o(j, p);
     Cloud c{"cloud" + std::to_string(index), {}};
     o.opt("name", c.name, text());
-    c.ellipsoids = o.req("ellipsoids", listOf([&](const json& e, const Path& at) { return readEllipsoid(e, at, medium); }));
+    c.ellipsoids =
+        o.req("ellipsoids", listOf([&](const json& e, const Path& at) { return readEllipsoid(e, at, medium); }));
     o.finish();
     return c;
 }
@@ -677,7 +681,7 @@ constexpr std::pair<std::string_view, Generator::Type> kGeneratorTypes[] = {
     {"cumulus", Generator::Type::Cumulus}, {"mesh", Generator::Type::Mesh}, {"lsystem", Generator::Type::LSystem}};
 // The keys of each generator type besides the common type, name, seed and density.
 const std::vector<std::string>& generatorKeys(Generator::Type type) {
-    static const std::vector<std::string> cumulus{"center", "count",  "sigma",  "clamp_lo",        "clamp_hi",
+    static const std::vector<std::string> cumulus{"center",     "count",  "sigma",  "clamp_lo",        "clamp_hi",
                                                   "max_radius", "aspect", "hollow", "prune_contained", "medium"};
     static const std::vector<std::string> mesh{"path", "position", "scale", "rotation_deg", "thickness_ratio"};
     static const std::vector<std::string> lsystem{"center",     "axiom", "rules",  "angle_deg",
@@ -705,53 +709,55 @@ Generator readGenerator(const json& j, const Path& p, size_t index, const std::f
     o.opt("seed", g.seed, seed());
     o.opt("density", g.density, number(atLeast(0)));
     switch (g.type) {
-    case T::Cumulus:
-        g.center = o.req("center", vec3(coordinate()));
-        o.opt("count", g.count, integer(1, std::int64_t(limits::kEllipsoidsPerEntry.value), &limits::kEllipsoidsPerEntry));
-        o.opt("sigma", g.sigma, vec3(above(0)));  // m
-        o.opt("clamp_lo", g.clampLo, vec3());     // in units of sigma
-        o.opt("clamp_hi", g.clampHi, vec3());
-        for (int k = 0; k < 3; ++k)
-            if (!(g.clampLo[k] < g.clampHi[k]))
-                fail(element(o.at("clamp_hi"), k), "must be > clamp_lo[" + std::to_string(k) + "] (" +
-                                                       str(g.clampLo[k]) + "), got " + str(g.clampHi[k]));
-        o.opt("max_radius", g.maxRadius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
-        o.opt("aspect", g.aspect, vec3(above(0)));
-        o.opt("hollow", g.hollow, boolean());
-        o.opt("prune_contained", g.pruneContained, boolean());
-        o.opt("medium", g.cumulusMedium, choice<bool>(kCumulusMedia));
-        if (g.cumulusMedium) {  // real cumulus matter, whatever the scene's medium
-            if (j.contains("density"))
-                fail(o.at("density"), "give either 'density' or \"medium\": \"cumulus\" (which sets the density), not both");
-            if (!(medium.extinction > 0))
-                fail(o.at("medium"), "'cumulus' sets the density to " + str(kCumulusExtinction) +
-                                         " / medium.extinction, and medium.extinction is 0");
-            g.density = kCumulusExtinction / medium.extinction;
-        }
-        break;
-    case T::Mesh:
-        g.path = o.req("path", text());
-        if (g.path.empty()) fail(o.at("path"), "must not be empty");
-        g.resolvedPath = (sceneDir / g.path).string();
-        if (auto opened = detail::openRegularFile(g.resolvedPath, limits::kObjFileBytes, inQuotes(g.resolvedPath));
-            !opened.file)
-            fail(o.at("path"), opened.fault);
-        o.opt("position", g.position, vec3(coordinate()));  // m
-        o.opt("scale", g.scale, number(above(0)));
-        o.opt("rotation_deg", g.rotationDeg, vec3());
-        o.opt("thickness_ratio", g.thicknessRatio, number(above(0)));
-        break;
-    case T::LSystem:
-        g.center = o.req("center", vec3(coordinate()));
-        g.axiom = o.req("axiom", text());
-        if (g.axiom.empty()) fail(o.at("axiom"), "must not be empty");
-        g.rules = o.req("rules", readRules);
-        o.opt("angle_deg", g.angleDeg, number());
-        o.opt("iterations", g.iterations, integer(0, 8));
-        o.opt("step", g.step, number(above(0)));      // m
-        o.opt("radius", g.radius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
-        o.opt("jitter", g.jitter, number(halfOpen(0, 1)));
-        break;
+        case T::Cumulus:
+            g.center = o.req("center", vec3(coordinate()));
+            o.opt("count", g.count,
+                  integer(1, std::int64_t(limits::kEllipsoidsPerEntry.value), &limits::kEllipsoidsPerEntry));
+            o.opt("sigma", g.sigma, vec3(above(0)));  // m
+            o.opt("clamp_lo", g.clampLo, vec3());     // in units of sigma
+            o.opt("clamp_hi", g.clampHi, vec3());
+            for (int k = 0; k < 3; ++k)
+                if (!(g.clampLo[k] < g.clampHi[k]))
+                    fail(element(o.at("clamp_hi"), k), "must be > clamp_lo[" + std::to_string(k) + "] (" +
+                                                           str(g.clampLo[k]) + "), got " + str(g.clampHi[k]));
+            o.opt("max_radius", g.maxRadius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
+            o.opt("aspect", g.aspect, vec3(above(0)));
+            o.opt("hollow", g.hollow, boolean());
+            o.opt("prune_contained", g.pruneContained, boolean());
+            o.opt("medium", g.cumulusMedium, choice<bool>(kCumulusMedia));
+            if (g.cumulusMedium) {  // real cumulus matter, whatever the scene's medium
+                if (j.contains("density"))
+                    fail(o.at("density"),
+                         "give either 'density' or \"medium\": \"cumulus\" (which sets the density), not both");
+                if (!(medium.extinction > 0))
+                    fail(o.at("medium"), "'cumulus' sets the density to " + str(kCumulusExtinction) +
+                                             " / medium.extinction, and medium.extinction is 0");
+                g.density = kCumulusExtinction / medium.extinction;
+            }
+            break;
+        case T::Mesh:
+            g.path = o.req("path", text());
+            if (g.path.empty()) fail(o.at("path"), "must not be empty");
+            g.resolvedPath = (sceneDir / g.path).string();
+            if (auto opened = detail::openRegularFile(g.resolvedPath, limits::kObjFileBytes, inQuotes(g.resolvedPath));
+                !opened.file)
+                fail(o.at("path"), opened.fault);
+            o.opt("position", g.position, vec3(coordinate()));  // m
+            o.opt("scale", g.scale, number(above(0)));
+            o.opt("rotation_deg", g.rotationDeg, vec3());
+            o.opt("thickness_ratio", g.thicknessRatio, number(above(0)));
+            break;
+        case T::LSystem:
+            g.center = o.req("center", vec3(coordinate()));
+            g.axiom = o.req("axiom", text());
+            if (g.axiom.empty()) fail(o.at("axiom"), "must not be empty");
+            g.rules = o.req("rules", readRules);
+            o.opt("angle_deg", g.angleDeg, number());
+            o.opt("iterations", g.iterations, integer(0, 8));
+            o.opt("step", g.step, number(above(0)));                                        // m
+            o.opt("radius", g.radius, number(capped(above(0), limits::kEllipsoidRadius)));  // m
+            o.opt("jitter", g.jitter, number(halfOpen(0, 1)));
+            break;
     }
     o.finish();
     return g;
@@ -769,7 +775,7 @@ CityGlow readCityGlow(const json& j, const Path& p) {
 Layer readLayer(const json& j, const Path& p, const Medium& medium) {
     Obj o(j, p);
     Layer l;
-    l.base = o.req("base", number(coordinate()));                                          // m
+    l.base = o.req("base", number(coordinate()));                                         // m
     l.thickness = o.req("thickness", number(capped(above(0), limits::kLayerThickness)));  // m
     o.opt("coverage", l.coverage, number(inclusive(0, 1)));
     o.opt("density", l.density, number(inclusive(0, 1)));
@@ -802,8 +808,8 @@ Lightning readLightning(const json& j, const Path& p) {
     Lightning l;
     l.position = o.req("position", vec3(coordinate()));
     l.intensity = o.req("intensity", intensity());
-    o.opt("start", l.start, number(timeOfDay()));                                // s
-    o.opt("duration", l.duration, number(capped(above(0), limits::kTime)));     // s
+    o.opt("start", l.start, number(timeOfDay()));                            // s
+    o.opt("duration", l.duration, number(capped(above(0), limits::kTime)));  // s
     o.finish();
     return l;
 }
@@ -819,17 +825,16 @@ Object readObject(const json& j, const Path& p) {
     o.reject(box ? "radius" : "size", box ? "'radius' is not a key of a box (it has a 'size')"
                                           : "'size' is not a key of a sphere (it has a 'radius')");
     b.center = o.req("center", vec3(coordinate()));
-    if (box)
-        b.size = o.req("size", vec3(capped(above(0), limits::kObjectSize)));  // m, full edge lengths
-    else
-        b.radius = o.req("radius", number(capped(above(0), limits::kObjectSize)));  // m
+    if (box) b.size = o.req("size", vec3(capped(above(0), limits::kObjectSize)));    // m, full edge lengths
+    else b.radius = o.req("radius", number(capped(above(0), limits::kObjectSize)));  // m
     o.opt("rotation_deg", b.rotationDeg, vec3());
     o.opt("color", b.color, color());
     o.finish();
     return b;
 }
 
-constexpr std::pair<std::string_view, ObjectLight> kObjectLights[] = {{"sun", ObjectLight::Sun}, {"all", ObjectLight::All}};
+constexpr std::pair<std::string_view, ObjectLight> kObjectLights[] = {{"sun", ObjectLight::Sun},
+                                                                      {"all", ObjectLight::All}};
 
 Keyframe readKeyframe(const json& j, const Path& p) {
     Obj o(j, p);
@@ -847,7 +852,8 @@ void checkEllipsoidCount(const json& clouds) {
     if (!clouds.is_array()) return;  // listOf reports it
     std::size_t n = 0;
     for (const json& c : clouds)
-        if (const auto e = c.is_object() ? c.find("ellipsoids") : c.end(); e != c.end() && e->is_array()) n += e->size();
+        if (const auto e = c.is_object() ? c.find("ellipsoids") : c.end(); e != c.end() && e->is_array())
+            n += e->size();
     checkCount(n, "clouds", limits::kEllipsoids, "ellipsoids");
 }
 
@@ -862,8 +868,8 @@ void checkPathViews(const std::vector<Keyframe>& path, const Vec3& up) {
     const std::string along = " (camera.up is " + vecText(up) + ")";
     for (size_t i = 0; i < path.size(); ++i)
         if (parallel(path[i].lookAt - path[i].position))
-            fail(member(element("path", i), "look_at"),
-                 "the view from position to look_at is parallel to camera.up" + along + "; look elsewhere or give another 'up'");
+            fail(member(element("path", i), "look_at"), "the view from position to look_at is parallel to camera.up" +
+                                                            along + "; look elsewhere or give another 'up'");
     for (size_t i = 1; i < path.size(); ++i) {
         const Vec3 va = path[i - 1].lookAt - path[i - 1].position, vb = path[i].lookAt - path[i].position;
         // cross(view(s), u) = (1 - s) a + s b: its smallest length, where the view comes closest to u.
@@ -894,12 +900,14 @@ Scene readScene(const json& j, const std::string& file) {
     o.opt("sky", s.sky, readSky);
     o.opt("medium", s.medium, readMedium);
     if (const json* clouds = o.find("clouds")) checkEllipsoidCount(*clouds);
-    o.opt("clouds", s.clouds,
-          listOf([&](const json& c, const Path& p, size_t i) { return readCloud(c, p, i, s.medium); }, &limits::kClouds));
+    o.opt(
+        "clouds", s.clouds,
+        listOf([&](const json& c, const Path& p, size_t i) { return readCloud(c, p, i, s.medium); }, &limits::kClouds));
     o.opt("generate", s.generators,
           listOf([&](const json& g, const Path& p, size_t i) { return readGenerator(g, p, i, sceneDir, s.medium); },
                  &limits::kGenerateEntries));
-    o.opt("layers", s.layers, listOf([&](const json& l, const Path& p) { return readLayer(l, p, s.medium); }, &limits::kLayers));
+    o.opt("layers", s.layers,
+          listOf([&](const json& l, const Path& p) { return readLayer(l, p, s.medium); }, &limits::kLayers));
     if (const json* light = o.find("skylight")) s.skylight = readSkylight(*light, o.at("skylight"));
     o.opt("lightning", s.lightning, listOf(readLightning, &limits::kLightningFlashes));
     o.opt("objects", s.objects, listOf(readObject, &limits::kObjects));

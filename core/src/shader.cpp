@@ -15,7 +15,10 @@
 #include <glm/gtc/type_ptr.hpp>
 
 namespace nephele::detail {
-struct EmbeddedShader { const char* name; const char* source; };
+struct EmbeddedShader {
+    const char* name;
+    const char* source;
+};
 extern const EmbeddedShader kEmbeddedShaders[];
 extern const std::size_t kEmbeddedShaderCount;
 }  // namespace nephele::detail
@@ -130,8 +133,7 @@ const char* stageName(GLenum stage) {
 
 }  // namespace
 
-std::string assembleShaderSource(const std::string& file, const std::string& defines,
-                                 std::vector<std::string>& files) {
+std::string assembleShaderSource(const std::string& file, const std::string& defines, std::vector<std::string>& files) {
     std::string out = "#version 450 core\n" + defines;
     if (!defines.empty() && defines.back() != '\n') out += "\n";
     appendFile(file, files, out, 0);
@@ -157,8 +159,8 @@ Program Program::build(std::initializer_list<ShaderStage> stages, const std::str
             std::string log(std::max(length, 1), '\0');
             glGetShaderInfoLog(sh.id(), length, nullptr, log.data());
             log.resize(std::strlen(log.c_str()));
-            throw ShaderError(std::string(stageName(s.stage)) + " shader " + s.file +
-                              " failed to compile:\n" + mapLog(log, files));
+            throw ShaderError(std::string(stageName(s.stage)) + " shader " + s.file + " failed to compile:\n" +
+                              mapLog(log, files));
         }
         glAttachShader(p.program_.id(), sh.id());
         names += (names.empty() ? "" : " + ") + s.file;
@@ -189,10 +191,20 @@ GLint Program::location(const char* name) const {
 
 void Program::set(const char* n, int v) const { glProgramUniform1i(id(), location(n), v); }
 void Program::set(const char* n, float v) const { glProgramUniform1f(id(), location(n), v); }
-void Program::set(const char* n, const glm::vec2& v) const { glProgramUniform2fv(id(), location(n), 1, glm::value_ptr(v)); }
-void Program::set(const char* n, const glm::vec3& v) const { glProgramUniform3fv(id(), location(n), 1, glm::value_ptr(v)); }
-void Program::set(const char* n, const glm::vec4& v) const { glProgramUniform4fv(id(), location(n), 1, glm::value_ptr(v)); }
-void Program::set(const char* n, const glm::mat3& v) const { glProgramUniformMatrix3fv(id(), location(n), 1, GL_FALSE, glm::value_ptr(v)); }
-void Program::set(const char* n, const glm::mat4& v) const { glProgramUniformMatrix4fv(id(), location(n), 1, GL_FALSE, glm::value_ptr(v)); }
+void Program::set(const char* n, const glm::vec2& v) const {
+    glProgramUniform2fv(id(), location(n), 1, glm::value_ptr(v));
+}
+void Program::set(const char* n, const glm::vec3& v) const {
+    glProgramUniform3fv(id(), location(n), 1, glm::value_ptr(v));
+}
+void Program::set(const char* n, const glm::vec4& v) const {
+    glProgramUniform4fv(id(), location(n), 1, glm::value_ptr(v));
+}
+void Program::set(const char* n, const glm::mat3& v) const {
+    glProgramUniformMatrix3fv(id(), location(n), 1, GL_FALSE, glm::value_ptr(v));
+}
+void Program::set(const char* n, const glm::mat4& v) const {
+    glProgramUniformMatrix4fv(id(), location(n), 1, GL_FALSE, glm::value_ptr(v));
+}
 
 }  // namespace nephele

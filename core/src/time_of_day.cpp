@@ -150,7 +150,8 @@ SolarPosition solarPosition(const UtcTime& time, double latitudeDeg, double long
     // Apparent longitude (nutation and aberration) and the obliquity of the ecliptic.
     const double omega = rad(125.04 - 1934.136 * jc);
     const double lambda = rad(trueLongitude - 0.00569 - 0.00478 * std::sin(omega));
-    const double meanObliquity = 23.0 + (26.0 + (21.448 - jc * (46.815 + jc * (0.00059 - jc * 0.001813))) / 60.0) / 60.0;
+    const double meanObliquity =
+        23.0 + (26.0 + (21.448 - jc * (46.815 + jc * (0.00059 - jc * 0.001813))) / 60.0) / 60.0;
     const double eps = rad(meanObliquity + 0.00256 * std::cos(omega));
 
     p.rightAscensionDeg = wrap360(deg(std::atan2(std::cos(eps) * std::sin(lambda), std::cos(lambda))));
@@ -160,13 +161,14 @@ SolarPosition solarPosition(const UtcTime& time, double latitudeDeg, double long
     // Equation of time (Smart 1956, as Meeus eq. 28.3), minutes.
     const double y = std::pow(std::tan(eps / 2), 2);
     const double l0r = rad(l0);
-    p.equationOfTimeMin = 4.0 * deg(y * std::sin(2 * l0r) - 2 * e * std::sin(mr) +
-                                    4 * e * y * std::sin(mr) * std::cos(2 * l0r) -
-                                    0.5 * y * y * std::sin(4 * l0r) - 1.25 * e * e * std::sin(2 * mr));
+    p.equationOfTimeMin =
+        4.0 * deg(y * std::sin(2 * l0r) - 2 * e * std::sin(mr) + 4 * e * y * std::sin(mr) * std::cos(2 * l0r) -
+                  0.5 * y * y * std::sin(4 * l0r) - 1.25 * e * e * std::sin(2 * mr));
 
     // True solar time and the hour angle (0 at local apparent noon, > 0 after).
     const double minutes = time.hour * 60.0 + time.minute + time.second / 60.0;
-    const double trueSolarMin = std::fmod(std::fmod(minutes + p.equationOfTimeMin + 4.0 * longitudeDeg, 1440.0) + 1440.0, 1440.0);
+    const double trueSolarMin =
+        std::fmod(std::fmod(minutes + p.equationOfTimeMin + 4.0 * longitudeDeg, 1440.0) + 1440.0, 1440.0);
     p.hourAngleDeg = trueSolarMin / 4.0 - 180.0;
     if (p.hourAngleDeg <= -180.0) p.hourAngleDeg += 360.0;
 
@@ -242,8 +244,8 @@ Daylight daylight(const SolarPosition& position, const ClearSky& sky) {
     // zenith sun.
     const double sunZenithLux = kLuminousSolarConstant * orbit * luminance(zenithT);
     const double sinH = std::max(std::sin(rad(position.apparentElevationDeg)), 0.0);
-    const Vec3 groundLight = (sunZenithLux * relative * sinH * disc + Vec3(d.skyIlluminanceLux)) /
-                             (sunZenithLux + skyZenithLux);
+    const Vec3 groundLight =
+        (sunZenithLux * relative * sinH * disc + Vec3(d.skyIlluminanceLux)) / (sunZenithLux + skyZenithLux);
     d.sky.ground = s.ground * groundLight;
     return d;
 }

@@ -118,12 +118,12 @@ std::vector<CloudImpostors::Group> CloudImpostors::groupClouds(const PreparedClo
         g.rect = {std::min(g.rect.x0, e.projection.rect.x0), std::min(g.rect.y0, e.projection.rect.y0),
                   std::max(g.rect.x1, e.projection.rect.x1), std::max(g.rect.y1, e.projection.rect.y1)};
         g.shapes.push_back(Fingerprint()
-                       .add(e.index)
-                       .add(quantised(e.shape.center - spheres[std::size_t(e.cloud)].centre))
-                       .add(e.shape.radii)
-                       .add(e.unit)
-                       .add(e.noiseOffset)
-                       .value());
+                               .add(e.index)
+                               .add(quantised(e.shape.center - spheres[std::size_t(e.cloud)].centre))
+                               .add(e.shape.radii)
+                               .add(e.unit)
+                               .add(e.noiseOffset)
+                               .value());
     }
     for (Group& g : groups) std::sort(g.shapes.begin(), g.shapes.end());
     return groups;
@@ -131,8 +131,8 @@ std::vector<CloudImpostors::Group> CloudImpostors::groupClouds(const PreparedClo
 
 // The clouds that are impostors this frame (out.impostor), each with its kept image's error,
 // or must, when it has no usable one. Marks each seen this frame (a new one gets its entry).
-std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const ImpostorSettings& s, const Scene& scene, const View& view,
-                                                                  const PreparedClouds& prepared,
+std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const ImpostorSettings& s, const Scene& scene,
+                                                                  const View& view, const PreparedClouds& prepared,
                                                                   const std::vector<PlacedRadiance>& light,
                                                                   const std::vector<Group>& groups, std::uint64_t frame,
                                                                   ImpostorPlan& out) {
@@ -161,8 +161,12 @@ std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const Impostor
         k.need = std::max(kMinImpostor, int(std::bit_ceil(unsigned(std::max({k.w, k.h, 1})))));
         if (k.need > s.atlasSize) continue;
         const PlacedRadiance& pl = light[std::size_t(c)];
-        const std::uint64_t lightKey =
-            Fingerprint().add(global).add(pl.grid.get()).add(quantised(pl.lo - spheres[std::size_t(c)].centre)).add(pl.extent).value();
+        const std::uint64_t lightKey = Fingerprint()
+                                           .add(global)
+                                           .add(pl.grid.get())
+                                           .add(quantised(pl.lo - spheres[std::size_t(c)].centre))
+                                           .add(pl.extent)
+                                           .value();
         const double phase = sunPhase(spheres[std::size_t(c)].centre, view, scene);
         const double r = 0.5 * std::max(k.w, k.h);
         glm::dvec4 rect;
@@ -170,10 +174,11 @@ std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const Impostor
         // may stay in it: their part of it lies beyond the view's edge), and what is in view of
         // the cloud lies within the image's quad (a cloud cut by the view's edge when it was
         // made shows only what was in view then).
-        const bool same = L && L->made &&
-                          std::includes(L->shapes.begin(), L->shapes.end(), g.shapes.begin(), g.shapes.end());
-        if (same && reprojectImage(L->eyeFromCentre, spheres[std::size_t(c)].centre, L->rc, L->rx, L->ry, viewProj, view.eye,
-                                   k.reproject, rect) &&
+        const bool same =
+            L && L->made && std::includes(L->shapes.begin(), L->shapes.end(), g.shapes.begin(), g.shapes.end());
+        if (same &&
+            reprojectImage(L->eyeFromCentre, spheres[std::size_t(c)].centre, L->rc, L->rx, L->ry, viewProj, view.eye,
+                           k.reproject, rect) &&
             outsidePixels(rect, g.rect, view) <= s.errorPixels) {
             k.must = false;
             // The whole cloud's parallax: its depth is its bounding radius.
@@ -205,9 +210,9 @@ std::vector<CloudImpostors::Candidate> CloudImpostors::candidates(const Impostor
 // within the budget (the worst one always), each given its place in the atlas and its view.
 // Returns, per candidate, whether it is made this frame. A candidate the full atlas has no
 // place for is drawn as tiles (out.impostor 0, its entry gone).
-std::vector<char> CloudImpostors::makeImages(const ImpostorSettings& s, const View& view, const PreparedClouds& prepared,
-                                             const std::vector<Group>& groups, std::vector<Candidate>& cands,
-                                             ImpostorPlan& out) {
+std::vector<char> CloudImpostors::makeImages(const ImpostorSettings& s, const View& view,
+                                             const PreparedClouds& prepared, const std::vector<Group>& groups,
+                                             std::vector<Candidate>& cands, ImpostorPlan& out) {
     const int W = view.camera.width, H = view.camera.height;
     const double budget = s.budget * double(W) * double(H);
     double spent = 0;
@@ -216,7 +221,8 @@ std::vector<char> CloudImpostors::makeImages(const ImpostorSettings& s, const Vi
         if (cands[i].must) make.push_back(i);
         else if (cands[i].error >= 1) stale.push_back(i);
     }
-    std::stable_sort(stale.begin(), stale.end(), [&](std::size_t a, std::size_t b) { return cands[a].error > cands[b].error; });
+    std::stable_sort(stale.begin(), stale.end(),
+                     [&](std::size_t a, std::size_t b) { return cands[a].error > cands[b].error; });
     for (std::size_t i : stale) {
         const double px = double(cands[i].w) * cands[i].h;
         if (s.budget <= 0 || (spent > 0 && spent + px > budget)) break;
@@ -254,7 +260,8 @@ std::vector<char> CloudImpostors::makeImages(const ImpostorSettings& s, const Vi
         const double hx = double(k.w) / W, hy = double(k.h) / H;
         L.rc = view.rayCentre() + cx * view.rightScaled() + cy * view.upScaled();
         L.rx = hx * view.rightScaled(), L.ry = hy * view.upScaled();
-        k.reproject = glm::dmat4(glm::dvec4(hx, 0, 0, 0), glm::dvec4(0, hy, 0, 0), glm::dvec4(0.0), glm::dvec4(cx, cy, 0, 1));
+        k.reproject =
+            glm::dmat4(glm::dvec4(hx, 0, 0, 0), glm::dvec4(0, hy, 0, 0), glm::dvec4(0.0), glm::dvec4(cx, cy, 0, 1));
         ++out.rendered;
     }
     return fresh;

@@ -30,31 +30,31 @@
 namespace nephele {
 
 struct ImpostorSettings {
-    double distance = 4;        // EllipsoidSettings::cloudLodDistance: in bounding radii of the cloud
-    int maxPixels = 512;        // EllipsoidSettings::cloudLodMaxPixels: larger on screen: tiles
-    int atlasSize = 1024;       // px, the impostor atlas's layers (square)
-    int layers = 4;             // the layers the memory budget allows
-    double errorPixels = 1.5;   // EllipsoidSettings::cloudLodErrorPixels
-    double budget = 1.0;        // EllipsoidSettings::reuseBudget: impostor pixels made a frame, in frames' pixels
+    double distance = 4;       // EllipsoidSettings::cloudLodDistance: in bounding radii of the cloud
+    int maxPixels = 512;       // EllipsoidSettings::cloudLodMaxPixels: larger on screen: tiles
+    int atlasSize = 1024;      // px, the impostor atlas's layers (square)
+    int layers = 4;            // the layers the memory budget allows
+    double errorPixels = 1.5;  // EllipsoidSettings::cloudLodErrorPixels
+    double budget = 1.0;       // EllipsoidSettings::reuseBudget: impostor pixels made a frame, in frames' pixels
 };
 
 // One impostor of a frame.
 struct ImpostorDraw {
-    int cloud = 0;             // scene.clouds index
-    bool fresh = false;        // made this frame from its tiles
+    int cloud = 0;                         // scene.clouds index
+    bool fresh = false;                    // made this frame from its tiles
     TilePlacement place{-1, -1, 0, 0, 0};  // in the impostor atlas (a square of `size` holding w x h texels)
-    int px = 0, py = 0;        // fresh: the view's pixel (lower left origin) at its image's corner
-    int w = 0, h = 0;          // texels of its image (fresh: the view's pixels it covers)
-    glm::mat4 reproject{1.0f};  // image clip (x, y, 0, 1) -> the frame's clip space
-    double distance = 0;       // m, the cloud's centre: its place in the back-to-front order
-    Vec3 centre{0.0};          // m, the cloud's bounding sphere now
-    double radius = 0;         // m
+    int px = 0, py = 0;                    // fresh: the view's pixel (lower left origin) at its image's corner
+    int w = 0, h = 0;                      // texels of its image (fresh: the view's pixels it covers)
+    glm::mat4 reproject{1.0f};             // image clip (x, y, 0, 1) -> the frame's clip space
+    double distance = 0;                   // m, the cloud's centre: its place in the back-to-front order
+    Vec3 centre{0.0};                      // m, the cloud's bounding sphere now
+    double radius = 0;                     // m
 };
 
 struct ImpostorPlan {
-    std::vector<char> impostor;        // per scene cloud: drawn as an impostor this frame
-    std::vector<ImpostorDraw> draws;   // back to front
-    int rendered = 0;                  // impostors made this frame
+    std::vector<char> impostor;       // per scene cloud: drawn as an impostor this frame
+    std::vector<ImpostorDraw> draws;  // back to front
+    int rendered = 0;                 // impostors made this frame
 };
 
 class CloudImpostors {
@@ -76,11 +76,11 @@ private:
         TilePlacement place{-1, -1, 0, 0, 0};
         std::vector<std::uint64_t> shapes;  // its ellipsoids when made (sorted fingerprints)
         std::uint64_t light = 0;
-        double weight = 0;          // the cloud's weight (near-LOD fade) when made
+        double weight = 0;  // the cloud's weight (near-LOD fade) when made
         Vec3 eyeFromCentre{0.0}, centre{0.0};
         double phase = 0;
         Vec3 rc{0.0}, rx{0.0}, ry{0.0};  // image clip (x, y) -> camera-relative ray when made
-        int w = 0, h = 0;           // texels of its image in its place
+        int w = 0, h = 0;                // texels of its image in its place
         std::uint64_t seen = 0;
         bool made = false;
     };

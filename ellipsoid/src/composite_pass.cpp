@@ -140,8 +140,8 @@ void EllipsoidRenderer::Impl::overPass(const EllipsoidSettings& s, const FramePl
             overFrame(next, c.first);
             // The run into the reduced target ("over" from 0: premultiplied), its depth the
             // frame's reduced; then upsampled over the frame within the run's rectangle.
-            const glm::ivec4 rr(std::max(c.rect.x / d - 1, 0), std::max(c.rect.y / d - 1, 0), (c.rect.z + d - 1) / d + 1,
-                                (c.rect.w + d - 1) / d + 1);
+            const glm::ivec4 rr(std::max(c.rect.x / d - 1, 0), std::max(c.rect.y / d - 1, 0),
+                                (c.rect.z + d - 1) / d + 1, (c.rect.w + d - 1) / d + 1);
             if (!reducedBegun) reduced->begin(depth, view, d), reducedBegun = true;  // (the depth reduced once)
             reduced->resume(rr);  // (the colour alone: the tiles' fraction reads the reduced depth)
             glDisable(GL_SCISSOR_TEST);
@@ -197,8 +197,8 @@ void EllipsoidRenderer::Impl::makeImpostors(const EllipsoidSettings& s, const Fr
     check("making the cloud impostors");
 }
 
-void EllipsoidRenderer::Impl::drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d, bool fraction,
-                                           EllipsoidStats& stats) {
+void EllipsoidRenderer::Impl::drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d,
+                                           bool fraction, EllipsoidStats& stats) {
     const Program& p = fraction ? impostorFraction : impostor;
     glUseProgram(p.id());
     // Premultiplied: its colour as it is, the frame behind times 1 - its opacity.
@@ -225,15 +225,16 @@ void EllipsoidRenderer::Impl::drawImpostor(const FramePlan& plan, const View& vi
 }
 
 void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view,
-                                                const HostFrame& frame, const Program& cp, const Program* momentsPass,
-                                                EllipsoidStats& stats) {
+                                           const HostFrame& frame, const Program& cp, const Program* momentsPass,
+                                           EllipsoidStats& stats) {
     const int frameW = view.camera.width, frameH = view.camera.height;
     WeightedTarget& wt = momentsPass ? momentTarget(frameW, frameH) : weightedTarget(frameW, frameH);
     // Clear, accumulate and resolve only the tiles' screen area: with few or small clouds
     // the frame-sized clear and resolve were most of the weighted composite's cost.
     float lo[2] = {1, 1}, hi[2] = {-1, -1};
     for (const GpuTile& t : plan.gpu)
-        for (int k = 0; k < 2; ++k) lo[k] = std::min(lo[k], t.screenRect[k]), hi[k] = std::max(hi[k], t.screenRect[k + 2]);
+        for (int k = 0; k < 2; ++k)
+            lo[k] = std::min(lo[k], t.screenRect[k]), hi[k] = std::max(hi[k], t.screenRect[k + 2]);
     const int x0 = std::clamp(int(std::floor((lo[0] * 0.5f + 0.5f) * frameW)) - 1, 0, frameW);
     const int y0 = std::clamp(int(std::floor((lo[1] * 0.5f + 0.5f) * frameH)) - 1, 0, frameH);
     const int x1 = std::max(std::clamp(int(std::ceil((hi[0] * 0.5f + 0.5f) * frameW)) + 1, 0, frameW), x0);
@@ -259,7 +260,7 @@ void EllipsoidRenderer::Impl::weightedPass(const EllipsoidSettings& s, const Fra
     glViewport(0, 0, frameW, frameH);
     glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 0, zero);
     glClearNamedFramebufferfv(wt.fbo.id(), GL_COLOR, 1, one);
-    glBlendFunci(0, GL_ONE, GL_ONE);                  // sums
+    glBlendFunci(0, GL_ONE, GL_ONE);                   // sums
     glBlendFunci(1, GL_ZERO, GL_ONE_MINUS_SRC_COLOR);  // product of (1 - a)
     drawInOrder(s, cp, int(plan.order.size()), stats);
     check("compositing the ellipsoid tiles");

@@ -36,8 +36,8 @@ IndexedMesh makeSphere(int slices) {
         const double theta = std::numbers::pi * i / stacks;
         for (int j = 0; j <= slices; ++j) {
             const double phi = 2 * std::numbers::pi * j / slices;
-            v.insert(v.end(), {float(scale * std::sin(theta) * std::cos(phi)), float(scale * std::sin(theta) * std::sin(phi)),
-                               float(scale * std::cos(theta))});
+            v.insert(v.end(), {float(scale * std::sin(theta) * std::cos(phi)),
+                               float(scale * std::sin(theta) * std::sin(phi)), float(scale * std::cos(theta))});
         }
     }
     for (int i = 0; i < stacks; ++i)
@@ -55,7 +55,8 @@ int floorPow2(int v) {
 }
 
 void checkPow2(const char* what, int v) {
-    if (v < 1 || (v & (v - 1)) != 0) throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
+    if (v < 1 || (v & (v - 1)) != 0)
+        throw std::invalid_argument(std::string(what) + " must be a power of two, got " + std::to_string(v));
 }
 
 void checkSettings(const EllipsoidSettings& s) {
@@ -67,14 +68,18 @@ void checkSettings(const EllipsoidSettings& s) {
     validate(s.light);
     if (s.atlasMegabytes < 1) throw std::invalid_argument("atlasMegabytes must be at least 1");
     if (s.order == CompositeOrder::PerPixel)
-        throw std::invalid_argument("order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
+        throw std::invalid_argument(
+            "order: the compositor composites whole tiles (PerEllipsoid) or weighted, not per pixel");
     if (!(s.weightExponent >= 0 && s.weightExponent <= 16)) throw std::invalid_argument("weightExponent must be 0..16");
-    if (!(s.reuseErrorPixels > 0 && s.reuseErrorPixels <= 1e6)) throw std::invalid_argument("reuseErrorPixels must be in (0, 1e6]");
+    if (!(s.reuseErrorPixels > 0 && s.reuseErrorPixels <= 1e6))
+        throw std::invalid_argument("reuseErrorPixels must be in (0, 1e6]");
     if (!(s.reuseBudget >= 0 && s.reuseBudget <= 1e6)) throw std::invalid_argument("reuseBudget must be in [0, 1e6]");
     if (!(s.cloudLodErrorPixels > 0 && s.cloudLodErrorPixels <= 1e6))
         throw std::invalid_argument("cloudLodErrorPixels must be in (0, 1e6]");
-    if (!(s.cloudLodDistance >= 1 && s.cloudLodDistance <= 1e6)) throw std::invalid_argument("cloudLodDistance must be in [1, 1e6]");
-    if (s.cloudLodMaxPixels < 8 || s.cloudLodMaxPixels > 4096) throw std::invalid_argument("cloudLodMaxPixels must be in 8..4096");
+    if (!(s.cloudLodDistance >= 1 && s.cloudLodDistance <= 1e6))
+        throw std::invalid_argument("cloudLodDistance must be in [1, 1e6]");
+    if (s.cloudLodMaxPixels < 8 || s.cloudLodMaxPixels > 4096)
+        throw std::invalid_argument("cloudLodMaxPixels must be in 8..4096");
     if (s.impostorMegabytes < 1) throw std::invalid_argument("impostorMegabytes must be at least 1");
     if (s.closeDownsample < 1 || s.closeDownsample > 4) throw std::invalid_argument("closeDownsample must be in 1..4");
 }
@@ -89,14 +94,16 @@ void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
         const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + unorm8;
         tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                               falloffTexture);
-        tileCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                                 falloffTexture + "#define CUT 1\n");
+        tileCut =
+            Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                           falloffTexture + "#define CUT 1\n");
         rayDefines = unorm8;
     } else {
-        tileRay = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                                 unorm8);
-        tileRayCut = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                                    unorm8 + "#define CUT 1\n");
+        tileRay = Program::build(
+            {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, unorm8);
+        tileRayCut = Program::build(
+            {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+            unorm8 + "#define CUT 1\n");
     }
     colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
@@ -104,22 +111,28 @@ void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
     if (s.order == CompositeOrder::Weighted || s.order == CompositeOrder::Moments) {
         const std::string weighted = fused + "#define WEIGHTED 1\n";
         const std::string second = weighted + (s.order == CompositeOrder::Moments ? "#define MOMENTS 1\n" : "");
-        compositeWeighted = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
-        compositeWeightedFraction = Program::build(
-            {{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second + "#define FRACTION 1\n");
+        compositeWeighted =
+            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
+        compositeWeightedFraction =
+            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                           second + "#define FRACTION 1\n");
         if (s.order == CompositeOrder::Moments) {
-            compositeMoments = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                              weighted + "#define MOMENTS_PASS 1\n");
+            compositeMoments =
+                Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                               weighted + "#define MOMENTS_PASS 1\n");
             compositeMomentsFraction =
                 Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
                                weighted + "#define MOMENTS_PASS 1\n#define FRACTION 1\n");
         }
-        resolve = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
+        resolve =
+            Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
     } else {
-        compositeFraction = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                                           fused + "#define FRACTION 1\n");
+        compositeFraction =
+            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                           fused + "#define FRACTION 1\n");
     }
-    screenDepth = Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    screenDepth =
+        Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     if (cloudLodApplies(s)) {  // only then are impostors drawn
         impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
         impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
@@ -212,9 +225,10 @@ bool prepareFrame(const EllipsoidSettings& s, const Scene& scene, const View& vi
     // holds features of a few pixels at every distance (its octaves fade by projected size), so
     // with it a tile keeps the texels its ellipsoid covers on screen.
     if (lod && cloudLodApplies(s) && !scene.medium.detail.on()) {
-        const double noiseTexel = scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size
-                                                         : std::numeric_limits<double>::infinity();
-        for (PreparedEllipsoid& e : out.prepared.ellipsoids) e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);
+        const double noiseTexel =
+            scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size : std::numeric_limits<double>::infinity();
+        for (PreparedEllipsoid& e : out.prepared.ellipsoids)
+            e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);
     }
     stats.visible = int(prepared.ellipsoids.size());
     return !prepared.ellipsoids.empty();
@@ -265,7 +279,8 @@ void compositeOrder(FramePlan& out, const std::vector<int>& impostorOf, const st
 
 // One tile's record for the GPU: the ellipsoid, camera-relative, and the ray through each of
 // its tile's clip positions (rc + x rx + y ry, returned for the reuse bookkeeping).
-GpuTile gpuTile(const PreparedEllipsoid& e, const View& view, const glm::dmat4& viewRotation, Vec3& rc, Vec3& rx, Vec3& ry) {
+GpuTile gpuTile(const PreparedEllipsoid& e, const View& view, const glm::dmat4& viewRotation, Vec3& rc, Vec3& rx,
+                Vec3& ry) {
     const EllipsoidProjection& p = e.projection;
     GpuTile t{};  // reproject stays zero for fresh tiles
     put(t.centerSigma, e.shape.center - view.eye, e.sigma);
@@ -335,8 +350,9 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
 
 // ---- The cloud LOD: far clouds as impostors; only the tiles of those made this frame and
 // of the clouds drawn as tiles go on.
-void EllipsoidRenderer::Impl::planImpostors(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out,
-                                            std::vector<int>& impostorOf, std::vector<char>& keepTiles) {
+void EllipsoidRenderer::Impl::planImpostors(const EllipsoidSettings& s, const Scene& scene, const View& view,
+                                            FramePlan& out, std::vector<int>& impostorOf,
+                                            std::vector<char>& keepTiles) {
     EllipsoidStats& stats = out.stats;
     ImpostorSettings is;
     is.distance = s.cloudLodDistance, is.maxPixels = s.cloudLodMaxPixels;
@@ -415,7 +431,8 @@ void EllipsoidRenderer::Impl::placeTiles(const EllipsoidSettings& s, const Scene
 // Mesh tiles near the sun are lit per pixel (nearTheSun). Within a pass tiles never overlap,
 // so any order will do: group them by program (cut by the near plane or not, lit per pixel or
 // not) and mesh level, one instanced draw per group.
-void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out) {
+void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene& scene, const View& view,
+                                         FramePlan& out) {
     const PreparedClouds& prepared = out.prepared;
     out.perPixelLight.assign(prepared.ellipsoids.size(), 0);
     if (s.geometry == TileGeometry::Mesh) {
@@ -423,7 +440,8 @@ void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene
             out.perPixelLight[i] = nearTheSun(prepared.ellipsoids[i], view, scene) ? 1 : 0;
         if (!tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
             tileRay = Program::build(
-                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, rayDefines);
+                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
+                rayDefines);
     }
     auto group = [&](const TilePlacement& p) {
         return drawGroup(s, prepared.ellipsoids[p.id], p.size, out.perPixelLight[p.id] != 0);
@@ -452,7 +470,8 @@ std::vector<int> EllipsoidRenderer::Impl::writeGpuTiles(const View& view, Atlas&
         Vec3 rc, rx, ry;
         GpuTile& t = gpu[k] = gpuTile(e, view, viewRotation, rc, rx, ry);
         if (fresh && out.reuse) atlas.reuse.rendered(tp.id, rc, rx, ry);
-        t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size), t.atlasRect[3] = float(tp.pass);
+        t.atlasRect[0] = float(tp.x), t.atlasRect[1] = float(tp.y), t.atlasRect[2] = float(tp.size),
+        t.atlasRect[3] = float(tp.pass);
         if (fresh) {
             t.screenRect[0] = float(p.rect.x0), t.screenRect[1] = float(p.rect.y0);
             t.screenRect[2] = float(p.rect.x1), t.screenRect[3] = float(p.rect.y1);
@@ -465,7 +484,8 @@ std::vector<int> EllipsoidRenderer::Impl::writeGpuTiles(const View& view, Atlas&
         put(t.noiseOffset, e.noiseOffset);
         put(t.skyChroma, Vec3(model::skyChroma(glm::vec3(light[e.cloud].sample(e.shape.center).skyTau))));
         slot[tp.id] = int(k);
-        lastTiles.push_back({{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
+        lastTiles.push_back(
+            {{t.screenRect[0], t.screenRect[1], t.screenRect[2], t.screenRect[3]}, tp.x, tp.y, tp.size, tp.pass});
         stats.tilePixels += std::int64_t(tp.size) * tp.size;
         stats.screenPixels += std::int64_t(std::lround(p.pixelWidth * p.pixelHeight));
         if (fresh) ++stats.tilesRendered, stats.tilePixelsRendered += std::int64_t(tp.size) * tp.size;
@@ -476,8 +496,8 @@ std::vector<int> EllipsoidRenderer::Impl::writeGpuTiles(const View& view, Atlas&
 
 // ---- Resources: the tiles and the order uploaded, the light's boxes, and the atlas grown to
 // the passes' layers.
-void EllipsoidRenderer::Impl::uploadPlan(const EllipsoidSettings& s, const View& view, Atlas& atlas, const AtlasLayout& a,
-                                         FramePlan& out) {
+void EllipsoidRenderer::Impl::uploadPlan(const EllipsoidSettings& s, const View& view, Atlas& atlas,
+                                         const AtlasLayout& a, FramePlan& out) {
     uploadDynamic(tiles, tilesCapacity, out.gpu.data(), out.gpu.size() * sizeof(GpuTile));
     uploadDynamic(order, orderCapacity, out.order.data(), out.order.size() * sizeof(int));
     lightTextures.setBoxes(light, view.eye);

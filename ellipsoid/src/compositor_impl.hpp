@@ -81,7 +81,8 @@ inline int drawGroup(const EllipsoidSettings& s, const PreparedEllipsoid& e, int
     // on screen: the vertices its light needs there.
     const double screen = std::max(e.projection.pixelWidth, e.projection.pixelHeight);
     if (e.contentTexels < screen) tileSize = std::max(tileSize, int(std::min(screen, 4096.0)));
-    if (e.projection.crossesNear) return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize, opticallyThick(e)) : 0);
+    if (e.projection.crossesNear)
+        return 1000 + (s.geometry == TileGeometry::Mesh ? meshSlices(s, tileSize, opticallyThick(e)) : 0);
     if (s.geometry == TileGeometry::Polygon) return 0;
     return perPixelLight ? 2000 : meshSlices(s, tileSize, opticallyThick(e));
 }
@@ -103,7 +104,9 @@ struct FramePlan {
     std::vector<int> impostorFirst, impostorCount;  // per impostor (fresh ones only: count > 0)
     CloudImpostors* impostorAtlas = nullptr;
     // The composite over the frame, back to front: runs of tiles in `order` and impostors.
-    struct Run { int first = 0, count = 0, impostor = -1; };
+    struct Run {
+        int first = 0, count = 0, impostor = -1;
+    };
     std::vector<Run> runs;
     int atlasW = 0, atlasH = 0;
     EllipsoidStats stats;
@@ -119,12 +122,12 @@ struct EllipsoidRenderer::Impl {
     Program tile, tileCut, tileRay, tileRayCut, colourMatrix, composite, compositeFraction, screenDepth, floor;
     Program compositeWeighted, compositeWeightedFraction, resolve;  // CompositeOrder::Weighted and Moments
     Program compositeMoments, compositeMomentsFraction;             // CompositeOrder::Moments: its first pass
-    Program impostor, impostorFraction;  // cloudLod: an impostor over the frame
+    Program impostor, impostorFraction;                             // cloudLod: an impostor over the frame
     std::unique_ptr<ReducedTarget> reduced;  // cloudLod: close tiles at 1 / closeDownsample (made with the renderer)
     PerViewCache<CloudImpostors, glm::ivec4> impostors;  // cloudLod: per view size and place
     std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
-    std::map<int, IndexedMesh> meshes;   // by slices
+    std::map<int, IndexedMesh> meshes;  // by slices
     Texture falloff, noise;
     Sampler linearClamp;
     CloudRadianceCache lightCache;      // the clouds' radiance grids
@@ -133,17 +136,17 @@ struct EllipsoidRenderer::Impl {
     std::vector<PlacedRadiance> light;  // updateLights(): the scene clouds' grids, one each
     Buffer tiles, order;
     std::size_t tilesCapacity = 0, orderCapacity = 0;
-    std::vector<TileDebug> lastTiles;   // the last plan's tiles (debug views)
+    std::vector<TileDebug> lastTiles;  // the last plan's tiles (debug views)
 
     // object_light "all": the scene's objects drawn again over their own depth, lit by the sun
     // through the clouds, the sky and the clouds' grids (object_pass.cpp).
     ObjectLightPass objectLight;
     void drawLitObjects(const Scene& scene, const View& view, const HostFrame& frame);
 
-    int lightUploads = 0;    // grids uploaded since the last render (stats)
-    int lightsComputed = 0;  // grids made since the last render (stats)
+    int lightUploads = 0;            // grids uploaded since the last render (stats)
+    int lightsComputed = 0;          // grids made since the last render (stats)
     RadianceUpdateStats lightStats;  // the last update's
-    bool lightsDriven = false;  // a host calls updateLights(): render() never waits for a grid
+    bool lightsDriven = false;       // a host calls updateLights(): render() never waits for a grid
     void updateLights(const EllipsoidSettings& s, const Scene& scene, const Vec3* eye, bool background,
                       bool takeFinished = true);
 
@@ -161,7 +164,7 @@ struct EllipsoidRenderer::Impl {
     // plan()'s phases after the projection (compositor.cpp), in the order it runs them.
     struct AtlasLayout {
         int frameW = 0, frameH = 0, atlasW = 0, atlasH = 0, minTile = 0, maxTile = 0;
-        int maxPasses = 0;   // atlas layers within the memory budget (placeTiles)
+        int maxPasses = 0;    // atlas layers within the memory budget (placeTiles)
         GLint maxLayers = 0;  // GL's limit (placeTiles)
     };
     void planImpostors(const EllipsoidSettings& s, const Scene& scene, const View& view, FramePlan& out,
@@ -230,13 +233,14 @@ struct EllipsoidRenderer::Impl {
     void overPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
                   const Program& cp, const DepthSource& depth, EllipsoidStats& stats);
     void weightedPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
-                           const Program& cp, const Program* momentsPass, EllipsoidStats& stats);
+                      const Program& cp, const Program* momentsPass, EllipsoidStats& stats);
     // cloudLod: the fresh impostors made from their tiles (cp: the composite without fraction).
     void makeImpostors(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const Program& cp,
                        EllipsoidStats& stats);
-    void drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d, bool fraction, EllipsoidStats& stats);
-    void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame, const Program& cp,
-                          EllipsoidStats& stats);
+    void drawImpostor(const FramePlan& plan, const View& view, const ImpostorDraw& d, bool fraction,
+                      EllipsoidStats& stats);
+    void stencilPass(const EllipsoidSettings& s, const FramePlan& plan, const View& view, const HostFrame& frame,
+                     const Program& cp, EllipsoidStats& stats);
 };
 
 // The cloud LOD's close tiles composited at a reduced resolution (EllipsoidSettings::

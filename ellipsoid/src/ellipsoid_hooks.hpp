@@ -14,7 +14,8 @@ struct EllipsoidBenchHooks {
                                       GLuint framebuffer);
 };
 
-inline EllipsoidStats renderFloor(EllipsoidRenderer& renderer, const Scene& scene, const View& view, GLuint framebuffer) {
+inline EllipsoidStats renderFloor(EllipsoidRenderer& renderer, const Scene& scene, const View& view,
+                                  GLuint framebuffer) {
     return EllipsoidBenchHooks::renderFloor(renderer, scene, view, framebuffer);
 }
 

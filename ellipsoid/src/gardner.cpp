@@ -17,13 +17,14 @@
 
 namespace nephele {
 
-glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
-                     const glm::vec3& dUnit, float tStart, float sigma) {
+glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d,
+                     const glm::vec3& oUnit, const glm::vec3& dUnit, float tStart, float sigma) {
     glm::vec2 sum(0.0f);
     for (int k = 0; k < model::kChordSamples; ++k) {
         const float t = model::chordSampleDepth(oUnit, dUnit, tStart, sigma, model::chordShare(k));
         const RadianceSample r = sampleRadiance(grid, eye + double(t) * d);
-        sum += model::chordWeight(k) * glm::vec2(model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
+        sum += model::chordWeight(k) *
+               glm::vec2(model::lightScalars(r.sunFew, r.sunMany, r.skyTau, r.skyFlux, glm::vec3(d),
                                              glm::vec3(scene.sun.direction), float(scene.medium.hgG)));
     }
     return sum;
@@ -57,9 +58,11 @@ CloudSphere cloudBoundingSphere(const Cloud& cloud) {
     CloudSphere out;
     if (cloud.ellipsoids.empty()) return out;
     Vec3 lo(1e300), hi(-1e300);
-    for (const Ellipsoid& e : cloud.ellipsoids) lo = glm::min(lo, e.center - e.maxRadius()), hi = glm::max(hi, e.center + e.maxRadius());
+    for (const Ellipsoid& e : cloud.ellipsoids)
+        lo = glm::min(lo, e.center - e.maxRadius()), hi = glm::max(hi, e.center + e.maxRadius());
     out.centre = 0.5 * (lo + hi);
-    for (const Ellipsoid& e : cloud.ellipsoids) out.radius = std::max(out.radius, glm::length(e.center - out.centre) + e.maxRadius());
+    for (const Ellipsoid& e : cloud.ellipsoids)
+        out.radius = std::max(out.radius, glm::length(e.center - out.centre) + e.maxRadius());
     return out;
 }
 
@@ -70,8 +73,8 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
     for (int c = 0; c < int(scene.clouds.size()); ++c) {
         const Cloud& cloud = scene.clouds[c];
         // A cloud wholly outside the view is culled as a whole: projecting every ellipsoid of a
-        // field of clouds, most of them behind or beside the eye, was most of a frame's planning
-        // (1.1 ms a frame for the cruise's 4017 ellipsoids).
+        // field of clouds, most of them behind or beside the eye, would be most of a frame's
+        // planning.
         const CloudSphere& sphere = out.spheres.emplace_back(cloudBoundingSphere(cloud));
         if (!cloud.ellipsoids.empty()) {
             if (sphereOutside(view, sphere.centre, sphere.radius)) {
@@ -102,7 +105,8 @@ PreparedClouds prepareClouds(const Scene& scene, const View& view, const NoiseSe
                 const Vec3 dc = glm::normalize(e.center - view.eye);
                 p.ac = model::opacityOf(float(p.sigma * model::kChordScale / glm::length(p.unit * dc)));
             }
-            p.noiseOffset = ellipsoidNoiseOffset(cloud.noiseId ? std::size_t(cloud.noiseId) : std::size_t(c), std::size_t(i), noise.seed);
+            p.noiseOffset = ellipsoidNoiseOffset(cloud.noiseId ? std::size_t(cloud.noiseId) : std::size_t(c),
+                                                 std::size_t(i), noise.seed);
             out.ellipsoids.push_back(p);
         }
     }
@@ -134,7 +138,9 @@ glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view) {
 namespace {
 
 // The distance along a camera ray to the near plane and to the first opaque surface or the far plane.
-struct RayRange { double tNear, tEnd; };
+struct RayRange {
+    double tNear, tEnd;
+};
 
 RayRange rayRange(const Scene& scene, const View& view, const Vec3& d) {
     const double c = glm::dot(d, view.forward);
@@ -150,7 +156,8 @@ const std::vector<CloudRadiance>& ExactLight::grids(const Scene& scene, const Ra
     grids_.resize(scene.clouds.size());
     for (std::size_t i = 0; i < scene.clouds.size(); ++i) {
         const Cloud& cloud = scene.clouds[i];
-        const Key key{radianceGridKey(scene, cloud, settings), cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center};
+        const Key key{radianceGridKey(scene, cloud, settings),
+                      cloud.ellipsoids.empty() ? Vec3(0.0) : cloud.ellipsoids.front().center};
         if (grids_[i].size > 0 && keys_[i] == key) continue;
         grids_[i] = computeCloudRadiance(scene, cloud, settings);
         keys_[i] = key;
@@ -215,24 +222,27 @@ bool chordLayer(const ExactFrame& f, std::size_t pi, const Vec3& d, const RayRan
     float alpha = std::clamp(model::gardnerAlpha(terms.x, terms.y), 0.0f, 1.0f);
     // An opaque object inside the cloud: only the matter in front of it covers it.
     if (range.tEnd < tOut) {
-        const float front = detail.erosion > 0 ? eroded(float(range.tEnd))
-                                               : model::segmentDepth(o, du, tStart, float(range.tEnd));
+        const float front =
+            detail.erosion > 0 ? eroded(float(range.tEnd)) : model::segmentDepth(o, du, tStart, float(range.tEnd));
         alpha = model::opacityInFront(alpha, front, depth);
     }
     if (alpha <= 0) return false;
     // The light of the chord (per pixel here; the compositor's meshes evaluate it per vertex).
     const CloudRadiance& grid = f.grids[p.cloud];
     // With the detail, the light follows the eroded chord (erodedGrowth, detail.glsl), as the tiles'.
-    const float grow = detail.erosion > 0 ? model::erodedGrowth(detailVolume(), detail, o, du, glm::vec3(d), tStart) : 1.0f;
+    const float grow =
+        detail.erosion > 0 ? model::erodedGrowth(detailVolume(), detail, o, du, glm::vec3(d), tStart) : 1.0f;
     const glm::vec2 light = chordLight(grid, f.scene, view.eye, d, o * grow, du * grow, tStart, float(p.sigma));
-    out.color = model::sourceFromScalars(glm::vec3(light, 0.0f), f.sunIrradiance, f.chroma[pi], float(f.scene.medium.albedo));
+    out.color =
+        model::sourceFromScalars(glm::vec3(light, 0.0f), f.sunIrradiance, f.chroma[pi], float(f.scene.medium.albedo));
     out.alpha = alpha;
     out.depth = 0;
     if (f.order == CompositeOrder::PerPixel) {
         out.depth = tShade;
     } else if (f.order == CompositeOrder::Weighted || f.order == CompositeOrder::Moments) {  // weighed later
         const float matter = model::matterDepth(o, du, tStart);
-        out.depth = f.order == CompositeOrder::Moments ? model::momentDepth(matter, f.momentRange.x, f.momentRange.y) : matter;
+        out.depth =
+            f.order == CompositeOrder::Moments ? model::momentDepth(matter, f.momentRange.x, f.momentRange.y) : matter;
     }
     return true;
 }
@@ -245,7 +255,8 @@ void compositeLayers(const ExactFrame& f, std::vector<PixelLayer>& layers, Vec3&
     Vec3 weightedColor(0.0);  // Weighted, Moments: sum of w alpha c, sum of w alpha, prod of (1 - alpha)
     double weightSum = 0, transmittance = 1;
     if (order == CompositeOrder::PerPixel) {
-        std::sort(layers.begin(), layers.end(), [](const PixelLayer& a, const PixelLayer& b) { return a.depth > b.depth; });
+        std::sort(layers.begin(), layers.end(),
+                  [](const PixelLayer& a, const PixelLayer& b) { return a.depth > b.depth; });
         for (const PixelLayer& l : layers) {
             color = Vec3(l.color) * double(l.alpha) + color * (1.0 - l.alpha);
             alphaSum = l.alpha + alphaSum * (1.0 - l.alpha);
@@ -262,9 +273,10 @@ void compositeLayers(const ExactFrame& f, std::vector<PixelLayer>& layers, Vec3&
                 b[3] += a * l.depth * l.depth * l.depth, b[4] += a * l.depth * l.depth * l.depth * l.depth;
             }
         for (const PixelLayer& l : layers) {
-            const float w = order == CompositeOrder::Moments
-                                ? model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha)
-                                : model::compositeWeight(l.depth, f.weightReference, f.weightExponent);
+            const float w =
+                order == CompositeOrder::Moments
+                    ? model::momentWeight(b[0], b[1] / b[0], b[2] / b[0], b[3] / b[0], b[4] / b[0], l.depth, l.alpha)
+                    : model::compositeWeight(l.depth, f.weightReference, f.weightExponent);
             const float wa = w * l.alpha;
             weightedColor += Vec3(l.color) * double(wa);
             weightSum += wa;
@@ -289,7 +301,8 @@ void exactPixel(const ExactFrame& f, int x, int y, std::vector<PixelLayer>& laye
     for (std::size_t pi = 0; pi < f.prepared.ellipsoids.size(); ++pi) {
         PixelLayer l{};
         if (!chordLayer(f, pi, d, range, l)) continue;
-        if (f.order == CompositeOrder::PerPixel || f.order == CompositeOrder::Weighted || f.order == CompositeOrder::Moments) {
+        if (f.order == CompositeOrder::PerPixel || f.order == CompositeOrder::Weighted ||
+            f.order == CompositeOrder::Moments) {
             layers.push_back(l);  // composited after
             continue;
         }
@@ -308,9 +321,21 @@ Image renderGardnerExact(const Scene& scene, const View& view, const NoiseVolume
                          const RadianceGridSettings& lightSettings, ExactLight* kept) {
     const PreparedClouds prepared = prepareClouds(scene, view, noiseSettings);
     ExactLight once;
-    ExactFrame f{scene, view, noiseVolume, order, weightExponent, prepared, (kept ? *kept : once).grids(scene, lightSettings),
-                 {}, {}, float(scene.medium.noise), glm::vec3(scene.sun.color * scene.sun.intensity), 0, {}};
-    for (const PreparedEllipsoid& p : prepared.ellipsoids) f.chroma.push_back(ellipsoidSkyChroma(f.grids[p.cloud], p.shape));
+    ExactFrame f{scene,
+                 view,
+                 noiseVolume,
+                 order,
+                 weightExponent,
+                 prepared,
+                 (kept ? *kept : once).grids(scene, lightSettings),
+                 {},
+                 {},
+                 float(scene.medium.noise),
+                 glm::vec3(scene.sun.color * scene.sun.intensity),
+                 0,
+                 {}};
+    for (const PreparedEllipsoid& p : prepared.ellipsoids)
+        f.chroma.push_back(ellipsoidSkyChroma(f.grids[p.cloud], p.shape));
     f.detail = scene.medium.detail.on() ? detailParams(scene.medium.detail, view.eye) : model::DetailParams{};
     f.weightReference = float(weightReferenceDepth(prepared, view));
     f.momentRange = momentDepthRange(prepared, view);

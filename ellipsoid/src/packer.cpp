@@ -197,7 +197,8 @@ bool TileAllocator::Block::operator<(const Block& o) const {
 TileAllocator::TileAllocator(int atlasWidth, int atlasHeight, int minSize, int layers)
     : minLevel_(levelOf(minSize)), layers_(layers) {
     if (atlasWidth <= 0 || atlasHeight <= 0 || !isPowerOfTwo(minSize) || layers < 1)
-        throw std::invalid_argument("TileAllocator: a positive atlas size and layer count, and a power-of-two minimum size");
+        throw std::invalid_argument(
+            "TileAllocator: a positive atlas size and layer count, and a power-of-two minimum size");
     std::vector<Root> roots;
     decompose(0, 0, std::bit_width(unsigned(std::max(atlasWidth, atlasHeight) - 1)), minLevel_, atlasWidth, atlasHeight,
               roots);
@@ -232,14 +233,16 @@ int TileAllocator::rootLevelAt(int x, int y) const {
 
 TilePlacement TileAllocator::allocate(int size) {
     if (!isPowerOfTwo(size) || levelOf(size) < minLevel_)
-        throw std::invalid_argument("TileAllocator: tile size " + std::to_string(size) + " is not a power of two >= the minimum");
+        throw std::invalid_argument("TileAllocator: tile size " + std::to_string(size) +
+                                    " is not a power of two >= the minimum");
     const int level = levelOf(size);
     // The free block in the lowest layer; among those, the smallest (least splitting). A layer
     // not opened yet is wholly free and above every opened one: it is opened when no opened
     // layer has room.
     int best = -1;
     for (int l = level; l < kLevels; ++l)
-        if (!free_[std::size_t(l)].empty() && (best < 0 || free_[std::size_t(l)].begin()->layer < free_[std::size_t(best)].begin()->layer))
+        if (!free_[std::size_t(l)].empty() &&
+            (best < 0 || free_[std::size_t(l)].begin()->layer < free_[std::size_t(best)].begin()->layer))
             best = l;
     if (best < 0 && opened_ < layers_ && topLevel_ >= level) {
         openLayer();
@@ -251,14 +254,16 @@ TilePlacement TileAllocator::allocate(int size) {
     free_[std::size_t(best)].erase(free_[std::size_t(best)].begin());
     for (int l = best; l > level; --l) {  // split: keep the bottom-left quadrant, free the others
         const int half = 1 << (l - 1);
-        for (int q = 1; q < 4; ++q) free_[std::size_t(l - 1)].insert({b.layer, b.x + (q & 1) * half, b.y + (q >> 1) * half});
+        for (int q = 1; q < 4; ++q)
+            free_[std::size_t(l - 1)].insert({b.layer, b.x + (q & 1) * half, b.y + (q >> 1) * half});
     }
     ++inUse_[std::size_t(b.layer)];
     return {-1, b.layer, b.x, b.y, size};
 }
 
 void TileAllocator::free(const TilePlacement& t) {
-    if (t.pass < 0 || t.pass >= layers_ || !isPowerOfTwo(t.size)) throw std::invalid_argument("TileAllocator: not an allocated tile");
+    if (t.pass < 0 || t.pass >= layers_ || !isPowerOfTwo(t.size))
+        throw std::invalid_argument("TileAllocator: not an allocated tile");
     --inUse_[std::size_t(t.pass)];
     int level = levelOf(t.size);
     Block b{t.pass, t.x, t.y};

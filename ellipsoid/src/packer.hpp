@@ -53,7 +53,7 @@ int tileSizeFor(double pixelExtent, int minSize, int maxSize);
 //
 // Cost: O(n + passes * roots * levels), roots being the maximal aligned squares of the atlas no
 // smaller than the smallest tile (a few dozen for common window sizes): a radix sort, then a bump
-// pointer per root per pass, see packer.cpp. 4096 tiles into 1280x720 take about 0.1-0.3 ms.
+// pointer per root per pass, see packer.cpp.
 PackResult packTiles(std::vector<TileRequest> tiles, int atlasWidth, int atlasHeight);
 
 }  // namespace nephele
@@ -75,8 +75,8 @@ public:
     TilePlacement allocate(int size);
     // Gives a tile's place back (a placement allocate() returned and not freed since).
     void free(const TilePlacement& tile);
-    void clear();                  // everything free
-    int layersUsed() const;        // the highest layer with a tile in it, + 1
+    void clear();                   // everything free
+    int layersUsed() const;         // the highest layer with a tile in it, + 1
     std::int64_t freeArea() const;  // px, over all layers
 
 private:
@@ -87,14 +87,14 @@ private:
     int minLevel_, layers_;
     std::vector<std::pair<int, int>> rootsXYLevel_;  // x, y of each root (its level in rootLevel_)
     std::vector<int> rootLevel_;
-    int topLevel_ = -1;                             // the largest root's level
-    std::int64_t layerArea_ = 0;                    // px, one layer's
+    int topLevel_ = -1;           // the largest root's level
+    std::int64_t layerArea_ = 0;  // px, one layer's
     // The free blocks of layers [0, opened_), by level; a layer is opened (its roots put in)
     // only when the layers before it have no room: an atlas of W x 1 px with 1 px tiles has W
     // roots a layer, and 2048 layers of them up front took 2.2 GB at 16384 px (issue 38).
     std::vector<std::set<Block>> free_;
     int opened_ = 0;
-    std::vector<int> inUse_;                        // tiles per layer
+    std::vector<int> inUse_;  // tiles per layer
     int rootLevelAt(int x, int y) const;
     void openLayer();
 };

@@ -13,13 +13,13 @@
 namespace nephele {
 
 struct PreparedEllipsoid {
-    int cloud = 0, index = 0;          // where it is in scene.clouds
+    int cloud = 0, index = 0;  // where it is in scene.clouds
     Ellipsoid shape;
-    glm::dmat3 unit{1.0};              // M = diag(1/r) R^T: world offset -> unit sphere
-    glm::dmat3 axes{1.0};              // R diag(r): unit sphere -> world offset
-    double sigma = 0;                  // extinction * density, 1/m
-    double ac = 0;                     // largest opacity (centre ray, or a bound when cut by the near plane)
-    Vec3 noiseOffset{0.0};             // in noise-volume texture coordinates, deterministic per ellipsoid
+    glm::dmat3 unit{1.0};   // M = diag(1/r) R^T: world offset -> unit sphere
+    glm::dmat3 axes{1.0};   // R diag(r): unit sphere -> world offset
+    double sigma = 0;       // extinction * density, 1/m
+    double ac = 0;          // largest opacity (centre ray, or a bound when cut by the near plane)
+    Vec3 noiseOffset{0.0};  // in noise-volume texture coordinates, deterministic per ellipsoid
     EllipsoidProjection projection;
     // The close LOD (EllipsoidSettings::cloudLod, closeTileTexels): the texels across its tile
     // that the ellipsoid's image holds; infinity: as many as it covers on screen (the paper).
@@ -76,8 +76,8 @@ glm::vec2 momentDepthRange(const PreparedClouds& prepared, const View& view);
 // sky's chroma (model::lightScalars at the model::kChordSamples Gauss-Legendre points of the
 // chord beyond tStart, in the opacity the eye sees of it): x = sun, y = sky. The ray is
 // o' + t d' in the ellipsoid's unit space from the eye at `eye`, d its unit world direction.
-glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d, const glm::vec3& oUnit,
-                     const glm::vec3& dUnit, float tStart, float sigma);
+glm::vec2 chordLight(const CloudRadiance& grid, const Scene& scene, const Vec3& eye, const Vec3& d,
+                     const glm::vec3& oUnit, const glm::vec3& dUnit, float tStart, float sigma);
 
 // The sky light's colour at an ellipsoid (model::skyChroma of the grid's fluence at its centre):
 // one per ellipsoid, as the compositor's tiles carry it.

@@ -50,7 +50,8 @@ NearSection nearSection(const EyeSpace& q, double n) {
 // section meets the view's near rectangle, or (conservatively) the ellipsoid comes within the
 // near rectangle's corner distance of the eye, where it could poke into the frustum between the
 // eye and the near plane. `u`: the eye in the ellipsoid's unit space; (cx, cy): the frustum's centre.
-bool cutInView(const NearSection& sec, const View& view, double n, double cx, double cy, const Vec3& u, const Vec3& radii) {
+bool cutInView(const NearSection& sec, const View& view, double n, double cx, double cy, const Vec3& u,
+               const Vec3& radii) {
     bool meets = true;
     for (int i = 0; i < 2; ++i) {
         const double m = sec.mid[i], half = sec.half[i];
@@ -59,7 +60,8 @@ bool cutInView(const NearSection& sec, const View& view, double n, double cx, do
         const double slack = 1e-9 * (std::abs(m) + half + n);
         meets = meets && m - half <= hi + slack && m + half >= lo - slack;
     }
-    const double reach = n * std::sqrt(1 + std::pow(std::abs(cx) + view.tanHalfX, 2) + std::pow(std::abs(cy) + view.tanHalfY, 2));
+    const double reach =
+        n * std::sqrt(1 + std::pow(std::abs(cx) + view.tanHalfX, 2) + std::pow(std::abs(cy) + view.tanHalfY, 2));
     const double rMin = std::min({radii.x, radii.y, radii.z});
     const bool close = (std::sqrt(glm::dot(u, u)) - 1.0) * rMin <= 1.01 * reach;  // a lower bound of its distance
     return meets || close;
@@ -88,8 +90,8 @@ ScreenRect clippedBoxBounds(const EllipsoidProjection& p, const View& view, doub
 // eye, x_i = t (-z), supports it: either tangent to the ellipsoid at a point beyond the near
 // plane, or at the section z = -n (its x_i range there / n). Exact where the box's corners at
 // the near plane reached far outside the view. `r` is narrowed to them.
-void clipToCutSilhouette(ScreenRect& r, const EyeSpace& q, const NearSection& sec, const View& view, double n, double cx,
-                         double cy) {
+void clipToCutSilhouette(ScreenRect& r, const EyeSpace& q, const NearSection& sec, const View& view, double n,
+                         double cx, double cy) {
     const Vec3& c = q.c;
     const glm::dmat3& s = q.s;
     const double szz = s[2][2];
@@ -175,7 +177,8 @@ EllipsoidProjection projectEllipsoid(const Ellipsoid& e, const View& view) {
     // inside the ellipsoid (cutInView). An ellipsoid beside the eye whose cut lies outside the
     // view is a tile like any other: taking every box across the near plane as cut would light
     // it per pixel, never reuse it, and give it the box's rectangle.
-    const double cx = 0.5 * (view.frustum.left + view.frustum.right), cy = 0.5 * (view.frustum.bottom + view.frustum.top);
+    const double cx = 0.5 * (view.frustum.left + view.frustum.right),
+                 cy = 0.5 * (view.frustum.bottom + view.frustum.top);
     const bool straddles = p.boxMin.z <= -n && p.boxMax.z >= -n;
     const NearSection sec = straddles ? nearSection(q, n) : NearSection{};
     if (p.eyeInside) p.crossesNear = true;

@@ -60,7 +60,8 @@ void EllipsoidRenderer::Impl::setTileUniforms(const EllipsoidSettings& s, const 
 
 // Pass `pass`'s layer made ready for its tiles placements[first, + count): cleared whole, or
 // with reuse (the layer keeps reused tiles) only the fresh tiles' rectangles.
-void EllipsoidRenderer::Impl::clearTilePass(const FramePlan& plan, int pass, int first, int count, EllipsoidStats& stats) {
+void EllipsoidRenderer::Impl::clearTilePass(const FramePlan& plan, int pass, int first, int count,
+                                            EllipsoidStats& stats) {
     glBindFramebuffer(GL_FRAMEBUFFER, atlas->fbos[pass].id());
     glViewport(0, 0, plan.atlasW, plan.atlasH);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);

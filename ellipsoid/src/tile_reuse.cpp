@@ -25,7 +25,12 @@ double pixelRadiusOf(const EllipsoidProjection& p) { return 0.5 * std::max(p.pix
 }  // namespace
 
 std::uint64_t reuse::imageInputs(const Scene& scene, double noisePeriod) {
-    return Fingerprint().add(scene.sun.direction).addMedium(scene.medium).addDetail(scene.medium.detail).add(noisePeriod).value();
+    return Fingerprint()
+        .add(scene.sun.direction)
+        .addMedium(scene.medium)
+        .addDetail(scene.medium.detail)
+        .add(noisePeriod)
+        .value();
 }
 
 double reuse::sunPhase(const Vec3& centre, const View& view, const Scene& scene) {
@@ -40,10 +45,11 @@ double reuse::parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3
     return r * angle + r * std::abs(then / now - 1) * std::min(1.0, radius / now) + drift * r / radius;
 }
 
-double reuse::reshapeMetres(const glm::dmat3& axesThen, const glm::dmat3& axesNow, const Vec3& loThen, const Vec3& loNow,
-                            const Vec3& hiThen, const Vec3& hiNow) {
+double reuse::reshapeMetres(const glm::dmat3& axesThen, const glm::dmat3& axesNow, const Vec3& loThen,
+                            const Vec3& loNow, const Vec3& hiThen, const Vec3& hiNow) {
     const glm::dmat3 d = axesNow - axesThen;
-    const double surface = std::sqrt(glm::dot(d[0], d[0]) + glm::dot(d[1], d[1]) + glm::dot(d[2], d[2]));  // Frobenius >= spectral
+    const double surface =
+        std::sqrt(glm::dot(d[0], d[0]) + glm::dot(d[1], d[1]) + glm::dot(d[2], d[2]));  // Frobenius >= spectral
     return std::max({surface, glm::length(loNow - loThen), glm::length(hiNow - hiThen)});
 }
 
@@ -62,7 +68,9 @@ bool reprojectImage(const Vec3& eyeFromCentre, const Vec3& centre, const Vec3& r
     if (!(dist > 0)) return false;
     const Vec3 nrm = -eyeFromCentre / dist;
     const Vec3 a = eyeFromCentre + centre - eye;
-    auto column = [&](const Vec3& r) { return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r)); };
+    auto column = [&](const Vec3& r) {
+        return viewProj * glm::dvec4(a * glm::dot(nrm, r) + r * dist, glm::dot(nrm, r));
+    };
     reproject = glm::dmat4(column(rx), column(ry), glm::dvec4(0.0), column(rc));
     rect = glm::dvec4(1e300, 1e300, -1e300, -1e300);
     for (int k = 0; k < 4; ++k) {
@@ -82,9 +90,9 @@ struct TileReuse::Candidate {
     std::uint64_t key = 0;
     std::uint64_t noise = 0, light = 0;
     Vec3 lightLo{0.0}, lightHi{0.0};
-    int need = 0;        // tile size it would be rendered at now
-    double error = 0;    // >= 1: stale
-    bool must = true;    // no usable image: rendered whatever the budget
+    int need = 0;      // tile size it would be rendered at now
+    double error = 0;  // >= 1: stale
+    bool must = true;  // no usable image: rendered whatever the budget
     Live* live = nullptr;
     glm::dmat4 reproject{1.0};
     glm::dvec4 rect{0.0};
@@ -118,7 +126,8 @@ std::vector<TileReuse::Candidate> TileReuse::candidates(const ReuseSettings& s, 
     for (std::size_t i = 0; i < n; ++i) {
         const PreparedEllipsoid& e = prepared.ellipsoids[i];
         const Cloud& cloud = scene.clouds[std::size_t(e.cloud)];
-        const std::uint64_t id = Fingerprint().add(cloud.noiseId ? cloud.noiseId : std::uint64_t(e.cloud)).add(e.index).value();
+        const std::uint64_t id =
+            Fingerprint().add(cloud.noiseId ? cloud.noiseId : std::uint64_t(e.cloud)).add(e.index).value();
         Candidate& c = cands[i];
         c.index = int(i), c.key = Fingerprint().add(id).add(ordinal[id]++).value();
         c.noise = Fingerprint().add(e.noiseOffset).value();
@@ -248,7 +257,8 @@ void TileReuse::repack(const ReuseSettings& s, const PreparedClouds& prepared, s
     for (int limit = s.maxTile;; limit /= 2) {
         allocator_->clear();
         live_.clear();
-        for (Candidate& c : cands) c.need = tileSizeFor(tileExtent(prepared.ellipsoids[std::size_t(c.index)]), s.minTile, limit);
+        for (Candidate& c : cands)
+            c.need = tileSizeFor(tileExtent(prepared.ellipsoids[std::size_t(c.index)]), s.minTile, limit);
         std::stable_sort(render.begin(), render.end(), [&](int a, int b) { return cands[a].need > cands[b].need; });
         bool all = true;
         for (int i : render) {

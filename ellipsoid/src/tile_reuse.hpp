@@ -49,7 +49,8 @@ double sunPhase(const Vec3& centre, const View& view, const Scene& scene);
 // plane grows by radius / distance more than the plane). A turn of the view alone costs
 // nothing: the reprojection is exact for it. Plus `drift` (m) carried through the world-fixed
 // noise (0 without noise). Pixels.
-double parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius, double drift);
+double parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius,
+                      double drift);
 // How far (m) an ellipsoid's surface and its light grid's box moved relative to its centre since
 // its image was made: the largest displacement of a surface point (the axes' difference, a
 // bound on |(A' - A) u| over unit u) or of a corner of the grid's box. A near-LOD cloud reshaped
@@ -75,15 +76,15 @@ struct ReuseSettings {
 };
 
 struct ReusePlan {
-    std::vector<TilePlacement> fresh;    // tiles to render this frame (id = prepared index), largest first
-    std::vector<TilePlacement> reused;   // tiles composited from their image (id = prepared index)
-    std::vector<glm::mat4> reproject;    // per reused tile: tile clip (x, y, 0, 1) -> the frame's clip space
-    std::vector<glm::vec4> screenRect;   // per reused tile: NDC x0, y0, x1, y1 of its reprojected quad
-    int layers = 0;                      // atlas layers in use
-    double utilisation = 0;              // tile area in use / the layers' area
-    int maxTile = 0;                     // the largest tile size allowed this frame
-    bool reset = false;                  // the atlas was packed anew (everything fresh)
-    int must = 0;                        // fresh tiles that had no usable image (all of them after a reset)
+    std::vector<TilePlacement> fresh;   // tiles to render this frame (id = prepared index), largest first
+    std::vector<TilePlacement> reused;  // tiles composited from their image (id = prepared index)
+    std::vector<glm::mat4> reproject;   // per reused tile: tile clip (x, y, 0, 1) -> the frame's clip space
+    std::vector<glm::vec4> screenRect;  // per reused tile: NDC x0, y0, x1, y1 of its reprojected quad
+    int layers = 0;                     // atlas layers in use
+    double utilisation = 0;             // tile area in use / the layers' area
+    int maxTile = 0;                    // the largest tile size allowed this frame
+    bool reset = false;                 // the atlas was packed anew (everything fresh)
+    int must = 0;                       // fresh tiles that had no usable image (all of them after a reset)
 };
 
 // The reprojection of an image rendered from the eye at centre + eyeFromCentre, image clip
@@ -111,27 +112,27 @@ public:
 
 private:
     struct Live {
-        TilePlacement place;         // its atlas place (id unused)
-        int cloud = -1;              // scene.clouds index
-        std::uint64_t noise = 0;     // its noise offset (another one: another image)
-        glm::dmat3 axes{1.0};        // PreparedEllipsoid::axes when rendered
+        TilePlacement place;              // its atlas place (id unused)
+        int cloud = -1;                   // scene.clouds index
+        std::uint64_t noise = 0;          // its noise offset (another one: another image)
+        glm::dmat3 axes{1.0};             // PreparedEllipsoid::axes when rendered
         Vec3 lightLo{0.0}, lightHi{0.0};  // its cloud's grid box relative to its centre (m)
-        double sigma = 0;            // extinction * density * the cloud's weight (1/m)
-        std::uint64_t light = 0;     // the grid, the sun, the medium
-        Vec3 eyeFromCentre{0.0};     // eye - centre when rendered (m)
-        Vec3 centre{0.0};            // m
-        double phase = 0;            // the sun's phase towards the eye at its centre
+        double sigma = 0;                 // extinction * density * the cloud's weight (1/m)
+        std::uint64_t light = 0;          // the grid, the sun, the medium
+        Vec3 eyeFromCentre{0.0};          // eye - centre when rendered (m)
+        Vec3 centre{0.0};                 // m
+        double phase = 0;                 // the sun's phase towards the eye at its centre
         Vec3 rc{0.0}, rx{0.0}, ry{0.0};
-        std::uint64_t seen = 0;      // the last frame it was visible
-        bool reusable = false;       // rendered wholly beyond the near plane (a cut tile cannot be reprojected)
+        std::uint64_t seen = 0;  // the last frame it was visible
+        bool reusable = false;   // rendered wholly beyond the near plane (a cut tile cannot be reprojected)
     };
     struct Candidate;
     // The phases of plan(), in order.
     void beginFrame(const ReuseSettings& s, std::size_t n);
     std::vector<Candidate> candidates(const ReuseSettings& s, const Scene& scene, const View& view,
                                       const PreparedClouds& prepared, const std::vector<PlacedRadiance>& light);
-    void staleness(Candidate& c, const ReuseSettings& s, const Scene& scene, const View& view, const PreparedEllipsoid& e,
-                   const glm::dmat4& viewProj) const;
+    void staleness(Candidate& c, const ReuseSettings& s, const Scene& scene, const View& view,
+                   const PreparedEllipsoid& e, const glm::dmat4& viewProj) const;
     void releaseUnseen(const std::vector<Candidate>& cands, const std::vector<char>& keep, std::uint64_t frame);
     static std::vector<int> chooseRenders(const ReuseSettings& s, const std::vector<Candidate>& cands, int& must);
     bool placeRenders(const ReuseSettings& s, std::vector<Candidate>& cands, std::vector<int>& render);
@@ -144,9 +145,9 @@ private:
     std::unique_ptr<TileAllocator> allocator_;
     ReuseSettings allocatedFor_;
     std::unordered_map<std::uint64_t, Live> live_;
-    std::vector<Live*> fresh_;       // by prepared index, the last plan's fresh tiles (else null)
+    std::vector<Live*> fresh_;  // by prepared index, the last plan's fresh tiles (else null)
     std::uint64_t frame_ = 0;
-    int limit_ = 0;                  // the largest tile size, kept from frame to frame (see plan())
+    int limit_ = 0;  // the largest tile size, kept from frame to frame (see plan())
 };
 
 }  // namespace nephele

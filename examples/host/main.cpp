@@ -46,8 +46,9 @@ void makeContext() {
     EGLDisplay display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr) || !eglBindAPI(EGL_OPENGL_API))
         throw std::runtime_error("no EGL display for desktop OpenGL");
-    const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
-                              EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    const EGLint attribs[] = {
+        EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+        EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
     EGLContext context = eglCreateContext(display, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, attribs);
     if (context == EGL_NO_CONTEXT || !eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
         throw std::runtime_error("no OpenGL 4.5 core context");
@@ -59,7 +60,7 @@ struct Frame {
     GLuint fbo = 0, overlay = 0, color = 0, depth = 0;
     int width = 0, height = 0;
 };
-constexpr GLenum kPicture = GL_COLOR_ATTACHMENT1;              // ViewDesc::drawBuffer
+constexpr GLenum kPicture = GL_COLOR_ATTACHMENT1;               // ViewDesc::drawBuffer
 constexpr float kOverlayClear[4] = {0.25f, 0.5f, 0.75f, 1.0f};  // the overlay as the host left it
 
 Frame makeFrame(int w, int h) {
@@ -102,7 +103,8 @@ void drawHost(const Frame& f, const nephele::Sky& sky, double near) {
     glDepthMask(GL_TRUE);
     const float background[4] = {float(sky.horizon.r), float(sky.horizon.g), float(sky.horizon.b), 0.0f};
     const float far = 0.0f, canopy = float(near / kCanopyDistance);
-    const float canopyColor[4] = {0.1f * float(sky.ground.r), 0.1f * float(sky.ground.g), 0.1f * float(sky.ground.b), 0.0f};
+    const float canopyColor[4] = {0.1f * float(sky.ground.r), 0.1f * float(sky.ground.g), 0.1f * float(sky.ground.b),
+                                  0.0f};
     glClearBufferfv(GL_COLOR, 0, kOverlayClear);
     glClearBufferfv(GL_COLOR, 1, background);
     glClearBufferfv(GL_DEPTH, 0, &far);
@@ -122,7 +124,8 @@ void drawAircraft(const nephele::ViewDesc& v, const nephele::Vec3& at, const glm
     const int half = std::max(2, v.viewport.w / 40), x = int(pixel.x) - half, y = int(pixel.y) - half;
     const int x0 = std::max(x, v.viewport.x), x1 = std::min(x + 2 * half, v.viewport.x + v.viewport.z);
     if (x1 <= x0) return;
-    const float color[4] = {float(radiance.r), float(radiance.g), float(radiance.b), 0.0f}, depth = float(clip.z / clip.w);
+    const float color[4] = {float(radiance.r), float(radiance.g), float(radiance.b), 0.0f},
+                depth = float(clip.z / clip.w);
     glEnable(GL_SCISSOR_TEST);
     glScissor(x0, y, x1 - x0, 2 * half);
     glClearBufferfv(GL_COLOR, 1, color);
@@ -151,8 +154,8 @@ double skyOpacity(const nephele::Image& img) {
 
 // The flight model's position at s in [0, 1] along a short leg.
 nephele::Geodetic along(const nephele::Geodetic (&leg)[2], double s) {
-    return {std::lerp(leg[0].latitudeDeg, leg[1].latitudeDeg, s), std::lerp(leg[0].longitudeDeg, leg[1].longitudeDeg, s),
-            std::lerp(leg[0].heightM, leg[1].heightM, s)};
+    return {std::lerp(leg[0].latitudeDeg, leg[1].latitudeDeg, s),
+            std::lerp(leg[0].longitudeDeg, leg[1].longitudeDeg, s), std::lerp(leg[0].heightM, leg[1].heightM, s)};
 }
 
 // The sun and the clear sky at the origin, `seconds` after `start` (the same UTC day).
@@ -202,8 +205,8 @@ int checkRamp(const std::vector<double>& opacity, int first, int frames) {
     const double total = std::abs(opacity[last] - opacity[first - 1]);
     double step = 0;
     for (int f = first; f <= last; ++f) step = std::max(step, std::abs(opacity[f] - opacity[f - 1]));
-    std::printf("nephele_host: the change moved the sky's opacity by %.4f over %d frames, at most %.4f a frame\n", total,
-                last - first + 1, step);
+    std::printf("nephele_host: the change moved the sky's opacity by %.4f over %d frames, at most %.4f a frame\n",
+                total, last - first + 1, step);
     if (total < 0.002) return fail("the weather change did not show");
     // Half the way in one frame is a pop: a linear ramp of 6 frames moves a sixth.
     return step > 0.5 * total ? fail("the weather change popped instead of ramping") : 0;
@@ -220,7 +223,8 @@ int run(const Options& o) {
     std::atomic<int> errors = 0;
     nephele::setLogCallback([&errors](nephele::LogLevel level, std::string_view message) {
         if (level >= nephele::LogLevel::Warning) ++errors;  // e.g. a GL error the host left pending
-        std::fprintf(stderr, "nephele_host: [%s] %.*s\n", nephele::logLevelName(level), int(message.size()), message.data());
+        std::fprintf(stderr, "nephele_host: [%s] %.*s\n", nephele::logLevelName(level), int(message.size()),
+                     message.data());
     });
     // The database's origin (the scene's world is east-north-up there) and the clock: the sun
     // and the clear sky's ambient for the clouds and for the host's own lighting.
@@ -284,12 +288,13 @@ int run(const Options& o) {
         if (readyFrame < 0 && idle) readyFrame = f;  // this frame's update takes all that was made
         if (changeFrame < 0 && readyFrame >= 0 && f > readyFrame) {
             const auto& [id, layer] = *weather.layers.begin();
-            weather.apply({.layerId = id, .coverage = 90, .baseElevation = layer.layer.base,
-                           .thickness = layer.layer.thickness});
+            weather.apply(
+                {.layerId = id, .coverage = 90, .baseElevation = layer.layer.base, .thickness = layer.layer.thickness});
             weather.transitionSeconds = kRampFrames * dt;
             changeFrame = f;
         }
-        if (changeFrame < 0 && frameStart - t0 > kHoverLimit) throw std::runtime_error("the background work never finished");
+        if (changeFrame < 0 && frameStart - t0 > kHoverLimit)
+            throw std::runtime_error("the background work never finished");
         const double s = changeFrame < 0 ? 0.0 : double(f - changeFrame) / (kFlightFrames - 1);
         const nephele::Vec3 aircraft = world.geodeticToEnu(along(leg, s)), eye = aircraft + chase;
         const glm::dmat4 view = glm::lookAt(eye, aircraft, glm::dvec3(0, 0, 1));
@@ -309,7 +314,8 @@ int run(const Options& o) {
         const double sunT = sky.transmittance(aircraft, weather.sun.direction, std::numeric_limits<double>::infinity());
         const nephele::Vec3 normal = glm::normalize(eye - aircraft);
         const nephele::SurfaceLight light = sky.lightAt(aircraft, normal);
-        const glm::dvec3 sunE = weather.sun.color * weather.sun.intensity * std::max(glm::dot(normal, weather.sun.direction), 0.0);
+        const glm::dvec3 sunE =
+            weather.sun.color * weather.sun.intensity * std::max(glm::dot(normal, weather.sun.direction), 0.0);
         const glm::dvec3 radiance = 0.4 / std::numbers::pi * (sunE * sunT + light.diffuse);  // albedo 0.4, Lambertian
 
         drawHost(frame, day.sky, cam.nearClip);
@@ -320,10 +326,11 @@ int run(const Options& o) {
         }
         opacity.push_back(skyOpacity(readAttachment(frame, kPicture)));
         if (changeFrame >= 0 || f == readyFrame || f % 30 == 0)
-            std::printf("nephele_host: frame %3d %4.0f ms: transition %.2f, pending %d, opacity %.4f; aircraft: "
-                        "%.4f /m, %s (%.1f m deep), sun through the clouds %.3f\n",
-                        f, std::chrono::duration<double, std::milli>(Clock::now() - frameStart).count(), u.transition,
-                        sky.pending(), opacity[f], sigma, in.inside ? "inside" : "outside", in.depth, sunT);
+            std::printf(
+                "nephele_host: frame %3d %4.0f ms: transition %.2f, pending %d, opacity %.4f; aircraft: "
+                "%.4f /m, %s (%.1f m deep), sun through the clouds %.3f\n",
+                f, std::chrono::duration<double, std::milli>(Clock::now() - frameStart).count(), u.transition,
+                sky.pending(), opacity[f], sigma, in.inside ? "inside" : "outside", in.depth, sunT);
         std::this_thread::sleep_until(frameStart + std::chrono::duration<double>(dt));  // the host's frame rate
     }
 

@@ -30,7 +30,7 @@ void LayerAssets::setBackground(bool background) {
 }
 
 std::shared_ptr<LayerAssets::Entry> LayerAssets::request(bool isLight, const LightingParameters& parameters,
-                                                        unsigned seed) {
+                                                         unsigned seed) {
     std::unique_lock lock(mutex_);
     if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
     auto it = std::find_if(entries_.begin(), entries_.end(), [&](const std::shared_ptr<Entry>& e) {
@@ -79,8 +79,7 @@ void LayerAssets::compute(Entry& e, std::unique_lock<std::mutex>& lock) {
         if (isLight)
             light = std::make_shared<const LightingVolume>(
                 lightingCached(settings_.lighting, parameters, settings_.cacheDir, &cancel_));
-        else
-            texture = std::make_shared<const ModulationTexture>(makeModulation(settings_.modulation, seed));
+        else texture = std::make_shared<const ModulationTexture>(makeModulation(settings_.modulation, seed));
     } catch (const LightingCancelled&) {
         lock.lock();
         e.queued = false;

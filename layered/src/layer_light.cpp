@@ -19,8 +19,8 @@ namespace nephele {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr int kBatch = 256;                           // photons per deterministic batch
-constexpr int kMaxEvents = 2000;                      // scatterings per photon at most
+constexpr int kBatch = 256;       // photons per deterministic batch
+constexpr int kMaxEvents = 2000;  // scatterings per photon at most
 
 using Rng = detail::PhotonRng;
 using detail::sampleHg;
@@ -104,8 +104,8 @@ struct Scores {
     std::vector<glm::dvec4> few, many;
 };
 // With `cancel` set, the batches not yet begun are skipped and LightingCancelled thrown.
-Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v, std::uint64_t seed,
-                   const std::atomic<bool>* cancel) {
+Scores traceSource(const std::vector<ThresholdMedium>& media, const Source& source, const LightingVolume& v,
+                   std::uint64_t seed, const std::atomic<bool>* cancel) {
     const int bins = v.settings.tableBins, batches = std::max(1, v.settings.photons / kBatch);
     std::vector<Scores> perBatch(std::size_t(batches) * media.size());
     parallelFor(int(perBatch.size()), [&](int b) {
@@ -242,7 +242,9 @@ LayerFrameTables layerFrameTables(const LayerLightTables& t, const Scene& scene)
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     f.sun.assign(nodes, glm::vec4(0.0f));
     f.sunMany = f.sky = f.sun;
-    if (t.sun.size() < nodes * t.sunMu.size() || t.sunMany.size() < nodes * t.sunMu.size() || t.sky.size() < nodes * 3 || t.sunMu.empty()) return f;
+    if (t.sun.size() < nodes * t.sunMu.size() || t.sunMany.size() < nodes * t.sunMu.size() ||
+        t.sky.size() < nodes * 3 || t.sunMu.empty())
+        return f;
     auto luminance = [](const Vec3& c) { return float(glm::dot(c, Vec3(model::kLuminance))); };
     // The sun's table at elevation |mu|: linear between the tabulated ones, clamped at the ends.
     auto sunAt = [&](double mu, std::size_t i, std::size_t j, const std::vector<glm::vec4>& table) {

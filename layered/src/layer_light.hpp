@@ -29,10 +29,10 @@ LayerLightTables traceLayerLight(const LightingVolume& volume, const std::atomic
 // The three tables of one frame (bins x bins, node (i, j) at i + j bins), as the shader reads
 // them (layerSource() in shaders/layer_light.glsl): sun = (phi0, phi1 along the sun's horizontal
 // direction, phi1 z, the sky's c20) of the sunlight scattered 1 to kFewScatterings times,
-// sunMany = (phi0, phi1 along the sun's horizontal direction, phi1 z, 0) of the rest, sky = (the sky's fluence rgb, phi1 z of its luminance), both
-// indexed by (above, below). The sun's tables interpolated to its elevation, mirrored when it is
-// below the horizon; a skylight's diffuse light added to the sun's fluence in the ratio of their
-// luminances (its flux left out: a broad lobe); the sky's from the bases and the scene's colours.
+// sunMany = (phi0, phi1 along the sun's horizontal direction, phi1 z, 0) of the rest, sky = (the sky's fluence rgb,
+// phi1 z of its luminance), both indexed by (above, below). The sun's tables interpolated to its elevation, mirrored
+// when it is below the horizon; a skylight's diffuse light added to the sun's fluence in the ratio of their luminances
+// (its flux left out: a broad lobe); the sky's from the bases and the scene's colours.
 struct LayerFrameTables {
     int bins = 0;
     std::vector<glm::vec4> sun, sunMany, sky;

@@ -8,7 +8,7 @@
 
 namespace nephele::model {
 #define MODEL_FN inline
-#include "nephele/layer_light.glsl"   // the build's copies (layered/CMakeLists.txt)
+#include "nephele/layer_light.glsl"  // the build's copies (layered/CMakeLists.txt)
 #include "nephele/layer_shadow.glsl"
 #undef MODEL_FN
 }  // namespace nephele::model

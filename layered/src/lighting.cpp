@@ -49,10 +49,12 @@ void checkSettings(const LightingSettings& s, const LightingParameters& p) {
     if (s.tableBins < 4 || s.tableBins > 64) bad("tableBins must be 4..64, got " + std::to_string(s.tableBins));
     if (s.octaves < 1 || s.octaves > 8) bad("octaves must be 1..8, got " + std::to_string(s.octaves));
     if (s.cells < 1 || s.cells > 64) bad("cells must be 1..64, got " + std::to_string(s.cells));
-    if (!(p.extinction >= 0 && std::isfinite(p.extinction))) bad("extinction must be finite and >= 0, got " + num(p.extinction));
+    if (!(p.extinction >= 0 && std::isfinite(p.extinction)))
+        bad("extinction must be finite and >= 0, got " + num(p.extinction));
     if (!(p.albedo >= 0 && p.albedo <= 1)) bad("albedo must be in [0, 1], got " + num(p.albedo));
     if (!(p.csG > -1 && p.csG < 1)) bad("phase asymmetry must be in (-1, 1), got " + num(p.csG));
-    if (!(p.thickness > 0 && std::isfinite(p.thickness))) bad("thickness must be finite and > 0 m, got " + num(p.thickness));
+    if (!(p.thickness > 0 && std::isfinite(p.thickness)))
+        bad("thickness must be finite and > 0 m, got " + num(p.thickness));
 }
 
 // The vertical profile of the volume's density: 0 at the layer's bottom and top, 1 at mid-height.
@@ -62,9 +64,13 @@ double profile(double z) { return std::sqrt(std::max(std::sin(kPi * std::clamp(z
 class Bytes {
 public:
     template <class T>
-    void put(const T& v) { text_.append(reinterpret_cast<const char*>(&v), sizeof v); }
+    void put(const T& v) {
+        text_.append(reinterpret_cast<const char*>(&v), sizeof v);
+    }
     template <class T>
-    void putArray(const std::vector<T>& v) { text_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)); }
+    void putArray(const std::vector<T>& v) {
+        text_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
     std::string& text() { return text_; }
 
 private:
@@ -75,7 +81,9 @@ class Reader {
 public:
     explicit Reader(const std::string& text) : text_(text) {}
     template <class T>
-    bool get(T& v) { return getRaw(&v, sizeof v); }
+    bool get(T& v) {
+        return getRaw(&v, sizeof v);
+    }
     // Reads `count` values of T into v; false when the data is short.
     template <class T>
     bool getArray(std::vector<T>& v, std::size_t count) {
@@ -125,7 +133,8 @@ glm::dvec4 rgba(const std::vector<std::uint8_t>& texels, std::size_t i) {
 }  // namespace
 
 glm::dvec4 LightingVolume::sampleTexel(double u, double v, double z) const {
-    return trilinear(settings.width, settings.height, settings.depth, u, v, z, [&](std::size_t i) { return rgba(texels, i); });
+    return trilinear(settings.width, settings.height, settings.depth, u, v, z,
+                     [&](std::size_t i) { return rgba(texels, i); });
 }
 glm::dvec4 LightingVolume::sampleColumn(double u, double v) const {
     return trilinear(settings.width, settings.height, 1, u, v, 0, [&](std::size_t i) { return rgba(columns, i); });
@@ -209,7 +218,8 @@ double lightingExtinction(const LightingParameters& p) {
     return std::min(p.extinction, kMaxLightingOpticalDepth / p.thickness);
 }
 
-LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p, const std::atomic<bool>* cancel) {
+LightingVolume precomputeLighting(const LightingSettings& s, const LightingParameters& p,
+                                  const std::atomic<bool>* cancel) {
     checkSettings(s, p);
     requireMemory("the " + std::to_string(s.width) + "x" + std::to_string(s.height) + "x" + std::to_string(s.depth) +
                       " layered lighting volume",
@@ -293,11 +303,12 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
     LightingVolume v;
     LightingParameters& p = v.parameters;
     LightingSettings& s = v.settings;
-    if (!(in.get(w) && in.get(h) && in.get(d) && in.get(s.tilePeriod) && in.get(octaves) && in.get(cells) && in.get(seed) &&
-          in.get(photons) && in.get(bins) && in.get(p.extinction) && in.get(p.albedo) && in.get(p.csG) &&
-          in.get(p.thickness) && in.get(mus)))
+    if (!(in.get(w) && in.get(h) && in.get(d) && in.get(s.tilePeriod) && in.get(octaves) && in.get(cells) &&
+          in.get(seed) && in.get(photons) && in.get(bins) && in.get(p.extinction) && in.get(p.albedo) &&
+          in.get(p.csG) && in.get(p.thickness) && in.get(mus)))
         fail("truncated header");
-    s.width = int(w), s.height = int(h), s.depth = int(d), s.octaves = int(octaves), s.cells = int(cells), s.seed = seed;
+    s.width = int(w), s.height = int(h), s.depth = int(d), s.octaves = int(octaves), s.cells = int(cells),
+    s.seed = seed;
     s.photons = int(photons), s.tableBins = int(bins);
     checkHeader(v, es, ep, fail);
     if (mus < 1 || mus > 64) fail("bad number of sun elevations " + std::to_string(mus));
@@ -305,8 +316,8 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
     t.bins = s.tableBins;
     const std::size_t nodes = std::size_t(t.bins) * t.bins;
     if (!(in.getArray(t.sunMu, mus) && in.getArray(v.texels, std::size_t(w) * h * d * 4) &&
-          in.getArray(v.columns, std::size_t(w) * h * 4) && in.getArray(t.sun, nodes * mus) && in.getArray(t.sunMany, nodes * mus) &&
-          in.getArray(t.sky, nodes * 3)))
+          in.getArray(v.columns, std::size_t(w) * h * 4) && in.getArray(t.sun, nodes * mus) &&
+          in.getArray(t.sunMany, nodes * mus) && in.getArray(t.sky, nodes * 3)))
         fail("truncated data");
     if (!in.atEnd()) fail("trailing bytes after the data");
     for (const std::vector<glm::vec4>* table : {&t.sun, &t.sunMany, &t.sky})
@@ -317,7 +328,8 @@ LightingVolume LightingVolume::load(const std::string& path, const LightingSetti
 }
 
 LightingParameters lightingParameters(const Medium& medium, const Layer& layer) {
-    return {medium.extinction, medium.albedo, medium.hgG, layer.lightingThickness > 0 ? layer.lightingThickness : layer.thickness};
+    return {medium.extinction, medium.albedo, medium.hgG,
+            layer.lightingThickness > 0 ? layer.lightingThickness : layer.thickness};
 }
 
 LightingVolume lightingCached(const LightingSettings& s, const LightingParameters& p, const std::string& cacheDir,
@@ -336,7 +348,8 @@ LightingVolume lightingCached(const LightingSettings& s, const LightingParameter
         try {
             return LightingVolume::load(file, s, p);
         } catch (const LightingFileError& e) {
-            logMessage(LogLevel::Warning, std::string("ignoring the cached lighting volume, computing it again: ") + e.what());
+            logMessage(LogLevel::Warning,
+                       std::string("ignoring the cached lighting volume, computing it again: ") + e.what());
         }
     }
     LightingVolume v = precomputeLighting(s, p, cancel);

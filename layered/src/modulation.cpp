@@ -35,7 +35,8 @@ ModulationTexture makeModulation(const ModulationSettings& s, unsigned seed) {
     if (s.size < 8 || s.size > 8192) throw std::invalid_argument("layered modulation: size must be 8..8192");
     if (s.octaves < 1 || s.octaves > 8) throw std::invalid_argument("layered modulation: octaves must be 1..8");
     if (s.cells < 1 || s.cells > 256) throw std::invalid_argument("layered modulation: cells must be 1..256");
-    if (!(s.period > 0) || !(s.glowPeriod > 0)) throw std::invalid_argument("layered modulation: periods must be > 0 m");
+    if (!(s.period > 0) || !(s.glowPeriod > 0))
+        throw std::invalid_argument("layered modulation: periods must be > 0 m");
     if (!(s.maxThreshold > 0 && s.maxThreshold <= 1))
         throw std::invalid_argument("layered modulation: maxThreshold must be in (0, 1]");
     const int n = s.size;
@@ -44,8 +45,10 @@ ModulationTexture makeModulation(const ModulationSettings& s, unsigned seed) {
     parallelFor(n, [&](int j) {
         for (int i = 0; i < n; ++i) {
             const double u = (i + 0.5) / n, v = (j + 0.5) / n;
-            noise[std::size_t(j) * n + i] = fbm(glm::vec3(float(u * s.cells), float(v * s.cells), 0.5f), s.octaves, s.cells, seed);
-            const double c = fbm(glm::vec3(float(u * glowCells), float(v * glowCells), 3.5f), 3, glowCells, seed ^ 0x9E3779B9u);
+            noise[std::size_t(j) * n + i] =
+                fbm(glm::vec3(float(u * s.cells), float(v * s.cells), 0.5f), s.octaves, s.cells, seed);
+            const double c =
+                fbm(glm::vec3(float(u * glowCells), float(v * glowCells), 3.5f), 3, glowCells, seed ^ 0x9E3779B9u);
             city[std::size_t(j) * n + i] = float(smoothstep(0.1, 0.4, c));
         }
     });
@@ -92,7 +95,8 @@ double rimFade(const Layer& layer, double extentFade, double horizontal) {
 }
 
 namespace {
-double threshold(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, double x, double y, double t) {
+double threshold(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, double x, double y,
+                 double t) {
     const Vec2 drift = layerDrift(layer, t);
     return m.sample((x - drift.x) / ms.period, (y - drift.y) / ms.period, 0);
 }
@@ -103,8 +107,8 @@ double layerModulation(const Layer& layer, const ModulationTexture& m, const Mod
     return layer.density * std::max(layer.coverage - threshold(layer, m, ms, x, y, t), 0.0);
 }
 
-double layerDensity(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms, const LightingVolume& light,
-                    const Vec3& p, double t) {
+double layerDensity(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms,
+                    const LightingVolume& light, const Vec3& p, double t) {
     const double z = (p.z - layer.base) / layer.thickness;
     if (z < 0 || z > 1) return 0;
     const double period = light.settings.tilePeriod;
@@ -115,8 +119,8 @@ double layerDensity(const Layer& layer, const ModulationTexture& m, const Modula
 }
 
 double layerDensityIntegral(const Layer& layer, const ModulationTexture& m, const ModulationSettings& ms,
-                            const LightingVolume& light, const Vec3& o, const Vec3& d, double reach, double t, double step,
-                            int maxSteps) {
+                            const LightingVolume& light, const Vec3& o, const Vec3& d, double reach, double t,
+                            double step, int maxSteps) {
     double t0 = 0, t1 = reach / std::max(std::hypot(d.x, d.y), 1e-12);
     if (std::abs(d.z) > 1e-12) {
         double a = (layer.base - o.z) / d.z, b = (layer.base + layer.thickness - o.z) / d.z;

@@ -56,14 +56,54 @@ void validate(const NearLodSettings& s, const LayeredSettings& l) {
     validate(l);
     if (!std::isfinite(reach(l))) bad("nearRadius + blendBand must be finite");
     if (2 * reach(l) / s.cellSize > s.maxCellsPerAxis)
-        bad("2 (nearRadius + blendBand) / cellSize = " + std::to_string(2 * reach(l) / s.cellSize) + " cells per axis exceeds " +
-            std::to_string(s.maxCellsPerAxis) + "; raise cellSize or lower the near radius / blend band");
+        bad("2 (nearRadius + blendBand) / cellSize = " + std::to_string(2 * reach(l) / s.cellSize) +
+            " cells per axis exceeds " + std::to_string(s.maxCellsPerAxis) +
+            "; raise cellSize or lower the near radius / blend band");
 }
 
 namespace {
 // The matter of the kernel (1 - r^2)^2 over the unit ball, the ellipsoids' density profile
 // (gardner_model.glsl): 4 pi (1/3 - 2/5 + 1/7) = 32 pi / 105.
 constexpr double kKernelVolume = 32 * 3.14159265358979323846 / 105;
+
+// Per level of the stack an ellipsoid of horizontal radius `overlap` w carrying the band's
+// matter: d kKernelVolume R^2 Rz = mean w^2 thickness / stack. With stack 1 it takes the height of
+// the column's matter (the kernel's matter over height, (1 - z^2)^3, has a deviation of Rz / 3):
+// centred on its mean, Rz = verticalSpread deviations, kept inside the layer; with more, centred
+// in its band, Rz half the thickness (neighbours in the stack overlap as in the row). m0, m1, m2:
+// the moments of the column's matter over height above the base.
+struct ColumnAt {
+    std::int64_t i, j;  // the cell
+    int a, b;           // the column in it
+};
+void addColumnEllipsoids(Cloud& cloud, const Layer& layer, const NearLodSettings& s, ColumnAt at,
+                         const std::vector<double>& mean, double m0, double m1, double m2) {
+    const int stack = s.stack;
+    const double w = s.cellSize / s.columns, dz = layer.thickness / s.levels;
+    const double radius = s.overlap * w;
+    const bool fitted = stack == 1 && m0 > 0;
+    double rz = 0.5 * layer.thickness, cz = 0;
+    if (fitted) {
+        const double mu = m1 / m0, deviation = std::sqrt(std::max(m2 / m0 - mu * mu, 0.0));
+        rz = std::clamp(s.verticalSpread * deviation, 0.5 * dz, 0.5 * layer.thickness);
+        cz = std::clamp(mu, rz, layer.thickness - rz);
+    }
+    for (int k = 0; k < stack; ++k) {
+        if (!(mean[std::size_t(k)] > 0)) continue;
+        Ellipsoid e;
+        // Each column's centre moved at random by up to `columnJitter` w per axis: rows of
+        // ellipsoids in line leave straight lanes of thinner matter between them, which show as
+        // lines converging on the vanishing point when the eye looks along them.
+        const std::uint64_t h = cellHash(layer.seed, at.i, at.j, 16 + std::uint64_t(at.b * s.columns + at.a));
+        const Vec2 shake = s.columnJitter * w * (2.0 * Vec2(unit(h), unit(mix(h))) - 1.0);
+        e.center = Vec3(double(at.i) * s.cellSize + (at.a + 0.5) * w + shake.x,
+                        double(at.j) * s.cellSize + (at.b + 0.5) * w + shake.y,
+                        layer.base + (fitted ? cz : (k + 0.5) / stack * layer.thickness));
+        e.radii = Vec3(radius, radius, rz);
+        e.density = mean[std::size_t(k)] * w * w * layer.thickness / (stack * kKernelVolume * radius * radius * rz);
+        cloud.ellipsoids.push_back(e);
+    }
+}
 }  // namespace
 
 NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j, const NearLodSettings& s,
@@ -84,17 +124,19 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
     const int n = s.columns, m = s.samples, stack = s.stack;
     const double w = s.cellSize / n, dz = layer.thickness / s.levels;
     std::vector<Vec2> cloudy;
-    std::vector<double> mean(static_cast<std::size_t>(stack));  // per level of the stack: the column's mean density there
+    std::vector<double> mean(static_cast<std::size_t>(stack));  // per level of the stack: the mean density there
     for (int b = 0; b < n; ++b)
         for (int a = 0; a < n; ++a) {
             std::fill(mean.begin(), mean.end(), 0.0);
             double m0 = 0, m1 = 0, m2 = 0;  // the column's matter over height above the base: its moments
             for (int y = 0; y < m; ++y)
                 for (int x = 0; x < m; ++x) {
-                    const Vec2 xy(double(i) * s.cellSize + (a + (x + 0.5) / m) * w, double(j) * s.cellSize + (b + (y + 0.5) / m) * w);
+                    const Vec2 xy(double(i) * s.cellSize + (a + (x + 0.5) / m) * w,
+                                  double(j) * s.cellSize + (b + (y + 0.5) / m) * w);
                     double tau = 0;
                     for (int k = 0; k < s.levels; ++k) {
-                        const double rho = layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
+                        const double rho =
+                            layerDensity(layer, modulation, ms, light, Vec3(xy, layer.base + (k + 0.5) * dz), 0);
                         tau += rho;
                         const double z = (k + 0.5) * dz;
                         m0 += rho, m1 += rho * z, m2 += rho * z * z;
@@ -105,34 +147,7 @@ NearCell makeNearCell(const Scene& scene, int li, std::int64_t i, std::int64_t j
             double columnMean = 0;
             for (double v : mean) columnMean += v / stack;
             if (!(scene.medium.extinction * columnMean * layer.thickness >= s.minColumnDepth)) continue;
-            // Per level of the stack an ellipsoid of horizontal radius `overlap` w carrying the band's
-            // matter: d kKernelVolume R^2 Rz = mean w^2 thickness / stack. With stack 1 it takes
-            // the height of the column's matter (the kernel's matter over height, (1 - z^2)^3, has
-            // a deviation of Rz / 3): centred on its mean, Rz = verticalSpread deviations, kept
-            // inside the layer; with more, centred in its band, Rz half the thickness (neighbours
-            // in the stack overlap as in the row).
-            const double radius = s.overlap * w;
-            const bool fitted = stack == 1 && m0 > 0;
-            double rz = 0.5 * layer.thickness, cz = 0;
-            if (fitted) {
-                const double mu = m1 / m0, deviation = std::sqrt(std::max(m2 / m0 - mu * mu, 0.0));
-                rz = std::clamp(s.verticalSpread * deviation, 0.5 * dz, 0.5 * layer.thickness);
-                cz = std::clamp(mu, rz, layer.thickness - rz);
-            }
-            for (int k = 0; k < stack; ++k) {
-                if (!(mean[std::size_t(k)] > 0)) continue;
-                Ellipsoid e;
-                // Each column's centre moved at random by up to `columnJitter` w per axis: rows of
-                // ellipsoids in line leave straight lanes of thinner matter between them, which show
-                // as lines converging on the vanishing point when the eye looks along them.
-                const std::uint64_t h = cellHash(layer.seed, i, j, 16 + std::uint64_t(b * n + a));
-                const Vec2 shake = s.columnJitter * w * (2.0 * Vec2(unit(h), unit(mix(h))) - 1.0);
-                e.center = Vec3(double(i) * s.cellSize + (a + 0.5) * w + shake.x, double(j) * s.cellSize + (b + 0.5) * w + shake.y,
-                                layer.base + (fitted ? cz : (k + 0.5) / stack * layer.thickness));
-                e.radii = Vec3(radius, radius, rz);
-                e.density = mean[std::size_t(k)] * w * w * layer.thickness / (stack * kKernelVolume * radius * radius * rz);
-                cell.cloud.ellipsoids.push_back(e);
-            }
+            addColumnEllipsoids(cell.cloud, layer, s, {i, j, a, b}, mean, m0, m1, m2);
         }
     cell.cover = double(cloudy.size()) / (double(n) * n * m * m);
     if (cloudy.empty()) {
@@ -156,8 +171,8 @@ struct NearLod::LayerCache {
         LightingParameters lightKey;
         bool operator==(const Made&) const = default;
     };
-    Made made;       // the layer as its current data is for
-    int version = 0; // bumped when `made`, the modulation or the light change: older cells are stale
+    Made made;        // the layer as its current data is for
+    int version = 0;  // bumped when `made`, the modulation or the light change: older cells are stale
     std::shared_ptr<const ModulationTexture> modulation;
     std::shared_ptr<const LightingVolume> light;
     struct Cell {
@@ -171,7 +186,7 @@ struct NearLod::Job {
     double distance = 0;  // of the spawn point from the eye (m): nearest first
     int layer = 0;
     std::int64_t i = 0, j = 0;
-    int behind = 1;       // changes of the layer since the cell was made: most first
+    int behind = 1;  // changes of the layer since the cell was made: most first
 };
 
 NearLod::NearLod(NearLodSettings settings, LayeredSettings layered)
@@ -200,8 +215,10 @@ void NearLod::refreshLayer(const Scene& scene, int li, const Vec3& eye, double t
     }
     const Vec2 e = Vec2(eye.x, eye.y) - layerDrift(layer, t);  // the eye in pattern coordinates
     // Spawn points lie within jitter cells of their cell's centre.
-    const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)), i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
-    const auto j0 = std::int64_t(std::floor((e.y - r) / size - 0.5 - jit)), j1 = std::int64_t(std::ceil((e.y + r) / size - 0.5 + jit));
+    const auto i0 = std::int64_t(std::floor((e.x - r) / size - 0.5 - jit)),
+               i1 = std::int64_t(std::ceil((e.x + r) / size - 0.5 + jit));
+    const auto j0 = std::int64_t(std::floor((e.y - r) / size - 0.5 - jit)),
+               j1 = std::int64_t(std::ceil((e.y + r) / size - 0.5 + jit));
     std::map<std::pair<std::int64_t, std::int64_t>, LayerCache::Cell> next;
     for (std::int64_t j = j0; j <= j1; ++j)
         for (std::int64_t i = i0; i <= i1; ++i) {
@@ -242,15 +259,16 @@ std::vector<Cloud> NearLod::update(const Scene& scene, const Vec3& eye, double t
         refreshLayer(scene, int(li), eye, t, jobs, st);
     }
     // The cells due, nearest first, as many as the budget allows.
-    std::stable_sort(jobs.begin(), jobs.end(),
-                     [](const Job& a, const Job& b) { return a.behind != b.behind ? a.behind > b.behind : a.distance < b.distance; });
+    std::stable_sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) {
+        return a.behind != b.behind ? a.behind > b.behind : a.distance < b.distance;
+    });
     const std::size_t budget = maxCells > 0 ? std::size_t(maxCells) : jobs.size();
     for (std::size_t k = 0; k < std::min(budget, jobs.size()); ++k) {
         const Job& job = jobs[k];
         LayerCache& c = *layers_[job.layer];
-        c.cells[{job.i, job.j}] = {makeNearCell(scene, job.layer, job.i, job.j, settings_, *c.modulation, layered_.modulation,
-                                                *c.light),
-                                   c.version};
+        c.cells[{job.i, job.j}] = {
+            makeNearCell(scene, job.layer, job.i, job.j, settings_, *c.modulation, layered_.modulation, *c.light),
+            c.version};
         ++st.generated;
     }
     st.pending = int(jobs.size() - std::min(budget, jobs.size()));

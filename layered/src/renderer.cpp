@@ -67,16 +67,17 @@ glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
 struct LayeredRenderer::Impl {
     Program program, programGlow;  // the layer shader without and with city glow (CITY_GLOW)
     IndexedMesh annulus, quad;
-    std::shared_ptr<LayerAssets> assets;  // lighting volumes and modulation textures
-    std::vector<LayerSlot> layers;        // by scene layer
-    TexturePool<LightingVolume> lightPool;          // the distinct textures the slots hold
+    std::shared_ptr<LayerAssets> assets;    // lighting volumes and modulation textures
+    std::vector<LayerSlot> layers;          // by scene layer
+    TexturePool<LightingVolume> lightPool;  // the distinct textures the slots hold
     TexturePool<ModulationTexture> modulationPool;
     ShadowPass shadows;
-    ReducedTarget reduced;               // LayeredSettings::downsample > 1
-    PerViewCache<FrameDepth> depths;     // copies of the host frame's depth, for the shadows and the upsampling
-    Program floor;  // the bench's floor (renderFloor)
+    ReducedTarget reduced;            // LayeredSettings::downsample > 1
+    PerViewCache<FrameDepth> depths;  // copies of the host frame's depth, for the shadows and the upsampling
+    Program floor;                    // the bench's floor (renderFloor)
 
-    void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s, LayeredStats& stats);
+    void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s,
+                    LayeredStats& stats);
 };
 
 namespace {
@@ -159,8 +160,10 @@ void setLightUniforms(const ProgramPair& p, const Scene& scene) {
     p.set("sunIrradiance", glm::vec3(scene.sun.color * scene.sun.intensity));
     const glm::dvec2 h(scene.sun.direction.x, scene.sun.direction.y);
     p.set("sunHorizontal", glm::length(h) > 1e-9 ? glm::vec3(glm::normalize(h), 0.0f) : glm::vec3(1, 0, 0));
-    light("skyDirection", "skyFromAbove", "skyMu", scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
-    p.set("skyIrradiance", scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
+    light("skyDirection", "skyFromAbove", "skyMu",
+          scene.skylight ? glm::normalize(scene.skylight->direction) : Vec3(0, 0, 1));
+    p.set("skyIrradiance",
+          scene.skylight ? glm::vec3(scene.skylight->color * scene.skylight->intensity) : glm::vec3(0));
 }
 
 // Billboards face the horizontal view direction (the camera's up when looking straight up or down).
@@ -256,19 +259,23 @@ void drawLayers(const ProgramPair& p, const std::vector<LayerSlot>& slots, const
 }
 }  // namespace
 
-LayeredRenderer::LayeredRenderer(LayeredSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
+LayeredRenderer::LayeredRenderer(LayeredSettings settings)
+    : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
     validate(settings_);
     HostStateScope scope;  // the meshes' uploads and bindings
     const std::string defines = "#define MAX_FLASHES " + std::to_string(kMaxFlashes) + "\n";
-    impl_->program = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}}, defines);
+    impl_->program =
+        Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}}, defines);
     // llvmpipe runs both sides of a branch, so the city map's fetch is compiled in only where a
     // layer glows (10% of the frame time without it on llvmpipe).
-    impl_->programGlow = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}},
-                                        defines + "#define CITY_GLOW 1\n");
+    impl_->programGlow =
+        Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}},
+                       defines + "#define CITY_GLOW 1\n");
     impl_->annulus = makeAnnulus(settings_.segments);  // unit radius, scaled per layer by `annulusRadius`
     std::vector<float> q = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0};
     impl_->quad = makeIndexedMesh(q, {0, 1, 2, 0, 2, 3}, 1);
-    impl_->floor = Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_floor.frag"}});
+    impl_->floor =
+        Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_floor.frag"}});
     impl_->assets = std::make_shared<LayerAssets>(settings_);
 }
 
@@ -309,7 +316,8 @@ SharedTexture<LightingVolume> uploadLighting(const LightingVolume& v) {
     SharedTexture<LightingVolume> shared;
     Texture& t = shared.texture;
     t = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(t.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width, ls.height, ls.depth);
+    glTextureStorage3D(t.id(), mipLevels(std::max({ls.width, ls.height, ls.depth})), GL_RGBA8, ls.width, ls.height,
+                       ls.depth);
     checkAllocation("the layered lighting volume's texture", v.texels.size() * 8 / 7);
     glTextureSubImage3D(t.id(), 0, 0, 0, 0, ls.width, ls.height, ls.depth, GL_RGBA, GL_UNSIGNED_BYTE, v.texels.data());
     glGenerateTextureMipmap(t.id());
@@ -334,7 +342,8 @@ SharedTexture<ModulationTexture> uploadModulation(const ModulationTexture& m) {
     // r, the city map, r^2: a mip level's texel holds the mean of r^2 over its footprint, so the
     // shader knows the spread of the thresholds that a far fetch averages.
     glTextureStorage2D(t.id(), mipLevels(n), GL_RGBA32F, n, n);
-    checkAllocation("the layered modulation texture", std::uint64_t(n) * n * 16 * 7 / 3);  // the copy uploaded, the texture with mipmaps
+    checkAllocation("the layered modulation texture",
+                    std::uint64_t(n) * n * 16 * 7 / 3);  // the copy uploaded, the texture with mipmaps
     {
         std::vector<float> rgba(std::size_t(n) * n * 4, 0.0f);
         for (std::size_t i = 0; i < std::size_t(n) * n; ++i) {
@@ -353,8 +362,8 @@ SharedTexture<ModulationTexture> uploadModulation(const ModulationTexture& m) {
 
 // The pool's texture of `data`, uploaded (and counted in `uploads`) when no layer holds one.
 template <class T, class Upload>
-std::shared_ptr<const SharedTexture<T>> shareTexture(TexturePool<T>& pool, std::shared_ptr<const T> data, Upload&& upload,
-                                                     int& uploads) {
+std::shared_ptr<const SharedTexture<T>> shareTexture(TexturePool<T>& pool, std::shared_ptr<const T> data,
+                                                     Upload&& upload, int& uploads) {
     std::erase_if(pool, [](const auto& w) { return w.expired(); });
     for (const auto& w : pool)
         if (auto held = w.lock(); held && held->data == data) return held;
@@ -385,11 +394,12 @@ void checkLayerBudget(const Scene& scene, const LayeredSettings& s) {
     const std::uint64_t modulationBytes = texels * 8 + texels * 16 * 4 / 3;
     const std::uint64_t need = keys.size() * volumeBytes + seeds.size() * modulationBytes;
     if (need > (std::uint64_t(s.resourceMegabytes) << 20))
-        throw ResourceError("layered sky: the scene's " + std::to_string(scene.layers.size()) + " layers need " +
-                            std::to_string(keys.size()) + " lighting volumes (one per thickness) and " +
-                            std::to_string(seeds.size()) + " modulation textures (one per seed), " + formatBytes(need) +
-                            ", over the budget of " + std::to_string(s.resourceMegabytes) +
-                            " MB (LayeredSettings::resourceMegabytes); layers that share a thickness and a seed share them");
+        throw ResourceError(
+            "layered sky: the scene's " + std::to_string(scene.layers.size()) + " layers need " +
+            std::to_string(keys.size()) + " lighting volumes (one per thickness) and " + std::to_string(seeds.size()) +
+            " modulation textures (one per seed), " + formatBytes(need) + ", over the budget of " +
+            std::to_string(s.resourceMegabytes) +
+            " MB (LayeredSettings::resourceMegabytes); layers that share a thickness and a seed share them");
 }
 
 }  // namespace
@@ -406,7 +416,8 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
         stats.pendingLayers += 1;  // its job runs
         light = assets->nearestLighting(key);
     }
-    if (light && (!r.light || r.light->data != light)) r.light = shareTexture(lightPool, std::move(light), uploadLighting, stats.uploads);
+    if (light && (!r.light || r.light->data != light))
+        r.light = shareTexture(lightPool, std::move(light), uploadLighting, stats.uploads);
     std::shared_ptr<const ModulationTexture> modulation = assets->nearestModulation(layer.seed);
     if (modulation && (!r.modulation || r.modulation->data != modulation))
         r.modulation = shareTexture(modulationPool, std::move(modulation), uploadModulation, stats.uploads);
@@ -419,7 +430,8 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
         }
         glTextureSubImage2D(r.sunTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sun.data());
         glTextureSubImage2D(r.skyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sky.data());
-        glTextureSubImage2D(r.sunManyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT, tables.sunMany.data());
+        glTextureSubImage2D(r.sunManyTable.id(), 0, 0, 0, tables.bins, tables.bins, GL_RGBA, GL_FLOAT,
+                            tables.sunMany.data());
     }
 }
 
@@ -479,20 +491,22 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
     drawLayers(p, m.layers, m.annulus, m.quad, scene, view, s, t, stats);
     if (s.downsample > 1) {
         const int fused = fuseShadows ? int(shadowing.size()) : 0;
-        ShadowPass::setUniforms(m.reduced.program(fused, frameDepth.texture != 0), scene, view, t, fuseShadows ? shadowing : std::vector<int>{}, 0,
-                                modulationTextures, s.modulation, s.groundHeight);
+        ShadowPass::setUniforms(m.reduced.program(fused, frameDepth.texture != 0), scene, view, t,
+                                fuseShadows ? shadowing : std::vector<int>{}, 0, modulationTextures, s.modulation,
+                                s.groundHeight);
         m.reduced.composite(frame, frameDepth, view, fused);
         ++stats.upsampleDrawCalls;
     }
     return stats;
 }
 
-LayeredStats LayeredBenchHooks::renderFloor(LayeredRenderer& r, const Scene& scene, const View& view, GLuint framebuffer,
-                                            double t) {
+LayeredStats LayeredBenchHooks::renderFloor(LayeredRenderer& r, const Scene& scene, const View& view,
+                                            GLuint framebuffer, double t) {
     LayeredStats stats;
     stats.sceneLayers = int(scene.layers.size());
     LayeredRenderer::Impl& m = *r.impl_;
-    if (m.layers.size() != scene.layers.size()) throw std::logic_error("LayeredRenderer::renderFloor: call render() first");
+    if (m.layers.size() != scene.layers.size())
+        throw std::logic_error("LayeredRenderer::renderFloor: call render() first");
     const LayeredSettings& s = r.settings_;
     HostStateScope scope;
     const Program& p = m.floor;

@@ -23,9 +23,9 @@ std::vector<int> ShadowPass::shadowingLayers(const Scene& scene) {
     return out;
 }
 
-int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& view, double t, const std::vector<int>& layers,
-                            int first, const std::vector<GLuint>& modulationTextures, const ModulationSettings& ms,
-                            double groundHeight) {
+int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& view, double t,
+                            const std::vector<int>& layers, int first, const std::vector<GLuint>& modulationTextures,
+                            const ModulationSettings& ms, double groundHeight) {
     const int count = std::clamp(int(layers.size()) - first, 0, kLayersPerPass);
     p.set("shadowLayerCount", count);
     p.set("shadowRayCentre", glm::vec3(view.rayCentre()));
@@ -56,8 +56,8 @@ int ShadowPass::setUniforms(const Program& p, const Scene& scene, const View& vi
     return count;
 }
 
-int ShadowPass::draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth, double t,
-                     const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
+int ShadowPass::draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth,
+                     double t, const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
                      const ModulationSettings& ms, double groundHeight) {
     if (layers.empty()) return 0;
     const Program& p = program_;

@@ -21,7 +21,7 @@ namespace nephele {
 class ShadowPass {
 public:
     static constexpr int kLayersPerPass = kMaxShadowLayers;  // kShadowLayers in shaders/layered_shadow.glsl
-    static constexpr int kFirstUnit = 3;      // texture units kFirstUnit.. hold the layers' modulation
+    static constexpr int kFirstUnit = 3;                     // texture units kFirstUnit.. hold the layers' modulation
 
     ShadowPass();  // builds its shader in the current context
     // The scene layers that can shadow (coverage * density > 0), none without a sun above the horizon.
@@ -36,8 +36,8 @@ public:
     // frameDepth: the frame's depth (FrameDepth::source), texture 0 when the frame has none.
     // Expects the caller to hold a HostStateScope; changes blend, depth, program, vertex array,
     // texture units 0 and kFirstUnit... Returns the draw calls issued.
-    int draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth, double timeSeconds,
-             const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
+    int draw(const Scene& scene, const View& view, const HostFrame& frame, const DepthSource& frameDepth,
+             double timeSeconds, const std::vector<int>& layers, const std::vector<GLuint>& modulationTextures,
              const ModulationSettings& modulation, double groundHeight);
 
 private:

@@ -41,11 +41,14 @@ void Weather::apply(const CloudLayerControl& c) {
     if (!((c.layerId >= 1 && c.layerId <= 3) || (c.layerId >= 10 && c.layerId <= 255)))
         bad("layer id must be 1..3 (cloud layers) or 10..255 (IG-defined cloud layers); 0 is ground fog and 4..9 "
             "precipitation, sand and dust, which Nephele does not draw");
-    if (c.scope != CigiWeatherScope::Global) bad("scope must be global (Nephele's layers are not regional or entity weather)");
+    if (c.scope != CigiWeatherScope::Global)
+        bad("scope must be global (Nephele's layers are not regional or entity weather)");
     if (int(c.cloudType) > 15) bad("cloud type must be 0..15, got " + std::to_string(int(c.cloudType)));
-    if (!(c.coverage >= 0 && c.coverage <= 100)) bad("coverage must be 0..100 percent, got " + std::to_string(c.coverage));
+    if (!(c.coverage >= 0 && c.coverage <= 100))
+        bad("coverage must be 0..100 percent, got " + std::to_string(c.coverage));
     if (!std::isfinite(c.baseElevation)) bad("base elevation must be finite");
-    if (!(c.thickness > 0 && std::isfinite(c.thickness))) bad("thickness must be > 0 m, got " + std::to_string(c.thickness));
+    if (!(c.thickness > 0 && std::isfinite(c.thickness)))
+        bad("thickness must be > 0 m, got " + std::to_string(c.thickness));
     if (!(c.transitionBand >= 0 && std::isfinite(c.transitionBand))) bad("transition band must be >= 0 m");
     if (!(c.horizontalWindSpeed >= 0 && std::isfinite(c.horizontalWindSpeed)))
         bad("horizontal wind speed must be >= 0 m/s, got " + std::to_string(c.horizontalWindSpeed));
@@ -85,7 +88,8 @@ void Weather::validate() const {
         if (!(y.extent > 0 && std::isfinite(y.extent))) bad("extent must be > 0 m");
         if (!(y.coverage >= 0 && y.coverage <= 1)) bad("coverage must be in [0, 1]");
         if (!(y.density >= 0 && y.density <= 1)) bad("density must be in [0, 1]");
-        if (!(std::isfinite(y.base) && std::isfinite(y.wind.x) && std::isfinite(y.wind.y))) bad("base and wind must be finite");
+        if (!(std::isfinite(y.base) && std::isfinite(y.wind.x) && std::isfinite(y.wind.y)))
+            bad("base and wind must be finite");
         if (!(y.lightingThickness >= 0 && std::isfinite(y.lightingThickness))) bad("lightingThickness must be >= 0 m");
     }
 }
@@ -93,7 +97,8 @@ void Weather::validate() const {
 bool Weather::sameAs(const Weather& o) const {
     if (!(sun == o.sun && sky == o.sky && layers.size() == o.layers.size())) return false;
     for (auto a = layers.begin(), b = o.layers.begin(); a != layers.end(); ++a, ++b)
-        if (!(a->first == b->first && a->second.enabled == b->second.enabled && a->second.layer == b->second.layer)) return false;
+        if (!(a->first == b->first && a->second.enabled == b->second.enabled && a->second.layer == b->second.layer))
+            return false;
     return true;
 }
 
@@ -117,7 +122,8 @@ Vec3 turn(const Vec3& from, const Vec3& to, double s) {
     }
     axis = glm::normalize(axis);
     const double t = angle * s;
-    return glm::normalize(a * std::cos(t) + glm::cross(axis, a) * std::sin(t) + axis * glm::dot(axis, a) * (1 - std::cos(t)));
+    return glm::normalize(a * std::cos(t) + glm::cross(axis, a) * std::sin(t) +
+                          axis * glm::dot(axis, a) * (1 - std::cos(t)));
 }
 
 Layer lerpLayer(const Layer& a, const Layer& b, double s) {

@@ -61,10 +61,10 @@ private:
     gl::Sampler sampler_;
     gl::Buffer boxes_;
     std::size_t boxesCapacity_ = 0;
-    int size_ = 0;                       // texels per side of a slot
-    glm::ivec3 slots_{0};                // slots along x, y, z
+    int size_ = 0;         // texels per side of a slot
+    glm::ivec3 slots_{0};  // slots along x, y, z
     std::vector<Slot> slotUse_;
-    std::map<const CloudRadiance*, Place> resident_;  // grid -> where it is
+    std::map<const CloudRadiance*, Place> resident_;          // grid -> where it is
     std::vector<std::shared_ptr<const CloudRadiance>> keep_;  // the grids in use (their places stay theirs)
 };
 

@@ -62,8 +62,9 @@ public:
     // (optional) ranks the clouds for the budget and the worker: the largest on screen first.
     // Without `takeFinishedGrids` the worker's new grids wait for a later call (the channels of one
     // frame draw with the same grids).
-    std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings, const Vec3* eye = nullptr,
-                                       RadianceUpdateStats* stats = nullptr, bool takeFinishedGrids = true);
+    std::vector<PlacedRadiance> update(const Scene& scene, const RadianceGridSettings& settings,
+                                       const Vec3* eye = nullptr, RadianceUpdateStats* stats = nullptr,
+                                       bool takeFinishedGrids = true);
     // Blocks until the worker has nothing left to do (tests, benches, a host's loading screen);
     // the next update() uses what it made. The waiting thread makes queued grids itself
     // meanwhile, on every core at its own priority: a host that waits wants them now.
@@ -94,9 +95,11 @@ private:
     };
     void takeFinished(RadianceUpdateStats& stats);
     std::vector<Want> wants(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye) const;
-    std::unordered_set<std::uint64_t> owned(const Scene& scene, const RadianceGridSettings& s, const std::vector<Want>& wants,
+    std::unordered_set<std::uint64_t> owned(const Scene& scene, const RadianceGridSettings& s,
+                                            const std::vector<Want>& wants,
                                             const std::vector<std::size_t>& order) const;
-    std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud, const RadianceGridSettings& s);
+    std::shared_ptr<const CloudRadiance> templateFor(const Scene& scene, const Cloud& cloud,
+                                                     const RadianceGridSettings& s);
     void schedule(std::vector<Job> jobs);
     void work(BackgroundSettings settings);
     Job takeBest();  // the queue's highest priority; with mutex_ held, the queue not empty
@@ -104,7 +107,7 @@ private:
     std::unordered_map<std::uint64_t, Entry> entries_;
     std::unordered_map<std::uint64_t, std::shared_ptr<const CloudRadiance>> templates_;
     const PlacedRadiance* previousOf(const Scene& scene, std::size_t i) const;
-    std::vector<PlacedRadiance> previous_;  // the last call's result, by cloud index
+    std::vector<PlacedRadiance> previous_;                         // the last call's result, by cloud index
     std::unordered_map<std::uint64_t, std::size_t> previousById_;  // Cloud::noiseId -> its index then
 
     std::mutex mutex_;  // guards what follows (shared with the worker)

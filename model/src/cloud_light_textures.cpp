@@ -94,11 +94,12 @@ void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
     for (const auto* d : data) whole = whole && d->size() == grid.voxels();
     if (!whole)
         throw GlError("cloud light grid of " + std::to_string(grid.size) + "^3 voxels: its arrays do not hold " +
-                      std::to_string(grid.voxels()) + " voxels and " + std::to_string(fineVoxels) + " sun transmittances");
+                      std::to_string(grid.voxels()) + " voxels and " + std::to_string(fineVoxels) +
+                      " sun transmittances");
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
-    constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT, GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
-                                   GL_UNPACK_SKIP_PIXELS, GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES};
+    constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT,   GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
+                                   GL_UNPACK_SKIP_PIXELS, GL_UNPACK_SKIP_ROWS,  GL_UNPACK_SKIP_IMAGES};
     GLint saved[6], unpackBuffer = 0;
     for (int i = 0; i < 6; ++i) glGetIntegerv(kUnpack[i], &saved[i]);
     glGetIntegerv(GL_PIXEL_UNPACK_BUFFER_BINDING, &unpackBuffer);
@@ -167,8 +168,8 @@ void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, con
     for (const PlacedRadiance& p : placed) {
         const Vec3 lo = p.lo - eye, inv = 1.0 / p.extent;
         const glm::ivec3 at = origin(resident_.at(p.grid.get()));
-        boxes.insert(boxes.end(), {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y), float(inv.z), 0.0f,
-                                   float(at.x), float(at.y), float(at.z), float(p.grid->size)});
+        boxes.insert(boxes.end(), {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y),
+                                   float(inv.z), 0.0f, float(at.x), float(at.y), float(at.z), float(p.grid->size)});
     }
     uploadDynamic(boxes_, boxesCapacity_, boxes.data(), boxes.size() * sizeof(float));
 }

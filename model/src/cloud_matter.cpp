@@ -13,8 +13,8 @@ namespace nephele {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kLeafSize = 4;  // ellipsoids per BVH leaf
-constexpr int kMaxDepth = 64; // the traversal's stack: a median split halves, so 2^32 ellipsoids fit
+constexpr int kLeafSize = 4;   // ellipsoids per BVH leaf
+constexpr int kMaxDepth = 64;  // the traversal's stack: a median split halves, so 2^32 ellipsoids fit
 }  // namespace
 
 CloudMatter::CloudMatter(const Scene& scene, const NoiseVolume* noise, const Vec3& eye, double maxOpticalDepth,
@@ -24,7 +24,8 @@ CloudMatter::CloudMatter(const Scene& scene, const NoiseVolume* noise, const Vec
     amp_ = m.noise;
     period_ = m.noiseScale * NoiseSettings{}.cells;  // m: one period of the noise volume
     if (amp_ > 0) {
-        if (!noise_ || noise_->texels.empty()) throw std::invalid_argument("cloud matter: medium.noise > 0 needs a noise volume");
+        if (!noise_ || noise_->texels.empty())
+            throw std::invalid_argument("cloud matter: medium.noise > 0 needs a noise volume");
         double maxAbs = 0;
         for (float v : noise_->texels) maxAbs = std::max(maxAbs, double(std::fabs(v)));
         // max(0, 1 + amp n) <= this: trilinear filtering stays within the texels' range (the
@@ -149,7 +150,8 @@ double CloudMatter::extinctionAlong(const Vec3& o, const Vec3& d, double t, std:
     return s;
 }
 
-double CloudMatter::smoothDepth(const Vec3& o, const Vec3& d, double t0, double t1, const std::vector<Chord>& chords) const {
+double CloudMatter::smoothDepth(const Vec3& o, const Vec3& d, double t0, double t1,
+                                const std::vector<Chord>& chords) const {
     double tau = 0;
     for (const Chord& c : chords) tau += smoothDepth(o, d, t0, t1, c);
     return tau;
@@ -205,8 +207,9 @@ int CloudMatter::build(int first, int count) {
     const Vec3 ext = chi - clo;
     const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
     const int half = count / 2;
-    std::nth_element(shapes_.begin() + first, shapes_.begin() + first + half, shapes_.begin() + first + count,
-                     [axis](const Shape& a, const Shape& b) { return a.lo[axis] + a.hi[axis] < b.lo[axis] + b.hi[axis]; });
+    std::nth_element(
+        shapes_.begin() + first, shapes_.begin() + first + half, shapes_.begin() + first + count,
+        [axis](const Shape& a, const Shape& b) { return a.lo[axis] + a.hi[axis] < b.lo[axis] + b.hi[axis]; });
     build(first, half);
     const int second = build(first + half, count - half);
     nodes_[std::size_t(index)].second = second;

@@ -38,7 +38,8 @@ using detail::sampleHg;
 
 // The half extents of the ellipsoid's axis-aligned box: the lengths of the rows of R diag(r).
 Vec3 halfExtents(const Ellipsoid& e) {
-    const glm::dmat3 a = rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
+    const glm::dmat3 a =
+        rotationFromDegrees(e.rotationDeg) * glm::dmat3(e.radii.x, 0, 0, 0, e.radii.y, 0, 0, 0, e.radii.z);
     return Vec3(glm::length(glm::row(a, 0)), glm::length(glm::row(a, 1)), glm::length(glm::row(a, 2)));
 }
 
@@ -61,12 +62,18 @@ struct Grid {
 std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& g, const GridErosion& erosion) {
     static_assert(kSunRefinement == 2, "voxelise samples the finer grid's voxel centres");
     std::vector<float> sigma(std::size_t(g.n) * g.n * g.n, 0.0f);
-    struct Shape { glm::dmat3 unit; Vec3 centre; double sigma; glm::ivec3 lo, hi; };
+    struct Shape {
+        glm::dmat3 unit;
+        Vec3 centre;
+        double sigma;
+        glm::ivec3 lo, hi;
+    };
     std::vector<Shape> shapes;
     for (const Ellipsoid& e : cloud.ellipsoids) {
         if (!(e.density > 0)) continue;
         const Vec3 half = halfExtents(e);
-        const Vec3 from = glm::floor((e.center - half - g.lo) / g.cell), to = glm::floor((e.center + half - g.lo) / g.cell);
+        const Vec3 from = glm::floor((e.center - half - g.lo) / g.cell),
+                   to = glm::floor((e.center + half - g.lo) / g.cell);
         glm::ivec3 lo = glm::clamp(glm::ivec3(from), 0, g.n - 1), hi = glm::clamp(glm::ivec3(to), 0, g.n - 1);
         if (g.periodic)  // unclamped across, at most two periods
             for (int k = 0; k < 2; ++k) {
@@ -86,8 +93,9 @@ std::vector<float> voxelise(const Scene& scene, const Cloud& cloud, const Grid& 
                         const Vec3 u = e.unit * (g.lo + (Vec3(x, y, z) + 0.25 + 0.5 * Vec3(sub)) * g.cell - e.centre);
                         const double q = glm::dot(u, u);
                         if (q >= 1) continue;
-                        sum += erosion.on() ? erodedProfile(q, erosion.atFine(2 * x + sub.x, 2 * y + sub.y, 2 * z + sub.z))
-                                            : (1 - q) * (1 - q);
+                        sum += erosion.on()
+                                   ? erodedProfile(q, erosion.atFine(2 * x + sub.x, 2 * y + sub.y, 2 * z + sub.z))
+                                   : (1 - q) * (1 - q);
                     }
                     const int wx = ((x % g.n) + g.n) % g.n, wy = ((y % g.n) + g.n) % g.n;  // x, y on a periodic grid
                     sigma[g.index(wx, wy, z)] += float(e.sigma * sum / 8);
@@ -175,7 +183,7 @@ bool enterBox(const Vec3& lo, const Vec3& hi, Vec3& x, const Vec3& w) {
     return true;
 }
 
-constexpr int kBatches = 8;      // photon batches: a fixed split, so the result is thread-count free
+constexpr int kBatches = 8;  // photon batches: a fixed split, so the result is thread-count free
 constexpr int kMaxBounces = 4096;
 
 // Sums per-batch tallies in batch order: the result does not depend on the threads. Batches
@@ -295,7 +303,8 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
         tallyRgb[b].assign(g.sigma.size(), glm::vec4(0.0f));
         tallyFlux[b].assign(g.sigma.size(), glm::vec4(0.0f));
         for (int j = b * perBatch; j < std::min(total, (b + 1) * perBatch); ++j) {
-            const double cz = 1 - 2 * (j + 0.5) / total, phi = turn + j * 2.399963229728653, sz = std::sqrt(1 - cz * cz);
+            const double cz = 1 - 2 * (j + 0.5) / total, phi = turn + j * 2.399963229728653,
+                         sz = std::sqrt(1 - cz * cz);
             Vec3 w(sz * std::cos(phi), sz * std::sin(phi), cz);
             const Launcher beam(g, w);
             Vec3 x;
@@ -371,11 +380,18 @@ double erodedSunDepth(const GridErosion& erosion, const glm::vec3& o, const glm:
 // of a fine voxel, each closed form); on a periodic grid, past
 // where the ray first leaves the box across, on through g's voxelised field of the tiles beyond
 // until it leaves through the top or the bottom.
-std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n, const GridErosion& erosion) {
+std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n,
+                                     const GridErosion& erosion) {
     // Per ellipsoid, the arguments of model::segmentDepth(M (p - c), M s, 0, infinity), M (p - c)
     // stepped from voxel to voxel rather than multiplied out: the finer grid has
     // kSunRefinement^3 times the voxels of the diffuse light's.
-    struct Shape { Vec3 origin, step[3]; glm::vec3 sun; double weight; Vec3 center; double radius; };
+    struct Shape {
+        Vec3 origin, step[3];
+        glm::vec3 sun;
+        double weight;
+        Vec3 center;
+        double radius;
+    };
     const Vec3 cell = g.cell * double(g.n) / double(n), sun = scene.sun.direction;
     std::vector<Shape> shapes;
     for (const Ellipsoid& e : cloud.ellipsoids) {
@@ -383,7 +399,9 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
         const glm::dmat3 unit = ellipsoidToUnit(e);
         shapes.push_back({unit * (g.lo + 0.5 * cell - e.center),
                           {unit * Vec3(cell.x, 0, 0), unit * Vec3(0, cell.y, 0), unit * Vec3(0, 0, cell.z)},
-                          glm::vec3(unit * sun), e.density * scene.medium.extinction, e.center,
+                          glm::vec3(unit * sun),
+                          e.density * scene.medium.extinction,
+                          e.center,
                           std::max({e.radii.x, e.radii.y, e.radii.z})});
     }
     // Only the voxels whose ray towards the sun can reach an ellipsoid cross it: those in the
@@ -419,9 +437,11 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
             for (int y = lo[1]; y <= hi[1]; ++y)
                 for (int x = lo[0]; x <= hi[0]; ++x) {
                     const glm::vec3 o(e.origin + double(x) * e.step[0] + double(y) * e.step[1] + double(z) * e.step[2]);
-                    if (glm::dot(o, o) >= 1 && glm::dot(o, e.sun) >= 0) continue;  // outside it, the sun away from it: 0
+                    if (glm::dot(o, o) >= 1 && glm::dot(o, e.sun) >= 0)
+                        continue;  // outside it, the sun away from it: 0
                     tau[std::size_t(y) * n + x] +=
-                        e.weight * (erosion.on() ? erodedSunDepth(erosion, o, e.sun, g.lo + (Vec3(x, y, z) + 0.5) * cell, sun, piece)
+                        e.weight * (erosion.on() ? erodedSunDepth(erosion, o, e.sun,
+                                                                  g.lo + (Vec3(x, y, z) + 0.5) * cell, sun, piece)
                                                  : model::segmentDepth(o, e.sun, 0.0f, 1e30f));
                 }
         }
@@ -446,7 +466,8 @@ void smooth(std::vector<glm::vec4>& f, int n) {
                     int c[3] = {x, y, z}, lo[3] = {x, y, z}, hi[3] = {x, y, z};
                     lo[axis] = std::max(c[axis] - 1, 0);
                     hi[axis] = std::min(c[axis] + 1, n - 1);
-                    tmp[at(x, y, z)] = 0.25f * f[at(lo[0], lo[1], lo[2])] + 0.5f * f[at(x, y, z)] + 0.25f * f[at(hi[0], hi[1], hi[2])];
+                    tmp[at(x, y, z)] =
+                        0.25f * f[at(lo[0], lo[1], lo[2])] + 0.5f * f[at(x, y, z)] + 0.25f * f[at(hi[0], hi[1], hi[2])];
                 }
         f.swap(tmp);
     }
@@ -474,10 +495,13 @@ void radianceBox(const Cloud& cloud, Vec3& lo, Vec3& hi) {
 void validate(const RadianceGridSettings& s) {
     validate(s.backgroundWork);
     if (s.size < 4 || s.size > 128) throw std::invalid_argument("radiance grid size must be 4..128 voxels");
-    if (s.sunPhotons < 0 || s.sunPhotons > (1 << 26)) throw std::invalid_argument("radiance grid sunPhotons must be 0..2^26");
-    if (s.skyPhotons < 0 || s.skyPhotons > (1 << 26)) throw std::invalid_argument("radiance grid skyPhotons must be 0..2^26");
+    if (s.sunPhotons < 0 || s.sunPhotons > (1 << 26))
+        throw std::invalid_argument("radiance grid sunPhotons must be 0..2^26");
+    if (s.skyPhotons < 0 || s.skyPhotons > (1 << 26))
+        throw std::invalid_argument("radiance grid skyPhotons must be 0..2^26");
     if (s.smoothing < 0 || s.smoothing > 8) throw std::invalid_argument("radiance grid smoothing must be 0..8 passes");
-    if (!(s.megabytes >= 1 && s.megabytes <= 65536)) throw std::invalid_argument("radiance grid megabytes must be 1..65536");
+    if (!(s.megabytes >= 1 && s.megabytes <= 65536))
+        throw std::invalid_argument("radiance grid megabytes must be 1..65536");
 }
 
 double cloudOpticalRadius(const Scene& scene, const Cloud& cloud) {

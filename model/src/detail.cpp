@@ -45,7 +45,8 @@ NoiseVolume makeDetailVolume() {
     parallelFor(size, [&](int k) {
         for (int j = 0; j < size; ++j)
             for (int i = 0; i < size; ++i) {
-                const float f = std::min(worleyF1((glm::vec3(float(i), float(j), float(k)) + 0.5f) * scale, cells), 1.0f);
+                const float f =
+                    std::min(worleyF1((glm::vec3(float(i), float(j), float(k)) + 0.5f) * scale, cells), 1.0f);
                 v.texels[std::size_t(i) + std::size_t(size) * (j + std::size_t(size) * k)] = f * f;
             }
     });

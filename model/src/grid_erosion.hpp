@@ -47,7 +47,7 @@ private:
     bool on_ = false;
     int n_ = 0;
     Vec3 lo_{0.0}, extent_{1.0}, cell_{1.0};  // the grid's box; its fine voxels' side
-    Vec3 drift_{0.0};  // the detail's drift the grid is made for (gridDetailOffset's rounding)
+    Vec3 drift_{0.0};                         // the detail's drift the grid is made for (gridDetailOffset's rounding)
     model::DetailParams params_{};
     std::vector<float> delta_;
 };

@@ -162,15 +162,17 @@ const PlacedRadiance* CloudRadianceCache::previousOf(const Scene& scene, std::si
     return last < previous_.size() && previous_[last].grid ? &previous_[last] : nullptr;
 }
 
-std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s, const Vec3* eye,
-                                                       RadianceUpdateStats* statsOut, bool takeFinishedGrids) {
+std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const RadianceGridSettings& s,
+                                                       const Vec3* eye, RadianceUpdateStats* statsOut,
+                                                       bool takeFinishedGrids) {
     RadianceUpdateStats stats;
     if (takeFinishedGrids) takeFinished(stats);
     const std::size_t n = scene.clouds.size();
     const std::vector<Want> want = wants(scene, s, eye);
     std::vector<std::size_t> order(n);
     std::iota(order.begin(), order.end(), std::size_t(0));
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return want[a].priority > want[b].priority; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return want[a].priority > want[b].priority; });
     const std::unordered_set<std::uint64_t> own = owned(scene, s, want, order);
 
     std::unordered_map<std::uint64_t, std::uint64_t> byShape;  // shape -> key of its last grid
@@ -192,7 +194,8 @@ std::vector<PlacedRadiance> CloudRadianceCache::update(const Scene& scene, const
             continue;
         }
         if (isOwned && !s.background) {  // made now
-            const Entry e{std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, scene.clouds[i], s)), w.shape};
+            const Entry e{std::make_shared<const CloudRadiance>(computeCloudRadiance(scene, scene.clouds[i], s)),
+                          w.shape};
             p.grid = used.emplace(w.key, e).first->second.grid;
             ++stats.computed;
             continue;
@@ -262,7 +265,8 @@ void CloudRadianceCache::work(BackgroundSettings settings) {
         running_ = job.key;
         cancel_ = false;
         lock.unlock();
-        auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings, &cancel_));
+        auto grid = std::make_shared<const CloudRadiance>(
+            computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings, &cancel_));
         lock.lock();
         running_ = 0;
         if (!cancel_ && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
@@ -295,7 +299,8 @@ void CloudRadianceCache::waitIdle() {
         if (!queue_.empty()) {  // help: nothing cancels these (schedule() runs on this thread)
             Job job = takeBest();
             lock.unlock();
-            auto grid = std::make_shared<const CloudRadiance>(computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings));
+            auto grid = std::make_shared<const CloudRadiance>(
+                computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings));
             lock.lock();
             if (grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
             continue;

@@ -26,9 +26,9 @@ std::uint32_t pcgHash(std::uint32_t v) {
 // table as his bit-twiddling version, as a lookup: no unpredictable branches. We use the
 // top bits, the best mixed ones of the PCG output.
 float grad(std::uint32_t hash, float x, float y, float z) {
-    static constexpr float g[16][3] = {
-        {1, 1, 0}, {-1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {1, 0, 1}, {-1, 0, 1}, {1, 0, -1}, {-1, 0, -1},
-        {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1}, {1, 1, 0}, {0, -1, 1}, {-1, 1, 0}, {0, -1, -1}};
+    static constexpr float g[16][3] = {{1, 1, 0},  {-1, 1, 0},  {1, -1, 0}, {-1, -1, 0}, {1, 0, 1},  {-1, 0, 1},
+                                       {1, 0, -1}, {-1, 0, -1}, {0, 1, 1},  {0, -1, 1},  {0, 1, -1}, {0, -1, -1},
+                                       {1, 1, 0},  {0, -1, 1},  {-1, 1, 0}, {0, -1, -1}};
     const float* d = g[hash >> 28u];
     return d[0] * x + d[1] * y + d[2] * z;
 }
@@ -66,7 +66,7 @@ float perlinPeriodic(const glm::vec3& p, int period, unsigned seed) {
     const glm::vec3 cell = glm::floor(p);
     const glm::vec3 f = p - cell;  // position inside the cell, [0,1)
     // Lattice indices of the cell's two corners per axis, reduced modulo the period.
-    const auto corners = [period](float c, std::uint32_t (&out)[2]) {
+    const auto corners = [period](float c, std::uint32_t(&out)[2]) {
         const int i = wrap(int(c), period);
         out[0] = std::uint32_t(i);
         out[1] = std::uint32_t(i + 1 == period ? 0 : i + 1);
@@ -99,7 +99,8 @@ float perlinNoise(const glm::vec3& p, int period, unsigned seed) {
 }
 
 float fbm(const glm::vec3& p, int octaves, int period, unsigned seed) {
-    if (octaves < 1 || octaves > 31) throw std::invalid_argument("fbm: octaves must be in [1, 31], got " + std::to_string(octaves));
+    if (octaves < 1 || octaves > 31)
+        throw std::invalid_argument("fbm: octaves must be in [1, 31], got " + std::to_string(octaves));
     if (period < 1 || period > (INT_MAX >> (octaves - 1)))
         throw std::invalid_argument("fbm: period " + std::to_string(period) + " is < 1 or too large for " +
                                     std::to_string(octaves) + " octaves");
@@ -119,7 +120,9 @@ float fbm(const glm::vec3& p, int octaves, int period, unsigned seed) {
 float NoiseVolume::sample(const glm::vec3& uvw) const {
     if (size <= 0) return 0.0f;
     const Tap x = linearRepeat(uvw.x, size), y = linearRepeat(uvw.y, size), z = linearRepeat(uvw.z, size);
-    const auto at = [&](int i, int j, int k) { return texels[std::size_t(i) + std::size_t(size) * (j + std::size_t(size) * k)]; };
+    const auto at = [&](int i, int j, int k) {
+        return texels[std::size_t(i) + std::size_t(size) * (j + std::size_t(size) * k)];
+    };
     // (1-a)*t0 + a*t1 as in the GL specification's formula: at a = 0 it is t0 exactly.
     const auto mix = [](float t0, float t1, float a) { return (1.0f - a) * t0 + a * t1; };
     const float c00 = mix(at(x.i0, y.i0, z.i0), at(x.i1, y.i0, z.i0), x.a);
@@ -130,9 +133,11 @@ float NoiseVolume::sample(const glm::vec3& uvw) const {
 }
 
 NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed) {
-    if (size < 2 || size > 1024) throw std::invalid_argument("makeNoiseVolume: size must be in [2, 1024], got " + std::to_string(size));
+    if (size < 2 || size > 1024)
+        throw std::invalid_argument("makeNoiseVolume: size must be in [2, 1024], got " + std::to_string(size));
     if (cells < 1) throw std::invalid_argument("makeNoiseVolume: cells must be >= 1, got " + std::to_string(cells));
-    if (octaves < 1) throw std::invalid_argument("makeNoiseVolume: octaves must be >= 1, got " + std::to_string(octaves));
+    if (octaves < 1)
+        throw std::invalid_argument("makeNoiseVolume: octaves must be >= 1, got " + std::to_string(octaves));
     NoiseVolume volume;
     volume.size = size;
     volume.texels.resize(std::size_t(size) * size * size);
@@ -143,7 +148,8 @@ NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed) {
         float* slice = volume.texels.data() + std::size_t(size) * size * k;
         for (int j = 0; j < size; ++j)
             for (int i = 0; i < size; ++i)
-                slice[i + size * j] = fbm((glm::vec3(float(i), float(j), float(k)) + 0.5f) * scale, octaves, cells, seed);
+                slice[i + size * j] =
+                    fbm((glm::vec3(float(i), float(j), float(k)) + 0.5f) * scale, octaves, cells, seed);
     });
     double mean = 0.0;
     for (float t : volume.texels) mean += t;

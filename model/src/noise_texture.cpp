@@ -10,7 +10,8 @@ Texture noiseTexture(const NoiseVolume& v) {
     glTextureSubImage3D(t.id(), 0, 0, 0, 0, v.size, v.size, v.size, GL_RED, GL_FLOAT, v.texels.data());
     glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(t.id(), w, GL_REPEAT);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+        glTextureParameteri(t.id(), w, GL_REPEAT);
     return t;
 }
 

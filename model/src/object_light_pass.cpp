@@ -36,8 +36,8 @@ struct ObjectLightPass::Programs {
 ObjectLightPass::ObjectLightPass() = default;
 ObjectLightPass::~ObjectLightPass() = default;
 
-void ObjectLightPass::draw(const Scene& scene, const View& view, const HostFrame& frame, const CloudLightTextures& textures,
-                           const std::vector<PlacedRadiance>& light) {
+void ObjectLightPass::draw(const Scene& scene, const View& view, const HostFrame& frame,
+                           const CloudLightTextures& textures, const std::vector<PlacedRadiance>& light) {
     HostStateScope scope;  // the passes after it start from the state they found
     if (!programs_) {
         programs_ = std::make_unique<Programs>();
@@ -70,11 +70,12 @@ SurfaceLight ObjectLightPass::lightAt(const Scene& scene, const std::vector<Plac
                                       const Vec3& normal) {
     // object.frag's objectIrradiance: the same source.
     const glm::vec3 sunIrradiance(scene.sun.color * scene.sun.intensity);
-    model::ObjectIrradiance l = model::openSkyLight(glm::vec3(scene.sky.zenith), glm::vec3(scene.sky.horizon),
-                                                    glm::vec3(scene.sky.ground), glm::vec3(normal),
-                                                    glm::vec3(scene.sun.direction));
+    model::ObjectIrradiance l =
+        model::openSkyLight(glm::vec3(scene.sky.zenith), glm::vec3(scene.sky.horizon), glm::vec3(scene.sky.ground),
+                            glm::vec3(normal), glm::vec3(scene.sun.direction));
     for (const PlacedRadiance& c : light)
-        l = model::addCloudLight(l, model::PlacedGrid{c}, glm::vec3(point - c.lo), glm::vec3(0.0f), glm::vec3(c.extent));
+        l = model::addCloudLight(l, model::PlacedGrid{c}, glm::vec3(point - c.lo), glm::vec3(0.0f),
+                                 glm::vec3(c.extent));
     SurfaceLight out;
     out.sun = Vec3(model::objectSunIrradiance(l, sunIrradiance));
     out.diffuse = Vec3(model::objectDiffuseIrradiance(l, sunIrradiance));

@@ -108,15 +108,18 @@ public:
             if (!eglChooseConfig(display_, want, &config, 1, &count) || count < 1)
                 fail("no EGL config supports desktop OpenGL");
         }
-        const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
+        const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                  4,
+                                  EGL_CONTEXT_MINOR_VERSION,
+                                  5,
                                   EGL_CONTEXT_OPENGL_PROFILE_MASK,
                                   EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                                  EGL_CONTEXT_OPENGL_DEBUG, options.debug ? EGL_TRUE : EGL_FALSE,
+                                  EGL_CONTEXT_OPENGL_DEBUG,
+                                  options.debug ? EGL_TRUE : EGL_FALSE,
                                   EGL_NONE};
         context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, attribs);
         if (context_ == EGL_NO_CONTEXT)
-            fail("eglCreateContext for OpenGL 4.5 core failed (" +
-                 std::string(eglErrorName(eglGetError())) + ")");
+            fail("eglCreateContext for OpenGL 4.5 core failed (" + std::string(eglErrorName(eglGetError())) + ")");
         makeCurrent();
     }
     ~EglContext() override {
@@ -134,9 +137,7 @@ public:
     }
 
 private:
-    [[noreturn]] void fail(const std::string& why) {
-        throw ContextError("EGL backend: " + why + "." + kEglHint);
-    }
+    [[noreturn]] void fail(const std::string& why) { throw ContextError("EGL backend: " + why + "." + kEglHint); }
     // Mesa's surfaceless platform first (no GPU, no display server), then the device
     // platform (a GPU without a display server), then the default display.
     EGLDisplay openDisplay() {
@@ -172,8 +173,9 @@ std::unique_ptr<Context> Context::create(const ContextOptions& options) {
         case GlBackend::Glfw:
             // Defined by Nephele::glfw when the program links it (a weak reference otherwise).
             if (!nephele_create_glfw_context)
-                throw ContextError("GLFW backend: this program was built without windows (it does not link "
-                                   "Nephele::glfw). Use --gl egl for headless rendering.");
+                throw ContextError(
+                    "GLFW backend: this program was built without windows (it does not link "
+                    "Nephele::glfw). Use --gl egl for headless rendering.");
             return std::unique_ptr<Context>(nephele_create_glfw_context(&options));
     }
     throw ContextError("unknown GL backend");

@@ -13,9 +13,19 @@ void* osmesaLoader(const char* name) { return reinterpret_cast<void*>(OSMesaGetP
 class OSMesaContextImpl final : public Context {
 public:
     explicit OSMesaContextImpl(const ContextOptions&) : Context(GlBackend::OSMesa) {
-        const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24,
-                               OSMESA_STENCIL_BITS, 8, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                               OSMESA_CONTEXT_MAJOR_VERSION, 4, OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
+        const int attribs[] = {OSMESA_FORMAT,
+                               OSMESA_RGBA,
+                               OSMESA_DEPTH_BITS,
+                               24,
+                               OSMESA_STENCIL_BITS,
+                               8,
+                               OSMESA_PROFILE,
+                               OSMESA_CORE_PROFILE,
+                               OSMESA_CONTEXT_MAJOR_VERSION,
+                               4,
+                               OSMESA_CONTEXT_MINOR_VERSION,
+                               5,
+                               0};
         context_ = OSMesaCreateContextAttribs(attribs, nullptr);
         if (!context_)
             throw ContextError(

@@ -37,8 +37,10 @@ void pngWarning(png_structp png, png_const_charp message) {
 
 void writePng(const std::string& path, const Image& image, Encoding encoding) {
     checkShape(image, path);
-    static const int kTypes[] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGBA};
-    if (image.channels < 1 || image.channels > 4) throw ImageError(path + ": cannot write " + std::to_string(image.channels) + " channels");
+    static const int kTypes[] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
+                                 PNG_COLOR_TYPE_RGBA};
+    if (image.channels < 1 || image.channels > 4)
+        throw ImageError(path + ": cannot write " + std::to_string(image.channels) + " channels");
     const int c = image.channels;
     const bool hasAlpha = (c == 2 || c == 4);
     std::vector<png_byte> bytes(image.pixels.size());
@@ -63,8 +65,7 @@ void writePng(const std::string& path, const Image& image, Encoding encoding) {
                      PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
         if (encoding == Encoding::Srgb) png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
         png_write_info(png, info);
-        for (int y = 0; y < image.height; ++y)
-            png_write_row(png, bytes.data() + std::size_t(y) * image.width * c);
+        for (int y = 0; y < image.height; ++y) png_write_row(png, bytes.data() + std::size_t(y) * image.width * c);
         png_write_end(png, nullptr);
     } catch (...) {
         png_destroy_write_struct(&png, &info);
@@ -132,7 +133,8 @@ Image decode(PngReader& r, const std::string& path, std::span<const int> pick) {
     const int c = r.shape.channels, n = int(pick.size());
     for (const int k : pick)
         if (k < 0 || k >= c)
-            throw ImageError(path + ": has " + std::to_string(c) + " channels, channel " + std::to_string(k) + " asked for");
+            throw ImageError(path + ": has " + std::to_string(c) + " channels, channel " + std::to_string(k) +
+                             " asked for");
     Image image(r.shape.width, r.shape.height, n);
     const std::size_t w = std::size_t(r.shape.width), h = std::size_t(r.shape.height);
     auto convert = [&](std::size_t y, const png_byte* row) {

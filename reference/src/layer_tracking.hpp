@@ -32,7 +32,8 @@ inline void prepareLayerRay(const LayerVolumes& v, const Vec3& eye, const Vec3& 
 inline double layerFreeFlight(const LayerVolumes& v, const Vec3& eye, const Vec3& o, const Vec3& d, const LayerRay& r,
                               Pcg32& rng) {
     if (r.segs.empty()) return kNoCollision;
-    return deltaTrack(r.segs, [&](double t) { return v.extinction(o + t * d, eye); }, rng);
+    return deltaTrack(
+        r.segs, [&](double t) { return v.extinction(o + t * d, eye); }, rng);
 }
 
 // An unbiased estimate of the layers' transmittance along the prepared ray: ratio tracking,

@@ -46,7 +46,8 @@ public:
     KeyBytes& hash(const void* data, std::size_t size, std::size_t stride, std::size_t bytes) {
         std::uint64_t h = 1469598103934665603ull;
         for (std::size_t i = 0; i + bytes <= size; i += stride)
-            for (std::size_t b = 0; b < bytes; ++b) h = (h ^ static_cast<const unsigned char*>(data)[i + b]) * 1099511628211ull;
+            for (std::size_t b = 0; b < bytes; ++b)
+                h = (h ^ static_cast<const unsigned char*>(data)[i + b]) * 1099511628211ull;
         return add(std::uint64_t(size)).add(h);
     }
     const std::string& bytes() const { return bytes_; }
@@ -76,13 +77,18 @@ LayerVolumes::LayerVolumes(const Scene& scene, const LayeredSettings& settings, 
     : LayerVolumes(scene, lightingVolumes(scene, settings), modulationTextures(scene, settings.modulation),
                    settings.modulation, settings.extentFade, timeSeconds) {}
 
-LayerVolumes::LayerVolumes(const Scene& scene, std::vector<LightingVolume> lighting, std::vector<ModulationTexture> modulation,
-                           const ModulationSettings& modulationSettings, double extentFade, double timeSeconds)
-    : modulationSettings_(modulationSettings), extinction_(scene.medium.extinction), extentFade_(extentFade), time_(timeSeconds) {
+LayerVolumes::LayerVolumes(const Scene& scene, std::vector<LightingVolume> lighting,
+                           std::vector<ModulationTexture> modulation, const ModulationSettings& modulationSettings,
+                           double extentFade, double timeSeconds)
+    : modulationSettings_(modulationSettings),
+      extinction_(scene.medium.extinction),
+      extentFade_(extentFade),
+      time_(timeSeconds) {
     if (lighting.size() != scene.layers.size() || modulation.size() != scene.layers.size())
         throw std::invalid_argument("layer volumes: one lighting volume and one modulation texture per scene layer");
     if (!std::isfinite(timeSeconds)) throw std::invalid_argument("layer volumes: the time must be finite");
-    if (!(extentFade >= 0 && extentFade <= 1)) throw std::invalid_argument("layer volumes: extentFade must be in [0, 1]");
+    if (!(extentFade >= 0 && extentFade <= 1))
+        throw std::invalid_argument("layer volumes: extentFade must be in [0, 1]");
     for (std::size_t i = 0; i < scene.layers.size(); ++i) {
         const int size = modulation[i].size;
         if (size < 1 || modulation[i].texels.size() != std::size_t(size) * size * 2)
@@ -97,7 +103,8 @@ LayerVolumes::LayerVolumes(const Scene& scene, std::vector<LightingVolume> light
         e.layer = scene.layers[i];
         e.light = std::move(lighting[i]);
         e.modulation = std::move(modulation[i]);
-        for (std::size_t k = 3; k < e.light.texels.size(); k += 4) e.peakA = std::max(e.peakA, e.light.texels[k] / 255.0);
+        for (std::size_t k = 3; k < e.light.texels.size(); k += 4)
+            e.peakA = std::max(e.peakA, e.light.texels[k] / 255.0);
         e.rMin = thresholdMinima(e.modulation, cells_);
         layers_.push_back(std::move(e));
     }
@@ -113,7 +120,8 @@ double LayerVolumes::extinction(const Vec3& p, const Vec3& eye) const {
         // Cheap test first, as the shader: eq. (16) is 0 wherever r >= C (A <= 1).
         if (layerModulation(l, e.modulation, modulationSettings_, p.x, p.y, time_) <= 0) continue;
         const double fade = rimFade(l, extentFade_, h);
-        if (fade > 0) sigma += extinction_ * fade * layerDensity(l, e.modulation, modulationSettings_, e.light, p, time_);
+        if (fade > 0)
+            sigma += extinction_ * fade * layerDensity(l, e.modulation, modulationSettings_, e.light, p, time_);
     }
     return sigma;
 }
@@ -181,11 +189,19 @@ std::string LayerVolumes::key() const {
     for (const Entry& e : layers_) {
         const Layer& l = e.layer;
         const LightingSettings& ls = e.light.settings;
-        k.add(l.base).add(l.thickness).add(l.coverage).add(l.density).add(l.wind.x).add(l.wind.y).add(l.extent).add(l.seed);
+        k.add(l.base)
+            .add(l.thickness)
+            .add(l.coverage)
+            .add(l.density)
+            .add(l.wind.x)
+            .add(l.wind.y)
+            .add(l.extent)
+            .add(l.seed);
         k.add(ls.width).add(ls.height).add(ls.depth).add(ls.tilePeriod);
         // Only what the density reads: the lighting volume's A (alpha) and the modulation's r.
         k.hash(e.light.texels.data() + 3, e.light.texels.size() - 3, 4, 1);
-        k.hash(e.modulation.texels.data(), e.modulation.texels.size() * sizeof(float), 2 * sizeof(float), sizeof(float));
+        k.hash(e.modulation.texels.data(), e.modulation.texels.size() * sizeof(float), 2 * sizeof(float),
+               sizeof(float));
     }
     return k.bytes();
 }

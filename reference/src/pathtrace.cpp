@@ -49,9 +49,9 @@ std::uint64_t pathTracedImagesComputed() { return imagesComputed.load(); }
 
 namespace {
 
+using detail::hgPhase;
 using detail::MajorantPiece;
 using detail::MajorantSegment;
-using detail::hgPhase;
 using detail::Pcg32;
 using detail::sampleCosine;
 using detail::sampleHg;
@@ -77,7 +77,8 @@ void checkScene(const Scene& scene) {
     if (!(m.noise >= 0 && m.noise <= kMaxPathTraceNoise))
         bad("medium.noise must be in [0, " + std::to_string(int(kMaxPathTraceNoise)) +
             "] (above it the noise cuts empty holes into dense matter that free flights cannot cross in bounded time)");
-    if (m.noise > 0 && !(std::isfinite(m.noiseScale) && m.noiseScale > 0)) bad("medium.noise_scale must be finite and > 0");
+    if (m.noise > 0 && !(std::isfinite(m.noiseScale) && m.noiseScale > 0))
+        bad("medium.noise_scale must be finite and > 0");
     for (std::size_t c = 0; c < scene.clouds.size(); ++c)
         for (std::size_t i = 0; i < scene.clouds[c].ellipsoids.size(); ++i) {
             const Ellipsoid& e = scene.clouds[c].ellipsoids[i];
@@ -108,8 +109,11 @@ struct Workspace {
 class World {
 public:
     // `layers` (may be null: no layers) centred on the eye `eye`, as the layered sky is.
-    World(const Scene& scene, const NoiseVolume* noise, const LayerVolumes* layers = nullptr, const Vec3& eye = Vec3(0.0))
-        : scene_(scene), layers_(layers && !layers->empty() ? layers : nullptr), eye_(eye),
+    World(const Scene& scene, const NoiseVolume* noise, const LayerVolumes* layers = nullptr,
+          const Vec3& eye = Vec3(0.0))
+        : scene_(scene),
+          layers_(layers && !layers->empty() ? layers : nullptr),
+          eye_(eye),
           matter_(scene, noise, eye, kMaxOpticalDepth, false) {
         sunE_ = scene.sun.color * scene.sun.intensity;
     }
@@ -120,7 +124,9 @@ public:
     bool varies() const { return matter_.varies(); }  // not the smooth field's closed form
 
     // The chords of the ray o + t d (unit d) within [t0, t1], sorted by entry.
-    void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const { matter_.chords(o, d, t0, t1, r.cross); }
+    void collect(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
+        matter_.chords(o, d, t0, t1, r.cross);
+    }
 
     // collect() and the ray's majorant (detail::chordPieces per chord).
     void prepare(const Vec3& o, const Vec3& d, double t0, double t1, RayData& r) const {
@@ -150,18 +156,24 @@ public:
     // The first collision: with the ellipsoids' matter, or nearer with the layers' (each sampled
     // in its own medium).
     double deltaTrack(const Vec3& o, const Vec3& d, const RayData& r, Pcg32& rng) const {
-        const double t = detail::deltaTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, rng);
+        const double t = detail::deltaTrack(
+            r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, rng);
         return layers_ ? std::min(t, detail::layerFreeFlight(*layers_, eye_, o, d, r.layers, rng)) : t;
     }
 
     // Cloud transmittance over [t0, t1] of a ray prepared in r: closed form (model::segmentDepth,
     // as exactDensityOpacity) without noise, ratio tracking with it.
     double transmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
-        if (layers_) return ellipsoidTransmittance(o, d, t0, t1, r, rng) * detail::layerTransmittance(*layers_, eye_, o, d, r.layers, *rng);
+        if (layers_)
+            return ellipsoidTransmittance(o, d, t0, t1, r, rng) *
+                   detail::layerTransmittance(*layers_, eye_, o, d, r.layers, *rng);
         return ellipsoidTransmittance(o, d, t0, t1, r, rng);
     }
-    double ellipsoidTransmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r, Pcg32* rng) const {
-        if (varies()) return detail::ratioTrack(r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
+    double ellipsoidTransmittance(const Vec3& o, const Vec3& d, double t0, double t1, const RayData& r,
+                                  Pcg32* rng) const {
+        if (varies())
+            return detail::ratioTrack(
+                r.segs, [&](double t) { return sigmaAt(o, d, t, r); }, *rng);
         const double tau = matter_.smoothDepth(o, d, t0, t1, r.cross);
         return std::exp(-tau);
     }
@@ -221,9 +233,11 @@ public:
             }
             const Vec3 x = o + t * d;
             beta *= m.albedo;  // sigma_s / sigma_t
-            if (sunE_ != Vec3(0.0) && vertex >= firstBounce)  // next-event estimation: sun irradiance * phase * transmittance
-                radiance += beta * sunE_ * (hgPhase(glm::dot(d, scene_.sun.direction), m.hgG) *
-                                            sunTransmittance(x, 0, ws.shadow, rng));
+            if (sunE_ != Vec3(0.0) &&
+                vertex >= firstBounce)  // next-event estimation: sun irradiance * phase * transmittance
+                radiance +=
+                    beta * sunE_ *
+                    (hgPhase(glm::dot(d, scene_.sun.direction), m.hgG) * sunTransmittance(x, 0, ws.shadow, rng));
             if (vertex >= maxBounces || beta == Vec3(0.0)) return radiance;
             d = sampleHg(d, m.hgG, rng);
             o = x;
@@ -238,7 +252,7 @@ private:
     const LayerVolumes* layers_;
     Vec3 eye_;
     CloudMatter matter_;  // the ellipsoids' matter, capped at kMaxOpticalDepth, every cloud whole
-    Vec3 sunE_{0.0};  // sun irradiance, colour * intensity
+    Vec3 sunE_{0.0};      // sun irradiance, colour * intensity
 };
 
 // Progress through the host's progress callback (nephele/log.hpp), as rows finish.
@@ -278,8 +292,8 @@ void checkSettings(const PathTraceSettings& s) {
 
 // The pixels of rows [y0, y1) step `stride` (and columns step `stride`) at `spp` samples into
 // `image` (RGBA); the same estimate per pixel as the full render.
-void tracePixels(const World& world, const View& view, int spp, int firstBounce, int maxBounces, unsigned seed, int y, int stride,
-                 Image& image, Workspace& ws) {
+void tracePixels(const World& world, const View& view, int spp, int firstBounce, int maxBounces, unsigned seed, int y,
+                 int stride, Image& image, Workspace& ws) {
     const Scene& scene = world.scene();
     const int width = view.camera.width;
     for (int x = 0; x < width; x += stride) {
@@ -296,16 +310,19 @@ void tracePixels(const World& world, const View& view, int spp, int firstBounce,
         for (int k = 0; k < spp; ++k) {
             Pcg32 rng = detail::sampleRng(seed, pixel, std::uint64_t(k));
             sum += world.trace(view.eye, d, hit, firstBounce, maxBounces, rng, ws);
-            if (world.estimatesTransmittance()) transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
+            if (world.estimatesTransmittance())
+                transmittance += world.transmittance(view.eye, d, tNear, tEnd, ws.primary, &rng);
         }
-        transmittance = world.estimatesTransmittance() ? transmittance / spp : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
+        transmittance = world.estimatesTransmittance()
+                            ? transmittance / spp
+                            : world.transmittance(view.eye, d, tNear, tEnd, ws.primary, nullptr);
         for (int k = 0; k < 3; ++k) image.at(x, y, k) = float(sum[k] / spp);
         image.at(x, y, 3) = float(1 - transmittance);
     }
 }
 
-constexpr int kPilotStride = 8;  // the estimate traces every 8th pixel of every 8th row
-constexpr int kPilotSpp = 2;     // at up to 2 samples
+constexpr int kPilotStride = 8;            // the estimate traces every 8th pixel of every 8th row
+constexpr int kPilotSpp = 2;               // at up to 2 samples
 constexpr double kMinPilotSamples = 8192;  // a denser grid below this
 
 // CPU time of the calling thread (s): what a piece of work costs, whatever else the machine runs.
@@ -360,7 +377,8 @@ std::string durationText(double seconds) {
 
 }  // namespace
 
-double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise) {
+double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s,
+                                const NoiseVolume* noise) {
     checkSettings(s);
     checkScene(scene);
     const World world(scene, noise, s.layers.get(), view.eye);
@@ -401,8 +419,8 @@ struct ExtinctionField::Impl {
         : scene(s), layers(std::move(l)), eye(e), world(scene, noise, layers.get(), eye) {}
 };
 
-ExtinctionField::ExtinctionField(const Scene& scene, const NoiseVolume* noise, std::shared_ptr<const LayerVolumes> layers,
-                                 const Vec3& eye) {
+ExtinctionField::ExtinctionField(const Scene& scene, const NoiseVolume* noise,
+                                 std::shared_ptr<const LayerVolumes> layers, const Vec3& eye) {
     checkScene(scene);
     impl_ = std::make_unique<Impl>(scene, noise, layers && !layers->empty() ? std::move(layers) : nullptr, eye);
     std::tie(lo_, hi_) = impl_->world.bounds();
@@ -471,15 +489,19 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
     k.tag("clouds");
     for (const Cloud& cl : sc.clouds) {
         k.num(std::int64_t(cl.ellipsoids.size()));
-        if (cl.noiseId && m.noise > 0) k.tag("noise-id"), k.num(std::int64_t(cl.noiseId));  // (absent when unused: keys stay)
-        for (const Ellipsoid& e : cl.ellipsoids) k.vec(e.center), k.vec(e.radii), k.vec(e.rotationDeg), k.num(e.density);
+        if (cl.noiseId && m.noise > 0)
+            k.tag("noise-id"), k.num(std::int64_t(cl.noiseId));  // (absent when unused: keys stay)
+        for (const Ellipsoid& e : cl.ellipsoids)
+            k.vec(e.center), k.vec(e.radii), k.vec(e.rotationDeg), k.num(e.density);
     }
     k.tag("objects");
     for (const Object& o : sc.objects) {
         k.num(std::int64_t(o.type)), k.vec(o.center), k.vec(o.rotationDeg), k.vec(o.color);
-        if (o.type == Object::Type::Box) k.vec(o.size); else k.num(o.radius);
+        if (o.type == Object::Type::Box) k.vec(o.size);
+        else k.num(o.radius);
     }
-    if (sc.objectLight != ObjectLight::Sun) k.tag("object-light-all");  // (absent by default: the keys of before stay valid)
+    if (sc.objectLight != ObjectLight::Sun)
+        k.tag("object-light-all");         // (absent by default: the keys of before stay valid)
     if (s.layers && !s.layers->empty()) {  // only rendered layers change the image
         k.tag("layers");
         const std::string layers = s.layers->key();
@@ -501,7 +523,8 @@ std::optional<Image> readCache(const std::filesystem::path& file, const std::str
     const std::size_t maxBytes = 8 + 8 + key.size() + 12 + std::size_t(kMaxImageSide) * kMaxImageSide * 16;
     const std::optional<std::string> bytes = cache::read(file.string(), maxBytes, why);
     auto reject = [&](const std::string& what) -> std::optional<Image> {
-        logMessage(LogLevel::Warning, "ignoring the path tracer's cache file " + file.string() + ": " + what + "; rendering again");
+        logMessage(LogLevel::Warning,
+                   "ignoring the path tracer's cache file " + file.string() + ": " + what + "; rendering again");
         return std::nullopt;
     };
     if (!bytes) return why.empty() ? std::nullopt : reject(why);
@@ -521,7 +544,8 @@ std::optional<Image> readCache(const std::filesystem::path& file, const std::str
     std::memcpy(image.pixels.data(), b.data() + offset, floats);
     for (std::size_t i = 0; i < image.pixels.size(); ++i) {
         const float v = image.pixels[i];
-        if (!std::isfinite(v) || v < 0 || (i % 4 == 3 && v > 1)) return reject("a value that is not a radiance or an opacity");
+        if (!std::isfinite(v) || v < 0 || (i % 4 == 3 && v > 1))
+            return reject("a value that is not a radiance or an opacity");
     }
     return image;
 }
@@ -541,8 +565,8 @@ void writeCache(const std::filesystem::path& file, const std::string& key, const
 
 }  // namespace
 
-Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
-                             const NoiseVolume* noise, const std::string& cacheDir) {
+Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise,
+                             const std::string& cacheDir) {
     const std::string key = cacheKey(scene, view, s, noise);
     char name[64];
     std::snprintf(name, sizeof name, "pathtrace-%016llx%016llx.bin",

@@ -5,7 +5,8 @@
 // ray, extinction coefficients in 1/m.
 #pragma once
 
-#include "pcg32.hpp"  // Pcg32, mix64: seeded per (seed, pixel, sample) below, so images do not depend on thread scheduling
+// Pcg32, mix64: seeded per (seed, pixel, sample) below, so images do not depend on thread scheduling.
+#include "pcg32.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -59,10 +60,8 @@ inline void buildMajorant(std::span<const MajorantPiece> pieces, std::vector<std
         if (i < events.size() && sum > 0) {
             // Slack of 1e-12 covers the round-off of the running sum.
             const MajorantSegment s{t, events[i].first, sum * (1 + 1e-12)};
-            if (!out.empty() && out.back().t1 == s.t0 && out.back().majorant == s.majorant)
-                out.back().t1 = s.t1;
-            else
-                out.push_back(s);
+            if (!out.empty() && out.back().t1 == s.t0 && out.back().majorant == s.majorant) out.back().t1 = s.t1;
+            else out.push_back(s);
         }
     }
 }

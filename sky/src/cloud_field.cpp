@@ -13,9 +13,9 @@ namespace nephele {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kLayerStep = 20;      // m: the layers' quadrature step (a modulation texel is 58 m)
-constexpr int kLayerMaxSteps = 4000;   // per layer and ray: past 80 km the steps grow
-constexpr int kChordMinPieces = 8;     // midpoints per run of overlapping chords, at least (the noise, the detail)
+constexpr double kLayerStep = 20;     // m: the layers' quadrature step (a modulation texel is 58 m)
+constexpr int kLayerMaxSteps = 4000;  // per layer and ray: past 80 km the steps grow
+constexpr int kChordMinPieces = 8;    // midpoints per run of overlapping chords, at least (the noise, the detail)
 constexpr int kChordMaxPieces = 1024;
 constexpr double kDepthFirstRadius = 2;  // m
 constexpr double kDepthGrowth = 0.15;    // each radius 15% beyond the last (at least kDepthFirstRadius)
@@ -35,8 +35,8 @@ std::array<Vec3, 26> searchDirections() {
 }  // namespace
 
 CloudField::CloudField(std::shared_ptr<const CloudMatter> explicitClouds, std::shared_ptr<const CloudMatter> nearClouds,
-                       const Medium& medium, const LayeredSettings& layered, std::vector<LayerEntry> layers, const Vec3& eye,
-                       double time)
+                       const Medium& medium, const LayeredSettings& layered, std::vector<LayerEntry> layers,
+                       const Vec3& eye, double time)
     : explicit_(std::move(explicitClouds)),
       near_(std::move(nearClouds)),
       noiseScale_(medium.noise > 0 ? medium.noiseScale : 0),
@@ -94,7 +94,8 @@ double CloudField::cloudDepth(const CloudMatter& matter, const Vec3& o, const Ve
         if (matter.detailOn()) {
             const double nearest = glm::length(o + std::clamp(glm::dot(eye_ - o, d), a, b) * d - eye_);
             // A quarter of the finest wavelength drawn there (as exactPieces, over the whole run).
-            const double finest = std::max(double(model::kDetailFadeAngle) * nearest, 0.5 * double(detail_.params.smallest));
+            const double finest =
+                std::max(double(model::kDetailFadeAngle) * nearest, 0.5 * double(detail_.params.smallest));
             pieces = std::max(pieces, std::ceil(4 * span / finest));
         }
         const int n = int(std::min(pieces, double(kChordMaxPieces)));

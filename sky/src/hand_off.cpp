@@ -25,15 +25,16 @@ bool meetsSlab(const Vec3& o, const Vec3& d, double base, double top, double fro
     return std::min(s1, to / h) > std::max(s0, from / h);
 }
 
-Image drawOver(const Scene& scene, const View& view, const OpaquePass& opaque, const std::function<void(GLuint)>& draw) {
+Image drawOver(const Scene& scene, const View& view, const OpaquePass& opaque,
+               const std::function<void(GLuint)>& draw) {
     FrameTarget target(view.camera.width, view.camera.height);
     opaque.draw(scene, view, target.framebuffer());
     draw(target.framebuffer());
     return target.readColor();
 }
 
-HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettings& layered, double bandFrom, double reach,
-                       const EllipsoidSettings& compositorSettings) {
+HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettings& layered, double bandFrom,
+                       double reach, const EllipsoidSettings& compositorSettings) {
     const OpaquePass opaque;
     LayeredSettings nearSettings = layered;
     nearSettings.nearRadius = reach, nearSettings.blendBand = 0;
@@ -43,7 +44,8 @@ HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettin
     nearLod.shareAssets(assets);
     const std::vector<Cloud> near = nearLod.update(scene, view.eye, 0);
     EllipsoidRenderer compositor(compositorSettings);
-    const Image nearOnly = drawOver(scene, view, opaque, [&](GLuint fb) { compositor.render(withNearClouds(scene, near), view, fb, false); });
+    const Image nearOnly = drawOver(
+        scene, view, opaque, [&](GLuint fb) { compositor.render(withNearClouds(scene, near), view, fb, false); });
     Scene cut = scene;
     cut.layers.front().extent = reach;
     LayeredSettings cutSettings = layered;
@@ -64,8 +66,9 @@ HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettin
             if (!meetsSlab(view.eye, d, l.base, top, 0, reach)) continue;
             ++out.reachPixels;
             sums[0] += nearOnly.at(x, y, 3), sums[1] += layerOnly.at(x, y, 3);
-            const double tau = scene.medium.extinction * layerDensityIntegral(l, *cutSky.modulation(0), layered.modulation,
-                                                                              *cutSky.lighting(0), view.eye, d, reach, 0);
+            const double tau =
+                scene.medium.extinction * layerDensityIntegral(l, *cutSky.modulation(0), layered.modulation,
+                                                               *cutSky.lighting(0), view.eye, d, reach, 0);
             sums[2] += 1 - std::exp(-tau);
             if (!meetsSlab(view.eye, d, l.base, top, bandFrom, reach)) continue;
             ++out.bandPixels;

@@ -26,8 +26,8 @@ struct HandOff {
 };
 // Needs a current OpenGL 4.5 context; `layered` are the layered sky's settings (its
 // nearRadius and blendBand are not used).
-HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettings& layered, double bandFrom, double reach,
-                       const EllipsoidSettings& compositor);
+HandOff measureHandOff(const Scene& scene, const View& view, const LayeredSettings& layered, double bandFrom,
+                       double reach, const EllipsoidSettings& compositor);
 
 // A frame of the view's size: the scene's sky, ground and objects, then draw(framebuffer); read back.
 Image drawOver(const Scene& scene, const View& view, const OpaquePass& opaque, const std::function<void(GLuint)>& draw);

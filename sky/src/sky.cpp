@@ -93,8 +93,8 @@ struct SkyRenderer::Impl {
     std::unique_ptr<NearLod> nearLod_;
     // The host API's state.
     bool prepared_ = false;
-    Scene scene_;        // the prepared scene with the current weather's sun, sky and layers
-    Scene frame_;        // scene_ with the near LOD's clouds after its explicit ones (what the compositor draws)
+    Scene scene_;  // the prepared scene with the current weather's sun, sky and layers
+    Scene frame_;  // scene_ with the near LOD's clouds after its explicit ones (what the compositor draws)
     std::size_t explicitClouds_ = 0;
     double time_ = 0;
     long long updates_ = 0;      // since prepare()
@@ -104,8 +104,8 @@ struct SkyRenderer::Impl {
     ShownWeather shown_, from_;
     Weather target_;
     double elapsed_ = 0;
-    Scene nearScene_;             // the near LOD's layers: each at its own density, its clouds' weights
-    std::vector<double> fades_;   // times its fade (the far field draws density x fade)
+    Scene nearScene_;            // the near LOD's layers: each at its own density, its clouds' weights
+    std::vector<double> fades_;  // times its fade (the far field draws density x fade)
     PerViewCache<FrameDepth> depths_;
     // The cloud queries' state: the noise volume and the explicit clouds' matter (made by
     // prepare()), each layer's last textures (a layer whose new ones are being made is queried
@@ -188,10 +188,12 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     assets_->setBackground(true);
     const NoiseSettings& ns = settings_.ellipsoid.noise;
     noise_ = std::make_shared<const NoiseVolume>(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed));
-    explicitMatter_ = std::make_shared<const CloudMatter>(scene, noise_.get(), scene.camera.position, kMaxOpticalDepth, true);
+    explicitMatter_ =
+        std::make_shared<const CloudMatter>(scene, noise_.get(), scene.camera.position, kMaxOpticalDepth, true);
     queryLayers_.clear();
     std::vector<std::pair<int, Layer>> layers;
-    for (std::size_t i = 0; i < scene.layers.size(); ++i) layers.emplace_back(cigiLayerId(int(i)), scene.layers[i]);  // as Weather::of
+    for (std::size_t i = 0; i < scene.layers.size(); ++i)
+        layers.emplace_back(cigiLayerId(int(i)), scene.layers[i]);  // as Weather::of
     std::vector<Cloud> noNear;
     publishField(noNear, scene.camera.position, layers);
     clouds_.updateLights(scene_, &scene.camera.position);
@@ -202,7 +204,8 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
 
 SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, const Vec3& eye) {
     if (!prepared_) throw std::logic_error("SkyRenderer::update: call prepare(scene) first");
-    if (!(dt >= 0 && std::isfinite(dt))) throw std::invalid_argument("SkyRenderer::update: dt must be a finite number >= 0 s");
+    if (!(dt >= 0 && std::isfinite(dt)))
+        throw std::invalid_argument("SkyRenderer::update: dt must be a finite number >= 0 s");
     weather.validate();
     SkyUpdateStats stats;
     time_ += dt;
@@ -265,10 +268,11 @@ SkyUpdateStats SkyRenderer::Impl::update(double dt, const Weather& weather, cons
     frame_.layers = scene_.layers;
     frame_.clouds.resize(explicitClouds_);
     // The first update after prepare() makes every cell in reach; later ones spread them.
-    std::vector<Cloud> near = nearLod_->update(nearScene_, eye, time_, &stats.nearLod,
-                                               updates_++ > 0 ? settings_.cellsPerUpdate : 0, fades_);
+    std::vector<Cloud> near =
+        nearLod_->update(nearScene_, eye, time_, &stats.nearLod, updates_++ > 0 ? settings_.cellsPerUpdate : 0, fades_);
     publishField(near, eye, layerIds);
-    frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()), std::make_move_iterator(near.end()));
+    frame_.clouds.insert(frame_.clouds.end(), std::make_move_iterator(near.begin()),
+                         std::make_move_iterator(near.end()));
     const auto t0 = std::chrono::steady_clock::now();
     stats.lightVolumes = clouds_.updateLights(frame_, &eye);
     const RadianceUpdateStats light = clouds_.lightStats();
@@ -314,7 +318,8 @@ void SkyRenderer::Impl::warmUp(const Scene& scene) {
     clouds_.render(scene, view, frame);
 }
 
-void SkyRenderer::Impl::publishField(std::vector<Cloud>& near, const Vec3& eye, const std::vector<std::pair<int, Layer>>& layers) {
+void SkyRenderer::Impl::publishField(std::vector<Cloud>& near, const Vec3& eye,
+                                     const std::vector<std::pair<int, Layer>>& layers) {
     std::shared_ptr<const CloudMatter> nearMatter;
     if (!near.empty()) {
         Scene nearScene;  // the near clouds, borrowed for the matter's making
@@ -342,8 +347,8 @@ void SkyRenderer::Impl::publishField(std::vector<Cloud>& near, const Vec3& eye, 
         entries.push_back(std::move(e));
     }
     queryLayers_ = std::move(now);
-    auto field = std::make_shared<const CloudField>(explicitMatter_, std::move(nearMatter), scene_.medium, settings_.layered,
-                                                    std::move(entries), eye, time_);
+    auto field = std::make_shared<const CloudField>(explicitMatter_, std::move(nearMatter), scene_.medium,
+                                                    settings_.layered, std::move(entries), eye, time_);
     std::lock_guard lock(fieldMutex_);
     field_ = std::move(field);
 }
@@ -366,13 +371,16 @@ SkyRenderer::SkyRenderer(SkySettings settings) : impl_(std::make_unique<Impl>(st
 SkyRenderer::~SkyRenderer() = default;
 const SkySettings& SkyRenderer::settings() const { return impl_->settings_; }
 void SkyRenderer::prepare(const Scene& scene) { impl_->prepare(scene); }
-SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3& eye) { return impl_->update(dt, weather, eye); }
+SkyUpdateStats SkyRenderer::update(double dt, const Weather& weather, const Vec3& eye) {
+    return impl_->update(dt, weather, eye);
+}
 SkyStats SkyRenderer::draw(const ViewDesc& view) { return impl_->draw(view); }
 double SkyRenderer::time() const { return impl_->time_; }
 int SkyRenderer::backgroundJobs() const { return impl_->backgroundJobs(); }
 int SkyRenderer::pending() const { return impl_->pending(); }
 void SkyRenderer::waitForBackgroundWork() { impl_->waitForBackgroundWork(); }
-SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds, bool opaqueDepth) {
+SkyStats SkyRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double timeSeconds,
+                             bool opaqueDepth) {
     return impl_->render(scene, view, framebuffer, timeSeconds, opaqueDepth);
 }
 namespace {
@@ -392,7 +400,8 @@ double SkyRenderer::transmittance(const Vec3& origin, const Vec3& direction, dou
     checkFinite(direction, "transmittance", "direction");
     const double norm = glm::length(direction);
     if (!(norm > 1e-6)) throw std::invalid_argument("SkyRenderer::transmittance: the direction needs a length > 1e-6");
-    if (!(length >= 0)) throw std::invalid_argument("SkyRenderer::transmittance: the length must be >= 0 m (or infinite)");
+    if (!(length >= 0))
+        throw std::invalid_argument("SkyRenderer::transmittance: the length must be >= 0 m (or infinite)");
     return impl_->field("transmittance")->transmittance(origin, direction / norm, length);
 }
 

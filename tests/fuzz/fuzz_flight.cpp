@@ -20,7 +20,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         // Every frame's camera: bounded by the reader's frame limit, so only short flights here
         // (a long one is a timeout, not a finding).
         if (f.frameCount() <= 2000) nephele::fly::flightCameras(f, scene);
-    } catch (const nephele::SceneError&) {
-    }
+    } catch (const nephele::SceneError&) {}
     return 0;
 }

@@ -15,7 +15,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         g.scale = 3;
         g.rotationDeg = {10, 20, 30};
         nephele::detail::meshCloud(mesh, g);
-    } catch (const nephele::ObjError&) {
-    }
+    } catch (const nephele::ObjError&) {}
     return 0;
 }

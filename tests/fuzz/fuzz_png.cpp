@@ -18,7 +18,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     try {
         if (size > 0 && data[0] == 'P') nephele::readPfm(path);
         else nephele::readPng(path);
-    } catch (const nephele::ImageError&) {
-    }
+    } catch (const nephele::ImageError&) {}
     return 0;
 }

@@ -12,7 +12,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     static const std::string file = NEPHELE_SCENES "/fuzz.json";
     try {
         nephele::parseScene(std::string(reinterpret_cast<const char*>(data), size), file);
-    } catch (const nephele::SceneError&) {
-    }
+    } catch (const nephele::SceneError&) {}
     return 0;
 }

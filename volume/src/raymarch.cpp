@@ -64,7 +64,8 @@ struct TileBins {
 // else its angular distance to the frustum's edges (great-circle arcs between its corners).
 double angleToView(const View& view, const Vec3& s) {
     const double z = glm::dot(s, view.forward);
-    if (z > 0 && std::abs(view.ndcX(glm::dot(s, view.right) / z)) <= 1 && std::abs(view.ndcY(glm::dot(s, view.up) / z)) <= 1)
+    if (z > 0 && std::abs(view.ndcX(glm::dot(s, view.right) / z)) <= 1 &&
+        std::abs(view.ndcY(glm::dot(s, view.up) / z)) <= 1)
         return 0;
     const Vec3 c = view.rayCentre(), r = view.rightScaled(), u = view.upScaled();
     const Vec3 k[4] = {glm::normalize(c - r - u), glm::normalize(c + r - u), glm::normalize(c + r + u),
@@ -78,7 +79,8 @@ double angleToView(const View& view, const Vec3& s) {
         const Vec3 p = s - glm::dot(s, n) * n;  // s projected onto the arc's great circle
         if (glm::length(p) < 1e-12) continue;
         const Vec3 q = glm::normalize(p);
-        if (glm::dot(glm::cross(a, q), n) >= 0 && glm::dot(glm::cross(q, b), n) >= 0) best = std::min(best, angle(s, q));
+        if (glm::dot(glm::cross(a, q), n) >= 0 && glm::dot(glm::cross(q, b), n) >= 0)
+            best = std::min(best, angle(s, q));
     }
     return best;
 }
@@ -116,7 +118,8 @@ TileBins binClouds(const std::vector<std::pair<Vec3, Vec3>>& boxes, const View& 
             return std::clamp(int(px) / kTile, -1, tiles);
         };
         Rect r{tile(sx0, w, tilesX, -1), tile(sy0, h, tilesY, -1), tile(sx1, w, tilesX, 1), tile(sy1, h, tilesY, 1)};
-        r.x0 = std::max(r.x0, 0), r.y0 = std::max(r.y0, 0), r.x1 = std::min(r.x1, tilesX - 1), r.y1 = std::min(r.y1, tilesY - 1);
+        r.x0 = std::max(r.x0, 0), r.y0 = std::max(r.y0, 0), r.x1 = std::min(r.x1, tilesX - 1),
+        r.y1 = std::min(r.y1, tilesY - 1);
         if (r.x0 > r.x1 || r.y0 > r.y1) {
             rects[c] = {1, 0, 0, 0};  // off screen: no pixel tests it
             continue;
@@ -140,7 +143,8 @@ TileBins binClouds(const std::vector<std::pair<Vec3, Vec3>>& boxes, const View& 
     std::vector<std::int32_t> fill(bins.first.begin() + 1, bins.first.end() - 1);
     for (std::size_t c = 0; c < rects.size(); ++c)
         for (int y = rects[c].y0; rects[c].x0 >= 0 && y <= rects[c].y1; ++y)
-            for (int x = rects[c].x0; x <= rects[c].x1; ++x) bins.clouds[std::size_t(fill[std::size_t(y * tilesX + x)]++)] = std::int32_t(c);
+            for (int x = rects[c].x0; x <= rects[c].x1; ++x)
+                bins.clouds[std::size_t(fill[std::size_t(y * tilesX + x)]++)] = std::int32_t(c);
     return bins;
 }
 
@@ -154,19 +158,19 @@ struct RaymarchRenderer::Impl {
     NoiseVolume noiseCpu;
     Texture noise;
     int noiseOctaves = 0;
-    CloudRadianceCache lightCache;      // the clouds' radiance grids
-    CloudLightTextures lightTextures;   // ... on the GPU
-    ObjectLightPass objectLight;        // object_light "all"
-    DetailTexture detail;               // medium.detail's texture
+    CloudRadianceCache lightCache;     // the clouds' radiance grids
+    CloudLightTextures lightTextures;  // ... on the GPU
+    ObjectLightPass objectLight;       // object_light "all"
+    DetailTexture detail;              // medium.detail's texture
     Buffer ellipsoids, clouds, tileFirst, tileClouds;
     std::size_t ellipsoidCapacity = 0, cloudCapacity = 0, tileFirstCapacity = 0, tileCloudCapacity = 0;
-    FrameDepth depth;  // copy of the frame's depth (objects inside clouds)
+    FrameDepth depth;                        // copy of the frame's depth (objects inside clouds)
     std::unique_ptr<ReducedTarget> reduced;  // RaymarchSettings::downsample > 1: what the march draws into
 
     void ensureNoise(const RaymarchSettings& s);
     // render()'s phases, in its order.
-    void updateLight(const RaymarchSettings& s, const Scene& scene, const View& view, GLuint framebuffer, bool litObjects,
-                     RaymarchStats& stats);
+    void updateLight(const RaymarchSettings& s, const Scene& scene, const View& view, GLuint framebuffer,
+                     bool litObjects, RaymarchStats& stats);
     std::vector<std::pair<Vec3, Vec3>> uploadClouds(const Scene& scene, const View& view);
     void setFrameUniforms(const View& view, int d, const DepthSource& marchDepth, int tilesX);
     void setMediumUniforms(const RaymarchSettings& s, const Scene& scene, const View& view, double kappa);
@@ -234,7 +238,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const int d = sunPeak ? 1 : s.downsample;
     stats.downsample = d;
     View marchView = view;
-    marchView.camera.width = (view.camera.width + d - 1) / d, marchView.camera.height = (view.camera.height + d - 1) / d;
+    marchView.camera.width = (view.camera.width + d - 1) / d,
+    marchView.camera.height = (view.camera.height + d - 1) / d;
     const TileBins bins = binClouds(boxes, marchView);
     uploadDynamic(m.tileFirst, m.tileFirstCapacity, bins.first.data(), bins.first.size() * sizeof(std::int32_t));
     uploadDynamic(m.tileClouds, m.tileCloudCapacity, bins.clouds.data(), bins.clouds.size() * sizeof(std::int32_t));
@@ -259,8 +264,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
 
 // The clouds' light: grids of clouds that only moved are kept (light_cache.hpp); with
 // `litObjects`, the objects drawn again lit by them.
-void RaymarchRenderer::Impl::updateLight(const RaymarchSettings& s, const Scene& scene, const View& view, GLuint framebuffer,
-                                         bool litObjects, RaymarchStats& stats) {
+void RaymarchRenderer::Impl::updateLight(const RaymarchSettings& s, const Scene& scene, const View& view,
+                                         GLuint framebuffer, bool litObjects, RaymarchStats& stats) {
     RadianceUpdateStats lightStats;
     const std::vector<PlacedRadiance> light = lightCache.update(scene, s.light, &view.eye, &lightStats);
     stats.lightGridsComputed = lightStats.computed;
@@ -326,7 +331,8 @@ void RaymarchRenderer::Impl::setFrameUniforms(const View& view, int d, const Dep
 }
 
 // The march program's step, noise, light and medium uniforms.
-void RaymarchRenderer::Impl::setMediumUniforms(const RaymarchSettings& s, const Scene& scene, const View& view, double kappa) {
+void RaymarchRenderer::Impl::setMediumUniforms(const RaymarchSettings& s, const Scene& scene, const View& view,
+                                               double kappa) {
     const Medium& medium = scene.medium;
     const Program& p = march;
     p.set("stepBase", float(s.step));
@@ -358,10 +364,8 @@ void RaymarchRenderer::Impl::drawMarch(const View& view, const HostFrame& frame,
     glBindSampler(0, 0);
     glBindSampler(2, 0);
 
-    if (d > 1)
-        reduced->resume(glm::ivec4(0, 0, marchView.camera.width, marchView.camera.height));  // the colour alone
-    else
-        bindFrame(frame, view);
+    if (d > 1) reduced->resume(glm::ivec4(0, 0, marchView.camera.width, marchView.camera.height));  // the colour alone
+    else bindFrame(frame, view);
     glDisable(GL_DEPTH_TEST);
     // The shader writes premultiplied (radiance, 1 - T): colour' = radiance + T colour,
     // alpha' = (1 - T) + T alpha.

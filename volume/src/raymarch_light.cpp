@@ -21,9 +21,9 @@ constexpr double kMaxMarchSteps = 1024;
 
 // One ellipsoid in the form the march needs: world offset -> unit sphere.
 struct UnitEllipsoid {
-    glm::dmat3 unit;   // M = diag(1/r) R^T
-    Vec3 center;       // m, world
-    double density;    // the format's density scale
+    glm::dmat3 unit;  // M = diag(1/r) R^T
+    Vec3 center;      // m, world
+    double density;   // the format's density scale
 };
 
 std::vector<UnitEllipsoid> prepare(const Cloud& cloud) {
@@ -59,7 +59,8 @@ std::vector<Candidate> candidates(const std::vector<UnitEllipsoid>& ells, const 
         const double in = std::max(lc - h, 0.0), out = lc + h;
         if (out <= in) continue;
         list.push_back({in, out, a, lc, qmin, e.density});
-        for (std::size_t h2 = list.size() - 1; h2 > 0 && list[h2].in < list[h2 - 1].in; --h2) std::swap(list[h2], list[h2 - 1]);
+        for (std::size_t h2 = list.size() - 1; h2 > 0 && list[h2].in < list[h2 - 1].in; --h2)
+            std::swap(list[h2], list[h2 - 1]);
     }
     return list;
 }

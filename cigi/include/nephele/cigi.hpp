@@ -71,12 +71,12 @@ struct IgControl {
 // Entity Control (opcode 2, 48 bytes): an entity's place and attitude (geodetic for a top-level
 // entity, metres in the parent's body frame for a child).
 struct EntityControl {
-    std::uint16_t entityId = 0;  // 0 is the ownship
+    std::uint16_t entityId = 0;    // 0 is the ownship
     std::uint8_t entityState = 0;  // 0 inactive/standby, 1 active, 2 destroyed
     bool attached = false;         // Attach State: positioned relative to parentId
     bool collisionDetectionEnable = false;
     bool inheritAlpha = false;
-    std::uint8_t groundClamp = 0;  // 0 none, 1 non-conformal, 2 conformal
+    std::uint8_t groundClamp = 0;         // 0 none, 1 non-conformal, 2 conformal
     std::uint8_t animationDirection = 0;  // 0 forward, 1 backward
     std::uint8_t animationLoopMode = 0;   // 0 one-shot, 1 continuous
     std::uint8_t animationState = 0;      // 0 stop, 1 pause, 2 play, 3 continue
@@ -85,9 +85,9 @@ struct EntityControl {
     std::uint16_t entityType = 0;
     std::uint16_t parentId = 0;
     float roll = 0, pitch = 0, yaw = 0;  // degrees
-    double latitude = 0;   // degrees, or x offset (m) from the parent
-    double longitude = 0;  // degrees, or y offset (m)
-    double altitude = 0;   // m above mean sea level, or z offset (m)
+    double latitude = 0;                 // degrees, or x offset (m) from the parent
+    double longitude = 0;                // degrees, or y offset (m)
+    double altitude = 0;                 // m above mean sea level, or z offset (m)
 
     bool operator==(const EntityControl&) const = default;
 };
@@ -111,12 +111,12 @@ struct ViewDefinition {
     std::uint8_t groupId = 0;
     bool nearEnable = false, farEnable = false, leftEnable = false;
     bool rightEnable = false, topEnable = false, bottomEnable = false;
-    std::uint8_t mirrorMode = 0;       // 0 none, 1 horizontal, 2 vertical, 3 both
-    std::uint8_t pixelReplication = 0;  // 0 none, 1 1x2, 2 2x1, 3 2x2
-    bool orthographic = false;          // Projection Type: 0 perspective, 1 orthographic
-    bool reorder = false;               // bring this view to the top
-    std::uint8_t viewType = 0;          // IG-defined
-    float nearPlane = 0, farPlane = 0;  // m
+    std::uint8_t mirrorMode = 0;                     // 0 none, 1 horizontal, 2 vertical, 3 both
+    std::uint8_t pixelReplication = 0;               // 0 none, 1 1x2, 2 2x1, 3 2x2
+    bool orthographic = false;                       // Projection Type: 0 perspective, 1 orthographic
+    bool reorder = false;                            // bring this view to the top
+    std::uint8_t viewType = 0;                       // IG-defined
+    float nearPlane = 0, farPlane = 0;               // m
     float left = 0, right = 0, top = 0, bottom = 0;  // degrees from the view's axis; left, bottom negative
 
     bool operator==(const ViewDefinition&) const = default;
@@ -128,7 +128,7 @@ struct CelestialSphereControl {
     bool ephemerisModelEnable = false;
     bool sunEnable = false, moonEnable = false, starFieldEnable = false;
     bool dateTimeValid = false;
-    std::uint32_t date = 0;  // MMDDYYYY as a decimal number (June 21, 2026: 6212026)
+    std::uint32_t date = 0;        // MMDDYYYY as a decimal number (June 21, 2026: 6212026)
     float starFieldIntensity = 0;  // percent
 
     bool operator==(const CelestialSphereControl&) const = default;
@@ -137,12 +137,12 @@ struct CelestialSphereControl {
 // Atmosphere Control (opcode 10, 32 bytes): the global atmosphere.
 struct AtmosphereControl {
     bool atmosphericModelEnable = false;
-    std::uint8_t humidity = 0;  // percent
-    float airTemperature = 0;   // degrees C
-    float visibilityRange = 0;  // m
+    std::uint8_t humidity = 0;                             // percent
+    float airTemperature = 0;                              // degrees C
+    float visibilityRange = 0;                             // m
     float horizontalWindSpeed = 0, verticalWindSpeed = 0;  // m/s
-    float windDirection = 0;       // degrees from true north, where the wind blows from
-    float barometricPressure = 0;  // mb (hPa)
+    float windDirection = 0;                               // degrees from true north, where the wind blows from
+    float barometricPressure = 0;                          // mb (hPa)
 
     bool operator==(const AtmosphereControl&) const = default;
 };
@@ -150,23 +150,23 @@ struct AtmosphereControl {
 // Weather Control (opcode 12, 56 bytes): one weather layer (or a region's or entity's weather).
 struct WeatherControl {
     std::uint16_t entityOrRegionId = 0;  // Entity ID (scope 2) or Region ID (scope 1)
-    std::uint8_t layerId = 0;  // 0 ground fog, 1..3 cloud layers, 4..9 rain..dust, 10..255 IG-defined
-    std::uint8_t humidity = 0;  // percent
+    std::uint8_t layerId = 0;            // 0 ground fog, 1..3 cloud layers, 4..9 rain..dust, 10..255 IG-defined
+    std::uint8_t humidity = 0;           // percent
     bool weatherEnable = false, scudEnable = false, randomWindsEnable = false, randomLightningEnable = false;
-    std::uint8_t cloudType = 0;  // 0..15 (nephele::CigiCloudType)
-    std::uint8_t scope = 0;      // 0 global, 1 regional, 2 entity
-    std::uint8_t severity = 0;   // 0..5
-    float airTemperature = 0;    // degrees C
-    float visibilityRange = 0;   // m
-    float scudFrequency = 0;     // percent
-    float coverage = 0;          // percent
-    float baseElevation = 0;     // m above mean sea level
-    float thickness = 0;         // m
-    float transitionBand = 0;    // m
+    std::uint8_t cloudType = 0;                            // 0..15 (nephele::CigiCloudType)
+    std::uint8_t scope = 0;                                // 0 global, 1 regional, 2 entity
+    std::uint8_t severity = 0;                             // 0..5
+    float airTemperature = 0;                              // degrees C
+    float visibilityRange = 0;                             // m
+    float scudFrequency = 0;                               // percent
+    float coverage = 0;                                    // percent
+    float baseElevation = 0;                               // m above mean sea level
+    float thickness = 0;                                   // m
+    float transitionBand = 0;                              // m
     float horizontalWindSpeed = 0, verticalWindSpeed = 0;  // m/s
-    float windDirection = 0;         // degrees from true north, where the wind blows from
-    float barometricPressure = 0;    // mb (hPa)
-    float aerosolConcentration = 0;  // g/m^3
+    float windDirection = 0;                               // degrees from true north, where the wind blows from
+    float barometricPressure = 0;                          // mb (hPa)
+    float aerosolConcentration = 0;                        // g/m^3
 
     bool operator==(const WeatherControl&) const = default;
 };
@@ -203,12 +203,12 @@ struct StartOfFrame {
 // Weather Conditions Response (opcode 109, 32 bytes).
 struct WeatherConditionsResponse {
     std::uint8_t requestId = 0;
-    std::uint8_t humidity = 0;  // percent
-    float airTemperature = 0;   // degrees C
-    float visibilityRange = 0;  // m
+    std::uint8_t humidity = 0;                             // percent
+    float airTemperature = 0;                              // degrees C
+    float visibilityRange = 0;                             // m
     float horizontalWindSpeed = 0, verticalWindSpeed = 0;  // m/s
-    float windDirection = 0;       // degrees
-    float barometricPressure = 0;  // mb
+    float windDirection = 0;                               // degrees
+    float barometricPressure = 0;                          // mb
 
     bool operator==(const WeatherConditionsResponse&) const = default;
 };
@@ -224,8 +224,8 @@ struct AerosolConcentrationResponse {
 
 // Datagrams -----------------------------------------------------------------------------------
 
-using HostPacket = std::variant<EntityControl, ViewControl, ViewDefinition, CelestialSphereControl,
-                                AtmosphereControl, WeatherControl, EnvironmentalConditionsRequest>;
+using HostPacket = std::variant<EntityControl, ViewControl, ViewDefinition, CelestialSphereControl, AtmosphereControl,
+                                WeatherControl, EnvironmentalConditionsRequest>;
 using IgPacket = std::variant<WeatherConditionsResponse, AerosolConcentrationResponse>;
 
 // A host's datagram: its IG Control and the packets after it that this codec knows, in order.
@@ -233,8 +233,8 @@ struct HostDatagram {
     ByteOrder byteOrder = ByteOrder::BigEndian;
     IgControl igControl;
     std::vector<HostPacket> packets;
-    int skipped = 0;        // unknown opcodes, known opcodes of the wrong size, stray IG/IG->host packets
-    bool complete = true;   // false: parsing stopped at a packet that broke the framing
+    int skipped = 0;       // unknown opcodes, known opcodes of the wrong size, stray IG/IG->host packets
+    bool complete = true;  // false: parsing stopped at a packet that broke the framing
 };
 
 struct IgDatagram {

@@ -35,12 +35,12 @@ struct View {
                     // the viewport's size in pixels; fovYDeg = 2 atan of half the frustum's height
     Vec3 eye{0.0};
     Vec3 forward{0, 1, 0}, right{1, 0, 0}, up{0, 0, 1};  // orthonormal, right-handed
-    Frustum frustum;                                      // tangents of the edges
-    double tanHalfY = 0, tanHalfX = 0;  // half the frustum's height / width at unit distance
-    glm::dmat4 viewMatrix{1.0};        // world -> eye, OpenGL convention (looks down -z)
-    glm::dmat4 projectionMatrix{1.0};  // eye -> clip, this frustum in `depth`'s convention
-    DepthConvention depth;             // of the frame the view is drawn into
-    glm::ivec2 origin{0};              // the viewport's lower-left corner in the frame (pixels)
+    Frustum frustum;                                     // tangents of the edges
+    double tanHalfY = 0, tanHalfX = 0;                   // half the frustum's height / width at unit distance
+    glm::dmat4 viewMatrix{1.0};                          // world -> eye, OpenGL convention (looks down -z)
+    glm::dmat4 projectionMatrix{1.0};                    // eye -> clip, this frustum in `depth`'s convention
+    DepthConvention depth;                               // of the frame the view is drawn into
+    glm::ivec2 origin{0};                                // the viewport's lower-left corner in the frame (pixels)
 
     // Unit world direction through image point (px, py), in pixels from the top-left
     // corner of the viewport; the centre of pixel (i, j) is (i + 0.5, j + 0.5).

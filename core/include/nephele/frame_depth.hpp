@@ -15,20 +15,20 @@ namespace nephele {
 
 // A depth texture to read the view's depth from, and the texel of the view's pixel (0, 0).
 struct DepthSource {
-    GLuint texture = 0;     // 0: no depth (every pixel is "no surface")
+    GLuint texture = 0;  // 0: no depth (every pixel is "no surface")
     glm::ivec2 origin{0};
 };
 
 // Where a renderer draws (ViewDesc's framebuffer, depth and colour, resolved).
 struct HostFrame {
-    GLuint framebuffer = 0;  // its draw buffer `drawBuffer`: rgb radiance "over", alpha the cloud opacity
+    GLuint framebuffer = 0;       // its draw buffer `drawBuffer`: rgb radiance "over", alpha the cloud opacity
     GLenum drawBuffer = GL_NONE;  // the colour attachment drawn into; GL_NONE: the framebuffer's draw buffer 0
-    bool hasDepth = true;    // false: the frame has no depth to respect
-    DepthSource depth;       // its depth when already at hand (the host's depth texture, or a copy made for
-                             // this view); texture 0: copied from the framebuffer's when a pass needs it
-    bool srgb = false;       // the colour attachment is sRGB: GL_FRAMEBUFFER_SRGB on while writing it
-    bool cloudShadows = true;  // the layers' cloud shadows darken the frame's surfaces and the ground below
-                               // the horizon (LayeredSettings::shadows permitting)
+    bool hasDepth = true;         // false: the frame has no depth to respect
+    DepthSource depth;            // its depth when already at hand (the host's depth texture, or a copy made for
+                                  // this view); texture 0: copied from the framebuffer's when a pass needs it
+    bool srgb = false;            // the colour attachment is sRGB: GL_FRAMEBUFFER_SRGB on while writing it
+    bool cloudShadows = true;     // the layers' cloud shadows darken the frame's surfaces and the ground below
+                                  // the horizon (LayeredSettings::shadows permitting)
 };
 
 class FrameDepth {

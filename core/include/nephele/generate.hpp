@@ -97,7 +97,7 @@ Cloud generateMesh(const Generator& g, GenerateStats* stats = nullptr);
 // Every other symbol only takes part in the rewriting. Throws std::length_error when the
 // rewritten string would exceed maxSymbols (at most kMaxLSystemSymbols) symbols, place more
 // than kMaxLSystemSpheres spheres, or nest '[' deeper than limits::kLSystemDepth.
-inline constexpr size_t kMaxLSystemSymbols = size_t(limits::kLSystemSymbols.value);     // rewritten string length
+inline constexpr size_t kMaxLSystemSymbols = size_t(limits::kLSystemSymbols.value);      // rewritten string length
 inline constexpr size_t kMaxLSystemSpheres = size_t(limits::kEllipsoidsPerEntry.value);  // as cumulus `count`
 Cloud generateLSystem(const Generator& g, GenerateStats* stats = nullptr, size_t maxSymbols = kMaxLSystemSymbols);
 

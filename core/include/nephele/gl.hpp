@@ -80,7 +80,9 @@ class Handle {
 public:
     Handle() noexcept = default;
     template <class... Args>
-    static Handle create(Args... args) { return Handle(Kind::create(args...)); }
+    static Handle create(Args... args) {
+        return Handle(Kind::create(args...));
+    }
     static Handle wrap(GLuint id) noexcept { return Handle(id); }
 
     ~Handle() { reset(); }
@@ -109,15 +111,42 @@ private:
 };
 
 namespace kind {
-struct Buffer { static GLuint create(); static void destroy(GLuint); };
-struct VertexArray { static GLuint create(); static void destroy(GLuint); };
-struct Texture { static GLuint create(GLenum target); static void destroy(GLuint); };
-struct Renderbuffer { static GLuint create(); static void destroy(GLuint); };
-struct Framebuffer { static GLuint create(); static void destroy(GLuint); };
-struct Sampler { static GLuint create(); static void destroy(GLuint); };
-struct Query { static GLuint create(GLenum target); static void destroy(GLuint); };
-struct Shader { static GLuint create(GLenum stage); static void destroy(GLuint); };
-struct Program { static GLuint create(); static void destroy(GLuint); };
+struct Buffer {
+    static GLuint create();
+    static void destroy(GLuint);
+};
+struct VertexArray {
+    static GLuint create();
+    static void destroy(GLuint);
+};
+struct Texture {
+    static GLuint create(GLenum target);
+    static void destroy(GLuint);
+};
+struct Renderbuffer {
+    static GLuint create();
+    static void destroy(GLuint);
+};
+struct Framebuffer {
+    static GLuint create();
+    static void destroy(GLuint);
+};
+struct Sampler {
+    static GLuint create();
+    static void destroy(GLuint);
+};
+struct Query {
+    static GLuint create(GLenum target);
+    static void destroy(GLuint);
+};
+struct Shader {
+    static GLuint create(GLenum stage);
+    static void destroy(GLuint);
+};
+struct Program {
+    static GLuint create();
+    static void destroy(GLuint);
+};
 }  // namespace kind
 
 using Buffer = Handle<kind::Buffer>;
@@ -137,7 +166,8 @@ struct IndexedMesh {
     Buffer vertices, indices;
     GLsizei indexCount = 0;
 };
-IndexedMesh makeIndexedMesh(const std::vector<float>& interleaved, const std::vector<unsigned>& indices, int attributes);
+IndexedMesh makeIndexedMesh(const std::vector<float>& interleaved, const std::vector<unsigned>& indices,
+                            int attributes);
 
 // Storage that is rewritten every frame: grows `buffer` (doubling, never shrinking) to hold
 // `bytes` (at least 16) and copies exactly `bytes` of `data` in (nothing when data is null).

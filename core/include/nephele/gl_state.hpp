@@ -29,14 +29,16 @@ namespace nephele {
 struct GlStateSnapshot {
     static constexpr int kUnits = 16;
     static constexpr int kDrawBuffers = 8;  // GL 4.5 guarantees at least 8 (GL_MAX_DRAW_BUFFERS)
-    struct Stencil { GLint func, ref, valueMask, writeMask, fail, depthFail, pass; };
+    struct Stencil {
+        GLint func, ref, valueMask, writeMask, fail, depthFail, pass;
+    };
 
     GLint drawFramebuffer, readFramebuffer, renderbuffer;
     GLint viewport[4];
     GLint scissorBox[4];
-    GLboolean depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill, polygonOffsetLine,
-        polygonOffsetPoint, framebufferSrgb, multisample, sampleAlphaToCoverage, sampleAlphaToOne, sampleCoverage,
-        sampleMask, colorLogicOp, primitiveRestart, rasterizerDiscard, programPointSize, depthClamp, dither;
+    GLboolean depthTest, stencilTest, cullFace, scissorTest, polygonOffsetFill, polygonOffsetLine, polygonOffsetPoint,
+        framebufferSrgb, multisample, sampleAlphaToCoverage, sampleAlphaToOne, sampleCoverage, sampleMask, colorLogicOp,
+        primitiveRestart, rasterizerDiscard, programPointSize, depthClamp, dither;
     struct DrawBufferBlend {
         GLboolean blend;
         GLint equationRgb, equationAlpha, srcRgb, dstRgb, srcAlpha, dstAlpha;
@@ -54,17 +56,22 @@ struct GlStateSnapshot {
     GLint clearStencil;
     GLint cullFaceMode, frontFace, polygonMode[2];
     GLfloat polygonOffsetFactor, polygonOffsetUnits;
-    GLint program, vertexArray, arrayBuffer, elementArrayBuffer, uniformBuffer, pixelPackBuffer,
-        pixelUnpackBuffer, drawIndirectBuffer;
+    GLint program, vertexArray, arrayBuffer, elementArrayBuffer, uniformBuffer, pixelPackBuffer, pixelUnpackBuffer,
+        drawIndirectBuffer;
     GLint activeTexture;
     std::array<std::array<GLint, 5>, kUnits> textures;  // 2D, 3D, 2D array, rectangle, buffer
     std::array<GLint, kUnits> samplers;
-    struct PixelStore { GLint alignment, rowLength, imageHeight, skipPixels, skipRows, skipImages, swapBytes, lsbFirst; };
+    struct PixelStore {
+        GLint alignment, rowLength, imageHeight, skipPixels, skipRows, skipImages, swapBytes, lsbFirst;
+    };
     PixelStore pack, unpack;
     std::array<GLboolean, 8> clipDistance;
     GLint shaderStorageBuffer;
-    struct Range { GLint buffer; GLint64 start, size; };
-    std::array<Range, 8> shaderStorage;                  // indexed bindings 0..7
+    struct Range {
+        GLint buffer;
+        GLint64 start, size;
+    };
+    std::array<Range, 8> shaderStorage;  // indexed bindings 0..7
 
     static GlStateSnapshot capture();
     void restore() const;

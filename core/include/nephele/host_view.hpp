@@ -28,22 +28,22 @@ struct ViewDesc {
                                  // reversed or infinite), in the convention `depth` states
     DepthConvention depth;
     glm::ivec4 viewport{0, 0, 0, 0};  // x, y, width, height of the channel in `framebuffer` (pixels, lower left)
-    GLuint framebuffer = 0;      // the host's (0 = the default framebuffer): its draw buffer `drawBuffer`
-                                 // gets rgb radiance "over" and alpha accumulating the cloud opacity
-    GLenum drawBuffer = GL_NONE;  // the colour attachment Nephele draws into (GL_COLOR_ATTACHMENTi of
-                                  // `framebuffer`); GL_NONE: the framebuffer's draw buffer 0 as the host
-                                  // set it. While Nephele draws, it is the framebuffer's only draw buffer;
-                                  // the host's draw-buffer list and every draw buffer's blend state and
-                                  // colour mask are restored before draw() returns
-    GLuint depthTexture = 0;     // the host's depth as a single-sample 2D texture, sampled instead of a
-                                 // copy of `framebuffer`'s depth (it may be that attachment itself: Nephele
-                                 // never writes the host's depth); texel (x, y) = framebuffer pixel (x, y).
-                                 // A multisampled depth is copied (resolved) from the framebuffer instead
-    bool hasDepth = true;        // false: no depth at all (the clouds cover everything in the frame)
-    bool cloudShadows = false;   // opt-in: the layers' cloud shadows multiply the colour of the frame's
-                                 // surfaces (where its depth holds one) and of the empty pixels below the
-                                 // horizon (taken as ground at LayeredSettings::groundHeight). Off, the
-                                 // host's pixels are left as they are and the host shades its own
+    GLuint framebuffer = 0;           // the host's (0 = the default framebuffer): its draw buffer `drawBuffer`
+                                      // gets rgb radiance "over" and alpha accumulating the cloud opacity
+    GLenum drawBuffer = GL_NONE;      // the colour attachment Nephele draws into (GL_COLOR_ATTACHMENTi of
+                                      // `framebuffer`); GL_NONE: the framebuffer's draw buffer 0 as the host
+                                      // set it. While Nephele draws, it is the framebuffer's only draw buffer;
+                                      // the host's draw-buffer list and every draw buffer's blend state and
+                                      // colour mask are restored before draw() returns
+    GLuint depthTexture = 0;          // the host's depth as a single-sample 2D texture, sampled instead of a
+                                      // copy of `framebuffer`'s depth (it may be that attachment itself: Nephele
+                                      // never writes the host's depth); texel (x, y) = framebuffer pixel (x, y).
+                                      // A multisampled depth is copied (resolved) from the framebuffer instead
+    bool hasDepth = true;             // false: no depth at all (the clouds cover everything in the frame)
+    bool cloudShadows = false;        // opt-in: the layers' cloud shadows multiply the colour of the frame's
+                                      // surfaces (where its depth holds one) and of the empty pixels below the
+                                      // horizon (taken as ground at LayeredSettings::groundHeight). Off, the
+                                      // host's pixels are left as they are and the host shades its own
     ColorTarget color = ColorTarget::Auto;
 };
 

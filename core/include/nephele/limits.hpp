@@ -53,7 +53,8 @@ inline constexpr Limit kKeyframes{"path keyframes", 100'000, ""};
 inline constexpr Limit kCoordinate{"coordinate", 1e7, "m"};  // |x|, |y|, |z| of every position
 inline constexpr Limit kEllipsoidRadius{"ellipsoid radius", 100'000, "m"};
 inline constexpr Limit kSmallestRadius{"smallest ellipsoid radius", 0.01, "m", true};
-inline constexpr Limit kOpticalDepth{"optical depth per ellipsoid", 10'000, ""};  // extinction*density*16/15*largest radius
+inline constexpr Limit kOpticalDepth{"optical depth per ellipsoid", 10'000,
+                                     ""};  // extinction*density*16/15*largest radius
 inline constexpr Limit kExtinction{"extinction", 10, "1/m"};
 inline constexpr Limit kNoiseAmplitude{"noise amplitude", 10, ""};
 inline constexpr Limit kNoiseScale{"noise scale", 1e6, "m"};

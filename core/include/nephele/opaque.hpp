@@ -74,8 +74,8 @@ struct SurfaceHit {
     Vec3 albedo{0.0};
 };
 // The nearest object hit by the ray (origin, unit direction) within (tMin, tMax).
-std::optional<SurfaceHit> intersectObjects(const Scene& scene, const Vec3& origin, const Vec3& direction,
-                                           double tMin, double tMax);
+std::optional<SurfaceHit> intersectObjects(const Scene& scene, const Vec3& origin, const Vec3& direction, double tMin,
+                                           double tMax);
 // Radiance of the sky/ground/objects along a camera ray (clipped to the camera's near/far).
 Vec3 opaqueRadiance(const Scene& scene, const View& view, const Vec3& direction);
 // A full RGBA image (alpha 0) of the sky and objects, one ray per pixel centre.

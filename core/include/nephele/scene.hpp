@@ -43,7 +43,7 @@ struct Camera {
     double fovYDeg = 60.0;    // vertical field of view, degrees, 1 < fov < 179
     double nearClip = 0.5;    // m, 0 < near < far
     double farClip = 100000.0;
-    int width = 640;          // pixels, 1..16384
+    int width = 640;  // pixels, 1..16384
     int height = 480;
 };
 
@@ -68,12 +68,12 @@ struct Sky {
 // 35/8 being 1 / the mean of the profile (1 - q)^2 over the ellipsoid, so that the mean
 // extinction of the ellipsoid is the physical 3 LWC / (2 rho_w r_eff). LWC 0.5 and r_eff 10
 // give a mean of 0.075 /m and an extinction at density 1 of 0.328125 /m.
-inline constexpr double kWaterDensity = 1e6;              // g/m^3
-inline constexpr double kProfileMean = 8.0 / 35.0;        // mean of (1 - q)^2 over the unit ball
-inline constexpr double kLiquidWaterMin = 0.0;            // g/m^3, exclusive
-inline constexpr double kLiquidWaterMax = 5.0;            // g/m^3: cumulonimbus cores
-inline constexpr double kDropletRadiusMin = 1.0;          // um
-inline constexpr double kDropletRadiusMax = 100.0;        // um: drizzle; rain drops are not cloud matter
+inline constexpr double kWaterDensity = 1e6;        // g/m^3
+inline constexpr double kProfileMean = 8.0 / 35.0;  // mean of (1 - q)^2 over the unit ball
+inline constexpr double kLiquidWaterMin = 0.0;      // g/m^3, exclusive
+inline constexpr double kLiquidWaterMax = 5.0;      // g/m^3: cumulonimbus cores
+inline constexpr double kDropletRadiusMin = 1.0;    // um
+inline constexpr double kDropletRadiusMax = 100.0;  // um: drizzle; rain drops are not cloud matter
 inline constexpr double meanExtinctionFromWater(double lwcGramsPerCubicMetre, double reffMicrometres) {
     return 3.0 * lwcGramsPerCubicMetre / (2.0 * kWaterDensity * reffMicrometres * 1e-6);
 }
@@ -91,7 +91,8 @@ inline constexpr double liquidWaterFromExtinction(double extinction, double reff
 // effective radius kCumulusDropletRadius (um): a mean extinction of 0.075 /m.
 inline constexpr double kCumulusLiquidWater = 0.5;
 inline constexpr double kCumulusDropletRadius = 10.0;
-inline constexpr double kCumulusExtinction = extinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius);  // 1/m at density 1
+inline constexpr double kCumulusExtinction =
+    extinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius);  // 1/m at density 1
 
 struct Medium {
     double extinction = 0.04;  // 1/m at density 1 (the peak of an ellipsoid of density 1), >= 0;
@@ -118,9 +119,9 @@ struct Medium {
 
 struct Ellipsoid {
     Vec3 center{0.0};
-    Vec3 radii{1.0};           // semi-axes along local x, y, z, each > 0
-    Vec3 rotationDeg{0.0};     // R = Rz(rz) * Ry(ry) * Rx(rx)
-    double density = 1.0;      // >= 0
+    Vec3 radii{1.0};        // semi-axes along local x, y, z, each > 0
+    Vec3 rotationDeg{0.0};  // R = Rz(rz) * Ry(ry) * Rx(rx)
+    double density = 1.0;   // >= 0
     double maxRadius() const { return std::max({radii.x, radii.y, radii.z}); }  // its bounding sphere's
 };
 
@@ -150,20 +151,20 @@ struct Cloud {
 struct Generator {
     enum class Type { Cumulus, Mesh, LSystem };
     Type type = Type::Cumulus;
-    std::string name;          // default "<type><index>", e.g. "cumulus0"
+    std::string name;  // default "<type><index>", e.g. "cumulus0"
     unsigned seed = 1;
-    double density = 1.0;      // density of every ellipsoid it makes, >= 0
+    double density = 1.0;  // density of every ellipsoid it makes, >= 0
 
     // cumulus (Jimenez de Parga & Gomez Palomo 2018, section 3.6.1)
-    Vec3 center{0.0};                          // required for cumulus and lsystem
-    int count = 35;                            // ellipsoids placed, 1..limits::kEllipsoidsPerEntry
-    Vec3 sigma{300.0, 300.0, 120.0};           // m, Gaussian placement std-dev per axis, > 0
-    Vec3 clampLo{-2.0, -2.0, -0.5};            // placement clamped to [lo, hi] * sigma per axis
+    Vec3 center{0.0};                 // required for cumulus and lsystem
+    int count = 35;                   // ellipsoids placed, 1..limits::kEllipsoidsPerEntry
+    Vec3 sigma{300.0, 300.0, 120.0};  // m, Gaussian placement std-dev per axis, > 0
+    Vec3 clampLo{-2.0, -2.0, -0.5};   // placement clamped to [lo, hi] * sigma per axis
     Vec3 clampHi{2.0, 2.0, 2.0};
-    double maxRadius = 250.0;                  // m, radius at the centre (eq. 16's epsilon), > 0
-    Vec3 aspect{1.0, 1.0, 0.7};                // radii multipliers per local axis, > 0
-    bool hollow = true;                        // drop ellipsoids in the core (eq. 17 region)
-    bool pruneContained = true;                // drop ellipsoids inside another one
+    double maxRadius = 250.0;    // m, radius at the centre (eq. 16's epsilon), > 0
+    Vec3 aspect{1.0, 1.0, 0.7};  // radii multipliers per local axis, > 0
+    bool hollow = true;          // drop ellipsoids in the core (eq. 17 region)
+    bool pruneContained = true;  // drop ellipsoids inside another one
     // "medium": "cumulus" (opt-in): real cumulus matter whatever the scene's medium. The loader
     // sets `density` to kCumulusExtinction / medium.extinction (one ellipsoid alone would have
     // the mean extinction meanExtinctionFromWater(kCumulusLiquidWater, kCumulusDropletRadius));
@@ -172,32 +173,32 @@ struct Generator {
     bool cumulusMedium = false;
 
     // mesh (one ellipsoid per triangle of a Wavefront OBJ)
-    std::string path;                          // as written in the scene
-    std::string resolvedPath;                  // relative to the scene file's folder
-    Vec3 position{0.0};                        // m, translation applied to the mesh
-    double scale = 1.0;                        // > 0
-    Vec3 rotationDeg{0.0};                     // R = Rz * Ry * Rx, applied before translation
-    double thicknessRatio = 0.5;               // normal semi-axis / smaller in-plane semi-axis, > 0
+    std::string path;             // as written in the scene
+    std::string resolvedPath;     // relative to the scene file's folder
+    Vec3 position{0.0};           // m, translation applied to the mesh
+    double scale = 1.0;           // > 0
+    Vec3 rotationDeg{0.0};        // R = Rz * Ry * Rx, applied before translation
+    double thicknessRatio = 0.5;  // normal semi-axis / smaller in-plane semi-axis, > 0
 
     // lsystem
-    std::string axiom;                         // non-empty
+    std::string axiom;                                // non-empty
     std::vector<std::pair<char, std::string>> rules;  // one rule per symbol
     double angleDeg = 25.0;
-    int iterations = 3;                        // 0..8
-    double step = 100.0;                       // m, branch step, > 0
-    double radius = 80.0;                      // m, sphere radius at a symbol, > 0
-    double jitter = 0.2;                       // proportional random factor, [0, 1)
+    int iterations = 3;    // 0..8
+    double step = 100.0;   // m, branch step, > 0
+    double radius = 80.0;  // m, sphere radius at a symbol, > 0
+    double jitter = 0.2;   // proportional random factor, [0, 1)
 };
 
 // What expanding one generator did (nephele/generate.hpp). kept = placed - prunedHollow -
 // prunedContained - degenerate = the ellipsoids of its cloud.
 struct GenerateStats {
-    std::string name;         // the generator's (and its cloud's) name
-    int placed = 0;           // cumulus: count; mesh: triangles read; lsystem: spheres placed (F)
-    int prunedHollow = 0;     // cumulus: dropped in the hollow core
-    int prunedContained = 0;  // cumulus: dropped as inside another ellipsoid
-    int degenerate = 0;       // mesh: triangles without area (or thinner than limits::kSmallestRadius), skipped
-    int kept = 0;             // ellipsoids in the cloud
+    std::string name;            // the generator's (and its cloud's) name
+    int placed = 0;              // cumulus: count; mesh: triangles read; lsystem: spheres placed (F)
+    int prunedHollow = 0;        // cumulus: dropped in the hollow core
+    int prunedContained = 0;     // cumulus: dropped as inside another ellipsoid
+    int degenerate = 0;          // mesh: triangles without area (or thinner than limits::kSmallestRadius), skipped
+    int kept = 0;                // ellipsoids in the cloud
     std::uint64_t objBytes = 0;  // mesh: bytes of the OBJ file read (limits::kObjBytesPerScene)
     std::int64_t symbols = 0;    // lsystem: length of the rewritten string (limits::kLSystemSymbols)
 };
@@ -232,24 +233,24 @@ struct Layer {
 struct Skylight {
     Vec3 direction{0, 0, 1};  // unit (required in the file)
     Vec3 color{1.0};
-    double intensity = 1.0;   // >= 0
+    double intensity = 1.0;  // >= 0
 };
 
 struct Lightning {
-    Vec3 position{0.0};       // required
-    double intensity = 0.0;   // required, >= 0; lights matter at distance d with I/d^2
-    double start = 0.0;       // s
-    double duration = 0.2;    // s, > 0
+    Vec3 position{0.0};      // required
+    double intensity = 0.0;  // required, >= 0; lights matter at distance d with I/d^2
+    double start = 0.0;      // s
+    double duration = 0.2;   // s, > 0
 };
 
 struct Object {
     enum class Type { Box, Sphere };
     Type type = Type::Box;
-    Vec3 center{0.0};         // required
-    Vec3 size{1.0};           // box: full edge lengths, each > 0 (required for a box)
-    double radius = 1.0;      // sphere: > 0 (required for a sphere)
+    Vec3 center{0.0};     // required
+    Vec3 size{1.0};       // box: full edge lengths, each > 0 (required for a box)
+    double radius = 1.0;  // sphere: > 0 (required for a sphere)
     Vec3 rotationDeg{0.0};
-    Vec3 color{0.5};          // linear albedo
+    Vec3 color{0.5};  // linear albedo
 };
 
 // What lights the scene's opaque objects (the top-level key "object_light"): Sun, the format's
@@ -259,19 +260,19 @@ struct Object {
 enum class ObjectLight { Sun, All };
 
 struct Keyframe {
-    double t = 0.0;           // s, strictly increasing along the path
+    double t = 0.0;  // s, strictly increasing along the path
     Vec3 position{0.0};
     Vec3 lookAt{0.0};
 };
 
 struct Scene {
-    std::string file;         // where it was loaded from ("" if built in code)
+    std::string file;  // where it was loaded from ("" if built in code)
     Camera camera;
     Sun sun;
     Sky sky;
     Medium medium;
     std::vector<Cloud> clouds;
-    std::vector<Generator> generators;  // as loaded; expanded into `clouds` by loadScene
+    std::vector<Generator> generators;     // as loaded; expanded into `clouds` by loadScene
     std::vector<GenerateStats> generated;  // generated[i]: expansion of generators[i] (generate.hpp)
     std::vector<Layer> layers;
     std::optional<Skylight> skylight;

@@ -30,12 +30,11 @@ std::string shaderFileText(const std::string& name);
 // Full source for one stage: `#version 450 core`, `defines`, then the file with its
 // includes resolved. `files` receives the file name of each source-string index used in
 // `#line` directives, so logs can be mapped back.
-std::string assembleShaderSource(const std::string& file, const std::string& defines,
-                                 std::vector<std::string>& files);
+std::string assembleShaderSource(const std::string& file, const std::string& defines, std::vector<std::string>& files);
 
 struct ShaderStage {
-    GLenum stage;           // GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, ...
-    std::string file;       // a file in shaders/
+    GLenum stage;      // GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, ...
+    std::string file;  // a file in shaders/
 };
 
 class Program {

@@ -17,12 +17,12 @@ namespace nephele {
 // A UTC instant on the Gregorian calendar. No time zones and no daylight saving: a host
 // converts its local clock first (UTC = local standard time - zone offset).
 struct UtcTime {
-    int year = 2000;     // 1583..4000 (accuracy: see solarPosition)
-    int month = 1;       // 1..12
-    int day = 1;         // 1..days in that month
-    int hour = 12;       // 0..23
-    int minute = 0;      // 0..59
-    double second = 0;   // [0, 61) (a leap second's 60.x is accepted)
+    int year = 2000;    // 1583..4000 (accuracy: see solarPosition)
+    int month = 1;      // 1..12
+    int day = 1;        // 1..days in that month
+    int hour = 12;      // 0..23
+    int minute = 0;     // 0..59
+    double second = 0;  // [0, 61) (a leap second's 60.x is accepted)
 };
 
 // The Julian Day of `time` (days since -4712-01-01 12:00 UT), Meeus 1998 eq. (7.1).
@@ -30,18 +30,18 @@ struct UtcTime {
 double julianDay(const UtcTime& time);
 
 struct SolarPosition {
-    double julianDay = 0;            // of the instant (UT, the NOAA algorithm ignores Delta T)
-    double declinationDeg = 0;       // apparent geocentric declination
-    double rightAscensionDeg = 0;    // apparent geocentric right ascension, [0, 360)
-    double equationOfTimeMin = 0;    // apparent minus mean solar time, minutes
-    double distanceAu = 1;           // Earth-sun distance, astronomical units
-    double hourAngleDeg = 0;         // local hour angle, (-180, 180], > 0 in the afternoon
-    double elevationDeg = 0;         // geometric (true) elevation, no refraction, [-90, 90]
-    double refractionDeg = 0;        // NOAA's standard-atmosphere refraction at elevationDeg
-    double apparentElevationDeg = 0; // elevationDeg + refractionDeg: where the eye sees it
-    double apparentZenithDeg = 90;   // 90 - apparentElevationDeg
-    double azimuthDeg = 0;           // clockwise from true north, [0, 360)
-    Vec3 direction{0, 0, 1};         // unit, towards the apparent sun, east-north-up
+    double julianDay = 0;             // of the instant (UT, the NOAA algorithm ignores Delta T)
+    double declinationDeg = 0;        // apparent geocentric declination
+    double rightAscensionDeg = 0;     // apparent geocentric right ascension, [0, 360)
+    double equationOfTimeMin = 0;     // apparent minus mean solar time, minutes
+    double distanceAu = 1;            // Earth-sun distance, astronomical units
+    double hourAngleDeg = 0;          // local hour angle, (-180, 180], > 0 in the afternoon
+    double elevationDeg = 0;          // geometric (true) elevation, no refraction, [-90, 90]
+    double refractionDeg = 0;         // NOAA's standard-atmosphere refraction at elevationDeg
+    double apparentElevationDeg = 0;  // elevationDeg + refractionDeg: where the eye sees it
+    double apparentZenithDeg = 90;    // 90 - apparentElevationDeg
+    double azimuthDeg = 0;            // clockwise from true north, [0, 360)
+    Vec3 direction{0, 0, 1};          // unit, towards the apparent sun, east-north-up
 };
 
 // Where the sun is at `time` for an observer at geodetic `latitudeDeg` (-90..90, north > 0)

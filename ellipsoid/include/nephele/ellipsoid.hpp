@@ -54,18 +54,18 @@ enum class FlyThrough {
 };
 
 struct EllipsoidSettings {
-    int minTile = 8;            // px, power of two
-    int maxTile = 512;          // px, power of two
-    int atlasWidth = 0;         // px; 0 = the frame's size (the paper's back buffer)
+    int minTile = 8;     // px, power of two
+    int maxTile = 512;   // px, power of two
+    int atlasWidth = 0;  // px; 0 = the frame's size (the paper's back buffer)
     int atlasHeight = 0;
     AtlasPrecision precision = AtlasPrecision::Float16;
-    bool instanced = true;      // false: the paper's one draw per ellipsoid (the baseline)
+    bool instanced = true;  // false: the paper's one draw per ellipsoid (the baseline)
     FlyThrough flyThrough = FlyThrough::Fraction;
     TileGeometry geometry = TileGeometry::Mesh;
-    int tessellation = 0;       // slices of the ellipsoid mesh (Mesh geometry); 0 = adapted to the tile size
-    int atlasMegabytes = 256;   // memory for the atlas layers (one per pass, 8 bytes a pixel at f16); when
-                                // the passes need more, the largest tiles are halved until they fit
-    RadianceGridSettings light; // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
+    int tessellation = 0;           // slices of the ellipsoid mesh (Mesh geometry); 0 = adapted to the tile size
+    int atlasMegabytes = 256;       // memory for the atlas layers (one per pass, 8 bytes a pixel at f16); when
+                                    // the passes need more, the largest tiles are halved until they fit
+    RadianceGridSettings light;     // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
     bool colourMatrixPass = false;  // true: the colour matrix in a pass of its own per atlas layer (the
                                     // paper's copy); false: the composite applies it as it reads the atlas
                                     // (the same image: filtering is linear), one pass less per tile pixel
@@ -121,7 +121,7 @@ struct EllipsoidSettings {
     // of every tile fresh and the mean change between frames by +0.000002, and rendered a third
     // fewer tile pixels (docs/compositor.md, "Tiles that last").
     double reuseErrorPixels = 1.0;
-    double reuseBudget = 1.0;       // >= 0: tile pixels a frame, in frames' pixels
+    double reuseBudget = 1.0;  // >= 0: tile pixels a frame, in frames' pixels
     // A level of detail per cloud (after Harris & Lastra 2001; Elinas & Stuerzlinger close their
     // paper wanting impostors for far clouds). On: a cloud farther than cloudLodDistance of its
     // bounding radii, beyond the near plane and at most cloudLodMaxPixels on screen is drawn as
@@ -149,11 +149,11 @@ struct EllipsoidSettings {
     bool cloudLod = false;
     int closeDownsample = 2;           // 1..4; 1: every tile composited at the view's resolution
     double cloudLodErrorPixels = 1.5;  // > 0
-    double cloudLodDistance = 4;   // >= 1, in the cloud's bounding radii (kept down to 0.9 x this)
-    int cloudLodMaxPixels = 512;   // 8..4096: a cloud larger on screen is drawn as tiles
-    int impostorMegabytes = 32;    // >= 1: the impostor atlas (RGBA16F layers of the next power of two
-                                   // above cloudLodMaxPixels; at least one); a cloud that finds no room
-                                   // is drawn as tiles
+    double cloudLodDistance = 4;       // >= 1, in the cloud's bounding radii (kept down to 0.9 x this)
+    int cloudLodMaxPixels = 512;       // 8..4096: a cloud larger on screen is drawn as tiles
+    int impostorMegabytes = 32;        // >= 1: the impostor atlas (RGBA16F layers of the next power of two
+                                       // above cloudLodMaxPixels; at least one); a cloud that finds no room
+                                       // is drawn as tiles
 };
 
 // Whether `s` draws far clouds as impostors: cloudLod, with the composite and fly-through it
@@ -163,35 +163,35 @@ inline bool cloudLodApplies(const EllipsoidSettings& s) {
 }
 
 struct EllipsoidStats {
-    int ellipsoids = 0;         // in the scene
-    int visible = 0;            // after culling
+    int ellipsoids = 0;  // in the scene
+    int visible = 0;     // after culling
     int passes = 0;
-    int maxTile = 0;            // the largest tile size used (below settings.maxTile when memory bound)
-    int lightVolume = 0;        // voxels per side of the light volumes used (below settings.lightVolume
-                                // when settings.lightMegabytes bounds them)
-    int drawCalls = 0;          // draws issued by the compositor for this frame
-    double utilisation = 0;     // mean over passes of tile area / atlas area
-    std::int64_t tilePixels = 0;  // sum of tile areas
-    std::int64_t screenPixels = 0;  // sum of the tiles' screen rectangles (pixels)
-    int tilesRendered = 0;          // tiles drawn in the atlas this frame (all visible without reuse)
+    int maxTile = 0;                      // the largest tile size used (below settings.maxTile when memory bound)
+    int lightVolume = 0;                  // voxels per side of the light volumes used (below settings.lightVolume
+                                          // when settings.lightMegabytes bounds them)
+    int drawCalls = 0;                    // draws issued by the compositor for this frame
+    double utilisation = 0;               // mean over passes of tile area / atlas area
+    std::int64_t tilePixels = 0;          // sum of tile areas
+    std::int64_t screenPixels = 0;        // sum of the tiles' screen rectangles (pixels)
+    int tilesRendered = 0;                // tiles drawn in the atlas this frame (all visible without reuse)
     std::int64_t tilePixelsRendered = 0;  // their area
-    int tilesReused = 0;            // tiles composited from an earlier frame's image (reuse)
-    int tilesMust = 0;              // reuse: of tilesRendered, those with no usable image (new, cut by the near
-                                    // plane, a new shape, a part come into view)
-    bool atlasRepacked = false;     // reuse: the atlas was too full or fragmented and packed anew (all fresh)
-    bool atlasGrown = false;        // the atlas texture was made anew with more layers this frame (a stall)
-    int impostors = 0;              // cloudLod: clouds drawn as one impostor this frame
-    int impostorsRendered = 0;      // ... of those, made (again) from their tiles this frame
-    int tilesDownsampled = 0;       // cloudLod: tiles composited at 1 / closeDownsample of the resolution
-    int lightVolumes = 0;       // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
-    int lightUploads = 0;       // of those (and of updateLights() before) uploaded to the GPU
-    int lightPending = 0;       // grids still being made on the worker (RadianceGridSettings::background)
-    int lightStandIns = 0;      // clouds lit by a stand-in meanwhile, or past the grids' memory budget
+    int tilesReused = 0;                  // tiles composited from an earlier frame's image (reuse)
+    int tilesMust = 0;                    // reuse: of tilesRendered, those with no usable image (new, cut by the near
+                                          // plane, a new shape, a part come into view)
+    bool atlasRepacked = false;           // reuse: the atlas was too full or fragmented and packed anew (all fresh)
+    bool atlasGrown = false;              // the atlas texture was made anew with more layers this frame (a stall)
+    int impostors = 0;                    // cloudLod: clouds drawn as one impostor this frame
+    int impostorsRendered = 0;            // ... of those, made (again) from their tiles this frame
+    int tilesDownsampled = 0;             // cloudLod: tiles composited at 1 / closeDownsample of the resolution
+    int lightVolumes = 0;   // clouds' radiance grids made for this frame (new or changed clouds, a new sun or sky)
+    int lightUploads = 0;   // of those (and of updateLights() before) uploaded to the GPU
+    int lightPending = 0;   // grids still being made on the worker (RadianceGridSettings::background)
+    int lightStandIns = 0;  // clouds lit by a stand-in meanwhile, or past the grids' memory budget
     // With EllipsoidSettings::timings, the wall time of each part (ms, gl::PartTimer); else 0.
     double tilesMs = 0;      // projection, packing, light grids and the tile passes
     double compositeMs = 0;  // the tiles composited over the frame (with the weighted resolve)
-    double planMs = 0;          // CPU time of this call before its first draw (projection, packing, light
-                                // grids when they changed, uploads), wall ms
+    double planMs = 0;       // CPU time of this call before its first draw (projection, packing, light
+                             // grids when they changed, uploads), wall ms
 };
 
 // One tile of the last frame, for a host's debug views.

@@ -20,10 +20,12 @@
 NEPHELE_API_BEGIN
 namespace nephele {
 
-struct ScreenRect { double x0 = 0, y0 = 0, x1 = 0, y1 = 0; };  // NDC, x0 < x1, y0 < y1, inside [-1,1]^2
+struct ScreenRect {
+    double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};  // NDC, x0 < x1, y0 < y1, inside [-1,1]^2
 
 struct EllipsoidProjection {
-    bool visible = false;      // false: culled (entirely behind the near plane, beyond the far plane, or outside the view)
+    bool visible = false;  // false: culled (entirely behind the near plane, beyond the far plane, or outside the view)
     bool eyeInside = false;    // the eye is inside the ellipsoid (q(eye) < 1)
     bool crossesNear = false;  // the near plane z = -near cuts it where the view sees (a view ray starts inside it;
                                // eyeInside, or conservatively when it comes within reach of the near rectangle)
@@ -31,7 +33,7 @@ struct EllipsoidProjection {
     double pixelWidth = 0, pixelHeight = 0;  // rect size in pixels of the camera image (fractional)
     glm::dmat4 projection{1.0};  // off-axis perspective (glm::frustum) whose frustum is exactly `rect` with the
                                  // camera's near/far: eye space -> tile clip space; rect corners map to NDC (+-1, +-1)
-    double distance = 0;       // m, |center - eye|, the back-to-front sort key
+    double distance = 0;         // m, |center - eye|, the back-to-front sort key
     glm::dvec3 boxMin{0.0}, boxMax{0.0};  // m, exact eye-space axis-aligned bounding box of the ellipsoid (unclipped)
 };
 

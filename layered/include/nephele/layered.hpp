@@ -71,13 +71,13 @@ inline constexpr int kMaxLightingSize = 2048;
 
 struct LightingSettings {
     int width = 256, height = 256, depth = 32;  // texels (the paper's 256 x 256 x 32), 2..kMaxLightingSize each
-    double tilePeriod = 8000;     // m, horizontal period of the 3D texture (the paper: 16000 units)
-    int octaves = 4;              // fBm octaves of the volume's density, 1..8
-    int cells = 8;                // fBm lattice cells per tile period, >= 1
-    unsigned seed = 1;            // of the volume's density (not the layer's modulation seed)
-    int photons = 1 << 13;        // photons traced per light source and threshold for the diffuse light, 64..2^22
-                                  // (0: no diffuse light, single scattering alone: the accuracy bench's split)
-    int tableBins = 16;           // nodes of the light tables per optical-depth axis, 4..64
+    double tilePeriod = 8000;                   // m, horizontal period of the 3D texture (the paper: 16000 units)
+    int octaves = 4;                            // fBm octaves of the volume's density, 1..8
+    int cells = 8;                              // fBm lattice cells per tile period, >= 1
+    unsigned seed = 1;                          // of the volume's density (not the layer's modulation seed)
+    int photons = 1 << 13;  // photons traced per light source and threshold for the diffuse light, 64..2^22
+                            // (0: no diffuse light, single scattering alone: the accuracy bench's split)
+    int tableBins = 16;     // nodes of the light tables per optical-depth axis, 4..64
 };
 
 // The layer's diffuse light (layered/src/layer_light.cpp; the model is shaders/layer_light.glsl):
@@ -87,8 +87,8 @@ struct LightingSettings {
 // extinction there: the extinction-weighted mean light of the points of the layer that have
 // those optical depths above and below them.
 struct LayerLightTables {
-    int bins = 0;                  // nodes per axis; node (i, j) at above u = (i + 0.5) / bins, below (j + 0.5) / bins
-    std::vector<float> sunMu;      // the sun's elevations (sines) the sun tables are for, ascending
+    int bins = 0;              // nodes per axis; node (i, j) at above u = (i + 0.5) / bins, below (j + 0.5) / bins
+    std::vector<float> sunMu;  // the sun's elevations (sines) the sun tables are for, ascending
     // Per sun elevation, bins x bins (i fastest): the sunlight scattered 1 to kFewScatterings
     // times, per unit irradiance: (phi0 fluence, phi1 net flux along the sun's horizontal
     // direction, phi1 z, 0); sunMany the same of the sunlight scattered more often (the two
@@ -118,10 +118,10 @@ public:
 struct LightingVolume {
     LightingSettings settings;
     LightingParameters parameters;
-    double precomputeMs = 0;     // CPU time it took (0 when loaded)
-    std::vector<std::uint8_t> texels;  // RGBA8, x fastest, then y, then z (z = 0 the layer's bottom)
-    std::vector<std::uint8_t> columns; // RGBA8, width x height: rgb = the whole column's encoded knots (see below)
-    LayerLightTables tables;           // the diffuse light
+    double precomputeMs = 0;            // CPU time it took (0 when loaded)
+    std::vector<std::uint8_t> texels;   // RGBA8, x fastest, then y, then z (z = 0 the layer's bottom)
+    std::vector<std::uint8_t> columns;  // RGBA8, width x height: rgb = the whole column's encoded knots (see below)
+    LayerLightTables tables;            // the diffuse light
 
     // The density A at texel (i, j, k).
     double densityAt(int i, int j, int k) const;
@@ -174,12 +174,12 @@ LightingParameters lightingParameters(const Medium& medium, const Layer& layer);
 // The 2D modulation texture and the CPU twins of the shader
 
 struct ModulationSettings {
-    int size = 512;               // texels per side, >= 8
-    double period = 30000;        // m, tile period of the 2D texture (the paper: 400000 units)
-    int octaves = 5;              // fBm octaves, 1..8
-    int cells = 6;                // fBm lattice cells per period, >= 1
-    double maxThreshold = 0.8;    // r spans [0, maxThreshold]: with C = 1 only points where A < r are empty
-    double glowPeriod = 12000;    // m, feature size of the city map in the green channel
+    int size = 512;             // texels per side, >= 8
+    double period = 30000;      // m, tile period of the 2D texture (the paper: 400000 units)
+    int octaves = 5;            // fBm octaves, 1..8
+    int cells = 6;              // fBm lattice cells per period, >= 1
+    double maxThreshold = 0.8;  // r spans [0, maxThreshold]: with C = 1 only points where A < r are empty
+    double glowPeriod = 12000;  // m, feature size of the city map in the green channel
 };
 
 struct ModulationTexture {
@@ -195,25 +195,25 @@ ModulationTexture makeModulation(const ModulationSettings& settings, unsigned se
 inline constexpr int kMaxBillboardSlices = 4096;
 
 struct LayeredSettings {
-    int layers = 8;               // N, annuli per scene layer (LOD1), >= 2; 8 keeps grazing-view gaps < 2% (layered_gl_test)
-    double lod0Radius = 1500;     // m, radius of the billboard disc (LOD0); 0 = no billboards
-    double lod0Spacing = 100;     // m, p_s of eq. (13): distance between billboard slices, > 0
-    double extentFade = 0.1;      // fraction of the extent over which the layer fades out at its rim
-    double nearRadius = 0;        // m: within this horizontal distance from the eye the layer adds nothing
-    double blendBand = 0;         // m: across [nearRadius, nearRadius + blendBand] it fades in (smoothstep)
-    double glowHeight = 1;        // f_c of eq. (20)
-    int segments = 96;            // angular segments of the annulus mesh, >= 8
-    bool shadows = true;          // cloud shadows, eq. (19), on the frame's surfaces and the ground
-    int downsample = 2;           // the layers are drawn at 1/downsample of the frame's resolution (1..4) and
-                                  // upsampled with the frame's depth (nearest-depth); 1 = full resolution
-    double groundHeight = 0;      // m, z of the ground plane the shadows fall on (the format's ground)
+    int layers = 8;  // N, annuli per scene layer (LOD1), >= 2; 8 keeps grazing-view gaps < 2% (layered_gl_test)
+    double lod0Radius = 1500;  // m, radius of the billboard disc (LOD0); 0 = no billboards
+    double lod0Spacing = 100;  // m, p_s of eq. (13): distance between billboard slices, > 0
+    double extentFade = 0.1;   // fraction of the extent over which the layer fades out at its rim
+    double nearRadius = 0;     // m: within this horizontal distance from the eye the layer adds nothing
+    double blendBand = 0;      // m: across [nearRadius, nearRadius + blendBand] it fades in (smoothstep)
+    double glowHeight = 1;     // f_c of eq. (20)
+    int segments = 96;         // angular segments of the annulus mesh, >= 8
+    bool shadows = true;       // cloud shadows, eq. (19), on the frame's surfaces and the ground
+    int downsample = 2;        // the layers are drawn at 1/downsample of the frame's resolution (1..4) and
+                               // upsampled with the frame's depth (nearest-depth); 1 = full resolution
+    double groundHeight = 0;   // m, z of the ground plane the shadows fall on (the format's ground)
     LightingSettings lighting;
     ModulationSettings modulation;
-    std::string cacheDir;         // lighting volumes are cached here ("" = not cached)
-    int resourceMegabytes = 1024; // memory for the layers' lighting volumes and modulation textures (CPU and
-                                  // GL): layers of the same thickness (and medium) share a volume, of the same
-                                  // seed a modulation; a scene whose distinct ones need more is refused
-                                  // (ResourceError) before anything is made. 1..65536
+    std::string cacheDir;           // lighting volumes are cached here ("" = not cached)
+    int resourceMegabytes = 1024;   // memory for the layers' lighting volumes and modulation textures (CPU and
+                                    // GL): layers of the same thickness (and medium) share a volume, of the same
+                                    // seed a modulation; a scene whose distinct ones need more is refused
+                                    // (ResourceError) before anything is made. 1..65536
     BackgroundSettings background;  // how the worker that makes them in the background runs (SkySettings::background)
 };
 // Throws std::invalid_argument naming the setting.
@@ -233,8 +233,8 @@ double rimFade(const Layer& layer, double extentFade, double horizontal);
 // The layer's modulation at world (x, y) (m) and time t (s): eq. (16) with the 3D texture's
 // alpha at its peak (1), i.e. D * max(C - r, 0), with r read as the shader reads it (wind
 // included). > 0 where the layer has cloud; the near LOD spawns ellipsoid clouds there.
-double layerModulation(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
-                       double x, double y, double t);
+double layerModulation(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms, double x,
+                       double y, double t);
 // The shader's density at a world point inside the layer: D * max(A - (r + 1 - C), 0), eq. (16),
 // A from the lighting volume at that point. 0 outside [base, base + thickness].
 double layerDensity(const Layer& layer, const ModulationTexture& modulation, const ModulationSettings& ms,
@@ -263,18 +263,18 @@ double groundSunShare(const Sun& sun, const Sky& sky);
 // The renderer
 
 struct LayeredStats {
-    int sceneLayers = 0;     // layers in the scene
-    int drawCalls = 0;       // the layers' instanced draws this frame (two per scene layer)
-    int instances = 0;       // annuli + billboards drawn
-    int shadowLayers = 0;    // layers casting cloud shadows this frame
-    int shadowDrawCalls = 0; // full-screen cloud-shadow passes of their own (0 when fused into the upsampling)
+    int sceneLayers = 0;        // layers in the scene
+    int drawCalls = 0;          // the layers' instanced draws this frame (two per scene layer)
+    int instances = 0;          // annuli + billboards drawn
+    int shadowLayers = 0;       // layers casting cloud shadows this frame
+    int shadowDrawCalls = 0;    // full-screen cloud-shadow passes of their own (0 when fused into the upsampling)
     int upsampleDrawCalls = 0;  // full-screen passes that upsample the layers (1 with downsample > 1)
-    double precomputeMs = 0; // lighting computed in this call (0 when cached or loaded; in the background:
-                             // what the worker finished since the last call)
-    int pendingLayers = 0;   // layers whose lighting is being computed in the background (drawn with the
-                             // last volume they had meanwhile; not drawn when they had none)
-    int uploads = 0;         // textures made in this call (new lighting or modulation data; layers with
-                             // the same data share one)
+    double precomputeMs = 0;    // lighting computed in this call (0 when cached or loaded; in the background:
+                                // what the worker finished since the last call)
+    int pendingLayers = 0;      // layers whose lighting is being computed in the background (drawn with the
+                                // last volume they had meanwhile; not drawn when they had none)
+    int uploads = 0;            // textures made in this call (new lighting or modulation data; layers with
+                                // the same data share one)
 };
 
 class LayerAssets;  // internal (layered/internal/layer_assets.hpp): the layers' lighting and modulation data

@@ -66,13 +66,13 @@ inline constexpr double kAutoBlendBand = 1500;   // m
 inline constexpr double kAutoLod0Margin = 1000;  // m
 
 struct NearLodSettings {
-    double cellSize = 1000;     // m, side of a cell (about a cumulus's width), > 0
-    double jitter = 0.2;        // cells, largest offset of a spawn point from its cell's centre per axis, [0, 0.5)
-    int columns = 4;            // ellipsoid columns per cell side, 1..16 (each carries its column of the layer)
-    int stack = 1;              // ellipsoids per column, one per band of the layer's height, 1..4
-    int samples = 2;            // points per column side sampled through the layer, 1..16
-    int levels = 8;             // heights per point, 1..64
-    double columnDepth = 0.5;   // optical depth of a point's column that counts as cloud (the cell's cover), > 0
+    double cellSize = 1000;    // m, side of a cell (about a cumulus's width), > 0
+    double jitter = 0.2;       // cells, largest offset of a spawn point from its cell's centre per axis, [0, 0.5)
+    int columns = 4;           // ellipsoid columns per cell side, 1..16 (each carries its column of the layer)
+    int stack = 1;             // ellipsoids per column, one per band of the layer's height, 1..4
+    int samples = 2;           // points per column side sampled through the layer, 1..16
+    int levels = 8;            // heights per point, 1..64
+    double columnDepth = 0.5;  // optical depth of a point's column that counts as cloud (the cell's cover), > 0
     // A column with less optical depth on average gets no ellipsoid, >= 0. Spread over a whole
     // ellipsoid, such faint matter hazes over more of the sky than the layer's patchy matter
     // does: mean opacity along the view rays inside a layer of coverage 0.3, near clouds against
@@ -88,7 +88,7 @@ struct NearLodSettings {
     // `bench --layer-accuracy`).
     double overlap = 1.25;
     double verticalSpread = 3.5;
-    double columnJitter = 0.15; // largest random offset of a column's ellipsoid per axis, in columns, [0, 0.5]
+    double columnJitter = 0.15;  // largest random offset of a column's ellipsoid per axis, in columns, [0, 0.5]
     // Light each cell's cloud as one tile of an endless layer of copies of itself (Cloud::tileMin:
     // the neighbours' shadow and the light they send back), not as a cloud alone in clear air.
     bool tiledLight = true;
@@ -99,24 +99,24 @@ void validate(const NearLodSettings& settings, const LayeredSettings& layered);
 
 // One cell of one layer, as spawned.
 struct NearCell {
-    int layer = 0;               // index in scene.layers
-    std::int64_t i = 0, j = 0;   // cell coordinates in the layer's pattern
-    Vec2 spawn{0.0};             // m, spawn point in pattern coordinates (world = spawn + t * wind):
-                                 // reach and weight are measured from it
-    double cover = 0;            // fraction of the cell's columns where the layer has cloud (0: no cloud)
-    Vec2 center{0.0};            // m, the cloud's centre in pattern coordinates (a cloudy column)
-    double modulation = 0;       // layerModulation at `center` (> 0 when the cell holds a cloud)
-    Cloud cloud;                 // in pattern coordinates (empty when cover is 0)
+    int layer = 0;              // index in scene.layers
+    std::int64_t i = 0, j = 0;  // cell coordinates in the layer's pattern
+    Vec2 spawn{0.0};            // m, spawn point in pattern coordinates (world = spawn + t * wind):
+                                // reach and weight are measured from it
+    double cover = 0;           // fraction of the cell's columns where the layer has cloud (0: no cloud)
+    Vec2 center{0.0};           // m, the cloud's centre in pattern coordinates (a cloudy column)
+    double modulation = 0;      // layerModulation at `center` (> 0 when the cell holds a cloud)
+    Cloud cloud;                // in pattern coordinates (empty when cover is 0)
 };
 
 struct NearLodStats {
-    int cells = 0;         // cells within reach this frame (with or without a cloud)
-    int clouds = 0;        // of which hold a cloud (what was spawned)
-    int ellipsoids = 0;    // the ellipsoids of those clouds
-    int generated = 0;     // cells generated in this call (entered reach, or after a change of the layer)
-    int retired = 0;       // cells dropped in this call (left reach)
-    int fading = 0;        // clouds in the blend band (0 < weight < 1)
-    int pending = 0;       // cells due to be made (new, or of a changed layer) left for later updates
+    int cells = 0;       // cells within reach this frame (with or without a cloud)
+    int clouds = 0;      // of which hold a cloud (what was spawned)
+    int ellipsoids = 0;  // the ellipsoids of those clouds
+    int generated = 0;   // cells generated in this call (entered reach, or after a change of the layer)
+    int retired = 0;     // cells dropped in this call (left reach)
+    int fading = 0;      // clouds in the blend band (0 < weight < 1)
+    int pending = 0;     // cells due to be made (new, or of a changed layer) left for later updates
 };
 
 class LayerAssets;  // internal (layered/internal/layer_assets.hpp): the layers' lighting and modulation data

@@ -16,9 +16,22 @@ namespace nephele {
 
 // CIGI 3.3 Weather Control, Cloud Type.
 enum class CigiCloudType : std::uint8_t {
-    None = 0, Altocumulus = 1, Altostratus = 2, Cirrocumulus = 3, Cirrostratus = 4, Cirrus = 5, Cumulonimbus = 6,
-    Cumulus = 7, Nimbostratus = 8, Stratocumulus = 9, Stratus = 10, Other1 = 11, Other2 = 12, Other3 = 13,
-    Other4 = 14, Other5 = 15
+    None = 0,
+    Altocumulus = 1,
+    Altostratus = 2,
+    Cirrocumulus = 3,
+    Cirrostratus = 4,
+    Cirrus = 5,
+    Cumulonimbus = 6,
+    Cumulus = 7,
+    Nimbostratus = 8,
+    Stratocumulus = 9,
+    Stratus = 10,
+    Other1 = 11,
+    Other2 = 12,
+    Other3 = 13,
+    Other4 = 14,
+    Other5 = 15
 };
 // CIGI 3.3 Weather Control, Scope.
 enum class CigiWeatherScope : std::uint8_t { Global = 0, Regional = 1, Entity = 2 };
@@ -28,17 +41,17 @@ enum class CigiWeatherScope : std::uint8_t { Global = 0, Regional = 1, Entity = 
 // barometric pressure and aerosol concentration do not apply to Nephele's clouds and are left
 // out (docs/embedding.md's table says what each field becomes).
 struct CloudLayerControl {
-    int layerId = 1;               // 1..3: CIGI's cloud layers 1..3; 10..255: IG-defined, taken as further cloud layers
-    bool weatherEnable = true;     // false: the layer is not drawn (Nephele keeps its state for a later enable)
+    int layerId = 1;            // 1..3: CIGI's cloud layers 1..3; 10..255: IG-defined, taken as further cloud layers
+    bool weatherEnable = true;  // false: the layer is not drawn (Nephele keeps its state for a later enable)
     CigiWeatherScope scope = CigiWeatherScope::Global;  // Global only: Nephele's layers cover the world
     CigiCloudType cloudType = CigiCloudType::Cumulus;   // sets the layer's density and near LOD (cloudTypeLook)
-    double coverage = 60;          // percent, 0..100
-    double baseElevation = 1500;   // m, the layer's base (Nephele's z)
-    double thickness = 600;        // m, > 0
-    double transitionBand = 0;     // m, >= 0 (not rendered: the layer's density already fades to 0 at its base and top)
+    double coverage = 60;                               // percent, 0..100
+    double baseElevation = 1500;                        // m, the layer's base (Nephele's z)
+    double thickness = 600;                             // m, > 0
+    double transitionBand = 0;  // m, >= 0 (not rendered: the layer's density already fades to 0 at its base and top)
     double horizontalWindSpeed = 0;  // m/s, >= 0
-    double verticalWindSpeed = 0;  // m/s (not rendered: the layers stay at their base)
-    double windDirection = 0;      // degrees clockwise from true north (+y), the direction the wind blows FROM
+    double verticalWindSpeed = 0;    // m/s (not rendered: the layers stay at their base)
+    double windDirection = 0;        // degrees clockwise from true north (+y), the direction the wind blows FROM
 };
 
 // How a cloud type looks: the layer's density and whether its near clouds become ellipsoid

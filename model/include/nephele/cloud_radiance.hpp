@@ -63,8 +63,8 @@ struct RadianceGridSettings {
     // 0..2^26. 2^18 at 32^3: the accuracy bench's cumulus lost under a point against 2^20.
     int sunPhotons = 1 << 18;
     int skyPhotons = 1 << 18;
-    int smoothing = 1;          // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
-    unsigned seed = 1;          // the photons' random numbers: the same inputs give the same grid
+    int smoothing = 1;  // passes of a [1 2 1]^3 filter over the diffuse light, 0..8
+    unsigned seed = 1;  // the photons' random numbers: the same inputs give the same grid
     // Memory for the grids, CPU and GPU together (radianceGridBytes() each), 1..65536 MB. Clouds
     // past it (the smallest on screen first) are lit by a stand-in (model/internal/light_cache.hpp).
     double megabytes = 256;
@@ -115,8 +115,8 @@ struct CloudRadiance {
     Vec3 boxMin{0.0}, boxExtent{1.0};  // m, world (the cloud's axis-aligned box)
     int size = 0;
     std::vector<glm::vec4> sunFew, sunMany, skyTau, skyFlux;  // size^3 each, see above
-    std::vector<float> sunTransmittance;                       // sunSize()^3, see above
-    double computeMs = 0;               // wall time it took
+    std::vector<float> sunTransmittance;                      // sunSize()^3, see above
+    double computeMs = 0;                                     // wall time it took
 
     std::size_t voxels() const { return std::size_t(size) * size * size; }
     int sunSize() const { return kSunRefinement * size; }

@@ -9,12 +9,12 @@
 
 NEPHELE_API_BEGIN
 namespace nephele::model {
-using glm::clamp;
 using glm::acos;
+using glm::clamp;
 using glm::dot;
 using glm::exp;
-using glm::log;
 using glm::length;
+using glm::log;
 using glm::max;
 using glm::min;
 using glm::pow;

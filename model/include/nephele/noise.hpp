@@ -38,16 +38,16 @@ float fbm(const glm::vec3& p, int octaves, int period, unsigned seed);
 // that adds noise to the ellipsoids takes these defaults unless told otherwise, so that all of
 // them see the same field (the path tracer always does).
 struct NoiseSettings {
-    int size = 64;      // texels per side of the tileable volume
-    int cells = 8;      // lattice cells per period: one cell is medium.noise_scale metres
+    int size = 64;  // texels per side of the tileable volume
+    int cells = 8;  // lattice cells per period: one cell is medium.noise_scale metres
     int octaves = 4;
     unsigned seed = 7;
 };
 
 // A size^3 scalar volume, uploaded as a 3D texture and sampled as one.
 struct NoiseVolume {
-    int size = 0;                 // size^3 texels
-    std::vector<float> texels;    // x fastest, then y, then z: texels[i + size * (j + size * k)]
+    int size = 0;               // size^3 texels
+    std::vector<float> texels;  // x fastest, then y, then z: texels[i + size * (j + size * k)]
 
     // Trilinear filtering with repeat wrap, as GL_LINEAR + GL_REPEAT samples a size^3
     // texture at texture coordinate uvw (texel centres at (i + 0.5) / size, period 1).

@@ -13,8 +13,8 @@ NEPHELE_API_BEGIN
 namespace nephele {
 
 enum class GlBackend { Egl, OSMesa, Glfw };
-const char* backendName(GlBackend backend);          // "egl", "osmesa", "glfw"
-GlBackend parseBackend(const std::string& name);     // throws std::invalid_argument
+const char* backendName(GlBackend backend);       // "egl", "osmesa", "glfw"
+GlBackend parseBackend(const std::string& name);  // throws std::invalid_argument
 
 // A context could not be made. what() says which backend failed, why, and what to try.
 class ContextError : public std::runtime_error {
@@ -24,11 +24,11 @@ public:
 
 struct ContextOptions {
     GlBackend backend = GlBackend::Egl;
-    int width = 640;          // GLFW window size; EGL and OSMesa render to framebuffer objects
+    int width = 640;  // GLFW window size; EGL and OSMesa render to framebuffer objects
     int height = 480;
-    bool visible = true;      // GLFW only
+    bool visible = true;  // GLFW only
     std::string title = "Nephele";
-    bool debug = false;       // request a debug context
+    bool debug = false;  // request a debug context
 };
 
 class Context {

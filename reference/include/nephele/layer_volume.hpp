@@ -68,8 +68,8 @@ private:
         Layer layer;
         LightingVolume light;
         ModulationTexture modulation;
-        double peakA = 0;            // the largest density A of the lighting volume
-        std::vector<float> rMin;     // per coarse cell (cells x cells), the smallest r a lookup in it reads
+        double peakA = 0;         // the largest density A of the lighting volume
+        std::vector<float> rMin;  // per coarse cell (cells x cells), the smallest r a lookup in it reads
     };
     void cellBounds(const Entry& e, const Vec3& o, const Vec3& d, double t0, double t1, std::vector<Bound>& out) const;
 
@@ -77,7 +77,7 @@ private:
     double extinction_ = 0;  // 1/m at density 1
     double extentFade_ = 0;
     double time_ = 0;
-    int cells_ = 1;          // coarse cells per side of the modulation texture
+    int cells_ = 1;  // coarse cells per side of the modulation texture
     std::vector<Entry> layers_;
 };
 

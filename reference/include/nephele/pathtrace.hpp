@@ -57,7 +57,7 @@ class LayerVolumes;  // nephele/layer_volume.hpp
 inline constexpr double kMaxPathTraceNoise = 1;
 
 struct PathTraceSettings {
-    int spp = 64;         // samples per pixel, >= 1
+    int spp = 64;  // samples per pixel, >= 1
     // Scattering events (new directions) per path, >= 0; 0 = single scattering via NEE only. Past
     // 32 the orders left out carried 4% of the light 100 m under a
     // deck of optical depth about 15 (albedo 0.99, g 0.85); by 128 none is left there to float
@@ -68,7 +68,7 @@ struct PathTraceSettings {
     // the number of new directions its path took before it. With the same seed, the orders
     // 0..k plus the orders k+1..n are the image with maxBounces n, to float round-off.
     int firstBounce = 0;
-    unsigned seed = 1;    // same seed, scene and settings -> bit-identical image, whatever the thread count
+    unsigned seed = 1;      // same seed, scene and settings -> bit-identical image, whatever the thread count
     bool progress = false;  // report progress through nephele::reportProgress (nephele/log.hpp)
     // The scene's layers as volumes (made for this scene and time); null: layers are left out.
     std::shared_ptr<const LayerVolumes> layers;
@@ -76,9 +76,10 @@ struct PathTraceSettings {
 
 // Seconds renderPathTraced would take here for these settings on an otherwise idle machine
 // (all cores): a pilot render of every 8th pixel of every 8th row at up to 2 spp, its CPU
-// time scaled (about 1/64 of a 2-spp render's cost). renderPathTraced logs this estimate (LogLevel::Info) before renders of at least 10^6
-// samples that it expects to take 2 s or more. Throws as renderPathTraced.
-double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise);
+// time scaled (about 1/64 of a 2-spp render's cost). renderPathTraced logs this estimate (LogLevel::Info) before
+// renders of at least 10^6 samples that it expects to take 2 s or more. Throws as renderPathTraced.
+double estimatePathTraceSeconds(const Scene& scene, const View& view, const PathTraceSettings& s,
+                                const NoiseVolume* noise);
 
 // RGBA: rgb linear radiance, a = cloud opacity along the primary ray (1 - transmittance of
 // cloud matter between the near plane and the first opaque surface or the far plane; exact
@@ -99,8 +100,8 @@ Image renderPathTraced(const Scene& scene, const View& view, const PathTraceSett
 // file (checksum, length, a NaN, a negative radiance, an opacity over 1) or something other
 // than a regular file there (read without blocking) is rendered again with a warning through
 // the log callback (nephele/log.hpp), never used.
-Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s,
-                             const NoiseVolume* noise, const std::string& cacheDir);
+Image renderPathTracedCached(const Scene& scene, const View& view, const PathTraceSettings& s, const NoiseVolume* noise,
+                             const std::string& cacheDir);
 
 // The extinction field (1/m) that renderPathTraced renders, at a point: the ellipsoids' matter
 // as the path tracer holds it (each ellipsoid's sigma capped as above, the noise factor with

@@ -63,21 +63,21 @@ struct SkySettings {
 };
 
 struct SkyStats {
-    LayeredStats layered;      // the far field (sceneLayers 0 when the scene has no layers)
-    NearLodStats nearLod;      // what the near LOD spawned (render() only: update() reports it)
-    EllipsoidStats ellipsoids; // the compositor, explicit and near clouds together (tilesMs, compositeMs)
+    LayeredStats layered;       // the far field (sceneLayers 0 when the scene has no layers)
+    NearLodStats nearLod;       // what the near LOD spawned (render() only: update() reports it)
+    EllipsoidStats ellipsoids;  // the compositor, explicit and near clouds together (tilesMs, compositeMs)
     // With SkySettings::timings, the wall time of each part (ms); else 0.
-    double farFieldMs = 0;     // the layered sky
-    double nearLodMs = 0;      // the near LOD's update (spawning and retiring cells)
+    double farFieldMs = 0;  // the layered sky
+    double nearLodMs = 0;   // the near LOD's update (spawning and retiring cells)
 };
 
 struct SkyUpdateStats {
-    NearLodStats nearLod;  // what the near LOD spawned and retired
-    int lightVolumes = 0;  // clouds' radiance grids finished on the worker since the last update
-    int lightPending = 0;  // grids still being made there (new near clouds, a new sun)
-    int lightStandIns = 0; // clouds lit by a stand-in meanwhile (model/internal/light_cache.hpp)
-    double lightMs = 0;    // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
-    int layers = 0;        // enabled layers
+    NearLodStats nearLod;    // what the near LOD spawned and retired
+    int lightVolumes = 0;    // clouds' radiance grids finished on the worker since the last update
+    int lightPending = 0;    // grids still being made there (new near clouds, a new sun)
+    int lightStandIns = 0;   // clouds lit by a stand-in meanwhile (model/internal/light_cache.hpp)
+    double lightMs = 0;      // wall time of EllipsoidRenderer::updateLights (it never waits for a grid), ms
+    int layers = 0;          // enabled layers
     int backgroundJobs = 0;  // lighting and modulation jobs queued or running
     // The weather transition's progress, 0..1: the share of the way from what was shown when the
     // last new weather came to it (Weather::transitionSeconds); 1 when it is done.
@@ -94,7 +94,7 @@ struct CloudPresence {
 // Inside a cloud: where the visibility is under 1 km, the meteorological bound of cloud and fog,
 // by Koschmieder's law (visibility = 3.912 / extinction at a contrast threshold of 2%).
 inline constexpr double kInsideCloudExtinction = 3.912 / 1000;  // 1/m
-inline constexpr double kCloudDepthReach = 5000;                 // m: insideCloud looks no further
+inline constexpr double kCloudDepthReach = 5000;                // m: insideCloud looks no further
 
 // Needs a current OpenGL 4.5 context; leaves the GL state as it found it.
 class SkyRenderer {
@@ -165,8 +165,8 @@ public:
     // (docs/embedding.md, "Lighting the aircraft"). The sun's shadow in it is the explicit and
     // near clouds', not the layers' (transmittance() along the sun has both). From the clouds'
     // grids of the last update(): call it on the thread that calls update() and draw(), between
-    // them (not thread-safe, unlike the queries above). Throws std::logic_error before prepare(), std::invalid_argument for a
-    // point or normal that is not finite or a normal too short.
+    // them (not thread-safe, unlike the queries above). Throws std::logic_error before prepare(), std::invalid_argument
+    // for a point or normal that is not finite or a normal too short.
     SurfaceLight lightAt(const Vec3& point, const Vec3& normal) const;
 
     // ---- One synchronous call for one view (the command line, tests): draws every cloud of

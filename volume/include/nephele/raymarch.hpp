@@ -55,12 +55,12 @@ NEPHELE_API_BEGIN
 namespace nephele {
 
 struct RaymarchSettings {
-    double step = 25;          // m, base step along the ray, > 0
-    double lodDistance = 4000; // m: the step grows as step * (1 + distance / lodDistance) (the paper's
-                               // distance-dependent LOD); 0 = fixed step
+    double step = 25;            // m, base step along the ray, > 0
+    double lodDistance = 4000;   // m: the step grows as step * (1 + distance / lodDistance) (the paper's
+                                 // distance-dependent LOD); 0 = fixed step
     RadianceGridSettings light;  // each cloud's radiance grid (nephele/cloud_radiance.hpp): what lights it
-    int octaves = 5;           // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
-    int maxSteps = 2048;       // per pixel, a safety cap, 1..65536: a march that reaches it stops there
+    int octaves = 5;             // fBm octaves of the noise (with medium.noise > 0), 1..8 (the paper uses 5)
+    int maxSteps = 2048;         // per pixel, a safety cap, 1..65536: a march that reaches it stops there
     // 1..4: march one ray per downsample x downsample pixels, into a target of 1/downsample of the
     // frame's size per side, upsampled over the frame with its depth (core's ReducedTarget, as the
     // layered sky's layers and the compositor's close tiles: the frame's depth reduced per block to
@@ -77,7 +77,7 @@ struct RaymarchStats {
     int lightGridsComputed = 0;      // radiance grids computed in this call (0 when all were kept)
     int lightStandIns = 0;           // clouds lit by a stand-in (light_cache.hpp): grids pending or past the budget
     double planMs = 0;               // wall ms of this call before its draw (light grids included)
-    int downsample = 1;              // the frame's: RaymarchSettings::downsample, or 1 looking within the sun's phase peak
+    int downsample = 1;  // the frame's: RaymarchSettings::downsample, or 1 looking within the sun's phase peak
 };
 
 // ---- The CPU side (the paper's host code), also what the tests check the GPU against.
