@@ -22,6 +22,7 @@ def main():
                               ("baseline_ms", "baseline: one draw per ellipsoid, separate colour-matrix pass", "s--"),
                               ("separate_pass_ms", "instanced, separate colour-matrix pass", "d-"),
                               ("weighted_composite_ms", "instanced, weighted composite (--composite weighted)", "x-"),
+                              ("detail_ms", "compositor with the detail on (erosion 1.5)", "v-"),
                               ("floor_ms", "floor: pixel work alone", "^:")]:
         if key in rows[0]:  # older CSVs lack the later columns
             ax.plot(n, [float(r[key]) for r in rows], style, label=label)

@@ -87,13 +87,21 @@ MODEL_FN float detailPerlin(vec3 p, uint seed) {
 // low inside them, so that erosion cuts grooves and leaves bulges (cauliflower).
 // reference: (1 - |perlin|)^8, near 1 on the noise's zero sheets. nephele: the texture's
 // squared Worley F1 distance (model/src/detail.cpp), high where cells meet.
+// DETAIL_KIND: a GLSL program is built for one kind (DetailTexture::kindDefine), which it reads
+// whatever `kind` says: with the kind a uniform, the reference kind's Perlin octave was paid for
+// in every octave of the nephele kind too on llvmpipe (the tiles' detail cost halved without it).
+// Without DETAIL_KIND (C++), the kind is chosen at run time.
+MODEL_FN float detailReferenceOctave(vec3 p, int octave) {
+    float a = 1.0f - min(abs(detailPerlin(p, kDetailSeed + uint(octave) * kDetailSeedStep)), 1.0f);
+    float a2 = a * a;
+    float a4 = a2 * a2;
+    return a4 * a4;
+}
 MODEL_FN float detailOctave(DETAIL_TEX tex, int kind, vec3 p, int octave) {
-    if (kind == kDetailReference) {
-        float a = 1.0f - min(abs(detailPerlin(p, kDetailSeed + uint(octave) * kDetailSeedStep)), 1.0f);
-        float a2 = a * a;
-        float a4 = a2 * a2;
-        return a4 * a4;
-    }
+#ifdef DETAIL_KIND
+    kind = DETAIL_KIND;
+#endif
+    if (kind == kDetailReference) return detailReferenceOctave(p, octave);
     return DETAIL_FETCH(tex, p * (1.0f / kDetailTextureCells));
 }
 
@@ -107,22 +115,22 @@ MODEL_FN float detailOctaveCut(DetailParams dp, float dist) {
 // not change with distance. The contrast C spreads S (a mean of many octaves, so close to mu):
 // the rim is cut deep where D is high and left whole where it is 0. No upper clamp: a clamp there
 // flattened the small octaves wherever the large ones saturated it.
+// The octaves past the cut are all their mean: the loop stops at the cut (reading none of them)
+// and S - mu is the drawn octaves' share alone, sum_k G^k f_k (N_k - mu) / sum_k G^k.
 const float kDetailContrast = 6.0f;  // C
 MODEL_FN float detailValue(DETAIL_TEX tex, DetailParams dp, vec3 rel) {
     vec3 y = dp.origin + rel;
     float cut = detailOctaveCut(dp, length(rel));
-    float sum = 0.0f, total = 0.0f, weight = 1.0f, frequency = 1.0f / dp.scale;
-    for (int k = 0; k < dp.octaves; ++k) {
+    int drawn = min(dp.octaves, int(ceil(max(cut, 0.0f))));
+    float sum = 0.0f, weight = 1.0f, frequency = 1.0f / dp.scale;
+    for (int k = 0; k < drawn; ++k) {
         float f = clamp(cut - float(k), 0.0f, 1.0f);
-        float n = dp.mean;
-        if (f > 0.0f)
-            n = dp.mean + f * (detailOctave(tex, dp.kind, y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean);
-        sum += weight * n;
-        total += weight;
+        sum += weight * f * (detailOctave(tex, dp.kind, y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean);
         weight *= kDetailGain;
         frequency *= 2.0f;
     }
-    return max(0.5f + kDetailContrast * (sum / total - dp.mean), 0.0f);
+    float total = (1.0f - pow(kDetailGain, float(dp.octaves))) / (1.0f - kDetailGain);
+    return max(0.5f + kDetailContrast * (sum / total), 0.0f);
 }
 
 // The erosion delta = E D at the point rel metres from the eye. It eats into each ellipsoid from

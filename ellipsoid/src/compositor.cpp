@@ -87,24 +87,32 @@ void checkSettings(const EllipsoidSettings& s) {
 }  // namespace
 
 // The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
-void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
+void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
+    const std::string defines = unorm8 + DetailTexture::kindDefine(detailKind);
     if (s.geometry == TileGeometry::Mesh) {
-        const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + unorm8;
+        const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + defines;
         tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                               falloffTexture);
         tileCut =
             Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                            falloffTexture + "#define CUT 1\n");
-        rayDefines = unorm8;
+        rayDefines = defines;
+        tileRay = Program();  // made again, if needed, by groupTiles
     } else {
         tileRay = Program::build(
-            {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, unorm8);
+            {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, defines);
         tileRayCut = Program::build(
             {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-            unorm8 + "#define CUT 1\n");
+            defines + "#define CUT 1\n");
     }
+}
+
+void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
+    buildTilePrograms(s);
+    // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
+    const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
     colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
     composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
@@ -313,6 +321,10 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     Impl& m = *this;
     FramePlan out;
     out.reuse = reuse;
+    if (scene.medium.detail.on() && scene.medium.detail.kind != detailKind) {
+        detailKind = scene.medium.detail.kind;  // the tile programs read this kind alone
+        buildTilePrograms(s);
+    }
     if (!prepareFrame(s, scene, view, lod, out)) return out;
 
     AtlasLayout a;
@@ -507,9 +519,9 @@ void EllipsoidRenderer::Impl::uploadPlan(const EllipsoidSettings& s, const View&
     atlas.height = a.atlasH;
     if (atlas.layers < packed.passes) {
         const GLenum termsFormat = s.precision == AtlasPrecision::Float16 ? GL_RGBA16F : GL_RGBA8;
-        // A power of two of layers, 8 at least (within the memory budget): remaking it costs a
-        // frame about 200 ms at 1280x720 on llvmpipe (bench --weather: 3 -> 5 -> 8 layers as
-        // near clouds came into view stalled two frames), so it is made with room to grow.
+        // A power of two of layers, 8 at least (within the memory budget): remaking the atlas
+        // stalls a frame (near clouds coming into view grow it a few layers at a time), so it is
+        // made with room to grow.
         // With reuse, twice that: its tiles stay within the layers it has until a repack.
         const int room = int(std::bit_ceil(unsigned(packed.passes))) * (out.reuse ? 2 : 1);
         const int layers = std::max(packed.passes, std::min(a.maxPasses, std::max(kMinAtlasLayers, room)));

@@ -17,6 +17,11 @@ public:
     // the path tracer on the dense cumulus from 1 km, opacity MAE 0.023 with 3, 0.014 with 6.
     static constexpr int kTilePieces = 6;
 
+    // The define a program that reads the detail is built with (shaders/detail.glsl, DETAIL_KIND):
+    // it reads that kind's octaves alone, whatever the scene says, so a renderer builds its detail
+    // programs again when the scene's kind is not the one they were built for.
+    static std::string kindDefine(Medium::Detail::Kind kind);
+
     // Sets `detail` (a uniform DetailParams) and `detailVolume` of `program` for the eye `eye`, and
     // binds the texture (made on first use) when the detail is on; `detailPieces` too. With the detail off only
     // detail.erosion (0) is set: the shaders then keep their paths without it.

@@ -6,6 +6,12 @@
 namespace nephele {
 using namespace gl;
 
+std::string DetailTexture::kindDefine(Medium::Detail::Kind kind) {
+    return "#define DETAIL_KIND " +
+           std::to_string(kind == Medium::Detail::Kind::Reference ? model::kDetailReference : model::kDetailNephele) +
+           "\n";
+}
+
 void DetailTexture::bind(const Program& program, const Medium::Detail& detail, const Vec3& eye) {
     program.set("detail.erosion", float(detail.erosion));
     if (!detail.on()) return;

@@ -152,6 +152,8 @@ TileBins binClouds(const std::vector<std::pair<Vec3, Vec3>>& boxes, const View& 
 
 struct RaymarchRenderer::Impl {
     Program march;
+    Medium::Detail::Kind detailKind = Medium::Detail::Kind::Nephele;  // the one `march` reads
+    void buildMarch();
     VertexArray empty;
     // The fBm volume, made on the first frame with medium.noise > 0: for the light march on
     // the CPU and as a 3D texture for the GPU, the same texels.
@@ -191,8 +193,7 @@ void validate(const RaymarchSettings& s) {
 RaymarchRenderer::RaymarchRenderer(const RaymarchSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {
     validate(s);
     Impl& m = *impl_;
-    m.march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}},
-                             "#define RM_TILE " + std::to_string(kTile) + "\n");
+    m.buildMarch();
     m.empty = VertexArray::create();
     if (s.downsample > 1) m.reduced = std::make_unique<ReducedTarget>();
     checkAlways("creating the ray-marcher");
@@ -207,6 +208,12 @@ void RaymarchRenderer::Impl::ensureNoise(const RaymarchSettings& s) {
     noise = noiseTexture(noiseCpu);
     noiseOctaves = s.octaves;
     check("uploading the raymarch noise volume");
+}
+
+// The march program, for one detail kind (DetailTexture::kindDefine).
+void RaymarchRenderer::Impl::buildMarch() {
+    march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}},
+                           "#define RM_TILE " + std::to_string(kTile) + "\n" + DetailTexture::kindDefine(detailKind));
 }
 
 RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
@@ -224,6 +231,10 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const double kappa = std::max(medium.noise, 0.0);
 
     HostStateScope scope;  // before the uploads
+    if (medium.detail.on() && medium.detail.kind != m.detailKind) {
+        m.detailKind = medium.detail.kind;
+        m.buildMarch();
+    }
     if (kappa > 0) m.ensureNoise(s);
     m.updateLight(s, scene, view, framebuffer, litObjects, stats);
     if (stats.ellipsoids == 0) return stats;
