@@ -87,7 +87,7 @@ MODEL_FN float detailPerlin(vec3 p, uint seed) {
 // low inside them, so that erosion cuts grooves and leaves bulges (cauliflower).
 // reference: (1 - |perlin|)^8, near 1 on the noise's zero sheets. nephele: the texture's
 // squared Worley F1 distance (model/src/detail.cpp), high where cells meet.
-// DETAIL_KIND: a GLSL program is built for one kind (DetailTexture::kindDefine), which it reads
+// DETAIL_KIND: a GLSL program is built for one kind (DetailTexture::defines), which it reads
 // whatever `kind` says: with the kind a uniform, the reference kind's Perlin octave was paid for
 // in every octave of the nephele kind too on llvmpipe (the tiles' detail cost halved without it).
 // Without DETAIL_KIND (C++), the kind is chosen at run time.

@@ -60,8 +60,8 @@ void main() {
     float tStart = nearClip / dot(d, forward);
     float depth = segmentDepth(t.eyeUnitAc.xyz, toUnit(t, d), tStart, 1e30);
     float grow = 1.0;  // the light follows the eroded chord (erodedGrowth, detail.glsl)
-#ifndef FALLOFF_TEXTURE
-    if (detail.erosion > 0.0) grow = erodedGrowth(detailVolume, detail, t.eyeUnitAc.xyz, toUnit(t, d), d, tStart);
+#if defined(DETAIL) && !defined(FALLOFF_TEXTURE)
+    grow = erodedGrowth(detailVolume, detail, t.eyeUnitAc.xyz, toUnit(t, d), d, tStart);
 #endif
     vec2 light = chordLightAt(int(t.params.y), t.eyeUnitAc.xyz * grow, toUnit(t, d) * grow, d, tStart, instance.y,
                               sunDirection, hgG);
@@ -91,9 +91,8 @@ void main() {
     float n = texture(noiseVolume, noiseCoord).r;
     // The paper's falloff-texture variant (EllipsoidSettings::falloffTexture) draws no detail:
     // llvmpipe's LLVM 15 aborted compiling it with the detail (stack smashing in EarlyCSE).
-#ifndef FALLOFF_TEXTURE
-    if (detail.erosion > 0.0) {
-        // The exact chord of this pixel's ray, eroded (detail.glsl).
+#if defined(DETAIL) && !defined(FALLOFF_TEXTURE)
+    {  // the exact chord of this pixel's ray, eroded (detail.glsl)
         Tile tile = tiles[tileIndex];
         vec3 dr = normalize(rayOf());
         float t0 = instance.w > 0.5 ? nearClip / dot(dr, forward) : 0.0;

@@ -93,8 +93,8 @@ void main() {
 #ifndef CUT
     // With the detail, the light follows the eroded chord (erodedGrowth, detail.glsl).
     float grow = 1.0;
-#ifndef FALLOFF_TEXTURE
-    if (detail.erosion > 0.0) grow = erodedGrowth(detailVolume, detail, o, du, d, tStart);
+#if defined(DETAIL) && !defined(FALLOFF_TEXTURE)
+    grow = erodedGrowth(detailVolume, detail, o, du, d, tStart);
 #endif
     light = chordLightAt(int(t.params.y), o * grow, du * grow, d, tStart, t.centerSigma.w, sunDirection, hgG);
 #endif

@@ -53,9 +53,11 @@ void main() {
     float tShade = clamp(tc / len, max(tIn, tStart), max(tOut, tStart));
     vec3 shade = tShade * d;
     float n = texture(noiseVolume, shade / noisePeriod + noiseBase).r;
-    if (detail.erosion > 0.0 && depth > 0.0)
-        depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, detailPieces);
-    float grow = detail.erosion > 0.0 ? erodedGrowth(detailVolume, detail, o, du, d, tStart) : 1.0;  // the eroded chord
+    float grow = 1.0;  // the light follows the eroded chord
+#ifdef DETAIL
+    if (depth > 0.0) depth = erodedSegmentDepth(detailVolume, detail, o, du, d, tStart, 1e30, detailPieces);
+    grow = erodedGrowth(detailVolume, detail, o, du, d, tStart);
+#endif
     vec2 light = chordLightAt(cloud, o * grow, du * grow, d, tStart, instance.y, sunDirection, hgG);
     // Outside the silhouette: no matter (A = 0) makes eq. (2) zero whatever Ac and n are; the colour
     // terms go on smoothly, so that filtering at the rim mixes in no foreign colour.

@@ -144,7 +144,11 @@ float erodedExtinctionAt(float l) {
 // the cloud's radiance grid (cloud_light.glsl) as the in-scattered radiance.
 void shade(RmCloud c, float l0, float l1) {
     float mid = 0.5 * (l0 + l1);
-    float sigma = detail.erosion > 0.0 ? erodedExtinctionAt(mid) : extinctionAt(mid);
+#ifdef DETAIL
+    float sigma = erodedExtinctionAt(mid);
+#else
+    float sigma = extinctionAt(mid);
+#endif
     if (sigma <= 0.0) return;
     float dT = exp(-sigma * (l1 - l0));
     radiance +=
@@ -160,7 +164,11 @@ float minStep = 0.0;
 // With the detail, a step spans at most the finest wavelength drawn at l (detail.glsl's r, twice:
 // an octave is whole from 2 r), so that the march resolves the octaves it draws.
 float detailStep(float l) {
-    return detail.erosion > 0.0 ? 2.0 * max(kDetailFadeAngle * l, 0.5 * detail.smallest) : 1e30;
+#ifdef DETAIL
+    return 2.0 * max(kDetailFadeAngle * l, 0.5 * detail.smallest);
+#else
+    return 1e30;
+#endif
 }
 float stepAt(float l) {
     return max(max(min(stepBase * (1.0 + l * invLod), detailStep(l)), minStep), l * (1.0 / 1048576.0));

@@ -120,16 +120,17 @@ TEST_P(DetailGLTest, ErosionZeroChangesNoPixel) {
         EXPECT_EQ(renderFast(plain, raymarch).pixels, renderFast(zero, raymarch).pixels) << raymarch;
 }
 
-// A renderer's detail programs read one kind, compiled in (DetailTexture::kindDefine): after a
-// frame of the nephele kind, a frame of the reference kind must be the reference kind's, as a
-// renderer that never saw the other draws it, and not the nephele kind's. Broken (programs kept
-// for the first kind, tests/sabotage/195-detail-kind-kept.sabotage): the second frame equals the
-// first kind's image.
-TEST_P(DetailGLTest, ARendererFollowsTheScenesDetailKind) {
+// A renderer's detail programs are built for one variant of the detail, off or one kind
+// (DetailTexture::defines): frames of the nephele kind, the reference kind and no detail, one
+// after the other from one renderer, must each be what a renderer that saw nothing else draws,
+// and differ. Broken (the tile programs kept for the first variant,
+// tests/sabotage/195-detail-variant-kept.sabotage): the second and third frames are the first's.
+TEST_P(DetailGLTest, ARendererFollowsTheScenesDetailVariant) {
     auto ctx = test::makeContext(GetParam());
     Scene nephele = detailedCumulus(1000, 96);
-    Scene reference = nephele;
+    Scene reference = nephele, off = nephele;
     reference.medium.detail.kind = Medium::Detail::Kind::Reference;
+    off.medium.detail.erosion = 0;
     const View view = makeView(nephele.camera);
     RadianceGridSettings light;  // the opacity is what differs: small grids
     light.size = 8;
@@ -147,10 +148,15 @@ TEST_P(DetailGLTest, ARendererFollowsTheScenesDetailKind) {
             else compositor.render(s, view, target.framebuffer(), false);
             return channels(target.readColor(), 3, 1);
         };
-        const Image first = frame(nephele), second = frame(reference);
-        const Image fresh = channels(renderFast(reference, raymarch, light), 3, 1);
-        EXPECT_EQ(second.pixels, fresh.pixels) << (raymarch ? "raymarch" : "ellipsoid");
-        EXPECT_NE(second.pixels, first.pixels) << (raymarch ? "raymarch" : "ellipsoid");
+        const char* method = raymarch ? "raymarch" : "ellipsoid";
+        std::vector<Image> frames;
+        for (const Scene* s : {&nephele, &reference, &off}) {
+            frames.push_back(frame(*s));
+            EXPECT_EQ(frames.back().pixels, channels(renderFast(*s, raymarch, light), 3, 1).pixels)
+                << method << ", frame " << frames.size();
+        }
+        EXPECT_NE(frames[0].pixels, frames[1].pixels) << method;
+        EXPECT_NE(frames[1].pixels, frames[2].pixels) << method;
     }
 }
 

@@ -90,7 +90,7 @@ void checkSettings(const EllipsoidSettings& s) {
 void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
-    const std::string defines = unorm8 + DetailTexture::kindDefine(detailKind);
+    const std::string defines = unorm8 + DetailTexture::defines(detailVariant);
     if (s.geometry == TileGeometry::Mesh) {
         const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + defines;
         tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
@@ -321,8 +321,8 @@ FramePlan EllipsoidRenderer::Impl::plan(const EllipsoidSettings& s, const Scene&
     Impl& m = *this;
     FramePlan out;
     out.reuse = reuse;
-    if (scene.medium.detail.on() && scene.medium.detail.kind != detailKind) {
-        detailKind = scene.medium.detail.kind;  // the tile programs read this kind alone
+    if (DetailTexture::variant(scene.medium.detail) != detailVariant) {
+        detailVariant = DetailTexture::variant(scene.medium.detail);  // the tile programs read it alone
         buildTilePrograms(s);
     }
     if (!prepareFrame(s, scene, view, lod, out)) return out;

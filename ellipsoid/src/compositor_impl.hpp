@@ -116,9 +116,9 @@ struct EllipsoidRenderer::Impl {
     FramePlan plan(const EllipsoidSettings& s, const Scene& scene, const View& view, bool reuse, bool lod = true);
     // The constructor's parts (compositor.cpp).
     void buildPrograms(const EllipsoidSettings& s);
-    // The tile programs, which read the detail: for the detail kind `detailKind` (DetailTexture::kindDefine).
+    // The tile programs, which read the detail: for the variant `detailVariant` (DetailTexture::defines).
     void buildTilePrograms(const EllipsoidSettings& s);
-    Medium::Detail::Kind detailKind = Medium::Detail::Kind::Nephele;
+    DetailTexture::Variant detailVariant = DetailTexture::Variant::Off;
     void makeTextures(const EllipsoidSettings& s);
 
     Program tileClear;  // reuse: a fresh tile's rectangle cleared in a layer that keeps other tiles

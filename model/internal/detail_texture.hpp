@@ -17,10 +17,13 @@ public:
     // the path tracer on the dense cumulus from 1 km, opacity MAE 0.023 with 3, 0.014 with 6.
     static constexpr int kTilePieces = 6;
 
-    // The define a program that reads the detail is built with (shaders/detail.glsl, DETAIL_KIND):
-    // it reads that kind's octaves alone, whatever the scene says, so a renderer builds its detail
-    // programs again when the scene's kind is not the one they were built for.
-    static std::string kindDefine(Medium::Detail::Kind kind);
+    // The programs that read the detail are built for one variant of it: off (the detail's code
+    // compiled out), the nephele kind or the reference kind (DETAIL and DETAIL_KIND,
+    // shaders/detail.glsl). On llvmpipe a branch on a uniform costs its code whichever way it
+    // goes, so a renderer builds them again when the scene's variant is not theirs.
+    enum class Variant { Off, Nephele, Reference };
+    static Variant variant(const Medium::Detail& detail);
+    static std::string defines(Variant variant);
 
     // Sets `detail` (a uniform DetailParams) and `detailVolume` of `program` for the eye `eye`, and
     // binds the texture (made on first use) when the detail is on; `detailPieces` too. With the detail off only

@@ -6,10 +6,15 @@
 namespace nephele {
 using namespace gl;
 
-std::string DetailTexture::kindDefine(Medium::Detail::Kind kind) {
-    return "#define DETAIL_KIND " +
-           std::to_string(kind == Medium::Detail::Kind::Reference ? model::kDetailReference : model::kDetailNephele) +
-           "\n";
+DetailTexture::Variant DetailTexture::variant(const Medium::Detail& detail) {
+    if (!detail.on()) return Variant::Off;
+    return detail.kind == Medium::Detail::Kind::Reference ? Variant::Reference : Variant::Nephele;
+}
+
+std::string DetailTexture::defines(Variant variant) {
+    if (variant == Variant::Off) return "";
+    const int kind = variant == Variant::Reference ? model::kDetailReference : model::kDetailNephele;
+    return "#define DETAIL 1\n#define DETAIL_KIND " + std::to_string(kind) + "\n";
 }
 
 void DetailTexture::bind(const Program& program, const Medium::Detail& detail, const Vec3& eye) {

@@ -152,7 +152,7 @@ TileBins binClouds(const std::vector<std::pair<Vec3, Vec3>>& boxes, const View& 
 
 struct RaymarchRenderer::Impl {
     Program march;
-    Medium::Detail::Kind detailKind = Medium::Detail::Kind::Nephele;  // the one `march` reads
+    DetailTexture::Variant detailVariant = DetailTexture::Variant::Off;  // the one `march` reads
     void buildMarch();
     VertexArray empty;
     // The fBm volume, made on the first frame with medium.noise > 0: for the light march on
@@ -210,10 +210,10 @@ void RaymarchRenderer::Impl::ensureNoise(const RaymarchSettings& s) {
     check("uploading the raymarch noise volume");
 }
 
-// The march program, for one detail kind (DetailTexture::kindDefine).
+// The march program, for one variant of the detail (DetailTexture::defines).
 void RaymarchRenderer::Impl::buildMarch() {
     march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}},
-                           "#define RM_TILE " + std::to_string(kTile) + "\n" + DetailTexture::kindDefine(detailKind));
+                           "#define RM_TILE " + std::to_string(kTile) + "\n" + DetailTexture::defines(detailVariant));
 }
 
 RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
@@ -231,8 +231,8 @@ RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLu
     const double kappa = std::max(medium.noise, 0.0);
 
     HostStateScope scope;  // before the uploads
-    if (medium.detail.on() && medium.detail.kind != m.detailKind) {
-        m.detailKind = medium.detail.kind;
+    if (DetailTexture::variant(medium.detail) != m.detailVariant) {
+        m.detailVariant = DetailTexture::variant(medium.detail);
         m.buildMarch();
     }
     if (kappa > 0) m.ensureNoise(s);
