@@ -6,10 +6,11 @@
 #   tools/check_format.py ROOT           check; exit 1 listing each file that differs
 #   tools/check_format.py ROOT --fix     rewrite the C++ files in place (clang-format -i)
 #
-# The files are git's tracked ones when ROOT is a checkout, else every file under the source
-# folders (never build trees). clang-format's output differs between major versions, so only
-# version 14 (Debian bookworm's, what setup.sh installs) is the house style: with another one the
-# check exits 77 (ctest: skipped) saying so, and CI, which has 14, runs it for real.
+# The files are git's tracked ones when ROOT is a checkout's top, else every file under it but
+# build trees (a copy of the tree inside another checkout, as the sabotage runner makes); none at
+# all fails. clang-format's output differs between major versions, so only version 14 (Debian
+# bookworm's, what setup.sh installs) is the house style: with another one the check exits 77
+# (ctest: skipped) saying so, and CI, which has 14, runs it for real.
 import os
 import re
 import shutil
@@ -24,10 +25,13 @@ WANTED_MAJOR = 14
 
 
 def source_files(root):
-    try:
+    try:  # git's list, when ROOT is a checkout's top (not a copy inside another checkout)
+        top = subprocess.run(["git", "-C", root, "rev-parse", "--show-toplevel"], check=True, capture_output=True)
+        if os.path.realpath(top.stdout.decode().strip()) != os.path.realpath(root):
+            raise ValueError("not the top of a checkout")
         out = subprocess.run(["git", "-C", root, "ls-files", "-z"], check=True, capture_output=True).stdout
         return sorted(p for p in out.decode().split("\0") if p)
-    except (OSError, subprocess.CalledProcessError):
+    except (OSError, ValueError, subprocess.CalledProcessError):
         files = []
         for d, dirs, names in os.walk(root):
             dirs[:] = [x for x in dirs if x not in SKIP_DIRS and not x.startswith("build")]
@@ -57,6 +61,9 @@ def main():
     files = source_files(root)
     cxx = [f for f in files if f.endswith(CXX) and not f.startswith("tests/fuzz/corpus")]
     shaders = [f for f in files if f.endswith(SHADER)]
+    if not cxx:
+        print(f"check_format: no C++ file under {root}: not the project's root?")
+        return 1
     exe, why = find_clang_format()
     if not exe:
         print(f"check_format: skipped: the house style is clang-format {WANTED_MAJOR}'s, and {why} "
