@@ -18,8 +18,9 @@ struct RmCloud {
     vec4 boxMax;
     ivec4 range;        // x: first ellipsoid, y: count, z: the scene cloud (its radiance grid)
 };
-layout(std430, binding = 0) readonly buffer RmEllipsoids { RmEllipsoid ellipsoids[]; };
-layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };
+// The bindings are raymarch.cpp's (buildMarch), said there once.
+layout(std430) readonly buffer RmEllipsoids { RmEllipsoid ellipsoids[]; };
+layout(std430) readonly buffer RmClouds { RmCloud clouds[]; };
 // The clouds each screen tile of RM_TILE x RM_TILE pixels must test (indices into clouds[],
 // from raymarch.cpp's binning of the boxes' projections): tile t's are
 // tileClouds[tileFirst[t] .. tileFirst[t + 1]); the first tileFirst[0] entries are the clouds
@@ -28,5 +29,5 @@ layout(std430, binding = 1) readonly buffer RmClouds { RmCloud clouds[]; };
 #error "RM_TILE: build with raymarch.cpp's defines"
 #endif
 // (Bindings 5 and 6: 3 is cloud_light_grid.glsl's boxes; raymarch.cpp binds these two.)
-layout(std430, binding = 5) readonly buffer RmTileFirst { int tileFirst[]; };
-layout(std430, binding = 6) readonly buffer RmTileClouds { int tileClouds[]; };
+layout(std430) readonly buffer RmTileFirst { int tileFirst[]; };
+layout(std430) readonly buffer RmTileClouds { int tileClouds[]; };

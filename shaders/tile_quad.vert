@@ -3,7 +3,8 @@
 uniform int instanceBase;
 uniform vec2 atlasSize;            // px
 uniform int onScreen;              // 0: the tile's atlas rectangle; 1: its screen rectangle
-layout(std430, binding = 2) readonly buffer Order { int order[]; };  // composite order (back to front)
+// The composite order (back to front); binding kOrderBinding (compositor.cpp).
+layout(std430) readonly buffer Order { int order[]; };
 uniform int useOrder;
 flat out int tileIndex;
 out vec2 atlasCoord;               // px in the atlas

@@ -21,7 +21,7 @@ struct Tile {
     vec4 skyChroma;     // rgb: the sky light's colour at the ellipsoid (model::skyChroma)
     mat4 reproject;     // params.z = 1 (a reused tile): tile clip (x, y, 0, 1) -> the frame's clip space
 };
-layout(std430, binding = 0) readonly buffer Tiles { Tile tiles[]; };
+layout(std430) readonly buffer Tiles { Tile tiles[]; };  // binding kTilesBinding (compositor.cpp)
 
 mat3 tileAxes(Tile t) { return mat3(t.axes0.xyz, t.axes1.xyz, t.axes2.xyz); }
 vec3 toUnit(Tile t, vec3 v) { return vec3(dot(t.unit0.xyz, v), dot(t.unit1.xyz, v), dot(t.unit2.xyz, v)); }

@@ -189,6 +189,11 @@ GLint Program::location(const char* name) const {
     return loc;
 }
 
+void Program::bindStorageBlock(const char* block, GLuint binding) const {
+    const GLuint index = glGetProgramResourceIndex(id(), GL_SHADER_STORAGE_BLOCK, block);
+    if (index != GL_INVALID_INDEX) glShaderStorageBlockBinding(id(), index, binding);
+}
+
 void Program::set(const char* n, int v) const { glProgramUniform1i(id(), location(n), v); }
 void Program::set(const char* n, float v) const { glProgramUniform1f(id(), location(n), v); }
 void Program::set(const char* n, const glm::vec2& v) const {

@@ -86,6 +86,19 @@ void checkSettings(const EllipsoidSettings& s) {
 
 }  // namespace
 
+namespace {
+// The storage buffers' binding points, said here only: programs get them from buildProgram, the
+// buffers are bound to them in this file (tiles.glsl and tile_quad.vert give none).
+constexpr GLuint kTilesBinding = 0, kOrderBinding = 2;
+
+Program buildProgram(std::initializer_list<ShaderStage> stages, const std::string& defines = "") {
+    Program p = Program::build(stages, defines);
+    p.bindStorageBlock("Tiles", kTilesBinding);
+    p.bindStorageBlock("Order", kOrderBinding);
+    return p;
+}
+}  // namespace
+
 // The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
 void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
@@ -93,17 +106,16 @@ void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     const std::string defines = unorm8 + DetailTexture::defines(detailVariant);
     if (s.geometry == TileGeometry::Mesh) {
         const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + defines;
-        tile = Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                              falloffTexture);
-        tileCut =
-            Program::build({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
-                           falloffTexture + "#define CUT 1\n");
+        tile = buildProgram({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                            falloffTexture);
+        tileCut = buildProgram({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
+                               falloffTexture + "#define CUT 1\n");
         rayDefines = defines;
         tileRay = Program();  // made again, if needed, by groupTiles
     } else {
-        tileRay = Program::build(
+        tileRay = buildProgram(
             {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, defines);
-        tileRayCut = Program::build(
+        tileRayCut = buildProgram(
             {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
             defines + "#define CUT 1\n");
     }
@@ -113,45 +125,42 @@ void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
     buildTilePrograms(s);
     // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
     const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
-    colourMatrix = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
+    colourMatrix = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
-    composite = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
+    composite = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);
     if (s.order == CompositeOrder::Weighted || s.order == CompositeOrder::Moments) {
         const std::string weighted = fused + "#define WEIGHTED 1\n";
         const std::string second = weighted + (s.order == CompositeOrder::Moments ? "#define MOMENTS 1\n" : "");
         compositeWeighted =
-            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
+            buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, second);
         compositeWeightedFraction =
-            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                           second + "#define FRACTION 1\n");
+            buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                         second + "#define FRACTION 1\n");
         if (s.order == CompositeOrder::Moments) {
             compositeMoments =
-                Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                               weighted + "#define MOMENTS_PASS 1\n");
+                buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                             weighted + "#define MOMENTS_PASS 1\n");
             compositeMomentsFraction =
-                Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                               weighted + "#define MOMENTS_PASS 1\n#define FRACTION 1\n");
+                buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                             weighted + "#define MOMENTS_PASS 1\n#define FRACTION 1\n");
         }
-        resolve =
-            Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
+        resolve = buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "composite_resolve.frag"}});
     } else {
-        compositeFraction =
-            Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
-                           fused + "#define FRACTION 1\n");
+        compositeFraction = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}},
+                                         fused + "#define FRACTION 1\n");
     }
-    screenDepth =
-        Program::build({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
+    screenDepth = buildProgram({{GL_VERTEX_SHADER, "ellipsoid_screen.vert"}, {GL_FRAGMENT_SHADER, "depth_only.frag"}});
     if (cloudLodApplies(s)) {  // only then are impostors drawn
-        impostor = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
-        impostorFraction = Program::build({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
-                                          "#define FRACTION 1\n");
+        impostor = buildProgram({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}});
+        impostorFraction = buildProgram({{GL_VERTEX_SHADER, "impostor.vert"}, {GL_FRAGMENT_SHADER, "impostor.frag"}},
+                                        "#define FRACTION 1\n");
     }
     if (cloudLodApplies(s) && s.closeDownsample > 1) {  // built now, as tileClear below
         reduced = std::make_unique<ReducedTarget>();
         reduced->program(0, true), reduced->program(0, false);
     }
     if (s.reuse)  // built now: a first reuse frame that compiled it stalled
-        tileClear = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
+        tileClear = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "tile_clear.frag"}});
 }
 
 // The falloff texture and the noise volume (uploaded within the constructor's HostStateScope).
@@ -451,7 +460,7 @@ void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene
         for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
             out.perPixelLight[i] = nearTheSun(prepared.ellipsoids[i], view, scene) ? 1 : 0;
         if (!tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
-            tileRay = Program::build(
+            tileRay = buildProgram(
                 {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
                 rayDefines);
     }
@@ -598,8 +607,8 @@ EllipsoidStats EllipsoidRenderer::render(const Scene& scene, const View& view, c
         stats.tilesMs = timer.lap();
         return stats;
     }
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTilesBinding, m.tiles.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kOrderBinding, m.order.id());
     m.drawTiles(s, plan, scene, view, stats);
     stats.tilesMs = timer.lap();
     m.compositeTiles(s, plan, scene, view, frame, stats);
@@ -627,9 +636,9 @@ EllipsoidStats EllipsoidBenchHooks::renderFloor(EllipsoidRenderer& r, const Scen
     const FramePlan plan = m.plan(r.settings_, scene, view, false, false);
     EllipsoidStats stats = plan.stats;
     if (plan.order.empty()) return stats;
-    if (!m.floor) m.floor = Program::build({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.tiles.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, m.order.id());
+    if (!m.floor) m.floor = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "floor.frag"}});
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTilesBinding, m.tiles.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kOrderBinding, m.order.id());
     glDisable(GL_DEPTH_TEST);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);

@@ -46,6 +46,9 @@ void put(float* out, const Vec3& v, double w = 0) {
 }
 
 
+// raymarch_data.glsl's storage buffers' binding points, said here only (buildMarch gives them to
+// the program; the light grids' boxes take CloudLightTextures::kBoxesBinding, 3).
+constexpr GLuint kEllipsoidsBinding = 0, kCloudsBinding = 1, kTileFirstBinding = 5, kTileCloudsBinding = 6;
 constexpr int kTile = 16;  // pixels; the shader's RM_TILE, given when raymarch.frag is built
 
 // The clouds' boxes binned to screen tiles of kTile x kTile pixels (RM_TILE in
@@ -214,6 +217,10 @@ void RaymarchRenderer::Impl::ensureNoise(const RaymarchSettings& s) {
 void RaymarchRenderer::Impl::buildMarch() {
     march = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "raymarch.frag"}},
                            "#define RM_TILE " + std::to_string(kTile) + "\n" + DetailTexture::defines(detailVariant));
+    march.bindStorageBlock("RmEllipsoids", kEllipsoidsBinding);
+    march.bindStorageBlock("RmClouds", kCloudsBinding);
+    march.bindStorageBlock("RmTileFirst", kTileFirstBinding);
+    march.bindStorageBlock("RmTileClouds", kTileCloudsBinding);
 }
 
 RaymarchStats RaymarchRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, bool opaqueDepth) {
@@ -366,10 +373,10 @@ void RaymarchRenderer::Impl::setMediumUniforms(const RaymarchSettings& s, const 
 // upsampled over the frame).
 void RaymarchRenderer::Impl::drawMarch(const View& view, const HostFrame& frame, const DepthSource& depth,
                                        const DepthSource& marchDepth, const View& marchView, int d, double kappa) {
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ellipsoids.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, clouds.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, tileFirst.id());  // raymarch_data.glsl's bindings
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, tileClouds.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kEllipsoidsBinding, ellipsoids.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCloudsBinding, clouds.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTileFirstBinding, tileFirst.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTileCloudsBinding, tileClouds.id());
     glBindTextureUnit(0, kappa > 0 ? noise.id() : 0);
     glBindTextureUnit(2, marchDepth.texture);
     glBindSampler(0, 0);

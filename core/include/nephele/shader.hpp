@@ -46,6 +46,9 @@ public:
     GLuint id() const { return program_.id(); }
     explicit operator bool() const { return bool(program_); }
     GLint location(const char* name) const;  // -1 if the uniform is inactive
+    // glShaderStorageBlockBinding of the block named `block`, if the program has it: the binding
+    // point said once, in C++, where the buffer is bound (the shader's layout gives none).
+    void bindStorageBlock(const char* block, GLuint binding) const;
 
     // glProgramUniform*: no need to bind the program, no host state touched.
     void set(const char* name, int v) const;
