@@ -97,13 +97,15 @@ Program buildProgram(std::initializer_list<ShaderStage> stages, const std::strin
     p.bindStorageBlock("Order", kOrderBinding);
     return p;
 }
+
+// 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
+std::string atlasDefines(const EllipsoidSettings& s) {
+    return s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
+}
 }  // namespace
 
-// The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
 void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
-    // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
-    const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
-    const std::string defines = unorm8 + DetailTexture::defines(detailVariant);
+    const std::string defines = atlasDefines(s) + DetailTexture::defines(detailVariant);
     if (s.geometry == TileGeometry::Mesh) {
         const std::string falloffTexture = std::string(s.falloffTexture ? "#define FALLOFF_TEXTURE 1\n" : "") + defines;
         tile = buildProgram({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
@@ -121,10 +123,10 @@ void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     }
 }
 
+// The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
 void EllipsoidRenderer::Impl::buildPrograms(const EllipsoidSettings& s) {
     buildTilePrograms(s);
-    // 8-bit atlases store the light scalars as x / (1 + x) (cloud_light.glsl, encodeLight).
-    const std::string unorm8 = s.precision == AtlasPrecision::Unorm8 ? "#define ATLAS_UNORM8 1\n" : "";
+    const std::string unorm8 = atlasDefines(s);
     colourMatrix = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "colour_matrix.frag"}});
     const std::string fused = (s.colourMatrixPass ? "" : "#define FUSED 1\n") + unorm8;
     composite = buildProgram({{GL_VERTEX_SHADER, "tile_quad.vert"}, {GL_FRAGMENT_SHADER, "composite.frag"}}, fused);

@@ -176,8 +176,7 @@ void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, con
 
 void CloudLightTextures::bind(const Program& program) const {
     // The block's binding is said here only (cloud_light_grid.glsl gives none), as the samplers' units.
-    const GLuint block = glGetProgramResourceIndex(program.id(), GL_SHADER_STORAGE_BLOCK, "CloudLightBoxes");
-    if (block != GL_INVALID_INDEX) glShaderStorageBlockBinding(program.id(), block, kBoxesBinding);
+    program.bindStorageBlock("CloudLightBoxes", kBoxesBinding);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kBoxesBinding, boxes_.id());
     const char* names[4] = {"lightSunFew", "lightSunMany", "lightSkyTau", "lightSkyFlux"};
     for (int k = 0; k < 4; ++k) {
