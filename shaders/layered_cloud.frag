@@ -7,7 +7,10 @@
 #include "gardner_model.glsl"
 #include "layer_light.glsl"
 in vec3 rel;
-out vec4 color;
+layout(location = 0) out vec4 color;
+#ifdef REUSE
+layout(location = 1) out vec4 moments;  // ReducedTarget's: (a d, a d^2, 0, a), d = the distance to the eye in km
+#endif
 uniform int mode;                  // 0 = annuli, 1 = billboards
 uniform sampler3D lightVolume;     // rgb = encoded knots of the optical depth above, a = density A
 uniform sampler2D columns;         // rgb = encoded knots of the whole column's optical depth
@@ -132,4 +135,8 @@ void main() {
     }
     radiance += vec3(albedo / kLightPi * flash);
     color = vec4(radiance * alpha, alpha);
+#ifdef REUSE
+    float eyeDistance = min(length(rel) * 1e-3, 250.0);  // km: d^2 within a half float's range
+    moments = vec4(alpha * eyeDistance, alpha * eyeDistance * eyeDistance, 0.0, alpha);
+#endif
 }

@@ -35,6 +35,9 @@ void main() {
     // neighbours' depths, four fetches, weights.)
     float d = linearDepth(raw);
     vec4 g = textureGather(cloudDepth, uv, 0);  // (i0, j1), (i1, j1), (i1, j0), (i0, j0)
+    // A texel reused from the last frame holds the near plane's depth (reduced_depth.frag): its
+    // block had no surface.
+    g = mix(g, vec4(noSurfaceDepth()), equal(g, vec4(1.0 - noSurfaceDepth())));
     vec4 err = abs(vec4(linearDepth(g.x), linearDepth(g.y), linearDepth(g.z), linearDepth(g.w)) - d);
     vec2 p = frag * scale - 0.5;
     ivec2 i0 = ivec2(floor(p));

@@ -914,7 +914,8 @@ TEST_F(CliTest, EverySettingHasARangeNamedByItsFlag) {
         {"--lod0-spacing", "0"}, {"--layer-downsample", "5"}, {"--near-radius", "1e308"}, {"--blend-band", "nan"},
         {"--spp", "0"},          {"--bounces", "10001"},      {"--seed", "-1"},           {"--time", "nan"},
         {"--time", "1e300"},     {"--light-grid", "129"},     {"--photons", "1e9"},       {"--photons", "-1"},
-        {"--yaw-offset", "361"}, {"--pitch-offset", "nan"},   {"--frustum", "1,0,0,1"},   {"--frustum", "0,1,0,inf"}};
+        {"--yaw-offset", "361"}, {"--pitch-offset", "nan"},   {"--frustum", "1,0,0,1"},   {"--frustum", "0,1,0,inf"},
+        {"--far-reuse", "0"},    {"--far-reuse", "17"},       {"--far-reuse-error", "0"}, {"--far-reuse-error", "nan"}};
     for (const auto& [flag, value] : bad) {
         const Spawned r = spawn({"render", scene, "-o", path("out.png"), flag, value});
         EXPECT_EQ(r.code, 2) << flag << " " << value << "\n" << r.output;

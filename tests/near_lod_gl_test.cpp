@@ -205,12 +205,19 @@ TEST_F(NearLodGLTest, NoPopAcrossTheBlendBand) {
             ls.blendBand, run.events, run.maxEvent, run.quiet, run.meanQuiet, run.maxEvent / run.meanQuiet, kMaxRatio);
         return run;
     };
-    const Run faded = fly(testLayered(kNear, kBand));
+    // The far field drawn afresh every frame: the quiet steps' change is the baseline, and the far
+    // field's reuse makes the steps lumpier (kept texels lag, then are drawn afresh: a ratio of
+    // 1.63 with it, 1.04 without), which FarReuseGLTest bounds on its own.
+    LayeredSettings fadedSettings = testLayered(kNear, kBand);
+    fadedSettings.reusePeriod = 1;
+    const Run faded = fly(fadedSettings);
     ASSERT_GE(faded.events, 1);
     ASSERT_GE(faded.quiet, 20);
     EXPECT_LE(faded.maxEvent, kMaxRatio * faded.meanQuiet);
     // The test can fail: the same flight with the fade off pops.
-    const Run hard = fly(testLayered(kReach - 1, 1));
+    LayeredSettings hardSettings = testLayered(kReach - 1, 1);
+    hardSettings.reusePeriod = 1;
+    const Run hard = fly(hardSettings);
     EXPECT_GT(hard.maxEvent, kMaxRatio * hard.meanQuiet);
 }
 

@@ -135,6 +135,15 @@ void addLayeredOptions(CLI::App* cmd, SceneArgs& a) {
                     "Layered sky: draw the layers at 1/D of the resolution, upsampled with the depth (1 = full)")
         ->check(within(1, 4))
         ->capture_default_str();
+    cmd->add_option("--far-reuse", a.layered.reusePeriod,
+                    "Layered sky: a reduced pixel is drawn afresh at least every P frames and reused between, "
+                    "reprojected (1 = every frame; docs/layered.md)")
+        ->check(within(1, 16))
+        ->capture_default_str();
+    cmd->add_option("--far-reuse-error", a.layered.reuseError,
+                    "Layered sky: a reused pixel's parallax bound (reduced px) past which it is drawn afresh")
+        ->check(within(0.01, 1000))
+        ->capture_default_str();
     cmd->add_flag("!--no-cloud-shadows", a.layered.shadows, "Layered sky: no cloud shadows on the ground and objects");
     cmd->add_option("--light-size", a.lightSize,
                     "Layered sky: lighting texture WxHxD, 2..2048 each (the paper's 256x256x32; GL 4.5 guarantees "

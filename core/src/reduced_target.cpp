@@ -1,6 +1,7 @@
 #include "reduced_target.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -9,6 +10,13 @@ using namespace gl;
 
 ReducedTarget::ReducedTarget() {
     reduce_ = Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "reduced_depth.frag"}});
+    for (int depth = 0; depth < 2; ++depth) {
+        reduceReuse_[depth] =
+            Program::build({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "reduced_depth.frag"}},
+                           std::string("#define REUSE 1\n#define KEPT_COUNTERS ") + std::to_string(kKeptCounters) +
+                               "\n" + (depth ? "" : "#define NO_DEPTH 1\n"));
+        reduceReuse_[depth].bindStorageBlock("Kept", kKeptBinding);
+    }
     empty_ = VertexArray::create();
 }
 
@@ -27,32 +35,86 @@ void ReducedTarget::prepare() {
     for (int layers = 0; layers <= kMaxShadowLayers; ++layers) program(layers, true), program(layers, false);
 }
 
-glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view, int divisor) {
+namespace {
+// A texture of the reduced size, edge-clamped, filtered by `filter`.
+Texture reducedImage(glm::ivec2 size, GLenum format, int bytesPerTexel, GLint filter, const std::string& what) {
+    Texture tex = Texture::create(GL_TEXTURE_2D);
+    glTextureStorage2D(tex.id(), 1, format, size.x, size.y);
+    checkAllocation(what, std::uint64_t(size.x) * std::uint64_t(size.y) * std::uint64_t(bytesPerTexel));
+    glTextureParameteri(tex.id(), GL_TEXTURE_MIN_FILTER, filter);
+    glTextureParameteri(tex.id(), GL_TEXTURE_MAG_FILTER, filter);
+    glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return tex;
+}
+
+glm::dmat4 rotationViewProjection(const View& view) {
+    glm::dmat4 rotation = view.viewMatrix;
+    rotation[3] = glm::dvec4(0, 0, 0, 1);
+    return view.projectionMatrix * rotation;
+}
+}  // namespace
+
+// The texels the last frame kept: its counters, done by now (read without waiting).
+void ReducedTarget::readKeptCount(Target& t) {
+    t.lastReused = -1;
+    if (t.countPending) {
+        GLint status = 0;
+        glGetSynciv(t.counted, GL_SYNC_STATUS, 1, nullptr, &status);
+        if (status == GL_SIGNALED) {
+            std::uint32_t counts[kKeptCounters];
+            glGetNamedBufferSubData(t.keptCounters.id(), 0, sizeof counts, counts);
+            t.lastReused = 0;
+            for (std::uint32_t c : counts) t.lastReused += c;
+        }
+        glDeleteSync(t.counted);
+        t.counted = nullptr, t.countPending = false;
+    }
+}
+
+// This frame's images as the framebuffer's attachments (the moments at colour attachment 1 with history).
+void ReducedTarget::attachImages(Target& t, bool history) {
+    glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color().id(), 0);
+    glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT1, history ? t.images[t.current].moments.id() : 0, 0);
+    glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth().id(), 0);
+    const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GLenum(history ? GL_COLOR_ATTACHMENT1 : GL_NONE)};
+    glNamedFramebufferDrawBuffers(t.fbo.id(), 2, buffers);
+    checkFramebuffer(t.fbo.id(), "the reduced-resolution target");
+    glNamedFramebufferTexture(t.colorOnly.id(), GL_COLOR_ATTACHMENT0, t.color().id(), 0);
+    checkFramebuffer(t.colorOnly.id(), "the reduced-resolution target");
+}
+
+glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view, int divisor, const ReuseFrame* reuse) {
     const int width = view.camera.width, height = view.camera.height;
     const glm::ivec2 size((width + divisor - 1) / divisor, (height + divisor - 1) / divisor);
     Target& t = targets_.get(size);
-    if (!t.fbo) {
-        // A texture of the reduced size, edge-clamped, filtered by `filter`.
-        auto image = [&](GLenum format, int bytesPerTexel, GLint filter, const std::string& what) {
-            Texture tex = Texture::create(GL_TEXTURE_2D);
-            glTextureStorage2D(tex.id(), 1, format, size.x, size.y);
-            checkAllocation(what, std::uint64_t(size.x) * std::uint64_t(size.y) * std::uint64_t(bytesPerTexel));
-            glTextureParameteri(tex.id(), GL_TEXTURE_MIN_FILTER, filter);
-            glTextureParameteri(tex.id(), GL_TEXTURE_MAG_FILTER, filter);
-            glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-            glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-            return tex;
-        };
-        t.color = image(GL_RGBA16F, 8, GL_LINEAR, "the reduced-resolution RGBA16F target");
-        t.depth = image(GL_DEPTH_COMPONENT32F, 4, GL_NEAREST, "the reduced-resolution depth");
-        t.fbo = Framebuffer::create();
-        glNamedFramebufferTexture(t.fbo.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
-        glNamedFramebufferTexture(t.fbo.id(), GL_DEPTH_ATTACHMENT, t.depth.id(), 0);
-        checkFramebuffer(t.fbo.id(), "the reduced-resolution target");
-        t.colorOnly = Framebuffer::create();
-        glNamedFramebufferTexture(t.colorOnly.id(), GL_COLOR_ATTACHMENT0, t.color.id(), 0);
-        checkFramebuffer(t.colorOnly.id(), "the reduced-resolution target");
+    const bool history = reuse != nullptr;
+    for (int i = 0; i < (history ? 2 : 1); ++i) {
+        Images& im = t.images[i];
+        if (!im.color) {
+            im.color = reducedImage(size, GL_RGBA16F, 8, GL_LINEAR, "the reduced-resolution RGBA16F target");
+            im.depth = reducedImage(size, GL_DEPTH_COMPONENT32F, 4, GL_NEAREST, "the reduced-resolution depth");
+        }
+        if (history && !im.moments)  // distances in km, at most 250: d^2 within a half float's range
+            im.moments = reducedImage(size, GL_RGBA16F, 8, GL_LINEAR, "the reduced-resolution distance moments");
     }
+    if (!t.fbo) {
+        t.fbo = Framebuffer::create();
+        t.colorOnly = Framebuffer::create();
+    }
+    readKeptCount(t);
+    const bool hadLast = history && t.drawn && !reuse->invalidate && reuse->period > 1;
+    if (history && t.drawn) {  // the frame just drawn becomes the last one
+        t.current = 1 - t.current;
+        t.lastRotationVP = t.rotationVP;
+        t.lastEye = t.eye;
+    }
+    t.drawn = history;
+    t.rotationVP = rotationViewProjection(view);
+    t.eye = view.eye;
+    if (history) ++t.frames;
+    reused_ = hadLast;
+    attachImages(t, history);
     current_ = &t;
     size_ = size;
     full_ = glm::ivec2(width, height);
@@ -61,30 +123,72 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
     glDisable(GL_SCISSOR_TEST);
     glDisable(GL_BLEND);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    const float zero[4] = {0, 0, 0, 0};
-    glClearNamedFramebufferfv(t.fbo.id(), GL_COLOR, 0, zero);
     glDepthMask(GL_TRUE);
-    if (frameDepth.texture == 0) {
-        const float far = float(view.farDepth());
-        glClearNamedFramebufferfv(t.fbo.id(), GL_DEPTH, 0, &far);
-        return size;
+    if (!history) {
+        const float zero[4] = {0, 0, 0, 0};
+        glClearNamedFramebufferfv(t.fbo.id(), GL_COLOR, 0, zero);
+        if (frameDepth.texture == 0) {
+            const float far = float(view.farDepth());
+            glClearNamedFramebufferfv(t.fbo.id(), GL_DEPTH, 0, &far);
+            return size;
+        }
     }
-    // Each texel's depth = the farthest of its block of the frame (written, always passing).
+    // Each texel's depth = the farthest of its block of the frame (written, always passing); with
+    // history its colour and moments too (every texel written: no clear), reprojected where kept.
+    const Program& p = history ? reduceReuse_[frameDepth.texture != 0 ? 1 : 0] : reduce_;
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_ALWAYS);
-    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-    reduce_.set("frameDepth", 0);
-    reduce_.set("fullSize", glm::vec2(full_));
-    reduce_.set("reducedSize", glm::vec2(size));
-    setViewFrameUniforms(reduce_, view, false, frameDepth);
+    if (!history) glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    p.set("frameDepth", 0);
+    p.set("fullSize", glm::vec2(full_));
+    p.set("reducedSize", glm::vec2(size));
+    setViewFrameUniforms(p, view, false, frameDepth);
+    if (history) setReuseUniforms(p, t, view, *reuse, hadLast);
     glBindTextureUnit(0, frameDepth.texture);
     glBindSampler(0, 0);
-    glUseProgram(reduce_.id());
+    glUseProgram(p.id());
     glBindVertexArray(empty_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    check("reducing the frame's depth");
+    if (hadLast) {
+        t.counted = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+        t.countPending = t.counted != nullptr;
+    }
+    check(history ? "reducing the frame's depth and reusing the last frame's image" : "reducing the frame's depth");
     return size;
+}
+
+void ReducedTarget::setReuseUniforms(const Program& p, Target& t, const View& view, const ReuseFrame& frame,
+                                     bool haveLast) {
+    const glm::dmat4& P = view.projectionMatrix;
+    // NDC (x, y) -> the eye-space direction (x_e, y_e, -1) of a perspective projection (clip w =
+    // -z_e): x_e = (x + P[2][0]) / P[0][0]; then to the world by the view's rotation.
+    const glm::dmat3 eyeRay(glm::dvec3(1 / P[0][0], 0, 0), glm::dvec3(0, 1 / P[1][1], 0),
+                            glm::dvec3(P[2][0] / P[0][0], P[2][1] / P[1][1], -1));
+    p.set("haveLast", haveLast ? 1 : 0);
+    p.set("rayOf", glm::mat3(glm::transpose(glm::dmat3(view.viewMatrix)) * eyeRay));
+    p.set("lastViewProjection", glm::mat4(t.lastRotationVP));
+    p.set("shift", glm::vec3(t.eye - t.lastEye - frame.drift));
+    p.set("period", std::max(frame.period, 1));
+    p.set("phase", int(t.frames % std::max(frame.period, 1)));
+    p.set("maxError", float(frame.maxError));
+    p.set("focal", float(0.5 * size_.y * P[1][1]));
+    p.set("nearest", float(std::max(frame.nearest, 1e-3)));
+    p.set("nearPlane", float(view.depth.reversedZ ? 1.0 : 0.0));
+    p.set("lastColor", 1);
+    p.set("lastMoments", 2);
+    const Images& last = t.images[1 - t.current];
+    glBindTextureUnit(1, haveLast ? last.color.id() : 0);
+    glBindTextureUnit(2, haveLast ? last.moments.id() : 0);
+    for (int u = 1; u < 3; ++u) glBindSampler(u, 0);
+    if (!t.keptCounters) {
+        t.keptCounters = Buffer::create();
+        glNamedBufferStorage(t.keptCounters.id(), kKeptCounters * sizeof(std::uint32_t), nullptr,
+                             GL_DYNAMIC_STORAGE_BIT);
+    }
+    const std::uint32_t zero = 0;
+    glClearNamedBufferData(t.keptCounters.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kKeptBinding, t.keptCounters.id());
 }
 
 void ReducedTarget::resume(const glm::ivec4& rect) {
@@ -101,7 +205,7 @@ void ReducedTarget::resume(const glm::ivec4& rect) {
 }
 
 DepthSource ReducedTarget::depth() const {
-    return current_ ? DepthSource{current_->depth.id(), {0, 0}} : DepthSource{};
+    return current_ ? DepthSource{current_->depth().id(), {0, 0}} : DepthSource{};
 }
 
 void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDepth, const View& view, int shadowLayers,
@@ -126,8 +230,8 @@ void ReducedTarget::composite(const HostFrame& frame, const DepthSource& frameDe
     p.set("frameDepth", 2);
     p.set("scale", glm::vec2(size_) / glm::vec2(full_));
     setViewFrameUniforms(p, view, true, frameDepth);
-    glBindTextureUnit(0, current_->color.id());
-    glBindTextureUnit(1, current_->depth.id());
+    glBindTextureUnit(0, current_->color().id());
+    glBindTextureUnit(1, current_->depth().id());
     glBindTextureUnit(2, frameDepth.texture);
     for (int u = 0; u < 3; ++u) glBindSampler(u, 0);
     glUseProgram(p.id());

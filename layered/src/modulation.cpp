@@ -80,6 +80,8 @@ void validate(const LayeredSettings& s) {
     if (!(s.blendBand >= 0)) bad("blendBand must be >= 0 m");
     if (s.segments < 8 || s.segments > 4096) bad("segments must be 8..4096");
     if (s.downsample < 1 || s.downsample > 4) bad("downsample must be 1..4, got " + std::to_string(s.downsample));
+    if (s.reusePeriod < 1 || s.reusePeriod > 16) bad("reusePeriod must be 1..16, got " + std::to_string(s.reusePeriod));
+    if (!(s.reuseError > 0 && s.reuseError <= 1000)) bad("reuseError must be in (0, 1000] reduced pixels");
     if (!std::isfinite(s.glowHeight)) bad("glowHeight must be finite");
     if (s.resourceMegabytes < 1 || s.resourceMegabytes > 65536) bad("resourceMegabytes must be 1..65536");
 }

@@ -62,6 +62,36 @@ int mipLevels(int size) {
 }
 
 glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
+
+// Frames further apart in time than this (s) are not reused: at 2 frames a second and slower the
+// light, the wind and the eye move too much between them.
+constexpr double kReuseMaxSeconds = 0.5;
+
+// The weather the far field's image depends on, each entry in units in which 0.01 is a change
+// a ramp makes in a frame (coverage and density as they are; heights, extents and light 1%
+// of their size; the sun's direction 0.6 degrees): a larger step draws every pixel afresh.
+std::vector<double> reuseSignature(const Scene& scene) {
+    std::vector<double> v;
+    auto relative = [&](double x, double scale) { v.push_back(x / std::max(scale, 1e-9)); };
+    for (const Layer& l : scene.layers) {
+        v.insert(v.end(), {l.coverage, l.density, double(l.seed), l.nearLod ? 1.0 : 0.0});
+        const double size = std::max({std::abs(l.base), l.thickness, 1.0});
+        relative(l.base, size), relative(l.thickness, size), relative(l.extent, l.extent);
+        v.push_back(l.cityGlow ? glm::length(l.cityGlow->color * l.cityGlow->strength) : 0.0);
+    }
+    v.insert(v.end(), {scene.sun.direction.x, scene.sun.direction.y, scene.sun.direction.z});
+    const double sun = glm::length(scene.sun.color * scene.sun.intensity);
+    relative(sun, sun);
+    v.insert(v.end(), {scene.medium.extinction * 100, scene.medium.albedo * 100, scene.medium.hgG});
+    return v;
+}
+
+bool signatureStep(const std::vector<double>& a, const std::vector<double>& b) {
+    if (a.size() != b.size()) return true;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        if (!(std::abs(a[i] - b[i]) <= 0.01)) return true;
+    return false;
+}
 }  // namespace
 
 struct LayeredRenderer::Impl {
@@ -75,9 +105,16 @@ struct LayeredRenderer::Impl {
     ReducedTarget reduced;            // LayeredSettings::downsample > 1
     PerViewCache<FrameDepth> depths;  // copies of the host frame's depth, for the shadows and the upsampling
     Program floor;                    // the bench's floor (renderFloor)
+    // What the last frame was drawn with, for the far field's reuse: what its layers drew with,
+    // their weather (reuseSignature), the time, and whether a flash lit it.
+    std::vector<const void*> lastTextures;
+    std::vector<double> lastSignature;
+    double lastTime = 0;
+    bool lastFlash = false;
 
     void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s,
                     LayeredStats& stats);
+    ReuseFrame reuseFrame(const Scene& scene, const View& view, const LayeredSettings& s, double t);
 };
 
 namespace {
@@ -263,7 +300,10 @@ LayeredRenderer::LayeredRenderer(LayeredSettings settings)
     : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
     validate(settings_);
     HostStateScope scope;  // the meshes' uploads and bindings
-    const std::string defines = "#define MAX_FLASHES " + std::to_string(kMaxFlashes) + "\n";
+    // Reusing the far field, the layers also write their distance moments (ReducedTarget).
+    const bool reuse = settings_.downsample > 1 && settings_.reusePeriod > 1;
+    const std::string defines =
+        "#define MAX_FLASHES " + std::to_string(kMaxFlashes) + "\n" + (reuse ? "#define REUSE 1\n" : "");
     impl_->program =
         Program::build({{GL_VERTEX_SHADER, "layered_cloud.vert"}, {GL_FRAGMENT_SHADER, "layered_cloud.frag"}}, defines);
     // llvmpipe runs both sides of a branch, so the city map's fetch is compiled in only where a
@@ -435,9 +475,44 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
     }
 }
 
+// What the reduced target's reuse of the last frame's far field needs to know of this frame
+// (ReducedTarget::begin): nothing is kept when what the layers draw with changed, the weather
+// stepped, time ran back or jumped, or a flash lit either frame.
+ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& view, const LayeredSettings& s, double t) {
+    std::vector<const void*> textures;
+    for (const LayerSlot& r : layers) textures.insert(textures.end(), {r.light.get(), r.modulation.get()});
+    std::vector<double> signature = reuseSignature(scene);
+    bool flash = false;
+    for (const Lightning& l : scene.lightning) flash = flash || (t >= l.start && t < l.start + l.duration);
+    const double dt = t - lastTime;
+    ReuseFrame f;
+    f.period = s.reusePeriod;
+    f.maxError = s.reuseError;
+    f.invalidate = textures != lastTextures || signatureStep(signature, lastSignature) || flash || lastFlash ||
+                   !(dt >= 0 && dt <= kReuseMaxSeconds);
+    // The wind moves each layer's matter; the reprojection follows the layers' mean drift (a
+    // layer blowing otherwise is bounded by the period).
+    glm::dvec3 drift(0);
+    for (const Layer& l : scene.layers) drift += glm::dvec3(layerDrift(l, t) - layerDrift(l, lastTime), 0);
+    f.drift = drift / double(scene.layers.size());
+    // The nearest matter where the last image had none: the nearest layer's band, past the near LOD's cut.
+    double nearest = 1e30;
+    for (const Layer& l : scene.layers) {
+        const double vertical = std::max({l.base - view.eye.z, view.eye.z - (l.base + l.thickness), 0.0});
+        nearest = std::min(nearest, std::max(vertical, l.nearLod ? s.nearRadius : 0.0));
+    }
+    f.nearest = std::max(nearest, 1.0);
+    lastTextures = std::move(textures);
+    lastSignature = std::move(signature);
+    lastTime = t;
+    lastFlash = flash;
+    return f;
+}
+
 LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuint framebuffer, double t) {
     return render(scene, view, HostFrame{framebuffer}, t);
 }
+
 
 LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const HostFrame& frame, double t) {
     LayeredStats stats;
@@ -475,8 +550,13 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
 
     const ProgramPair p{m.program, m.programGlow};
     setFrameUniforms(p, scene, view, s, t);
+    const bool reuse = s.downsample > 1 && s.reusePeriod > 1;
     if (s.downsample > 1) {  // into the reduced target (bound, viewport set), upsampled at the end
-        m.reduced.begin(frameDepth, view, s.downsample);
+        const ReuseFrame reuseFrame = reuse ? m.reuseFrame(scene, view, s, t) : ReuseFrame{};
+        m.reduced.begin(frameDepth, view, s.downsample, reuse ? &reuseFrame : nullptr);
+        stats.reusedFrame = m.reduced.reused();
+        stats.reusedPixels = reuse ? m.reduced.lastReusedPixels() : -1;
+        stats.reducedPixels = (long long)m.reduced.size().x * m.reduced.size().y;
     } else {
         bindFrame(frame, view);
     }

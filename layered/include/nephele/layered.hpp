@@ -207,6 +207,13 @@ struct LayeredSettings {
     int downsample = 2;        // the layers are drawn at 1/downsample of the frame's resolution (1..4) and
                                // upsampled with the frame's depth (nearest-depth); 1 = full resolution
     double groundHeight = 0;   // m, z of the ground plane the shadows fall on (the format's ground)
+    // The far field reused across frames (with downsample > 1): a reduced pixel is drawn afresh
+    // at least every reusePeriod frames (1..16; 1 = every frame, no reuse), and sooner when its
+    // parallax bound passes reuseError reduced pixels, when a surface of the frame is in it, or
+    // when the weather changed more than a ramp does in a frame; else it is the last frame's,
+    // reprojected by its mean distance (docs/layered.md, "The far field reused").
+    int reusePeriod = 8;
+    double reuseError = 2.0;
     LightingSettings lighting;
     ModulationSettings modulation;
     std::string cacheDir;           // lighting volumes are cached here ("" = not cached)
@@ -275,6 +282,10 @@ struct LayeredStats {
                                 // last volume they had meanwhile; not drawn when they had none)
     int uploads = 0;            // textures made in this call (new lighting or modulation data; layers with
                                 // the same data share one)
+    bool reusedFrame = false;   // the last frame's far field was reused where it holds (LayeredSettings::reusePeriod)
+    // Of the last frame before this one that reused: the reduced pixels it kept (-1 when not
+    // known without waiting for the GPU), of reducedPixels.
+    long long reusedPixels = -1, reducedPixels = 0;
 };
 
 class LayerAssets;  // internal (layered/internal/layer_assets.hpp): the layers' lighting and modulation data
