@@ -94,13 +94,16 @@ bool reproject(ivec2 t, out vec4 kept, out vec4 keptMoments) {
     if (all(lessThan(abs(texel - round(texel)), vec2(1e-3)))) uv = (round(texel) + 0.5) / reducedSize;
     m = texture(lastMoments, uv);
     // The parallax bound. The eye's sideways move turns the view of a point by side / mean: the
-    // reprojection follows the point, but what depends on the angle to the sun (the phase
-    // function's forward lobe) does not follow it; and matter spread over distances [mean -
-    // spread, mean + spread] moves apart by side * spread / mean^2. Where nothing was drawn,
-    // matter at `nearest` may have come into view.
+    // reprojection follows the point, but what depends on the view's angle does not follow it:
+    // the angle to the sun (the phase function's forward lobe), and the angle to the layers'
+    // slabs, whose path through them goes as 1 / |dir.z| (a grazing ray's opacity changes by
+    // cot(elevation) times the turn). Matter spread over distances [mean - spread, mean +
+    // spread] moves apart by side * spread / mean^2. Where nothing was drawn, matter at
+    // `nearest` may have come into view.
     vec3 side = shift - dir * dot(shift, dir);
     float mean = m.x / max(m.w, 1e-6), spread = sqrt(max(m.y / max(m.w, 1e-6) - mean * mean, 0.0));  // km
-    float turn = m.w > 1e-3 ? (1.0 + spread / mean) / (mean * 1e3) : 1.0 / nearest;
+    float grazing = 1.0 / max(abs(dir.z), 0.02);
+    float turn = m.w > 1e-3 ? (grazing + spread / mean) / (mean * 1e3) : 1.0 / nearest;
     float error = m.z + length(side) * focal * turn;
     if (error > maxError) return false;
     kept = texture(lastColor, uv);
