@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -63,6 +64,16 @@ std::string fmt(const char* f, double v) {
 
 void useQuickLighting(LightingSettings& lighting) {
     lighting.width = lighting.height = 64, lighting.depth = 8, lighting.photons = 1 << 11;
+}
+
+double psnr8(const Image& a, const Image& b) {
+    double se = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+        const double d = std::round(255 * linearToSrgb(a.pixels[i])) - std::round(255 * linearToSrgb(b.pixels[i]));
+        se += d * d;
+    }
+    const double mse = se / double(a.pixels.size());
+    return mse <= 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 / mse);
 }
 
 std::vector<double> timeFrames(int frames, FrameTarget& target, const OpaquePass& opaque, const Scene& scene,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "nephele/camera.hpp"
+#include "nephele/image.hpp"
 #include "nephele/layered.hpp"
 #include "nephele/opaque.hpp"
 #include "nephele/scene.hpp"
@@ -18,6 +19,8 @@ std::string utcNow();  // "2026-11-22 04:17 UTC"
 // "CPU model, N cores; GL renderer" (the renderer string from Context::description()).
 std::string machineLine(const std::string& glRenderer);
 double median(std::vector<double> v);
+// PSNR of two linear RGB images as 8-bit sRGB (peak 255): what a display shows.
+double psnr8(const Image& a, const Image& b);
 std::string fmt(const char* printfFormat, double v);
 // A --quick run's layer lighting (for tests: every part exercised, the lighting coarse):
 // 64 x 64 x 8 texels, 2^11 photons.

@@ -15,9 +15,12 @@
 #include "nephele/log.hpp"
 #include "nephele/sky.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -47,22 +50,30 @@ struct Flight {
     std::vector<CruiseFrame> frames;
     double firstOnMs = 0, firstOffMs = 0;  // frame 0: the grids made and every tile rendered (both)
     bool reuseAlone = false;               // also run --reuse on --cloud-lod off (what each part gives)
+    std::string pathFrom;                  // a flight file (data/flights) whose keyframes replace the scene's path
 };
+
+// The keyframes of a `nephele fly --script` flight file (data/flights/*.json).
+std::vector<Keyframe> flightKeyframes(const std::string& file) {
+    std::ifstream in(file);
+    if (!in) throw std::runtime_error("cannot read " + file);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    std::vector<Keyframe> path;
+    for (const auto& k : j.at("keyframes")) {
+        Keyframe f;
+        f.t = k.at("t").get<double>();
+        const auto p = k.at("position").get<std::vector<double>>(), l = k.at("look_at").get<std::vector<double>>();
+        f.position = Vec3(p.at(0), p.at(1), p.at(2)), f.lookAt = Vec3(l.at(0), l.at(1), l.at(2));
+        path.push_back(f);
+    }
+    if (path.size() < 2) throw std::runtime_error(file + ": fewer than two keyframes");
+    return path;
+}
 
 // The cloud LOD's bound: every frame of the defaults at least this close to every tile fresh
 // with the LOD off (docs/compositor.md, "One impostor per far cloud").
 constexpr double kLodBoundDb = 45;
 
-// PSNR of two linear RGB images as 8-bit sRGB (peak 255): what a display shows.
-double psnr8(const Image& a, const Image& b) {
-    double se = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i) {
-        const double d = std::round(255 * linearToSrgb(a.pixels[i])) - std::round(255 * linearToSrgb(b.pixels[i]));
-        se += d * d;
-    }
-    const double mse = se / double(a.pixels.size());
-    return mse <= 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 / mse);
-}
 
 RenderOptions optionsFor(bool reuse, bool lod, GlBackend backend) {
     RenderOptions o;
@@ -72,12 +83,14 @@ RenderOptions optionsFor(bool reuse, bool lod, GlBackend backend) {
     o.ellipsoid = autoEllipsoidSettings();
     o.ellipsoid.reuse = reuse;
     o.ellipsoid.cloudLod = lod;
+    if (!reuse) o.layered.reusePeriod = 1;  // "off": the far field drawn afresh every frame too
     return o;
 }
 
 void fly(Flight& f, const CruiseBenchOptions& o) {
     Scene scene = loadScene(o.bench.scenesDir + "/" + f.scene);
     scene.camera.width = o.width, scene.camera.height = o.height;
+    if (!f.pathFrom.empty()) scene.path = flightKeyframes(o.bench.scenesDir + "/../flights/" + f.pathFrom);
     const double t0 = scene.path.front().t,
                  t1 = o.bench.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
     const int frames = frameCount(t0, t1, f.fps);
@@ -148,10 +161,10 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
                        const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --cruise` on " << when << ", " << machine << ", at " << o.width << "x" << o.height
-       << ", `--method auto` with its defaults (\"on\": back to front, `--reuse on`, `--cloud-lod on`) and with "
-          "`--reuse off --cloud-lod off` (\"off\": every tile rendered every frame), frame by frame in turn; on the "
-          "cruise "
-          "and the turn also `--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without the "
+       << ", `--method auto` with its defaults (\"on\": back to front, `--reuse on`, `--cloud-lod on`, the far field "
+          "reused across frames) and with `--reuse off --cloud-lod off --far-reuse 1` (\"off\": every tile rendered "
+          "and the far field drawn afresh every frame), frame by frame in turn; on the cruise and the turn also "
+          "`--reuse on --cloud-lod off` (\"reuse alone\": what tiles that last give without the "
           "cloud LOD: neither far impostors nor close tiles at what their image holds). A frame's ms is the draw's "
           "wall time to "
           "glFinish, the read-back not counted. Frame 0 (the clouds' radiance grids made, every tile rendered, in "
@@ -224,13 +237,22 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         {"approach.json", "approach.json"},
         {"flythrough.json", "flythrough.json"},
         {"layer_flight.json", "layer_flight.json"},
+        {"showcase.json",
+         "showcase: into_cloud.json's flight (README command 1's scene)",
+         10,
+         {},
+         0,
+         0,
+         false,
+         "into_cloud.json"},
     };
     if (o.bench.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
     if (!o.flights.empty()) {
         for (const std::string& f : o.flights)
             if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.scene == f; })) {
                 std::cerr << "nephele: bench --cruise: --flights: no flight '" << f
-                          << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json)\n";
+                          << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json, "
+                             "showcase.json)\n";
                 return 2;
             }
         std::erase_if(flights, [&](const Flight& x) {

@@ -15,8 +15,12 @@
 #include "nephele/layered.hpp"
 #include "nephele/sky.hpp"
 #include "nephele/near_lod.hpp"
+#include "nephele/log.hpp"
 #include "nephele/opaque.hpp"
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -71,6 +75,7 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
     // auto's settings (nephele/sky.hpp): the hand-off radii, the billboard disc beyond the
     // band, tiles that last.
     LayeredSettings ls = autoLayeredSettings();
+    ls.reusePeriod = 1;  // a still view drawn again and again: every pixel afresh
     ls.cacheDir = o.bench.cacheDir;
     if (o.bench.quick) useQuickLighting(ls.lighting);
     LayeredRenderer far(ls);
@@ -93,6 +98,65 @@ AutoSplit timeAutoNearAndFar(const LayeredBenchOptions& o, FrameTarget& target, 
                                                [&] { renderFloor(far, scene, view, target.framebuffer(), t); }});
     a.ms = ms[0], a.farMs = ms[1], a.nearMs = ms[2], a.floorMs = ms[3];
     return a;
+}
+
+// The far field along a flight: near_and_far.json's view flown forward at 70 m/s, turning 9
+// degrees a second, at `fps` frames a second (30: 2.3 m and 0.3 degrees a frame), drawn by the
+// layered sky as shipped (the far field reused across frames) and with every pixel drawn afresh
+// (LayeredSettings::reusePeriod = 1), and the floor of each frame, in turn.
+struct ReuseFlight {
+    double fps = 30;
+    std::vector<double> reusedMs, freshMs, floorMs, psnr, kept;  // per frame after the first
+};
+
+ReuseFlight flyFarField(const LayeredBenchOptions& o, double fps, int frames, FrameTarget& target,
+                        const OpaquePass& opaque) {
+    const Scene scene = layeredBenchScene(o.extents.front(), o.width, o.height);
+    LayeredSettings s;
+    s.cacheDir = o.bench.cacheDir;
+    if (o.bench.quick) useQuickLighting(s.lighting);
+    LayeredSettings fs = s;
+    fs.reusePeriod = 1;
+    LayeredRenderer reused(s), fresh(fs);
+    ReuseFlight f;
+    f.fps = fps;
+    using Clock = std::chrono::steady_clock;
+    auto timed = [&](const View& view, auto&& draw) {
+        opaque.draw(scene, view, target.framebuffer());
+        gl::glFinish();
+        const auto t0 = Clock::now();
+        draw();
+        gl::glFinish();
+        return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    };
+    const double pitch = std::asin(scene.camera.direction.z);
+    for (int k = 0; k < frames; ++k) {
+        const double t = k / fps, yaw = glm::radians(9.0) * t;
+        Camera c = scene.camera;
+        const Vec3 heading(std::sin(yaw), std::cos(yaw), 0.0);
+        c.position += heading * (70.0 * t);
+        c.direction = glm::normalize(heading * std::cos(pitch) + Vec3(0, 0, std::sin(pitch)));
+        const View view = makeView(c);
+        LayeredStats stats;
+        const double reusedMs = timed(view, [&] { stats = reused.render(scene, view, target.framebuffer(), t); });
+        const Image a = target.readColor();
+        const double freshMs = timed(view, [&] { fresh.render(scene, view, target.framebuffer(), t); });
+        const Image b = target.readColor();
+        const double floorMs = timed(view, [&] { renderFloor(fresh, scene, view, target.framebuffer(), t); });
+        if (k == 0) continue;  // the first frame makes the textures
+        f.reusedMs.push_back(reusedMs), f.freshMs.push_back(freshMs), f.floorMs.push_back(floorMs);
+        f.psnr.push_back(psnr8(channels(a, 0, 3), channels(b, 0, 3)));
+        if (stats.reusedPixels >= 0 && stats.reducedPixels > 0)
+            f.kept.push_back(double(stats.reusedPixels) / double(stats.reducedPixels));
+        reportProgress("bench --layered: the far field reused at " + fmt("%.0f", fps) + " fps", double(k + 1) / frames);
+    }
+    return f;
+}
+
+double meanOf(const std::vector<double>& v) {
+    double sum = 0;
+    for (double x : v) sum += x;
+    return v.empty() ? 0 : sum / double(v.size());
 }
 
 // Prints what is wrong with --extents or --layer-counts and returns false.
@@ -122,6 +186,7 @@ std::vector<Row> timeLayers(const LayeredBenchOptions& o, const std::vector<doub
     for (int n : counts) {
         LayeredSettings s;
         s.layers = n;
+        s.reusePeriod = 1;  // a still view drawn again and again: every pixel afresh (the flight below reuses)
         s.cacheDir = o.bench.cacheDir;
         if (o.bench.quick) useQuickLighting(s.lighting);
         current[n] = std::make_unique<LayeredRenderer>(s);
@@ -168,9 +233,39 @@ std::string layeredCsv(const std::vector<Row>& rows) {
     return csv.str();
 }
 
+// The far field reused: a row per flight rate.
+std::string reuseMarkdown(const LayeredBenchOptions& o, const std::vector<ReuseFlight>& flights) {
+    std::ostringstream md;
+    md << "\n**The far field reused** (`LayeredSettings::reusePeriod`, `--far-reuse`; [how](layered.md#the-far-field-"
+          "reused-across-frames)), same run: the view above flown forward at 70 m/s turning 9° a second (layer "
+          "extent "
+       << fmt("%.0f km", o.extents.front() / 1000)
+       << ", N = 8), each frame drawn as shipped (a reduced pixel drawn afresh at least every "
+       << LayeredSettings{}.reusePeriod << "th frame, sooner where its parallax bound passes "
+       << fmt("%g", LayeredSettings{}.reuseError)
+       << " reduced px; else the last frame's, reprojected) and with every pixel afresh, and the frame's floor, "
+          "in turn; the first frame left out. Amortised = the mean over the frames; × "
+          "floor = that over the floor's mean. Kept = the share of the reduced pixels the reprojection kept. PSNR: "
+          "each reused frame against the same frame drawn afresh, 8-bit sRGB.\n\n";
+    md << "| frames/s | frames | afresh ms (× floor) | reused ms amortised (× floor) | reused median / worst ms | "
+          "floor ms | kept | PSNR min / median dB |\n|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const ReuseFlight& f : flights) {
+        if (f.reusedMs.empty()) continue;
+        const double floorMs = meanOf(f.floorMs);
+        md << "| " << fmt("%.0f", f.fps) << " | " << f.reusedMs.size() << " | " << fmt("%.1f", meanOf(f.freshMs))
+           << " (" << fmt("%.2f", meanOf(f.freshMs) / floorMs) << "×) | " << fmt("%.1f", meanOf(f.reusedMs)) << " ("
+           << fmt("%.2f", meanOf(f.reusedMs) / floorMs) << "×) | " << fmt("%.1f", median(f.reusedMs)) << " / "
+           << fmt("%.1f", *std::max_element(f.reusedMs.begin(), f.reusedMs.end())) << " | " << fmt("%.1f", floorMs)
+           << " | " << (f.kept.empty() ? std::string("–") : fmt("%.0f%%", 100 * meanOf(f.kept))) << " | "
+           << fmt("%.1f", *std::min_element(f.psnr.begin(), f.psnr.end())) << " / " << fmt("%.1f", median(f.psnr))
+           << " |\n";
+    }
+    return md.str();
+}
+
 std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>& rows,
-                            const std::optional<AutoSplit>& autoSplit, int frames, const std::string& when,
-                            const std::string& machine) {
+                            const std::optional<AutoSplit>& autoSplit, const std::vector<ReuseFlight>& flights,
+                            int frames, const std::string& when, const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --layered` on " << when << ", " << machine << ", at " << o.width << "x"
        << o.height << ", median of " << frames
@@ -183,7 +278,8 @@ std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>
           "the geometry at the frame's resolution, which the half-resolution sky can undercut; shadows = ms/frame "
           "minus the same without shadows; before = the renderer before its speed work (full resolution, "
           "`LayeredSettings::downsample = 1`, shadows as a pass of their own; it shares the later city-glow program "
-          "split, worth about 10% more), same frames.\n\n";
+          "split, worth about 10% more), same frames. A still view drawn again and again: every variant draws every "
+          "pixel afresh (`reusePeriod = 1`); the far field reused across frames is measured on a flight, below.\n\n";
     md << "| extent | N | ms/frame | floor ms | × floor | shadows ms | before ms | speed-up | draws | instances |\n"
           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Row& r : rows)
@@ -203,6 +299,7 @@ std::string layeredMarkdown(const LayeredBenchOptions& o, const std::vector<Row>
            << fmt("%.2f", autoSplit->farMs / autoSplit->floorMs)
            << "× the floor), near field (near LOD update and compositor) " << fmt("%.1f", autoSplit->nearMs) << " ms ("
            << fmt("%.2f", autoSplit->nearMs / autoSplit->floorMs) << "× the far field's floor).\n";
+    md << reuseMarkdown(o, flights);
     md << "\n![ms per frame against the layer count N](layered_bench.png)\n";
     return md.str();
 }
@@ -219,6 +316,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
     std::vector<Row> rows;
     std::string renderer;
     std::optional<AutoSplit> autoSplit;
+    std::vector<ReuseFlight> flights;
     try {
         ContextOptions co;
         co.backend = o.bench.backend;
@@ -232,6 +330,15 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         std::cerr << "bench: --method auto on near_and_far.json: " << fmt("%.1f", autoSplit->ms) << " ms (far "
                   << fmt("%.1f", autoSplit->farMs) << ", near " << fmt("%.1f", autoSplit->nearMs) << ", far floor "
                   << fmt("%.1f", autoSplit->floorMs) << ")\n";
+        for (const double fps : {30.0, 10.0}) {
+            flights.push_back(flyFarField(o, fps, o.bench.quick ? 4 : 61, target, opaque));
+            const ReuseFlight& f = flights.back();
+            std::cerr << "bench: the far field reused at " << fmt("%.0f", fps)
+                      << " fps: " << fmt("%.1f", meanOf(f.reusedMs)) << " ms amortised, afresh "
+                      << fmt("%.1f", meanOf(f.freshMs)) << " ms, floor " << fmt("%.1f", meanOf(f.floorMs))
+                      << " ms, worst PSNR "
+                      << fmt("%.1f", f.psnr.empty() ? 0.0 : *std::min_element(f.psnr.begin(), f.psnr.end())) << " dB\n";
+        }
         gl::setChecks(true);
         gl::checkAlways("bench --layered");
     } catch (const std::exception& e) {
@@ -239,7 +346,7 @@ int runLayeredBench(const LayeredBenchOptions& o) {
         return 1;
     }
     const std::string when = utcNow();
-    const std::string md = layeredMarkdown(o, rows, autoSplit, frames, when, machineLine(renderer));
+    const std::string md = layeredMarkdown(o, rows, autoSplit, flights, frames, when, machineLine(renderer));
     return publishChartBench(o.bench.outDir, "layered bench", "layered_bench", layeredCsv(rows), md, "plot_layered.py",
                              when, {std::to_string(o.width) + "x" + std::to_string(o.height)});
 }

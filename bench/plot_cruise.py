@@ -46,7 +46,7 @@ def main():
         ax.grid(True, alpha=0.3)
         if k == 0:
             ax.set_ylabel("PSNR vs fresh (dB)")
-    fig.suptitle("Nephele tiles that last and cloud impostors, %s — %s" % (sys.argv[4], sys.argv[3]), fontsize=10)
+    fig.suptitle("Nephele tiles that last, cloud impostors and the far field reused, %s — %s" % (sys.argv[4], sys.argv[3]), fontsize=10)
     fig.tight_layout()
     fig.savefig(sys.argv[2])
 
