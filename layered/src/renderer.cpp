@@ -63,7 +63,7 @@ int mipLevels(int size) {
 
 glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
 
-// Frames further apart in time than this (s) are not reused: at 2 frames a second and slower the
+// Frames further apart in time than this (s) are not reused: slower than 2 frames a second the
 // light, the wind and the eye move too much between them.
 constexpr double kReuseMaxSeconds = 0.5;
 
