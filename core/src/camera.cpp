@@ -73,6 +73,12 @@ View makeView(const Camera& camera, const Frustum& f, double yawDeg, double pitc
     return v;
 }
 
+glm::dmat4 View::rotationViewProjection() const {
+    glm::dmat4 rotation = viewMatrix;
+    rotation[3] = glm::dvec4(0, 0, 0, 1);
+    return projectionMatrix * rotation;
+}
+
 Vec3 View::rayCentre() const {
     return forward + 0.5 * (frustum.left + frustum.right) * right + 0.5 * (frustum.bottom + frustum.top) * up;
 }

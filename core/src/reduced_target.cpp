@@ -47,12 +47,6 @@ Texture reducedImage(glm::ivec2 size, GLenum format, int bytesPerTexel, GLint fi
     glTextureParameteri(tex.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     return tex;
 }
-
-glm::dmat4 rotationViewProjection(const View& view) {
-    glm::dmat4 rotation = view.viewMatrix;
-    rotation[3] = glm::dvec4(0, 0, 0, 1);
-    return view.projectionMatrix * rotation;
-}
 }  // namespace
 
 // The texels the last frame kept: its counters, done by now (read without waiting).
@@ -110,7 +104,7 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
         t.lastEye = t.eye;
     }
     t.drawn = history;
-    t.rotationVP = rotationViewProjection(view);
+    t.rotationVP = view.rotationViewProjection();
     t.eye = view.eye;
     if (history) ++t.frames;
     reused_ = hadLast;
@@ -160,19 +154,15 @@ glm::ivec2 ReducedTarget::begin(const DepthSource& frameDepth, const View& view,
 
 void ReducedTarget::setReuseUniforms(const Program& p, Target& t, const View& view, const ReuseFrame& frame,
                                      bool haveLast) {
-    const glm::dmat4& P = view.projectionMatrix;
-    // NDC (x, y) -> the eye-space direction (x_e, y_e, -1) of a perspective projection (clip w =
-    // -z_e): x_e = (x + P[2][0]) / P[0][0]; then to the world by the view's rotation.
-    const glm::dmat3 eyeRay(glm::dvec3(1 / P[0][0], 0, 0), glm::dvec3(0, 1 / P[1][1], 0),
-                            glm::dvec3(P[2][0] / P[0][0], P[2][1] / P[1][1], -1));
     p.set("haveLast", haveLast ? 1 : 0);
-    p.set("rayOf", glm::mat3(glm::transpose(glm::dmat3(view.viewMatrix)) * eyeRay));
+    // The world ray through NDC (x, y): rayCentre() + x rightScaled() + y upScaled().
+    p.set("rayOf", glm::mat3(glm::dmat3(view.rightScaled(), view.upScaled(), view.rayCentre())));
     p.set("lastViewProjection", glm::mat4(t.lastRotationVP));
     p.set("shift", glm::vec3(t.eye - t.lastEye - frame.drift));
     p.set("period", std::max(frame.period, 1));
     p.set("phase", int(t.frames % std::max(frame.period, 1)));
     p.set("maxError", float(frame.maxError));
-    p.set("focal", float(0.5 * size_.y * P[1][1]));
+    p.set("focal", float(0.5 * size_.y / view.tanHalfY));
     p.set("nearest", float(std::max(frame.nearest, 1e-3)));
     p.set("nearPlane", float(view.depth.reversedZ ? 1.0 : 0.0));
     p.set("lastColor", 1);

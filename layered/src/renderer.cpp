@@ -63,6 +63,9 @@ int mipLevels(int size) {
 
 glm::vec2 fract2(const glm::dvec2& v) { return glm::vec2(v - glm::floor(v)); }
 
+// Whether the far field is reused across frames: drawn at reduced resolution, with a period.
+bool reusesFarField(const LayeredSettings& s) { return s.downsample > 1 && s.reusePeriod > 1; }
+
 // Frames further apart in time than this (s) are not reused: slower than 2 frames a second the
 // light, the wind and the eye move too much between them.
 constexpr double kReuseMaxSeconds = 0.5;
@@ -212,9 +215,7 @@ glm::vec2 billboardAxis(const View& view) {
 
 // The uniforms every layer of the frame shares.
 void setFrameUniforms(const ProgramPair& p, const Scene& scene, const View& view, const LayeredSettings& s, double t) {
-    glm::dmat4 rotation = view.viewMatrix;
-    rotation[3] = glm::dvec4(0, 0, 0, 1);
-    p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
+    p.set("viewProjection", glm::mat4(view.rotationViewProjection()));
     p.set("eyeHeight", float(view.eye.z));
     setLightUniforms(p, scene);
     p.set("extinction", float(scene.medium.extinction));
@@ -301,7 +302,7 @@ LayeredRenderer::LayeredRenderer(LayeredSettings settings)
     validate(settings_);
     HostStateScope scope;  // the meshes' uploads and bindings
     // Reusing the far field, the layers also write their distance moments (ReducedTarget).
-    const bool reuse = settings_.downsample > 1 && settings_.reusePeriod > 1;
+    const bool reuse = reusesFarField(settings_);
     const std::string defines =
         "#define MAX_FLASHES " + std::to_string(kMaxFlashes) + "\n" + (reuse ? "#define REUSE 1\n" : "");
     impl_->program =
@@ -513,7 +514,6 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, GLuin
     return render(scene, view, HostFrame{framebuffer}, t);
 }
 
-
 LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const HostFrame& frame, double t) {
     LayeredStats stats;
     stats.sceneLayers = int(scene.layers.size());
@@ -550,7 +550,7 @@ LayeredStats LayeredRenderer::render(const Scene& scene, const View& view, const
 
     const ProgramPair p{m.program, m.programGlow};
     setFrameUniforms(p, scene, view, s, t);
-    const bool reuse = s.downsample > 1 && s.reusePeriod > 1;
+    const bool reuse = reusesFarField(s);
     if (s.downsample > 1) {  // into the reduced target (bound, viewport set), upsampled at the end
         const ReuseFrame reuseFrame = reuse ? m.reuseFrame(scene, view, s, t) : ReuseFrame{};
         m.reduced.begin(frameDepth, view, s.downsample, reuse ? &reuseFrame : nullptr);
@@ -590,9 +590,7 @@ LayeredStats LayeredBenchHooks::renderFloor(LayeredRenderer& r, const Scene& sce
     const LayeredSettings& s = r.settings_;
     HostStateScope scope;
     const Program& p = m.floor;
-    glm::dmat4 rotation = view.viewMatrix;
-    rotation[3] = glm::dvec4(0, 0, 0, 1);
-    p.set("viewProjection", glm::mat4(view.projectionMatrix * rotation));
+    p.set("viewProjection", glm::mat4(view.rotationViewProjection()));
     p.set("eyeHeight", float(view.eye.z));
     p.set("lod0Radius", float(s.lod0Radius));
     p.set("lod0Spacing", float(s.lod0Spacing));

@@ -59,6 +59,9 @@ struct View {
     glm::dvec3 depthParameters() const;
     // Window depth of the far plane (what a cleared depth buffer holds): 1, or 0 with reversedZ.
     double farDepth() const { return depth.reversedZ ? 0.0 : 1.0; }
+    // projectionMatrix times the view's rotation alone: world directions, or points given
+    // relative to the eye, to clip space.
+    glm::dmat4 rotationViewProjection() const;
 };
 
 // Far planes beyond this (an infinite reversed-Z projection's included) count as this far (m).
