@@ -8,6 +8,7 @@
 #include "nephele/opaque.hpp"
 #include "nephele/scene.hpp"
 
+#include <chrono>
 #include <functional>
 #include <string>
 #include <utility>
@@ -19,6 +20,10 @@ std::string utcNow();  // "2026-11-22 04:17 UTC"
 // "CPU model, N cores; GL renderer" (the renderer string from Context::description()).
 std::string machineLine(const std::string& glRenderer);
 double median(std::vector<double> v);
+// Milliseconds of the steady clock since t0.
+inline double msSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 // PSNR of two linear RGB images as 8-bit sRGB (peak 255): what a display shows.
 double psnr8(const Image& a, const Image& b);
 std::string fmt(const char* printfFormat, double v);

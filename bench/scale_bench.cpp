@@ -37,7 +37,6 @@ namespace nephele::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // The scene as a cloudscene file (camera and clouds; every other section at its default).
 std::string sceneJson(const Scene& s) {
@@ -83,7 +82,7 @@ double peakMb() {
 struct Phase {
     double ms = -1, peakMb = 0;  // ms < 0: not measured
 };
-struct Row {
+struct ScaleRow {
     int count = 0;
     std::string method, size;
     Phase load, plan, draw;
@@ -93,7 +92,7 @@ struct Row {
 
 // Times `frame` twice (first and second frame) after `background` drew the sky; each to glFinish.
 // `plannedMs` reads the plan time of the frame just drawn.
-void timeMethod(Row& row, const std::function<void()>& background, const std::function<void()>& frame,
+void timeMethod(ScaleRow& row, const std::function<void()>& background, const std::function<void()>& frame,
                 const std::function<double()>& plannedMs) {
     try {
         background();
@@ -133,7 +132,7 @@ std::string cell(const Phase& p) {
     return p.ms < 0 ? "—" : fmt("%.0f", p.ms) + " ms / " + fmt("%.0f", p.peakMb) + " MB";
 }
 
-std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
+std::vector<ScaleRow> measure(const ScaleBenchOptions& o, std::string& renderer) {
     ContextOptions co;
     co.backend = o.bench.backend;
     auto context = Context::create(co);
@@ -141,10 +140,10 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
     gl::setChecks(false);  // timing: no glGetError round trips
     const std::string file =
         (fs::temp_directory_path() / ("nephele_scale_" + std::to_string(::getpid()) + ".json")).string();
-    std::vector<Row> rows;
+    std::vector<ScaleRow> rows;
     for (int count : o.counts) {
         { std::ofstream(file) << sceneJson(benchScene(count, o.width, o.height)); }
-        Row load;
+        ScaleRow load;
         resetPeak();
         const auto t0 = Clock::now();
         Scene scene = loadScene(file);
@@ -156,12 +155,12 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
         auto background = [&] { opaque.draw(scene, view, target.framebuffer()); };
         const std::string size = std::to_string(o.width) + "x" + std::to_string(o.height);
         auto row = [&](const std::string& method, const std::string& rowSize) {
-            Row r = load;
+            ScaleRow r = load;
             r.count = count, r.method = method, r.size = rowSize;
             return r;
         };
         {
-            Row r = row("ellipsoid", size);
+            ScaleRow r = row("ellipsoid", size);
             EllipsoidRenderer clouds;
             EllipsoidStats st;
             timeMethod(
@@ -170,7 +169,7 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
             rows.push_back(r);
         }
         {
-            Row r = row("auto", size);
+            ScaleRow r = row("auto", size);
             SkyRenderer sky;
             SkyStats st;
             timeMethod(
@@ -179,7 +178,7 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
             rows.push_back(r);
         }
         {
-            Row r = row("raymarch", size);
+            ScaleRow r = row("raymarch", size);
             RaymarchRenderer marcher;
             RaymarchStats st;
             timeMethod(
@@ -191,7 +190,7 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
             Scene small = scene;
             small.camera.width = o.exactWidth;
             small.camera.height = std::max(1, int(std::lround(o.exactWidth * double(o.height) / o.width)));
-            Row r =
+            ScaleRow r =
                 row("gardner-exact", std::to_string(small.camera.width) + "x" + std::to_string(small.camera.height));
             const NoiseSettings ns;
             const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
@@ -201,7 +200,7 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
             r.draw = {msSince(t1), peakMb()};
             rows.push_back(r);
         }
-        for (const Row& r : rows)
+        for (const ScaleRow& r : rows)
             if (r.count == count)
                 std::cerr << "bench --scale: " << count << " " << r.method << ": load " << cell(r.load) << ", plan "
                           << cell(r.plan) << ", draw " << cell(r.draw)
@@ -211,7 +210,7 @@ std::vector<Row> measure(const ScaleBenchOptions& o, std::string& renderer) {
     return rows;
 }
 
-std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, const std::string& when,
+std::string markdown(const ScaleBenchOptions& o, const std::vector<ScaleRow>& rows, const std::string& when,
                      const std::string& machine) {
     std::ostringstream md;
     md << "Measured by `nephele bench --scale` on " << when << ", " << machine << ". Each count is `nephele bench`'s "
@@ -222,7 +221,7 @@ std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, c
        << "llvmpipe's GPU memory is process memory). gardner-exact is the CPU model at " << o.exactWidth
        << " px wide, whole. Wall times on a machine shared with other jobs: compare within a column.\n\n";
     md << "| ellipsoids | method | size | load | plan | draw | next frame ms |\n|---:|---|---|---:|---:|---:|---:|\n";
-    for (const Row& r : rows) {
+    for (const ScaleRow& r : rows) {
         md << "| " << r.count << " | " << r.method << " | " << r.size << " | " << cell(r.load) << " | ";
         if (!r.refused.empty()) {
             md << "refused: " << r.refused << " | | |\n";
@@ -234,7 +233,7 @@ std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, c
        << "| method | load | first frame (plan + draw) | next frame |\n|---|---:|---:|---:|\n";
     for (const char* method : {"ellipsoid", "auto", "raymarch", "gardner-exact"}) {
         std::vector<std::pair<double, double>> load, first, next;
-        for (const Row& r : rows)
+        for (const ScaleRow& r : rows)
             if (r.method == method && r.refused.empty()) {
                 load.push_back({double(r.count), r.load.ms});
                 first.push_back({double(r.count), std::max(r.plan.ms, 0.0) + r.draw.ms});
@@ -253,7 +252,7 @@ std::string markdown(const ScaleBenchOptions& o, const std::vector<Row>& rows, c
 
 int runScaleBench(const ScaleBenchOptions& o) {
     if (!prepareBenchOutputs(o.bench.outDir)) return 2;
-    std::vector<Row> rows;
+    std::vector<ScaleRow> rows;
     std::string renderer;
     try {
         rows = measure(o, renderer);
@@ -264,7 +263,7 @@ int runScaleBench(const ScaleBenchOptions& o) {
     const std::string md = markdown(o, rows, utcNow(), machineLine(renderer));
     std::ostringstream csv;
     csv << "ellipsoids,method,size,load_ms,load_peak_mb,plan_ms,draw_ms,frame_peak_mb,next_ms,refused\n";
-    for (const Row& r : rows)
+    for (const ScaleRow& r : rows)
         csv << r.count << "," << r.method << "," << r.size << "," << fmt("%.1f", r.load.ms) << ","
             << fmt("%.1f", r.load.peakMb) << "," << fmt("%.1f", r.plan.ms) << "," << fmt("%.1f", r.draw.ms) << ","
             << fmt("%.1f", r.draw.peakMb) << "," << fmt("%.1f", r.nextMs) << ",\"" << r.refused << "\"\n";

@@ -28,7 +28,6 @@ namespace nephele::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // A change of the weather at a frame of the flight, as a host applies a CIGI packet.
 struct WeatherEvent {

@@ -12,17 +12,11 @@
 using namespace nephele;
 using nephele::test::db;
 using nephele::test::Flight;
+using nephele::test::meanChange;
 using nephele::test::save;
 using nephele::test::sharedScene;
 
 namespace {
-
-double meanChange(const Image& a, const Image& b) {
-    double s = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i)
-        s += std::abs(std::clamp(a.pixels[i], 0.0f, 1.0f) - std::clamp(b.pixels[i], 0.0f, 1.0f));
-    return s / double(a.pixels.size());
-}
 
 EllipsoidSettings lod(bool on = true) {
     EllipsoidSettings s;

@@ -2,6 +2,7 @@
 // flown beside the same renderer drawing every pixel afresh, a reused frame stays within the
 // issue's 40 dB of the fresh one, a refreshed block does not pop, a still view keeps its pixels
 // exactly, a weather step and a moved object are drawn afresh at once.
+#include "flight_test_util.hpp"
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
 #include "temp_dir.hpp"
@@ -36,9 +37,8 @@ Scene deckScene() {
 }
 
 // One layered renderer kept across frames, drawing into its own target over the scene's ground and sky.
-struct LayerFlight {
-    LayerFlight(const LayeredSettings& s, const Scene& scene)
-        : sky(s), target(scene.camera.width, scene.camera.height) {}
+struct SkyFlight {
+    SkyFlight(const LayeredSettings& s, const Scene& scene) : sky(s), target(scene.camera.width, scene.camera.height) {}
     Image frame(const Scene& scene, const View& view, double t) {
         OpaquePass().draw(scene, view, target.framebuffer());
         last = sky.render(scene, view, target.framebuffer(), t);
@@ -49,7 +49,7 @@ struct LayerFlight {
     LayeredStats last;
 };
 
-LayeredSettings settings(int period = LayeredSettings{}.reusePeriod) {
+LayeredSettings reuseSettings(int period = LayeredSettings{}.reusePeriod) {
     static const test::TempDir cache("nephele_far_reuse_");
     LayeredSettings s = test::smallLayered();
     s.cacheDir = test::runCacheDirOr(cache.dir().string());
@@ -72,10 +72,6 @@ double worstBlock(const Image& a, const Image& b) {
     return worst;
 }
 
-double meanChange(const Image& a, const Image& b) {
-    return compareImages(test::clamped(a), test::clamped(b), 1).meanAbs;
-}
-
 // Frames of a flight: under the sanitizers fewer (the renderer's code is the same; llvmpipe's
 // work is most of these tests' time, and CI's sanitizer step runs every test).
 constexpr int kFlightFrames = test::kSanitized ? 10 : 16;
@@ -95,7 +91,7 @@ struct FlightResult {
 
 template <class CameraAt>
 FlightResult fly(const Scene& scene, int frames, CameraAt&& viewAt, const char* name) {
-    LayerFlight reused(settings(), scene), fresh(settings(1), scene);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
     FlightResult r;
     Image lastReused, lastFresh;
     for (int k = 0; k < frames; ++k) {
@@ -111,8 +107,8 @@ FlightResult fly(const Scene& scene, int frames, CameraAt&& viewAt, const char* 
             if (db < 40) test::save(std::string(name) + "_reused", a), test::save(std::string(name) + "_fresh", b);
         }
         if (k > 0) {
-            r.changeReused += meanChange(a, lastReused) / (frames - 1);
-            r.changeFresh += meanChange(b, lastFresh) / (frames - 1);
+            r.changeReused += test::meanChange(a, lastReused) / (frames - 1);
+            r.changeFresh += test::meanChange(b, lastFresh) / (frames - 1);
             r.worstStepReused = std::max(r.worstStepReused, worstBlock(a, lastReused));
             r.worstStepFresh = std::max(r.worstStepFresh, worstBlock(b, lastFresh));
         }
@@ -184,7 +180,7 @@ TEST_F(FarReuseGLTest, ALayerCloseByIsDrawnAfreshWhereItsViewTurns) {
 TEST_F(FarReuseGLTest, AStillViewKeepsItsPixels) {
     const Scene scene = deckScene();
     const View view = makeView(scene.camera, Frustum{-0.3, 0.9, -0.1, 0.5});
-    LayerFlight reused(settings(), scene), fresh(settings(1), scene);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
     const Image b = fresh.frame(scene, view, 0);
     long long kept = 0;
     for (int k = 0; k < 6; ++k) {
@@ -202,7 +198,7 @@ TEST_F(FarReuseGLTest, AStillViewKeepsItsPixels) {
 TEST_F(FarReuseGLTest, AWeatherStepIsDrawnAfreshAtOnce) {
     Scene scene = deckScene();
     const View view = makeView(scene.camera);
-    LayerFlight reused(settings(), scene), fresh(settings(1), scene);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
     for (int k = 0; k < 3; ++k) reused.frame(scene, view, k / 30.0);
     scene.layers[0].coverage += 0.004;  // a ramp's step
     reused.frame(scene, view, 3 / 30.0);
@@ -226,7 +222,7 @@ TEST_F(FarReuseGLTest, WhereASurfaceWasTheLayerIsDrawnAfresh) {
     box.center = Vec3(-30, 400, 900 + 400 * std::tan(glm::radians(10.0)));
     box.size = Vec3(40, 10, 40);
     scene.objects.push_back(box);
-    LayerFlight reused(settings(), scene), fresh(settings(1), scene);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
     for (int k = 0; k < 3; ++k) reused.frame(scene, view, 0);
     scene.objects[0].center.x += 60;
     const Image a = reused.frame(scene, view, 0), b = fresh.frame(scene, view, 0);

@@ -32,4 +32,7 @@ struct Flight {
 // PSNR of two frames, clamped to [0, 1] (what a display shows of them).
 inline double db(const Image& a, const Image& b) { return psnr(clamped(a), clamped(b)); }
 
+// The mean absolute change between two frames, clamped to [0, 1]: what the flicker index sums.
+inline double meanChange(const Image& a, const Image& b) { return compareImages(clamped(a), clamped(b), 1).meanAbs; }
+
 }  // namespace nephele::test

@@ -5,6 +5,7 @@
 // tiles kept across frames stay behind the host's near geometry as the eye moves.
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
+#include "scene_test_util.hpp"
 #include "temp_dir.hpp"
 #include "test_build.hpp"
 
@@ -33,37 +34,6 @@ using namespace nephele::gl;
 
 namespace {
 
-SkySettings testSettings() { return test::smallSky(); }
-
-// The eye under a layer (2000-2600 m) looking 8 degrees up towards +x, an explicit cumulus
-// ahead and a box inside its edge (fly-through) under the layer's shadows.
-Scene testScene(int width, int height) {
-    Scene s;
-    s.camera.position = Vec3(0, 0, 1000);
-    s.camera.direction = Vec3(std::cos(glm::radians(8.0)), 0, std::sin(glm::radians(8.0)));
-    s.camera.width = width, s.camera.height = height;
-    s.camera.fovYDeg = 40;
-    Layer l;
-    l.base = 2000, l.thickness = 600, l.coverage = 0.6, l.density = 0.8, l.seed = 5, l.extent = 30000;
-    l.wind = Vec2(12, -4);
-    s.layers.push_back(l);
-    Cloud c;
-    c.name = "cumulus";
-    for (int k = 0; k < 9; ++k) {
-        Ellipsoid e;
-        e.center = Vec3(3000 + 120 * (k % 3), -400 + 330 * (k % 4) - 60 * k, 1150 + 70 * (k % 2));
-        e.radii = Vec3(260, 200, 150);
-        e.rotationDeg = Vec3(0, 0, 20.0 * k);
-        c.ellipsoids.push_back(e);
-    }
-    s.clouds.push_back(c);
-    Object box;
-    box.center = Vec3(2750, 150, 1100);
-    box.size = Vec3(200, 200, 200);
-    box.color = Vec3(0.6, 0.3, 0.2);
-    s.objects.push_back(box);
-    return s;
-}
 
 // A frame of the host's: colour (of `format`) and depth/stencil, at any size.
 struct HostTarget {
@@ -126,10 +96,10 @@ class HostApiGLTest : public test::EglTest {};
 
 // prepare + update + draw is render() for the same time and view, pixel for pixel.
 TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
     HostTarget a(96, 64), b(96, 64);
-    SkyRenderer once(testSettings()), host(testSettings());
+    SkyRenderer once(test::smallSky()), host(test::smallSky());
     const Image rendered = frameOf(scene, view, a, [&] { once.render(scene, view, a.fbo.id(), 1.5, true); });
     host.prepare(scene);
     const SkyUpdateStats up = host.update(1.5, Weather::of(scene), view.eye);
@@ -144,11 +114,11 @@ TEST_F(HostApiGLTest, UpdateAndDrawDrawWhatRenderDraws) {
 // With SkySettings::timings, draw() reports the wall time of its parts (the far field, the
 // tiles, the composite) as render() does; without, none (it costs the GL pipelining).
 TEST_F(HostApiGLTest, DrawReportsItsPartsTimesWhenAsked) {
-    const Scene scene = testScene(64, 48);
+    const Scene scene = test::hostScene(64, 48);
     const View view = makeView(scene.camera);
     HostTarget target(64, 48);
     for (bool timings : {true, false}) {
-        SkySettings settings = testSettings();
+        SkySettings settings = test::smallSky();
         settings.timings = settings.ellipsoid.timings = timings;
         SkyRenderer host(settings);
         host.prepare(scene);
@@ -165,10 +135,10 @@ TEST_F(HostApiGLTest, DrawReportsItsPartsTimesWhenAsked) {
 // After the first update the near LOD's new cells are spread, kCellsPerUpdate an update by
 // default, or all made at once with cellsPerUpdate 0 (a recording that must equal render()).
 TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {
-    const Scene scene = testScene(32, 32);
+    const Scene scene = test::hostScene(32, 32);
     const Vec3 far = scene.camera.position + Vec3(8000, 0, 0);  // beyond the first cells' reach
     auto pendingAfterMove = [&](int cellsPerUpdate) {
-        SkySettings settings = testSettings();
+        SkySettings settings = test::smallSky();
         settings.cellsPerUpdate = cellsPerUpdate;
         SkyRenderer sky(settings);
         sky.prepare(scene);
@@ -180,7 +150,7 @@ TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {
     };
     EXPECT_GT(pendingAfterMove(kCellsPerUpdate), 0);
     EXPECT_EQ(pendingAfterMove(0), 0);
-    SkySettings bad = testSettings();
+    SkySettings bad = test::smallSky();
     bad.cellsPerUpdate = -1;
     EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
 }
@@ -189,10 +159,10 @@ TEST_F(HostApiGLTest, CellsPerUpdateSpreadsTheNearLodOrMakesItAllAtOnce) {
 // view: the compositor's tiles, the layered sky's half-resolution upsampling and shadows, and
 // the near LOD see the same clouds in the same places.
 TEST_F(HostApiGLTest, StitchedChannelsAreTheWideView) {
-    const Scene scene = testScene(192, 64);
+    const Scene scene = test::hostScene(192, 64);
     const Frustum wide{-1.2, 1.2, -0.4, 0.4};
     const View wideView = makeView(scene.camera, wide);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     sky.update(0.5, Weather::of(scene), wideView.eye);
     HostTarget one(192, 64), three(192, 64);
@@ -233,9 +203,9 @@ TEST_F(HostApiGLTest, StitchedChannelsAreTheWideView) {
 // The host's depth in any convention: reversed Z and [0, 1] clip depth give the standard
 // image (objects inside clouds, shadows on them, the upsampling's depth test).
 TEST_F(HostApiGLTest, EveryDepthConventionGivesTheSameImage) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View standard = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     sky.update(0.5, Weather::of(scene), standard.eye);
     HostTarget target(96, 64);
@@ -262,9 +232,9 @@ TEST_F(HostApiGLTest, EveryDepthConventionGivesTheSameImage) {
 // A channel anywhere in the host's framebuffer is the same image as alone, leaves the rest of
 // the framebuffer alone, and the host's depth texture serves as well as a copy of its depth.
 TEST_F(HostApiGLTest, ViewportOffsetAndTheHostsDepthTexture) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     sky.update(0.25, Weather::of(scene), view.eye);
     sky.waitForBackgroundWork();  // the near clouds' grids: every draw below with the same ones
@@ -296,9 +266,9 @@ TEST_F(HostApiGLTest, ViewportOffsetAndTheHostsDepthTexture) {
 
 // An sRGB frame holds the float frame's colours, sRGB-encoded (blending in linear light).
 TEST_F(HostApiGLTest, AnSrgbFrameGetsTheFloatFramesColoursEncoded) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     sky.update(0.25, Weather::of(scene), view.eye);
     HostTarget linear(96, 64), srgb(96, 64, GL_SRGB8_ALPHA8);
@@ -316,10 +286,10 @@ TEST_F(HostApiGLTest, AnSrgbFrameGetsTheFloatFramesColoursEncoded) {
 
 // A host's state as hostile as it gets changes nothing in the image, and is restored.
 TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
     HostTarget clean(96, 64, GL_SRGB8_ALPHA8), hostile(96, 64, GL_SRGB8_ALPHA8);
-    SkyRenderer reference(testSettings());
+    SkyRenderer reference(test::smallSky());
     reference.prepare(scene);
     reference.update(0.5, Weather::of(scene), view.eye);
     const Image expected = frameOf(scene, view, clean, [&] { reference.draw(viewDescOf(view, clean.fbo.id())); });
@@ -331,7 +301,7 @@ TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
 
     std::optional<SkyRenderer> sky;
     test::expectStateUnchanged([&](int) {
-        sky.emplace(testSettings());  // made, prepared and drawn in the hostile state
+        sky.emplace(test::smallSky());  // made, prepared and drawn in the hostile state
         sky->prepare(scene);
         sky->update(0.5, Weather::of(scene), view.eye);
         sky->draw(viewDescOf(view, hostile.fbo.id()));
@@ -343,13 +313,13 @@ TEST_F(HostApiGLTest, HostileHostStateGivesTheCleanImageAndIsRestored) {
 // size): update() only queues it, the frames meanwhile draw the layer with the volume it had,
 // and the first frame after the job uploads the new one.
 TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
-    Scene scene = testScene(96, 64);
+    Scene scene = test::hostScene(96, 64);
     // The layer's own light only: its near clouds (near LOD) have grids and cells of their own,
     // made again on their own schedule (with them, the frame after the job differs from a fresh
     // renderer's by a mean of 1.8e-2).
     scene.layers[0].nearLod = false;
     const View view = makeView(scene.camera);
-    SkySettings settings = testSettings();
+    SkySettings settings = test::smallSky();
     settings.layered.lighting = test::busyLighting();  // the paper's 256 x 256 x 32: a job of 0.3 s or more
     // Computed, never loaded: an empty folder of the test's own (the renderer for the thicker
     // layer below then loads the volume this one's job made instead of tracing it again).
@@ -416,9 +386,9 @@ TEST_F(HostApiGLTest, ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone) {
 // the frame right after the change is the frame right before it (t * wind would jump by
 // t * the change of wind).
 TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     Weather weather = Weather::of(scene);
     sky.update(30.0, weather, view.eye);
@@ -443,9 +413,9 @@ TEST_F(HostApiGLTest, AChangeOfWindDoesNotJump) {
 // With wind every near cloud moves each frame; a cloud that only moved keeps its radiance grid
 // and its slot in the light textures: a windy frame computes and uploads none.
 TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     const Weather weather = Weather::of(scene);
     ASSERT_GT(glm::length(weather.layers.at(1).layer.wind), 0);
@@ -468,9 +438,9 @@ TEST_F(HostApiGLTest, AWindyFrameComputesAndUploadsNoLightVolume) {
 // diffuse light, with the new sun's single scattering) until the worker's are ready; then the
 // next update takes them and the image changes again.
 TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     const View view = makeView(scene.camera);
-    SkyRenderer sky(testSettings());
+    SkyRenderer sky(test::smallSky());
     sky.prepare(scene);
     Weather weather = Weather::of(scene);
     sky.update(0.0, weather, view.eye);
@@ -500,14 +470,14 @@ TEST_F(HostApiGLTest, ANewSunNeverWaitsForTheCloudsGrids) {
 // takes the grid. A prepare() that waits leaves nothing pending. A grid of 2^22 photons takes
 // seconds on one core, so the stand-in is seen whatever the machine's load.
 TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
-    SkySettings settings = testSettings();
+    SkySettings settings = test::smallSky();
     settings.ellipsoid.light.size = 32;
     settings.ellipsoid.light.fitToCloud = false;
     // Grids that take long enough to be pending after prepare() and at the first update; the
     // sanitizers' build traces about four times slower.
     settings.ellipsoid.light.sunPhotons = settings.ellipsoid.light.skyPhotons = test::kSanitized ? 1 << 20 : 1 << 22;
     settings.background.priority = BackgroundSettings::Priority::Low;
-    Scene scene = testScene(64, 48);
+    Scene scene = test::hostScene(64, 48);
     scene.layers[0].nearLod =
         false;  // no near clouds: they would spawn once the layer's lighting is made, on stand-ins
     {
@@ -544,7 +514,7 @@ TEST_F(HostApiGLTest, PrepareWithoutWaitingSignalsWhenTheBackgroundIsDone) {
     EXPECT_EQ(later.lightStandIns, 0);
     self = nullptr;
 
-    SkySettings bad = testSettings();
+    SkySettings bad = test::smallSky();
     bad.background.threads = 0;
     EXPECT_THROW(SkyRenderer{bad}, std::invalid_argument);
 }
@@ -567,7 +537,7 @@ TEST_F(HostApiGLTest, ReusedTilesStayBehindTheHostsNearGeometryAsTheEyeMoves) {
     glNamedFramebufferTexture(fbo.id(), GL_DEPTH_ATTACHMENT, depth.id(), 0);
     glNamedFramebufferDrawBuffer(fbo.id(), GL_COLOR_ATTACHMENT1);
     ASSERT_EQ(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE));
-    SkySettings settings = testSettings();
+    SkySettings settings = test::smallSky();
     ASSERT_TRUE(settings.ellipsoid.reuse);
     SkyRenderer sky(settings);
     sky.prepare(scene);

@@ -5,6 +5,7 @@
 // every draw buffer's blend state and colour mask come back as they were.
 #include "gl_test_util.hpp"
 #include "layered_test_util.hpp"
+#include "scene_test_util.hpp"
 
 #include "nephele/gl_state.hpp"
 #include "nephele/log.hpp"
@@ -26,35 +27,6 @@ using namespace nephele::gl;
 
 namespace {
 
-SkySettings testSettings() { return test::smallSky(); }
-
-// Under a layer, an explicit cumulus ahead with a box at its edge: the box's depth decides
-// which cloud pixels are hidden, so a wrong depth copy shows.
-Scene testScene(int width, int height) {
-    Scene s;
-    s.camera.position = Vec3(0, 0, 1000);
-    s.camera.direction = Vec3(std::cos(glm::radians(8.0)), 0, std::sin(glm::radians(8.0)));
-    s.camera.width = width, s.camera.height = height;
-    s.camera.fovYDeg = 40;
-    Layer l;
-    l.base = 2000, l.thickness = 600, l.coverage = 0.6, l.density = 0.8, l.seed = 5, l.extent = 30000;
-    s.layers.push_back(l);
-    Cloud c;
-    for (int k = 0; k < 9; ++k) {
-        Ellipsoid e;
-        e.center = Vec3(3000 + 120 * (k % 3), -400 + 330 * (k % 4) - 60 * k, 1150 + 70 * (k % 2));
-        e.radii = Vec3(260, 200, 150);
-        e.rotationDeg = Vec3(0, 0, 20.0 * k);
-        c.ellipsoids.push_back(e);
-    }
-    s.clouds.push_back(c);
-    Object box;
-    box.center = Vec3(2750, 150, 1100);
-    box.size = Vec3(200, 200, 200);
-    box.color = Vec3(0.6, 0.3, 0.2);
-    s.objects.push_back(box);
-    return s;
-}
 
 struct FramebufferSpec {
     std::string name;
@@ -151,9 +123,9 @@ protected:
     // The sky drawn into the plain frame of the other host tests (RGBA32F, DEPTH24_STENCIL8).
     void SetUp() override {
         test::EglTest::SetUp();
-        scene_ = testScene(kW, kH);
+        scene_ = test::hostScene(kW, kH);
         view_ = makeView(scene_.camera);
-        sky_ = std::make_unique<SkyRenderer>(testSettings());
+        sky_ = std::make_unique<SkyRenderer>(test::smallSky());
         sky_->prepare(scene_);
         sky_->update(0.25, Weather::of(scene_), view_.eye);
         sky_->waitForBackgroundWork();
@@ -301,9 +273,9 @@ TEST_F(HostFramebufferGLTest, ADrawBufferThatCannotBeDrawnIsNamed) {
 // (a driver may dither a window's buffer).
 TEST(HostFramebufferWindowGLTest, TheDefaultFramebufferOfAWindow) {
     if (!std::getenv("DISPLAY")) GTEST_SKIP() << "needs a display (the suite runs under xvfb-run)";
-    const Scene scene = testScene(96, 64);
+    const Scene scene = test::hostScene(96, 64);
     auto draw = [&](const View& view, GLuint fb) {
-        SkyRenderer sky(testSettings());
+        SkyRenderer sky(test::smallSky());
         sky.prepare(scene);
         sky.update(0.25, Weather::of(scene), view.eye);
         sky.waitForBackgroundWork();

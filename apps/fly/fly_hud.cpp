@@ -4,6 +4,7 @@
 #include "nephele/camera.hpp"
 #include "nephele/gl_state.hpp"
 
+#include <glm/trigonometric.hpp>
 #include <imgui.h>
 
 #include <algorithm>
@@ -33,7 +34,6 @@ const char* const kHelp =
 
 namespace {
 using namespace gl;
-constexpr double kDeg = std::numbers::pi / 180;
 constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize |
                                     ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav |
                                     ImGuiWindowFlags_NoMove;
@@ -97,12 +97,12 @@ void drawHelp() {
 
 void sunControls(Scene& scene) {
     Vec3& d = scene.sun.direction;
-    float elevation = float(std::asin(std::clamp(d.z, -1.0, 1.0)) / kDeg);
-    float azimuth = float(std::fmod(std::atan2(d.x, d.y) / kDeg + 360.0, 360.0));
+    float elevation = float(glm::degrees(std::asin(std::clamp(d.z, -1.0, 1.0))));
+    float azimuth = float(std::fmod(glm::degrees(std::atan2(d.x, d.y)) + 360.0, 360.0));
     const bool a = ImGui::SliderFloat("sun elevation", &elevation, -10.0f, 90.0f, "%.1f deg");
     const bool b = ImGui::SliderFloat("sun azimuth", &azimuth, 0.0f, 360.0f, "%.0f deg from north");
     if (a || b) {
-        const double e = elevation * kDeg, z = azimuth * kDeg;
+        const double e = glm::radians(double(elevation)), z = glm::radians(double(azimuth));
         d = Vec3(std::sin(z) * std::cos(e), std::cos(z) * std::cos(e), std::sin(e));
     }
 }
