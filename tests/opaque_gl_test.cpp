@@ -10,6 +10,8 @@
 #include "nephele/shader.hpp"
 
 #include <cstdlib>
+#include <fstream>
+#include <string>
 
 using namespace nephele;
 using namespace nephele::gl;
@@ -221,6 +223,23 @@ TEST(ContextGLTest, EglAndOSMesaAreOpenGL45Core) {
         EXPECT_GE(major * 10 + minor, 45) << backendName(b);
         EXPECT_TRUE(profile & GL_CONTEXT_CORE_PROFILE_BIT) << backendName(b);
     }
+}
+
+// libOSMesa (a second Mesa, with LLVM) is opened by the first OSMesa context, not at start: a
+// program linking Nephele::platform that never uses OSMesa does not pay for it.
+TEST(ContextGLTest, OSMesaIsLoadedByItsFirstContextOnly) {
+    const auto mapped = [] {
+        std::ifstream maps("/proc/self/maps");
+        std::string line;
+        while (std::getline(maps, line))
+            if (line.find("libOSMesa") != std::string::npos) return true;
+        return false;
+    };
+    ASSERT_FALSE(mapped()) << "libOSMesa is loaded before any OSMesa context";
+    auto egl = test::makeContext(GlBackend::Egl);
+    EXPECT_FALSE(mapped()) << "an EGL context loaded libOSMesa";
+    auto ctx = test::makeContext(GlBackend::OSMesa);
+    EXPECT_TRUE(mapped());
 }
 
 TEST(ContextGLTest, GlfwWithoutDisplaySaysWhatToTry) {
