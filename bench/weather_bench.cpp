@@ -14,6 +14,8 @@
 #include "nephele/opaque.hpp"
 #include "nephele/sky.hpp"
 
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -102,8 +104,17 @@ struct FrameTime {
     int tilesRendered = 0, tilesMust = 0, lightUploads = 0, impostorsRendered = 0;  // what a slow tile pass did
     double tileMegapixels = 0, planMs = 0;
     bool atlasGrown = false;
+    // What the process waited on during update + draw (getrusage, every thread): page faults
+    // that read from disk, those that did not, and switches away from a running thread.
+    long majorFaults = 0, minorFaults = 0, involuntarySwitches = 0;
     std::string event;
 };
+
+rusage processUsage() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u;
+}
 
 // The flight: the scene camera moving along its heading at `speed` m/s, `frames` frames at `fps`.
 std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, const std::string& cacheDir, int frames) {
@@ -140,12 +151,16 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         const ViewDesc desc = viewDescOf(view, target.framebuffer());
         opaque.draw(old, view, target.framebuffer());
         gl::glFinish();
+        const rusage u0 = processUsage();
         auto t0 = Clock::now();
         ft.update = host.update(f <= 0 ? 0 : dt, weather, view.eye);
         ft.updateMs = msSince(t0);
         const SkyStats st = host.draw(desc);
         gl::glFinish();
         ft.ms = msSince(t0);
+        const rusage u1 = processUsage();
+        ft.majorFaults = u1.ru_majflt - u0.ru_majflt, ft.minorFaults = u1.ru_minflt - u0.ru_minflt;
+        ft.involuntarySwitches = u1.ru_nivcsw - u0.ru_nivcsw;
         ft.uploads = st.layered.uploads, ft.pendingLayers = st.layered.pendingLayers;
         ft.farFieldMs = st.farFieldMs, ft.tilesMs = st.ellipsoids.tilesMs, ft.compositeMs = st.ellipsoids.compositeMs;
         ft.passes = st.ellipsoids.passes, ft.visible = st.ellipsoids.visible;
@@ -172,7 +187,7 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
            "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,"
            "tiles_ms,"
            "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_"
-           "uploads,atlas_grown,transition,event\n";
+           "uploads,atlas_grown,transition,major_faults,minor_faults,involuntary_switches,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs)
@@ -183,7 +198,8 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << fmt("%.3f", f.tilesMs) << "," << fmt("%.3f", f.compositeMs) << "," << f.passes << "," << f.visible << ","
             << f.tilesRendered << "," << f.tilesMust << "," << fmt("%.4f", f.tileMegapixels) << ","
             << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << "," << f.lightUploads << "," << int(f.atlasGrown)
-            << "," << fmt("%.3f", f.update.transition) << ",\"" << f.event << "\"\n";
+            << "," << fmt("%.3f", f.update.transition) << "," << f.majorFaults << "," << f.minorFaults << ","
+            << f.involuntarySwitches << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }
@@ -230,7 +246,9 @@ std::string markdownOf(const WeatherBenchOptions& o, const std::vector<FrameTime
         md << "The worst frame by part (SkySettings::timings; the CSV has every frame's): update "
            << fmt("%.1f", worst.updateMs) << " ms, far field " << fmt("%.1f", worst.farFieldMs) << ", tiles "
            << fmt("%.1f", worst.tilesMs) << ", composite " << fmt("%.1f", worst.compositeMs) << " (" << worst.passes
-           << " atlas passes, " << worst.visible << " ellipsoids visible).\n\n";
+           << " atlas passes, " << worst.visible << " ellipsoids visible; in the process, " << worst.majorFaults
+           << " page faults that read the disk, " << worst.minorFaults << " that did not, " << worst.involuntarySwitches
+           << " involuntary context switches).\n\n";
     }
     md << "Per change, the worst frame from it to the next change (at most 10 frames):\n\n";
     md << "| frame | change | update + draw ms | × median | × the 10 frames before | grids made on the worker (most "
