@@ -16,8 +16,10 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 using namespace nephele;
 
@@ -72,6 +74,27 @@ TEST(BackgroundTest, AWorkerTakesThePriorityAndCoresItIsGiven) {
     EXPECT_EQ(n.policy, SCHED_OTHER);
     EXPECT_EQ(n.nice, parentNice);
     EXPECT_GE(n.cpus, 1);
+}
+
+// The process's background workers compute one core fewer at a time than the machine has (at
+// least one): two SCHED_IDLE threads on both cores of a 2-core machine stalled the frame's
+// threads for up to 100 ms (docs/embedding.md). A turn waited for is given up when the job is
+// cancelled.
+TEST(BackgroundTest, WorkersComputeOnCoresTheFrameLeaves) {
+    const int allowed = std::max(1, int(std::thread::hardware_concurrency()) - 1);
+    std::vector<std::unique_ptr<BackgroundTurn>> turns;
+    for (int k = 0; k < allowed; ++k) {
+        turns.push_back(std::make_unique<BackgroundTurn>([] { return false; }));
+        ASSERT_TRUE(turns.back()->held()) << k;
+    }
+    std::atomic<int> asked{0};
+    const auto t0 = std::chrono::steady_clock::now();
+    const BackgroundTurn over([&] { return ++asked > 3; });
+    EXPECT_FALSE(over.held()) << "a turn past " << allowed << " of " << std::thread::hardware_concurrency() << " cores";
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(1));
+    turns.pop_back();  // one given back: the next worker takes it
+    const BackgroundTurn next([] { return false; });
+    EXPECT_TRUE(next.held());
 }
 
 TEST(BackgroundTest, BadSettingsAreNamed) {

@@ -7,6 +7,7 @@
 #include "nephele/background.hpp"
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -45,6 +46,34 @@ private:
 // Returns the number of cores a job of this thread may use (for ParallelLimit).
 int enterBackground(const BackgroundSettings& settings);
 inline void makeThisThreadBackground() { enterBackground(BackgroundSettings{}); }
+
+// A background worker's turn to compute: at most one core fewer than the machine has (at least
+// one) of the process's workers (the clouds' radiance grids, the layers' lighting) compute at
+// once. Two SCHED_IDLE threads busy on the two cores of a machine kept the frame's threads,
+// which sleep and wake many times a frame, off both cores for up to 100 ms at a time (Linux
+// 6.18; one such thread did not): the weather bench's frames stalled so while both workers
+// ran (docs/embedding.md). A worker takes its turn before a job and gives it back after;
+// waiting, it gives up (holds no turn) once `abandon()` is true (the job was cancelled).
+bool tryTakeBackgroundTurn();  // one process-wide count, in core (shared by every library)
+void giveBackgroundTurn();
+class BackgroundTurn {
+public:
+    template <class Abandon>
+    explicit BackgroundTurn(Abandon&& abandon) {
+        while (!(held_ = tryTakeBackgroundTurn()))
+            if (abandon()) return;
+            else std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ~BackgroundTurn() {
+        if (held_) giveBackgroundTurn();
+    }
+    BackgroundTurn(const BackgroundTurn&) = delete;
+    BackgroundTurn& operator=(const BackgroundTurn&) = delete;
+    bool held() const { return held_; }
+
+private:
+    bool held_ = false;
+};
 
 template <class F>
 void parallelFor(int n, F&& f) {

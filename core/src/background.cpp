@@ -3,8 +3,11 @@
 
 #include "parallel.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace nephele {
 
@@ -18,6 +21,22 @@ void validate(const BackgroundSettings& s) {
         s.priority != BackgroundSettings::Priority::Normal)
         throw std::invalid_argument("BackgroundSettings::priority is none of Idle, Low, Normal");
 }
+
+namespace {
+std::atomic<int> gBackgroundTurns{0};
+int backgroundTurnsAllowed() {
+    static const int allowed = std::max(1, int(std::thread::hardware_concurrency()) - 1);
+    return allowed;
+}
+}  // namespace
+
+bool tryTakeBackgroundTurn() {
+    for (int used = gBackgroundTurns.load(); used < backgroundTurnsAllowed();)
+        if (gBackgroundTurns.compare_exchange_weak(used, used + 1)) return true;
+    return false;
+}
+
+void giveBackgroundTurn() { gBackgroundTurns.fetch_sub(1); }
 
 int enterBackground(const BackgroundSettings& s) {
 #ifdef __linux__

@@ -109,7 +109,11 @@ void LayerAssets::run() {
         std::shared_ptr<Entry> e = queue_.front();
         queue_.pop_front();
         ++running_;
-        compute(*e, lock);
+        lock.unlock();
+        const BackgroundTurn turn([&] { return cancel_.load(); });
+        lock.lock();
+        if (turn.held()) compute(*e, lock);
+        else e->queued = false;  // closing down
         --running_;
         changed_.notify_all();
         if (queue_.empty() && settings_.background.onIdle) {  // told without the lock: it may ask pending()

@@ -265,11 +265,13 @@ void CloudRadianceCache::work(BackgroundSettings settings) {
         running_ = job.key;
         cancel_ = false;
         lock.unlock();
-        auto grid = std::make_shared<const CloudRadiance>(
-            computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings, &cancel_));
+        std::shared_ptr<const CloudRadiance> grid;
+        if (const BackgroundTurn turn([&] { return cancel_.load(); }); turn.held())
+            grid = std::make_shared<const CloudRadiance>(
+                computeCloudRadiance(job.scene, job.scene.clouds[0], job.settings, &cancel_));
         lock.lock();
         running_ = 0;
-        if (!cancel_ && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
+        if (!cancel_ && grid && grid->size > 0) finished_.push_back({job.key, Entry{std::move(grid), job.shape}});
         idle_.notify_all();
         if (queue_.empty() && settings.onIdle) {  // told without the lock: it may ask pending()
             lock.unlock();
