@@ -110,10 +110,12 @@ void LayerAssets::run() {
         queue_.pop_front();
         ++running_;
         lock.unlock();
-        const BackgroundTurn turn([&] { return cancel_.load(); });
-        lock.lock();
-        if (turn.held()) compute(*e, lock);
-        else e->queued = false;  // closing down
+        {  // the turn is given back before the host's onIdle below
+            const BackgroundTurn turn([&] { return cancel_.load(); });
+            lock.lock();
+            if (turn.held()) compute(*e, lock);
+            else e->queued = false;  // closing down
+        }
         --running_;
         changed_.notify_all();
         if (queue_.empty() && settings_.background.onIdle) {  // told without the lock: it may ask pending()
