@@ -49,10 +49,9 @@ inline void makeThisThreadBackground() { enterBackground(BackgroundSettings{}); 
 
 // A background worker's turn to compute: at most one core fewer than the machine has (at least
 // one) of the process's workers (the clouds' radiance grids, the layers' lighting) compute at
-// once. Two SCHED_IDLE threads busy on the two cores of a machine kept the frame's threads,
-// which sleep and wake many times a frame, off both cores for up to 100 ms at a time (Linux
-// 6.18; one such thread did not): the weather bench's frames stalled so while both workers
-// ran (docs/embedding.md). A worker takes its turn before a job and gives it back after;
+// once. SCHED_IDLE threads busy on every core can keep the frame's threads, which sleep and
+// wake many times a frame, off the cores far longer than a time slice; one core left to them
+// does not (docs/embedding.md, "Turns"). A worker takes its turn before a job and gives it back after;
 // waiting, it gives up (holds no turn) once `abandon()` is true (the job was cancelled).
 bool tryTakeBackgroundTurn();  // one process-wide count, in core (shared by every library)
 void giveBackgroundTurn();

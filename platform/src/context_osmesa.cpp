@@ -1,7 +1,7 @@
 // OSMesa: Mesa's off-screen renderer, the fallback when EGL is not available. libOSMesa is
 // opened when the first OSMesa context is made, not linked: it brings a second Mesa and LLVM
-// with it, which every program linking Nephele::platform would otherwise load at start (about
-// 80 ms of the command line's start, and the memory) whether it ever used OSMesa or not.
+// with it, which every program linking Nephele::platform would otherwise load at start (time
+// and memory; docs/testing.md) whether it ever used OSMesa or not.
 #include "context_internal.hpp"
 
 #include <GL/osmesa.h>
