@@ -7,6 +7,7 @@
 #include "obj_reader.hpp"
 
 #include <algorithm>
+#include <numbers>
 #include <charconv>
 #include <cmath>
 #include <limits>
@@ -26,7 +27,6 @@ ObjError::ObjError(std::string file, int line, std::string fault)
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Portable random variates: std::mt19937's output is fixed by the standard, the mappings
 // below are ours (std::uniform_real_distribution and std::normal_distribution are not).
@@ -45,7 +45,7 @@ public:
         const double u1 = 1.0 - uniform();  // (0, 1]: log is finite
         const double u2 = uniform();
         const double r = std::sqrt(-2.0 * std::log(u1));
-        return {r * std::cos(2.0 * kPi * u2), r * std::sin(2.0 * kPi * u2)};
+        return {r * std::cos(2.0 * std::numbers::pi * u2), r * std::sin(2.0 * std::numbers::pi * u2)};
     }
 
 private:
@@ -209,11 +209,11 @@ Vec3 degreesFromRotation(const glm::dmat3& R) {
         a = std::atan2(r21, r22);
         c = std::atan2(r10, r00);
     } else if (r20 < 0) {  // b = +90: R01 = sin(a - c), R02 = cos(a - c); take c = 0
-        b = kPi / 2;
+        b = std::numbers::pi / 2;
         c = 0;
         a = std::atan2(r01, r02);
     } else {  // b = -90: R01 = -sin(a + c), R02 = -cos(a + c); take c = 0
-        b = -kPi / 2;
+        b = -std::numbers::pi / 2;
         c = 0;
         a = std::atan2(-r01, -r02);
     }
@@ -448,7 +448,7 @@ Cloud generateLSystem(const Generator& g, GenerateStats* stats, std::size_t maxS
         Vec3 heading{1, 0, 0}, left{0, 1, 0}, up{0, 0, 1};  // heading x left = up
     };
     Random rng(g.seed);
-    const double angle = g.angleDeg * kPi / 180.0;
+    const double angle = g.angleDeg * std::numbers::pi / 180.0;
     Turtle t;
     t.position = g.center;
     std::vector<Turtle> stack;
@@ -468,13 +468,13 @@ Cloud generateLSystem(const Generator& g, GenerateStats* stats, std::size_t maxS
                 t.position += step * t.heading;
                 break;
             }
-            case '+': turn(t.heading, t.left, angle); break;   // yaw left about up
-            case '-': turn(t.heading, t.left, -angle); break;  // yaw right
-            case '&': turn(t.heading, t.up, -angle); break;    // pitch down about left
-            case '^': turn(t.heading, t.up, angle); break;     // pitch up
-            case '\\': turn(t.left, t.up, angle); break;       // roll left about heading
-            case '/': turn(t.left, t.up, -angle); break;       // roll right
-            case '|': turn(t.heading, t.left, kPi); break;     // turn around
+            case '+': turn(t.heading, t.left, angle); break;             // yaw left about up
+            case '-': turn(t.heading, t.left, -angle); break;            // yaw right
+            case '&': turn(t.heading, t.up, -angle); break;              // pitch down about left
+            case '^': turn(t.heading, t.up, angle); break;               // pitch up
+            case '\\': turn(t.left, t.up, angle); break;                 // roll left about heading
+            case '/': turn(t.left, t.up, -angle); break;                 // roll right
+            case '|': turn(t.heading, t.left, std::numbers::pi); break;  // turn around
             case '[':
                 if (double(stack.size()) >= limits::kLSystemDepth.value)
                     throw std::length_error("the rewritten string nests '[' deeper than the limit " +

@@ -3,6 +3,7 @@
 #include "nephele/geodetic.hpp"
 
 #include <glm/gtc/constants.hpp>
+#include <glm/trigonometric.hpp>
 
 #include <cmath>
 #include <stdexcept>
@@ -11,8 +12,6 @@
 namespace nephele {
 namespace {
 
-double rad(double deg) { return deg * glm::pi<double>() / 180.0; }
-double deg(double rad) { return rad * 180.0 / glm::pi<double>(); }
 
 void validate(const Geodetic& g) {
     if (!std::isfinite(g.latitudeDeg) || g.latitudeDeg < -90 || g.latitudeDeg > 90)
@@ -27,7 +26,7 @@ void validate(const Geodetic& g) {
 
 Vec3 geodeticToEcef(const Geodetic& g) {
     validate(g);
-    const double phi = rad(g.latitudeDeg), lambda = rad(g.longitudeDeg);
+    const double phi = glm::radians(g.latitudeDeg), lambda = glm::radians(g.longitudeDeg);
     const double s = std::sin(phi), c = std::cos(phi);
     const double n = kWgs84A / std::sqrt(1.0 - kWgs84E2 * s * s);  // prime vertical radius of curvature
     return {(n + g.heightM) * c * std::cos(lambda), (n + g.heightM) * c * std::sin(lambda),
@@ -48,15 +47,15 @@ Geodetic ecefToGeodetic(const Vec3& x) {
     }
     const double s = std::sin(phi), c = std::cos(phi);
     Geodetic g;
-    g.latitudeDeg = deg(phi);
-    g.longitudeDeg = p > 0 ? deg(std::atan2(x.y, x.x)) : 0.0;
+    g.latitudeDeg = glm::degrees(phi);
+    g.longitudeDeg = p > 0 ? glm::degrees(std::atan2(x.y, x.x)) : 0.0;
     // h = p cos(phi) + z sin(phi) - a^2 / N: no division by cos(phi), so exact at the poles too.
     g.heightM = p * c + x.z * s - kWgs84A * std::sqrt(1.0 - kWgs84E2 * s * s);
     return g;
 }
 
 EnuFrame::EnuFrame(const Geodetic& origin) : origin_(origin), originEcef_(geodeticToEcef(origin)) {
-    const double phi = rad(origin.latitudeDeg), lambda = rad(origin.longitudeDeg);
+    const double phi = glm::radians(origin.latitudeDeg), lambda = glm::radians(origin.longitudeDeg);
     const double sp = std::sin(phi), cp = std::cos(phi), sl = std::sin(lambda), cl = std::cos(lambda);
     east_ = {-sl, cl, 0.0};
     north_ = {-sp * cl, -sp * sl, cp};

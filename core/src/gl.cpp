@@ -16,7 +16,7 @@ bool g_loaded = false;
 
 void load(ProcLoader loader) {
     if (!loader) throw GlError("gl::load: no getProcAddress function given");
-    detail::loadAllFunctions(loader);
+    loader_detail::loadAllFunctions(loader);
     g_loaded = false;
     if (!glGetIntegerv || !glGetString || !glCreateBuffers)
         throw GlError("gl::load: the driver does not provide OpenGL 4.5 entry points");

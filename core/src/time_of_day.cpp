@@ -3,8 +3,10 @@
 #include "nephele/time_of_day.hpp"
 
 #include <glm/gtc/constants.hpp>
+#include <glm/trigonometric.hpp>
 
 #include <algorithm>
+#include <numbers>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -12,9 +14,6 @@
 namespace nephele {
 namespace {
 
-constexpr double kPi = glm::pi<double>();
-double rad(double deg) { return deg * kPi / 180.0; }
-double deg(double rad) { return rad * 180.0 / kPi; }
 double wrap360(double a) {
     a = std::fmod(a, 360.0);
     return a < 0 ? a + 360.0 : a;
@@ -80,7 +79,8 @@ double luminance(const Vec3& c) { return kLuma[0] * c.x + kLuma[1] * c.y + kLuma
 double relativeSkyBrightness(double h) {
     constexpr double kSunset = 0.05, kScale = 0.39;
     if (h >= 0) {
-        const double rise = -std::expm1(-std::sin(rad(std::min(h, 90.0))) / kScale) / -std::expm1(-1.0 / kScale);
+        const double rise =
+            -std::expm1(-std::sin(glm::radians(std::min(h, 90.0))) / kScale) / -std::expm1(-1.0 / kScale);
         return kSunset + (1.0 - kSunset) * rise;
     }
     if (h < -18.0) return 0.0;
@@ -90,7 +90,7 @@ double relativeSkyBrightness(double h) {
 // Fraction of the sun's disc above the horizon with its centre at apparent elevation `e`.
 double discFraction(double e) {
     const double x = std::clamp(e / kSunRadiusDeg, -1.0, 1.0);
-    return 1.0 - (std::acos(x) - x * std::sqrt(1.0 - x * x)) / kPi;
+    return 1.0 - (std::acos(x) - x * std::sqrt(1.0 - x * x)) / std::numbers::pi;
 }
 
 double smoothstep(double a, double b, double x) {
@@ -117,12 +117,12 @@ double atmosphericRefractionDeg(double e) {
     if (e > 85.0) return 0.0;
     double arcsec;
     if (e > 5.0) {
-        const double t = std::tan(rad(e));
+        const double t = std::tan(glm::radians(e));
         arcsec = 58.1 / t - 0.07 / (t * t * t) + 0.000086 / std::pow(t, 5);
     } else if (e > -0.575) {
         arcsec = 1735.0 + e * (-518.2 + e * (103.4 + e * (-12.79 + e * 0.711)));
     } else {
-        arcsec = -20.772 / std::tan(rad(e));
+        arcsec = -20.772 / std::tan(glm::radians(e));
     }
     return arcsec / 3600.0;
 }
@@ -140,30 +140,30 @@ SolarPosition solarPosition(const UtcTime& time, double latitudeDeg, double long
     const double l0 = wrap360(280.46646 + jc * (36000.76983 + jc * 0.0003032));
     const double m = 357.52911 + jc * (35999.05029 - 0.0001537 * jc);
     const double e = 0.016708634 - jc * (0.000042037 + 0.0000001267 * jc);
-    const double mr = rad(m);
+    const double mr = glm::radians(m);
     const double c = std::sin(mr) * (1.914602 - jc * (0.004817 + 0.000014 * jc)) +
                      std::sin(2 * mr) * (0.019993 - 0.000101 * jc) + std::sin(3 * mr) * 0.000289;
     const double trueLongitude = l0 + c;
     const double trueAnomaly = m + c;
-    p.distanceAu = 1.000001018 * (1 - e * e) / (1 + e * std::cos(rad(trueAnomaly)));
+    p.distanceAu = 1.000001018 * (1 - e * e) / (1 + e * std::cos(glm::radians(trueAnomaly)));
 
     // Apparent longitude (nutation and aberration) and the obliquity of the ecliptic.
-    const double omega = rad(125.04 - 1934.136 * jc);
-    const double lambda = rad(trueLongitude - 0.00569 - 0.00478 * std::sin(omega));
+    const double omega = glm::radians(125.04 - 1934.136 * jc);
+    const double lambda = glm::radians(trueLongitude - 0.00569 - 0.00478 * std::sin(omega));
     const double meanObliquity =
         23.0 + (26.0 + (21.448 - jc * (46.815 + jc * (0.00059 - jc * 0.001813))) / 60.0) / 60.0;
-    const double eps = rad(meanObliquity + 0.00256 * std::cos(omega));
+    const double eps = glm::radians(meanObliquity + 0.00256 * std::cos(omega));
 
-    p.rightAscensionDeg = wrap360(deg(std::atan2(std::cos(eps) * std::sin(lambda), std::cos(lambda))));
+    p.rightAscensionDeg = wrap360(glm::degrees(std::atan2(std::cos(eps) * std::sin(lambda), std::cos(lambda))));
     const double dec = std::asin(std::sin(eps) * std::sin(lambda));
-    p.declinationDeg = deg(dec);
+    p.declinationDeg = glm::degrees(dec);
 
     // Equation of time (Smart 1956, as Meeus eq. 28.3), minutes.
     const double y = std::pow(std::tan(eps / 2), 2);
-    const double l0r = rad(l0);
+    const double l0r = glm::radians(l0);
     p.equationOfTimeMin =
-        4.0 * deg(y * std::sin(2 * l0r) - 2 * e * std::sin(mr) + 4 * e * y * std::sin(mr) * std::cos(2 * l0r) -
-                  0.5 * y * y * std::sin(4 * l0r) - 1.25 * e * e * std::sin(2 * mr));
+        4.0 * glm::degrees(y * std::sin(2 * l0r) - 2 * e * std::sin(mr) + 4 * e * y * std::sin(mr) * std::cos(2 * l0r) -
+                           0.5 * y * y * std::sin(4 * l0r) - 1.25 * e * e * std::sin(2 * mr));
 
     // True solar time and the hour angle (0 at local apparent noon, > 0 after).
     const double minutes = time.hour * 60.0 + time.minute + time.second / 60.0;
@@ -174,23 +174,23 @@ SolarPosition solarPosition(const UtcTime& time, double latitudeDeg, double long
 
     // The direction in east-north-up from the hour angle and declination: well defined at
     // the poles, where the azimuth of the closed formulas is not.
-    const double phi = rad(latitudeDeg), ha = rad(p.hourAngleDeg);
+    const double phi = glm::radians(latitudeDeg), ha = glm::radians(p.hourAngleDeg);
     const double east = -std::cos(dec) * std::sin(ha);
     const double north = std::cos(phi) * std::sin(dec) - std::sin(phi) * std::cos(dec) * std::cos(ha);
     const double up = std::sin(phi) * std::sin(dec) + std::cos(phi) * std::cos(dec) * std::cos(ha);
-    p.elevationDeg = deg(std::asin(std::clamp(up, -1.0, 1.0)));
-    p.azimuthDeg = wrap360(deg(std::atan2(east, north)));
+    p.elevationDeg = glm::degrees(std::asin(std::clamp(up, -1.0, 1.0)));
+    p.azimuthDeg = wrap360(glm::degrees(std::atan2(east, north)));
     p.refractionDeg = atmosphericRefractionDeg(p.elevationDeg);
     p.apparentElevationDeg = std::min(p.elevationDeg + p.refractionDeg, 90.0);
     p.apparentZenithDeg = 90.0 - p.apparentElevationDeg;
-    const double ea = rad(p.apparentElevationDeg), az = rad(p.azimuthDeg);
+    const double ea = glm::radians(p.apparentElevationDeg), az = glm::radians(p.azimuthDeg);
     p.direction = Vec3(std::cos(ea) * std::sin(az), std::cos(ea) * std::cos(az), std::sin(ea));
     return p;
 }
 
 double kastenYoungAirMass(double elevationDeg) {
     const double h = std::max(elevationDeg, -0.9);
-    return 1.0 / (std::sin(rad(h)) + 0.50572 * std::pow(h + 6.07995, -1.6364));
+    return 1.0 / (std::sin(glm::radians(h)) + 0.50572 * std::pow(h + 6.07995, -1.6364));
 }
 
 Daylight daylight(const SolarPosition& position, const ClearSky& sky) {
@@ -243,7 +243,7 @@ Daylight daylight(const SolarPosition& position, const ClearSky& sky) {
     // The ground: lit by the direct sun on a horizontal plane plus the sky, relative to a
     // zenith sun.
     const double sunZenithLux = kLuminousSolarConstant * orbit * luminance(zenithT);
-    const double sinH = std::max(std::sin(rad(position.apparentElevationDeg)), 0.0);
+    const double sinH = std::max(std::sin(glm::radians(position.apparentElevationDeg)), 0.0);
     const Vec3 groundLight =
         (sunZenithLux * relative * sinH * disc + Vec3(d.skyIlluminanceLux)) / (sunZenithLux + skyZenithLux);
     d.sky.ground = s.ground * groundLight;

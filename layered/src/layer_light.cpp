@@ -18,7 +18,6 @@ namespace nephele {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kBatch = 256;       // photons per deterministic batch
 constexpr int kMaxEvents = 2000;  // scatterings per photon at most
 
@@ -55,9 +54,9 @@ struct Source {
     enum Kind { Sun, SkyUniform, SkyZenith, Ground } kind;
     double mu = 1;  // the sun's elevation (sine)
     // Power per unit horizontal area entering the layer per unit irradiance (sun) or radiance (sky).
-    double flux() const { return kind == Sun ? mu : kind == SkyZenith ? 2 * kPi / 3 : kPi; }
+    double flux() const { return kind == Sun ? mu : kind == SkyZenith ? 2 * std::numbers::pi / 3 : std::numbers::pi; }
     void emit(const ThresholdMedium& m, Rng& rng, Vec3& x, Vec3& w) const {
-        const double phi = 2 * kPi * rng.uniform();
+        const double phi = 2 * std::numbers::pi * rng.uniform();
         // Drawn one by one: the order of a call's arguments is the compiler's (GCC's right to left
         // is kept, so that Clang's build draws the same photons).
         const double y = rng.uniform();

@@ -14,6 +14,7 @@
 #include "parallel.hpp"
 
 #include <algorithm>
+#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,7 +25,6 @@
 namespace nephele {
 
 namespace {
-constexpr double kPi = glm::pi<double>();
 constexpr char kMagic[8] = {'N', 'P', 'H', 'L', 'A', 'Y', 'R', '\0'};
 // Bump when the file layout OR the precomputation changes: the cache key and the header carry it,
 // so a volume computed by an older algorithm is never reused. 3: a checksum ends the file (#14).
@@ -58,7 +58,7 @@ void checkSettings(const LightingSettings& s, const LightingParameters& p) {
 }
 
 // The vertical profile of the volume's density: 0 at the layer's bottom and top, 1 at mid-height.
-double profile(double z) { return std::sqrt(std::max(std::sin(kPi * std::clamp(z, 0.0, 1.0)), 0.0)); }
+double profile(double z) { return std::sqrt(std::max(std::sin(std::numbers::pi * std::clamp(z, 0.0, 1.0)), 0.0)); }
 
 // The volume as stored in a file, before the cache's checksum (built and read in memory).
 class Bytes {

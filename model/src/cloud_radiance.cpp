@@ -30,7 +30,6 @@ Vec3 cloudAmbient(const Sky& sky) { return environmentMean(sky); }
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 
 using Rng = detail::PhotonRng;
 using detail::basis;
@@ -295,7 +294,7 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
     if (s.skyPhotons == 0) return;
     const int total = s.skyPhotons, perBatch = (total + kBatches - 1) / kBatches;
     const double albedo = scene.medium.albedo, hg = scene.medium.hgG;
-    const double turn = 2 * kPi * Rng(s.seed ^ 0xABCDEFull).uniform();
+    const double turn = 2 * std::numbers::pi * Rng(s.seed ^ 0xABCDEFull).uniform();
     std::vector<std::vector<glm::vec4>> tallyRgb(kBatches), tallyFlux(kBatches);
     parallelFor(kBatches, [&](int b) {
         if (cancel && *cancel) return;
@@ -311,7 +310,7 @@ void traceSky(const Scene& scene, const Grid& g, const RadianceGridSettings& s, 
             const double v = rng.uniform(), u = rng.uniform();  // one by one, as above
             if (!beam.launch(g, u, v, x)) continue;
             // Radiance L from a direction of solid angle 4 pi / total through the square.
-            Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * kPi * beam.areaAcross / total);
+            Vec3 weight = skyRadianceAlong(scene.sky, -w) * (4 * std::numbers::pi * beam.areaAcross / total);
             for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
                 const glm::vec3 c(weight), dir(w);
                 const float lum = glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f));

@@ -15,7 +15,7 @@ if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DNEPHELE_FUZZ=ON -DNEPHELE_BUILD_TESTS=OFF \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" >/dev/null
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNEPHELE_UNITY_LIBRARIES=ON "${launcher[@]}" >/dev/null
 cmake --build "$build" -j2 --target nephele_fuzz_scene nephele_fuzz_obj nephele_fuzz_png nephele_fuzz_flight nephele_fuzz_cigi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
