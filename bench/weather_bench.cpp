@@ -104,6 +104,7 @@ struct FrameTime {
     int tilesRendered = 0, tilesMust = 0, lightUploads = 0, impostorsRendered = 0;  // what a slow tile pass did
     double tileMegapixels = 0, planMs = 0;
     bool atlasGrown = false;
+    bool farFieldReused = false;  // the far field kept what it could of the last frame (else every pixel afresh)
     // What the process waited on during update + draw (getrusage, every thread): page faults
     // that read from disk, those that did not, and switches away from a running thread.
     long majorFaults = 0, minorFaults = 0, involuntarySwitches = 0;
@@ -162,6 +163,7 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         ft.majorFaults = u1.ru_majflt - u0.ru_majflt, ft.minorFaults = u1.ru_minflt - u0.ru_minflt;
         ft.involuntarySwitches = u1.ru_nivcsw - u0.ru_nivcsw;
         ft.uploads = st.layered.uploads, ft.pendingLayers = st.layered.pendingLayers;
+        ft.farFieldReused = st.layered.reusedFrame;
         ft.farFieldMs = st.farFieldMs, ft.tilesMs = st.ellipsoids.tilesMs, ft.compositeMs = st.ellipsoids.compositeMs;
         ft.passes = st.ellipsoids.passes, ft.visible = st.ellipsoids.visible;
         ft.tilesRendered = st.ellipsoids.tilesRendered, ft.lightUploads = st.ellipsoids.lightUploads;
@@ -187,7 +189,7 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
            "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,"
            "tiles_ms,"
            "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_"
-           "uploads,atlas_grown,transition,major_faults,minor_faults,involuntary_switches,event\n";
+           "uploads,atlas_grown,transition,major_faults,minor_faults,involuntary_switches,far_field_reused,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs)
@@ -199,7 +201,7 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << f.tilesRendered << "," << f.tilesMust << "," << fmt("%.4f", f.tileMegapixels) << ","
             << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << "," << f.lightUploads << "," << int(f.atlasGrown)
             << "," << fmt("%.3f", f.update.transition) << "," << f.majorFaults << "," << f.minorFaults << ","
-            << f.involuntarySwitches << ",\"" << f.event << "\"\n";
+            << f.involuntarySwitches << "," << int(f.farFieldReused) << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }
