@@ -77,9 +77,8 @@ TEST(BackgroundTest, AWorkerTakesThePriorityAndCoresItIsGiven) {
 }
 
 // The process's background workers compute one core fewer at a time than the machine has (at
-// least one): two SCHED_IDLE threads on both cores of a 2-core machine stalled the frame's
-// threads for up to 100 ms (docs/embedding.md). A turn waited for is given up when the job is
-// cancelled.
+// least one), so that background work alone never keeps every core busy (docs/embedding.md,
+// "Turns"). A turn waited for is given up when the job is cancelled.
 TEST(BackgroundTest, WorkersComputeOnCoresTheFrameLeaves) {
     const int allowed = std::max(1, int(std::thread::hardware_concurrency()) - 1);
     std::vector<std::unique_ptr<BackgroundTurn>> turns;

@@ -49,9 +49,9 @@ inline void makeThisThreadBackground() { enterBackground(BackgroundSettings{}); 
 
 // A background worker's turn to compute: at most one core fewer than the machine has (at least
 // one) of the process's workers (the clouds' radiance grids, the layers' lighting) compute at
-// once. SCHED_IDLE threads busy on every core can keep the frame's threads, which sleep and
-// wake many times a frame, off the cores far longer than a time slice; one core left to them
-// does not (docs/embedding.md, "Turns"). A worker takes its turn before a job and gives it back after;
+// once, so that background work alone never keeps every core busy: on a virtual machine whose
+// host throttles it when all its cores run flat out, that costs the frame whole throttle
+// periods (docs/embedding.md, "Turns"). A worker takes its turn before a job and gives it back after;
 // waiting, it gives up (holds no turn) once `abandon()` is true (the job was cancelled).
 bool tryTakeBackgroundTurn();  // one process-wide count, in core (shared by every library)
 void giveBackgroundTurn();
