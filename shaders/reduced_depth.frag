@@ -50,7 +50,8 @@ uniform mat3 rayOf;               // the world direction through NDC (x, y) is r
 uniform mat4 lastViewProjection;  // the last frame's, its eye at the origin
 uniform vec3 shift;               // m: a point seen at p from this eye was at p + shift from the last eye
 uniform int period, phase;        // a texel's turn to be drawn afresh
-uniform float maxError;           // px: the parallax bound past which a texel is drawn afresh
+uniform float maxError;           // px: the bound past which a texel is drawn afresh
+uniform float weatherError;       // px: what the weather's step since the last frame adds to the bound
 uniform float focal;              // px per radian
 uniform float nearest;            // m: the nearest matter may be where the last image has none
 uniform float nearPlane;          // the depth of the near plane: a kept texel's, which every draw fails against
@@ -104,7 +105,9 @@ bool reproject(ivec2 t, out vec4 kept, out vec4 keptMoments) {
     float mean = m.x / max(m.w, 1e-6), spread = sqrt(max(m.y / max(m.w, 1e-6) - mean * mean, 0.0));  // km
     float grazing = 1.0 / max(abs(dir.z), 0.02);
     float turn = m.w > 1e-3 ? (grazing + spread / mean) / (mean * 1e3) : 1.0 / nearest;
-    float error = m.z + length(side) * focal * turn;
+    // A weather ramp's step adds to it too: a texel drawn k frames ago shows the weather of k
+    // steps ago, so under a ramp texels are drawn afresh every few frames, not all at once.
+    float error = m.z + length(side) * focal * turn + weatherError;
     if (error > maxError) return false;
     kept = texture(lastColor, uv);
     keptMoments = vec4(m.xy, error, m.w);

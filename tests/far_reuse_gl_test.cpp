@@ -212,6 +212,38 @@ TEST_F(FarReuseGLTest, AWeatherStepIsDrawnAfreshAtOnce) {
     EXPECT_FALSE(reused.last.reusedFrame);
 }
 
+// Under a ramp (the coverage 0.0167 a frame, a 2 s ramp's share at 30 fps) the far field keeps
+// reusing, and no block lags the weather by more than a frame's step: each step adds to every
+// kept texel's bound (one reduced px per 0.01, 1.67 px here against a bound of 2), so a texel
+// is kept one frame at most.
+TEST_F(FarReuseGLTest, UnderARampNoBlockLagsMoreThanAFramesStep) {
+    Scene scene = deckScene();
+    const View view = makeView(scene.camera);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
+    Image lastFresh;
+    double worstLag = 0, worstStep = 0;
+    long long kept = 0, total = 0;
+    for (int k = 0; k < 12; ++k) {
+        if (k >= 2) scene.layers[0].coverage += 0.3 / 18;
+        const Image a = reused.frame(scene, view, k / 30.0), b = fresh.frame(scene, view, k / 30.0);
+        if (k >= 3) {
+            EXPECT_TRUE(reused.last.reusedFrame) << "frame " << k;
+            worstLag = std::max(worstLag, worstBlock(test::clamped(a), test::clamped(b)));
+            worstStep = std::max(worstStep, worstBlock(test::clamped(b), test::clamped(lastFresh)));
+            kept += reused.last.reusedPixels, total += reused.last.reducedPixels;
+        }
+        lastFresh = b;
+    }
+    const double keptShare = double(kept) / double(std::max(total, 1LL));
+    std::printf("[ figure ] under a ramp: worst 16x16 block from fresh %.4f, fresh's worst step %.4f, %.0f%% kept\n",
+                worstLag, worstStep, 100 * keptShare);
+    EXPECT_GT(worstStep, 2.0 / 255);  // the ramp shows
+    // A frame's step (measured 0.018 against 0.026), and 1/255 for the resampling of a kept
+    // texel (AStillViewKeepsItsPixels).
+    EXPECT_LE(worstLag, worstStep + 1.0 / 255);
+    EXPECT_GT(keptShare, 0.25);  // reused, not drawn afresh every frame (measured 50%)
+}
+
 // A box in front of the deck moves: where it was, the last image holds no cloud (the box hid
 // it), so those pixels are drawn afresh; the rest are kept exactly (the view is still).
 TEST_F(FarReuseGLTest, WhereASurfaceWasTheLayerIsDrawnAfresh) {

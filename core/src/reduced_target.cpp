@@ -162,6 +162,7 @@ void ReducedTarget::setReuseUniforms(const Program& p, Target& t, const View& vi
     p.set("period", std::max(frame.period, 1));
     p.set("phase", int(t.frames % std::max(frame.period, 1)));
     p.set("maxError", float(frame.maxError));
+    p.set("weatherError", float(frame.weatherError));
     p.set("focal", float(0.5 * size_.y / view.tanHalfY));
     p.set("nearest", float(std::max(frame.nearest, 1e-3)));
     p.set("nearPlane", float(view.depth.reversedZ ? 1.0 : 0.0));

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <glm/gtc/constants.hpp>
 
 namespace nephele {
@@ -72,7 +73,11 @@ constexpr double kReuseMaxSeconds = 0.5;
 
 // The weather the far field's image depends on, each entry in units in which 0.01 is a change
 // a ramp makes in a frame (coverage and density as they are; heights, extents and light 1%
-// of their size; the sun's direction 0.6 degrees): a larger step draws every pixel afresh.
+// of their size; the sun's direction 0.6 degrees). A step of 0.01 adds one reduced pixel to
+// every kept texel's bound (kWeatherErrorPerUnit): at the default reuseError of 2 px a texel
+// lags the weather by at most 0.02 (a ramp's fade shows no blocks drawn far apart in it, and a
+// ramp of 0.01-0.02 a frame draws half its texels or more afresh each frame), and a step larger
+// than that draws every pixel afresh, so a fast ramp's frame shows its own weather.
 std::vector<double> reuseSignature(const Scene& scene) {
     std::vector<double> v;
     auto relative = [&](double x, double scale) { v.push_back(x / std::max(scale, 1e-9)); };
@@ -89,11 +94,17 @@ std::vector<double> reuseSignature(const Scene& scene) {
     return v;
 }
 
-bool signatureStep(const std::vector<double>& a, const std::vector<double>& b) {
-    if (a.size() != b.size()) return true;
-    for (std::size_t i = 0; i < a.size(); ++i)
-        if (!(std::abs(a[i] - b[i]) <= 0.01)) return true;
-    return false;
+constexpr double kWeatherErrorPerUnit = 100;  // reduced px per unit of reuseSignature
+
+// The largest change of an entry (infinite when the layers came or went, or one is NaN).
+double signatureStep(const std::vector<double>& a, const std::vector<double>& b) {
+    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+    double step = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const double d = std::abs(a[i] - b[i]);
+        step = d <= step ? step : d;  // NaN included
+    }
+    return step;
 }
 }  // namespace
 
@@ -478,7 +489,8 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
 
 // What the reduced target's reuse of the last frame's far field needs to know of this frame
 // (ReducedTarget::begin): nothing is kept when what the layers draw with changed, the weather
-// stepped, time ran back or jumped, or a flash lit either frame.
+// stepped past the reuse bound in one frame, time ran back or jumped, or a flash lit either
+// frame; a smaller step of the weather adds to every kept texel's bound.
 ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& view, const LayeredSettings& s, double t) {
     std::vector<const void*> textures;
     for (const LayerSlot& r : layers) textures.insert(textures.end(), {r.light.get(), r.modulation.get()});
@@ -489,7 +501,8 @@ ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& vie
     ReuseFrame f;
     f.period = s.reusePeriod;
     f.maxError = s.reuseError;
-    f.invalidate = textures != lastTextures || signatureStep(signature, lastSignature) || flash || lastFlash ||
+    f.weatherError = kWeatherErrorPerUnit * signatureStep(signature, lastSignature);
+    f.invalidate = textures != lastTextures || !(f.weatherError <= s.reuseError) || flash || lastFlash ||
                    !(dt >= 0 && dt <= kReuseMaxSeconds);
     // The wind moves each layer's matter; the reprojection follows the layers' mean drift (a
     // layer blowing otherwise is bounded by the period).
