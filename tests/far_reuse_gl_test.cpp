@@ -57,18 +57,21 @@ LayeredSettings reuseSettings(int period = LayeredSettings{}.reusePeriod) {
     return s;
 }
 
-// The largest mean |difference| of one 16x16 block (one reduced 8x8 block) between two frames.
+// The mean |difference| between two frames in the 16x16 block (one reduced 8x8 block) at (bx, by).
+double blockDiff(const Image& a, const Image& b, int bx, int by) {
+    double sum = 0;
+    int n = 0;
+    for (int y = by; y < std::min(by + 16, a.height); ++y)
+        for (int x = bx; x < std::min(bx + 16, a.width); ++x)
+            for (int c = 0; c < 3; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c)), ++n;
+    return sum / n;
+}
+
+// The largest mean |difference| of one 16x16 block between two frames.
 double worstBlock(const Image& a, const Image& b) {
     double worst = 0;
     for (int by = 0; by < a.height; by += 16)
-        for (int bx = 0; bx < a.width; bx += 16) {
-            double sum = 0;
-            int n = 0;
-            for (int y = by; y < std::min(by + 16, a.height); ++y)
-                for (int x = bx; x < std::min(bx + 16, a.width); ++x)
-                    for (int c = 0; c < 3; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c)), ++n;
-            worst = std::max(worst, sum / n);
-        }
+        for (int bx = 0; bx < a.width; bx += 16) worst = std::max(worst, blockDiff(a, b, bx, by));
     return worst;
 }
 
@@ -210,6 +213,38 @@ TEST_F(FarReuseGLTest, AWeatherStepIsDrawnAfreshAtOnce) {
     scene.sun.direction = glm::normalize(scene.sun.direction + Vec3(0.1, 0, 0));  // the sun jumps
     reused.frame(scene, view, 5 / 30.0);
     EXPECT_FALSE(reused.last.reusedFrame);
+}
+
+// A layer's lighting volume replaced by another (here its own light for 900 m, as a thickness
+// ramp's target volume arrives) is rolled in over two frames: the frame it arrives keeps the
+// pixels whose turn has not come (the old light, as the layer was drawn with it until then) and
+// draws about half afresh, the next frame the rest, so that it equals the frame drawn afresh.
+TEST_F(FarReuseGLTest, AReplacedLightingVolumeRollsInOverTwoFrames) {
+    Scene scene = deckScene();
+    scene.layers[0].wind = Vec2(0);  // a still pattern and a still view: only the light changes
+    const View view = makeView(scene.camera);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
+    Image before;
+    for (int k = 0; k < 4; ++k) before = reused.frame(scene, view, k / 30.0);
+    scene.layers[0].lightingThickness = 900;
+    const Image a = reused.frame(scene, view, 4 / 30.0), freshA = fresh.frame(scene, view, 4 / 30.0);
+    EXPECT_TRUE(reused.last.reusedFrame) << "the new light drew every pixel afresh at once";
+    ASSERT_GT(worstBlock(freshA, before), 4.0 / 255) << "the new light must show for the test to mean anything";
+    // Blocks of the arrival frame: those drawn afresh (equal to fresh) and those kept (equal to before).
+    int drawn = 0, kept = 0, blocks = 0;
+    for (int by = 0; by < a.height; by += 16)
+        for (int bx = 0; bx < a.width; bx += 16, ++blocks) {
+            const double toFresh = blockDiff(a, freshA, bx, by), toBefore = blockDiff(a, before, bx, by);
+            drawn += toFresh < toBefore, kept += toBefore < toFresh;
+        }
+    std::printf("[ figure ] arrival frame: %d blocks drawn with the new light, %d kept, of %d\n", drawn, kept, blocks);
+    EXPECT_GT(drawn, blocks / 4);
+    EXPECT_GT(kept, blocks / 4);
+    const Image b = reused.frame(scene, view, 5 / 30.0), freshB = fresh.frame(scene, view, 5 / 30.0);
+    EXPECT_TRUE(reused.last.reusedFrame);
+    // Every pixel has the new light now: equal to fresh but for the resampling of a kept texel
+    // (AStillViewKeepsItsPixels: llvmpipe's filter step, 1/255).
+    EXPECT_LE(worstBlock(b, freshB), 1.0 / 255);
 }
 
 // Under a ramp (the coverage 0.0167 a frame, a 2 s ramp's share at 30 fps) the far field keeps

@@ -96,6 +96,25 @@ std::vector<double> reuseSignature(const Scene& scene) {
 
 constexpr double kWeatherErrorPerUnit = 100;  // reduced px per unit of reuseSignature
 
+// A layer's lighting volume replaced by another (a thickness ramp's target volume arriving, a
+// layer's own volume replacing the nearest one it was drawn with) is rolled in: for this many
+// frames the reuse period is this many frames, so that every pixel is drawn afresh with the new
+// light within them and no frame draws them all. Kept pixels show the old light meanwhile, as
+// the layer was drawn with it until then.
+constexpr int kLightRollFrames = 2;
+
+// Whether `now` differs from `last` (the layers' lighting volume and modulation texture, in
+// turns) only in lighting volumes replaced by others: no layer came or went, no modulation
+// changed, no layer got its first volume or lost its last.
+bool onlyLightReplaced(const std::vector<const void*>& now, const std::vector<const void*>& last) {
+    if (now.size() != last.size() || now == last) return false;
+    for (std::size_t i = 0; i < now.size(); ++i) {
+        if (now[i] == last[i]) continue;
+        if (i % 2 == 1 || now[i] == nullptr || last[i] == nullptr) return false;
+    }
+    return true;
+}
+
 // The largest change of an entry (infinite when the layers came or went, or one is NaN).
 double signatureStep(const std::vector<double>& a, const std::vector<double>& b) {
     if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
@@ -125,6 +144,7 @@ struct LayeredRenderer::Impl {
     std::vector<double> lastSignature;
     double lastTime = 0;
     bool lastFlash = false;
+    int lightRoll = 0;  // frames left of rolling in a replaced lighting volume (kLightRollFrames)
 
     void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s,
                     LayeredStats& stats);
@@ -499,11 +519,14 @@ ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& vie
     for (const Lightning& l : scene.lightning) flash = flash || (t >= l.start && t < l.start + l.duration);
     const double dt = t - lastTime;
     ReuseFrame f;
-    f.period = s.reusePeriod;
+    const bool lightReplaced = onlyLightReplaced(textures, lastTextures);
+    if (lightReplaced) lightRoll = kLightRollFrames;
+    f.period = lightRoll > 0 ? std::min(s.reusePeriod, kLightRollFrames) : s.reusePeriod;
+    lightRoll = std::max(lightRoll - 1, 0);
     f.maxError = s.reuseError;
     f.weatherError = kWeatherErrorPerUnit * signatureStep(signature, lastSignature);
-    f.invalidate = textures != lastTextures || !(f.weatherError <= s.reuseError) || flash || lastFlash ||
-                   !(dt >= 0 && dt <= kReuseMaxSeconds);
+    f.invalidate = (textures != lastTextures && !lightReplaced) || !(f.weatherError <= s.reuseError) || flash ||
+                   lastFlash || !(dt >= 0 && dt <= kReuseMaxSeconds);
     // The wind moves each layer's matter; the reprojection follows the layers' mean drift (a
     // layer blowing otherwise is bounded by the period).
     glm::dvec3 drift(0);
