@@ -29,11 +29,11 @@ inline std::string shadowSlotsDefine() { return "#define SHADOW_SLOTS " + std::t
 // this frame's change.
 struct ReuseFrame {
     int period = 8;       // every reduced pixel is drawn afresh at least every `period` frames (1: always)
-    double maxError = 2;  // reduced px: a reused pixel's accumulated parallax bound past which it is drawn afresh
+    double maxError = 2;  // reduced px: a reused pixel's accumulated bound past which it is drawn afresh
     glm::dvec3 drift{0};  // m the drawn matter moved since the last frame (the wind's), in the world
     double nearest = 1;   // m: the nearest distance matter may have where the last frame drew none
-    double weatherError =
-        0;  // reduced px: what the weather's step since the last frame adds to every kept texel's bound
+    // reduced px: what the weather's step since the last frame adds to every kept texel's bound
+    double weatherError = 0;
     bool invalidate = false;  // what was drawn no longer holds (new matter, a jump): every pixel afresh
 };
 
@@ -50,10 +50,11 @@ public:
     // of `period` has not come (8x8 blocks in a 4x4 Bayer order, so each frame's share is spread
     // over the image), whose block of the frame holds no surface now and did not then, that falls
     // inside the last image and whose bound (how far the eye's sideways move has turned its
-    // view, plus reuse->weatherError each frame, accumulated) is within reuse->maxError takes the last image's colour
-    // at the point it shows, reprojected by its mean distance as a world point moved by reuse->drift, and the near
-    // plane's depth, which the draws that follow fail against (llvmpipe then skips their shading); the others get 0 and
-    // their depth. The draws write, besides the colour, the weights of their distance to the eye at colour attachment 1
+    // view, plus reuse->weatherError each frame, accumulated) is within reuse->maxError takes
+    // the last image's colour at the point it shows, reprojected by its mean distance as a world
+    // point moved by reuse->drift, and the near plane's depth, which the draws that follow fail
+    // against (llvmpipe then skips their shading); the others get 0 and their depth. The draws
+    // write, besides the colour, the weights of their distance to the eye at colour attachment 1
     // (premultiplied "over" like the colour: (a d, a d^2, 0, a), d in km, at most 250: RGBA16F).
     glm::ivec2 begin(const DepthSource& frameDepth, const View& view, int divisor, const ReuseFrame* reuse = nullptr);
     // Whether this frame's begin() kept texels of the last image.

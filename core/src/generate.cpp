@@ -7,10 +7,10 @@
 #include "obj_reader.hpp"
 
 #include <algorithm>
-#include <numbers>
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <random>
 #include <string_view>
@@ -26,7 +26,6 @@ ObjError::ObjError(std::string file, int line, std::string fault)
       fault_(std::move(fault)) {}
 
 namespace {
-
 
 // Portable random variates: std::mt19937's output is fixed by the standard, the mappings
 // below are ours (std::uniform_real_distribution and std::normal_distribution are not).

@@ -2,7 +2,6 @@
 // "Time of day and geodetic frame".
 #include "nephele/geodetic.hpp"
 
-#include <glm/gtc/constants.hpp>
 #include <glm/trigonometric.hpp>
 
 #include <cmath>
@@ -11,7 +10,6 @@
 
 namespace nephele {
 namespace {
-
 
 void validate(const Geodetic& g) {
     if (!std::isfinite(g.latitudeDeg) || g.latitudeDeg < -90 || g.latitudeDeg > 90)

@@ -2,12 +2,11 @@
 // Sources and accuracy: docs/embedding.md, "Time of day and geodetic frame".
 #include "nephele/time_of_day.hpp"
 
-#include <glm/gtc/constants.hpp>
 #include <glm/trigonometric.hpp>
 
 #include <algorithm>
-#include <numbers>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 

@@ -14,13 +14,12 @@
 #include "parallel.hpp"
 
 #include <algorithm>
-#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <glm/gtc/constants.hpp>
+#include <numbers>
 
 namespace nephele {
 

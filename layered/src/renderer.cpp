@@ -103,15 +103,20 @@ constexpr double kWeatherErrorPerUnit = 100;  // reduced px per unit of reuseSig
 // the layer was drawn with it until then.
 constexpr int kLightRollFrames = 2;
 
-// Whether `now` differs from `last` (the layers' lighting volume and modulation texture, in
-// turns) only in lighting volumes replaced by others: no layer came or went, no modulation
-// changed, no layer got its first volume or lost its last.
-bool onlyLightReplaced(const std::vector<const void*>& now, const std::vector<const void*>& last) {
+// What a layer draws with, as the reuse compares it from frame to frame.
+struct LayerTextures {
+    const void* light;
+    const void* modulation;
+    bool operator==(const LayerTextures&) const = default;
+};
+
+// Whether `now` differs from `last` only in lighting volumes replaced by others: no layer came
+// or went, no modulation changed, no layer got its first volume or lost its last.
+bool onlyLightReplaced(const std::vector<LayerTextures>& now, const std::vector<LayerTextures>& last) {
     if (now.size() != last.size() || now == last) return false;
-    for (std::size_t i = 0; i < now.size(); ++i) {
-        if (now[i] == last[i]) continue;
-        if (i % 2 == 1 || now[i] == nullptr || last[i] == nullptr) return false;
-    }
+    for (std::size_t i = 0; i < now.size(); ++i)
+        if (now[i] != last[i] && (now[i].modulation != last[i].modulation || !now[i].light || !last[i].light))
+            return false;
     return true;
 }
 
@@ -140,7 +145,7 @@ struct LayeredRenderer::Impl {
     Program floor;                    // the bench's floor (renderFloor)
     // What the last frame was drawn with, for the far field's reuse: what its layers drew with,
     // their weather (reuseSignature), the time, and whether a flash lit it.
-    std::vector<const void*> lastTextures;
+    std::vector<LayerTextures> lastTextures;
     std::vector<double> lastSignature;
     double lastTime = 0;
     bool lastFlash = false;
@@ -512,8 +517,8 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
 // stepped past the reuse bound in one frame, time ran back or jumped, or a flash lit either
 // frame; a smaller step of the weather adds to every kept texel's bound.
 ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& view, const LayeredSettings& s, double t) {
-    std::vector<const void*> textures;
-    for (const LayerSlot& r : layers) textures.insert(textures.end(), {r.light.get(), r.modulation.get()});
+    std::vector<LayerTextures> textures;
+    for (const LayerSlot& r : layers) textures.push_back({r.light.get(), r.modulation.get()});
     std::vector<double> signature = reuseSignature(scene);
     bool flash = false;
     for (const Lightning& l : scene.lightning) flash = flash || (t >= l.start && t < l.start + l.duration);

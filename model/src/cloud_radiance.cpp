@@ -30,7 +30,6 @@ Vec3 cloudAmbient(const Sky& sky) { return environmentMean(sky); }
 
 namespace {
 
-
 using Rng = detail::PhotonRng;
 using detail::basis;
 using detail::sampleHg;
