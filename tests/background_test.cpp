@@ -140,3 +140,31 @@ TEST(BackgroundTest, ClosingCancelsTheLayersLightingInProgress) {
     }
     EXPECT_TRUE(std::filesystem::is_empty(cache.dir())) << "the cancelled lighting was finished and cached";
 }
+
+// A new layer is drawn with another seed's pattern until its own modulation texture is made, so
+// that texture goes before the lighting volumes queued (their stand-in, a nearby thickness's
+// light, is close): asked for after two volumes, it is made while the second still waits.
+TEST(BackgroundTest, ALayersPatternIsMadeBeforeTheLightingQueuedBeforeIt) {
+    LightingSettings ls;
+    ls.width = ls.height = 64, ls.depth = 8;
+    ls.photons = 1 << 12;  // a volume takes longer than the pattern
+    const test::TempDir cache("nephele_queue_order");
+    LayeredSettings s;
+    s.lighting = ls;
+    s.modulation.size = 128;
+    s.cacheDir = cache.dir().string();
+    s.background.priority = BackgroundSettings::Priority::Normal;  // runs whatever the load
+    LayerAssets assets(s);
+    assets.setBackground(true);
+    const LightingParameters first{0.05, 0.99, 0.85, 800}, second{0.05, 0.99, 0.85, 900};
+    EXPECT_EQ(assets.lighting(first), nullptr);
+    EXPECT_EQ(assets.lighting(second), nullptr);
+    EXPECT_EQ(assets.modulation(7), nullptr);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+    while (!assets.modulation(7) && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ASSERT_NE(assets.modulation(7), nullptr) << "the pattern was not made within 2 minutes";
+    EXPECT_EQ(assets.lighting(second), nullptr) << "the pattern waited for the volume asked for before it";
+    assets.wait();
+    EXPECT_NE(assets.lighting(second), nullptr);
+}

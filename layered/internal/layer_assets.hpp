@@ -27,9 +27,10 @@ public:
     LayerAssets& operator=(const LayerAssets&) = delete;
 
     // false (the default): what is asked for is computed in the call. true: a request for data
-    // not made yet queues a job for a worker thread (one job at a time, in order, on one core
-    // at the lowest scheduling priority, nice 19) and returns nullptr until it is done, so that the
-    // frame never waits; meanwhile the caller keeps using what it had (the last good result).
+    // not made yet queues a job for a worker thread (one job at a time, in order, modulation
+    // textures before lighting volumes, as LayeredSettings::background says) and returns nullptr
+    // until it is done, so that the frame never waits; meanwhile the caller keeps using what it
+    // had (the last good result).
     void setBackground(bool background);
     bool background() const { return background_; }
 

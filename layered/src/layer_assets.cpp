@@ -61,7 +61,11 @@ std::shared_ptr<LayerAssets::Entry> LayerAssets::request(bool isLight, const Lig
         return entry;
     }
     entry->queued = true;
-    queue_.push_back(entry);
+    // A modulation texture goes before the lighting volumes queued: until it is made a layer is
+    // drawn with another seed's pattern (its clouds elsewhere), while the stand-in for its light
+    // is a nearby thickness's; and it takes a fraction of a volume's time.
+    if (isLight) queue_.push_back(entry);
+    else queue_.insert(std::find_if(queue_.begin(), queue_.end(), [](const auto& e) { return e->isLight; }), entry);
     if (!worker_.joinable()) worker_ = std::thread([this] { run(); });
     changed_.notify_all();
     return entry;
