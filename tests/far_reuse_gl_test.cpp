@@ -247,6 +247,32 @@ TEST_F(FarReuseGLTest, AReplacedLightingVolumeRollsInOverTwoFrames) {
     EXPECT_LE(worstBlock(b, freshB), 1.0 / 255);
 }
 
+// A transition's new layer arrives at fade 0 (density 0), so it changes nothing yet: the far
+// field keeps its pixels, as at each step of the fade after it (0.01 a frame); a dense layer
+// turned on at once is drawn afresh.
+TEST_F(FarReuseGLTest, ALayerTurnedOnAtFadeZeroKeepsThePixels) {
+    Scene scene = deckScene();
+    scene.layers[0].wind = Vec2(0);  // a still view: kept pixels are the last frame's exactly
+    const View view = makeView(scene.camera);
+    SkyFlight reused(reuseSettings(), scene), fresh(reuseSettings(1), scene);
+    for (int k = 0; k < 3; ++k) reused.frame(scene, view, k / 30.0);
+    Layer above = scene.layers[0];
+    above.base = 3200, above.seed = 5, above.density = 0;
+    scene.layers.push_back(above);
+    const Image a = reused.frame(scene, view, 3 / 30.0), b = fresh.frame(scene, view, 3 / 30.0);
+    EXPECT_TRUE(reused.last.reusedFrame) << "a layer at fade 0 drew every pixel afresh";
+    EXPECT_GT(reused.last.reusedPixels, reused.last.reducedPixels / 2);
+    EXPECT_LT(compareImages(a, b, 1e-3).maxAbs, 1.0 / 255);  // as AStillViewKeepsItsPixels
+    scene.layers[1].density = 0.01;                          // the fade's first step
+    reused.frame(scene, view, 4 / 30.0);
+    EXPECT_TRUE(reused.last.reusedFrame);
+    Layer dense = scene.layers[0];
+    dense.base = 4500, dense.seed = 6;
+    scene.layers.push_back(dense);
+    reused.frame(scene, view, 5 / 30.0);
+    EXPECT_FALSE(reused.last.reusedFrame) << "a dense layer turned on at once was kept out";
+}
+
 // Under a ramp (the coverage 0.0167 a frame, a 2 s ramp's share at 30 fps) the far field keeps
 // reusing, and no block lags the weather by more than a frame's step: each step adds to every
 // kept texel's bound (one reduced px per 0.01, 1.67 px here against a bound of 2), so a texel

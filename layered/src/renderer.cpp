@@ -6,6 +6,7 @@
 #include "nephele/per_view.hpp"
 #include "nephele/resources.hpp"
 #include "nephele/shader.hpp"
+#include "frame_change.hpp"
 #include "layer_assets.hpp"
 #include "layer_light.hpp"
 #include "layered_hooks.hpp"
@@ -71,65 +72,6 @@ bool reusesFarField(const LayeredSettings& s) { return s.downsample > 1 && s.reu
 // light, the wind and the eye move too much between them.
 constexpr double kReuseMaxSeconds = 0.5;
 
-// The weather the far field's image depends on, each entry in units in which 0.01 is a change
-// a ramp makes in a frame (coverage and density as they are; heights, extents and light 1%
-// of their size; the sun's direction 0.6 degrees). A step of 0.01 adds one reduced pixel to
-// every kept texel's bound (kWeatherErrorPerUnit): at the default reuseError of 2 px a texel
-// lags the weather by at most 0.02 (a ramp's fade shows no blocks drawn far apart in it, and a
-// ramp of 0.01-0.02 a frame draws half its texels or more afresh each frame), and a step larger
-// than that draws every pixel afresh, so a fast ramp's frame shows its own weather.
-std::vector<double> reuseSignature(const Scene& scene) {
-    std::vector<double> v;
-    auto relative = [&](double x, double scale) { v.push_back(x / std::max(scale, 1e-9)); };
-    for (const Layer& l : scene.layers) {
-        v.insert(v.end(), {l.coverage, l.density, double(l.seed), l.nearLod ? 1.0 : 0.0});
-        const double size = std::max({std::abs(l.base), l.thickness, 1.0});
-        relative(l.base, size), relative(l.thickness, size), relative(l.extent, l.extent);
-        v.push_back(l.cityGlow ? glm::length(l.cityGlow->color * l.cityGlow->strength) : 0.0);
-    }
-    v.insert(v.end(), {scene.sun.direction.x, scene.sun.direction.y, scene.sun.direction.z});
-    const double sun = glm::length(scene.sun.color * scene.sun.intensity);
-    relative(sun, sun);
-    v.insert(v.end(), {scene.medium.extinction * 100, scene.medium.albedo * 100, scene.medium.hgG});
-    return v;
-}
-
-constexpr double kWeatherErrorPerUnit = 100;  // reduced px per unit of reuseSignature
-
-// A layer's lighting volume replaced by another (a thickness ramp's target volume arriving, a
-// layer's own volume replacing the nearest one it was drawn with) is rolled in: for this many
-// frames the reuse period is this many frames, so that every pixel is drawn afresh with the new
-// light within them and no frame draws them all. Kept pixels show the old light meanwhile, as
-// the layer was drawn with it until then.
-constexpr int kLightRollFrames = 2;
-
-// What a layer draws with, as the reuse compares it from frame to frame.
-struct LayerTextures {
-    const void* light;
-    const void* modulation;
-    bool operator==(const LayerTextures&) const = default;
-};
-
-// Whether `now` differs from `last` only in lighting volumes replaced by others: no layer came
-// or went, no modulation changed, no layer got its first volume or lost its last.
-bool onlyLightReplaced(const std::vector<LayerTextures>& now, const std::vector<LayerTextures>& last) {
-    if (now.size() != last.size() || now == last) return false;
-    for (std::size_t i = 0; i < now.size(); ++i)
-        if (now[i] != last[i] && (now[i].modulation != last[i].modulation || !now[i].light || !last[i].light))
-            return false;
-    return true;
-}
-
-// The largest change of an entry (infinite when the layers came or went, or one is NaN).
-double signatureStep(const std::vector<double>& a, const std::vector<double>& b) {
-    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-    double step = 0;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        const double d = std::abs(a[i] - b[i]);
-        step = d <= step ? step : d;  // NaN included
-    }
-    return step;
-}
 }  // namespace
 
 struct LayeredRenderer::Impl {
@@ -143,13 +85,12 @@ struct LayeredRenderer::Impl {
     ReducedTarget reduced;            // LayeredSettings::downsample > 1
     PerViewCache<FrameDepth> depths;  // copies of the host frame's depth, for the shadows and the upsampling
     Program floor;                    // the bench's floor (renderFloor)
-    // What the last frame was drawn with, for the far field's reuse: what its layers drew with,
-    // their weather (reuseSignature), the time, and whether a flash lit it.
-    std::vector<LayerTextures> lastTextures;
-    std::vector<double> lastSignature;
+    // What the last frame was drawn with, for the far field's reuse: its layers' weather and
+    // textures (FrameRecord), the time, and whether a flash lit it.
+    FrameRecord last;
     double lastTime = 0;
     bool lastFlash = false;
-    int lightRoll = 0;  // frames left of rolling in a replaced lighting volume (kLightRollFrames)
+    int lightRoll = 0;  // frames left of rolling in replaced textures (kLightRollFrames)
 
     void updateSlot(LayerSlot& slot, const Scene& scene, const Layer& layer, const LayeredSettings& s,
                     LayeredStats& stats);
@@ -513,25 +454,25 @@ void LayeredRenderer::Impl::updateSlot(LayerSlot& r, const Scene& scene, const L
 }
 
 // What the reduced target's reuse of the last frame's far field needs to know of this frame
-// (ReducedTarget::begin): nothing is kept when what the layers draw with changed, the weather
-// stepped past the reuse bound in one frame, time ran back or jumped, or a flash lit either
-// frame; a smaller step of the weather adds to every kept texel's bound.
+// (ReducedTarget::begin): nothing is kept when the weather stepped past the reuse bound in one
+// frame (compareFrames: a dense layer come or gone, or drawing with textures not made before,
+// is such a step), time ran back or jumped, or a flash lit either frame; a smaller step adds to
+// every kept texel's bound, and textures replaced by others are rolled in.
 ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& view, const LayeredSettings& s, double t) {
     std::vector<LayerTextures> textures;
     for (const LayerSlot& r : layers) textures.push_back({r.light.get(), r.modulation.get()});
-    std::vector<double> signature = reuseSignature(scene);
+    FrameRecord now = frameRecord(scene, textures);
     bool flash = false;
     for (const Lightning& l : scene.lightning) flash = flash || (t >= l.start && t < l.start + l.duration);
     const double dt = t - lastTime;
     ReuseFrame f;
-    const bool lightReplaced = onlyLightReplaced(textures, lastTextures);
-    if (lightReplaced) lightRoll = kLightRollFrames;
+    const FrameChange change = compareFrames(now, last, s.reuseError / kWeatherErrorPerUnit);
+    if (change.texturesReplaced) lightRoll = kLightRollFrames;
     f.period = lightRoll > 0 ? std::min(s.reusePeriod, kLightRollFrames) : s.reusePeriod;
     lightRoll = std::max(lightRoll - 1, 0);
     f.maxError = s.reuseError;
-    f.weatherError = kWeatherErrorPerUnit * signatureStep(signature, lastSignature);
-    f.invalidate = (textures != lastTextures && !lightReplaced) || !(f.weatherError <= s.reuseError) || flash ||
-                   lastFlash || !(dt >= 0 && dt <= kReuseMaxSeconds);
+    f.weatherError = kWeatherErrorPerUnit * change.step;
+    f.invalidate = !(f.weatherError <= s.reuseError) || flash || lastFlash || !(dt >= 0 && dt <= kReuseMaxSeconds);
     // The wind moves each layer's matter; the reprojection follows the layers' mean drift (a
     // layer blowing otherwise is bounded by the period).
     glm::dvec3 drift(0);
@@ -544,8 +485,7 @@ ReuseFrame LayeredRenderer::Impl::reuseFrame(const Scene& scene, const View& vie
         nearest = std::min(nearest, std::max(vertical, l.nearLod ? s.nearRadius : 0.0));
     }
     f.nearest = std::max(nearest, 1.0);
-    lastTextures = std::move(textures);
-    lastSignature = std::move(signature);
+    last = std::move(now);
     lastTime = t;
     lastFlash = flash;
     return f;
