@@ -243,6 +243,9 @@ TEST_F(CliTest, WeatherBenchWritesCsvChartAndTable) {
     text << md.rdbuf();
     EXPECT_NE(text.str().find("Measured by `nephele bench --weather` on "), std::string::npos);
     EXPECT_NE(text.str().find("| thickness 600 -> 800 m |"), std::string::npos) << text.str();
+    // The machine's floor of the same run: the first frame drawn again in the same turns.
+    EXPECT_NE(text.str().find("| steady: the first frame again (the machine's floor) | "), std::string::npos)
+        << text.str();
     const CliRun bad = run("bench --weather --quick --frames 5 --out-dir " + path("w2"));
     EXPECT_EQ(bad.code, 2) << bad.output;
 }

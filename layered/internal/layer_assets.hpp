@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <deque>
 #include <exception>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -38,11 +39,15 @@ public:
     // failure of a job (std::exception of lightingCached or makeModulation).
     std::shared_ptr<const LightingVolume> lighting(const LightingParameters& parameters);
     std::shared_ptr<const ModulationTexture> modulation(unsigned seed);
-    // As lighting() / modulation(), but while the job runs the nearest made instead of nullptr:
-    // the volume whose parameters differ least (relative differences of the medium's extinction,
-    // albedo and phase and of the thickness), the texture used last. nullptr only while nothing
-    // of its kind is made. A layer is thus drawn from its first frame (a new layer of a
-    // transition fades in with the light of another thickness) and never withheld.
+    // As lighting() / modulation(), but while the job runs the nearest there is instead of
+    // nullptr. A volume: the one made whose parameters differ least (relative differences of the
+    // medium's extinction, albedo and phase and of the thickness); nullptr only while none is
+    // made. A texture: the seed's own pattern at a quarter of the resolution (at least 8
+    // texels), made in the call (a sixteenth of the full one's work) and kept until the full one
+    // is made; about 1% of the texels fall on the other side of a threshold
+    // (BackgroundTest.ANewPatternIsShownAtAQuarterOfItsResolutionUntilItIsMade). A layer is thus drawn from its first frame (a new
+    // layer of a transition fades in with the light of another thickness) and never withheld,
+    // and never shows another seed's clouds.
     std::shared_ptr<const LightingVolume> nearestLighting(const LightingParameters& parameters);
     std::shared_ptr<const ModulationTexture> nearestModulation(unsigned seed);
 
@@ -73,6 +78,7 @@ private:
     std::condition_variable changed_;
     std::deque<std::shared_ptr<Entry>> entries_;  // most recently used last
     std::deque<std::shared_ptr<Entry>> queue_;
+    std::map<unsigned, std::shared_ptr<const ModulationTexture>> previews_;  // nearestModulation's, by seed
     int running_ = 0;  // jobs being computed by the worker (0 or 1)
     std::uint64_t clock_ = 0;
     double computeMs_ = 0;

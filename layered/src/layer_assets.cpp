@@ -62,8 +62,9 @@ std::shared_ptr<LayerAssets::Entry> LayerAssets::request(bool isLight, const Lig
     }
     entry->queued = true;
     // A modulation texture goes before the lighting volumes queued: until it is made a layer is
-    // drawn with another seed's pattern (its clouds elsewhere), while the stand-in for its light
-    // is a nearby thickness's; and it takes a fraction of a volume's time.
+    // drawn with its pattern at a quarter of the resolution (nearestModulation), which is further
+    // from it than the stand-in for its light, a nearby thickness's; and it takes a fraction of a
+    // volume's time.
     if (isLight) queue_.push_back(entry);
     else queue_.insert(std::find_if(queue_.begin(), queue_.end(), [](const auto& e) { return e->isLight; }), entry);
     if (!worker_.joinable()) worker_ = std::thread([this] { run(); });
@@ -159,11 +160,20 @@ std::shared_ptr<const LightingVolume> LayerAssets::nearestLighting(const Lightin
 }
 
 std::shared_ptr<const ModulationTexture> LayerAssets::nearestModulation(unsigned seed) {
-    if (auto exact = modulation(seed)) return exact;
+    if (auto exact = modulation(seed)) {
+        std::lock_guard lock(mutex_);
+        previews_.erase(seed);
+        return exact;
+    }
+    {
+        std::lock_guard lock(mutex_);
+        if (const auto p = previews_.find(seed); p != previews_.end()) return p->second;
+    }
+    ModulationSettings quarter = settings_.modulation;
+    quarter.size = std::max(8, quarter.size / 4);
+    auto preview = std::make_shared<const ModulationTexture>(makeModulation(quarter, seed));
     std::lock_guard lock(mutex_);
-    for (auto e = entries_.rbegin(); e != entries_.rend(); ++e)  // most recently used first
-        if (!(*e)->isLight && (*e)->done) return (*e)->texture;
-    return nullptr;
+    return previews_.emplace(seed, std::move(preview)).first->second;
 }
 
 int LayerAssets::pending() const {
