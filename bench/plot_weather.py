@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Chart of `nephele bench --weather`: ms per frame along the flight for SkyRenderer's update +
-draw and for the one-call render() of before, the weather changes marked, and 1.5x the median.
+draw, for the one-call render() of before and for the first frame drawn again (the same work every
+frame), the weather changes marked, and 1.5x the median.
 Usage: /usr/bin/python3 bench/plot_weather.py WEATHER_BENCH.csv OUT.png "WHEN" "WxH"
 (Debian's python3-matplotlib: call /usr/bin/python3, not the python3 first on PATH.)"""
 import csv
@@ -20,8 +21,10 @@ def main():
     frame = [int(r["frame"]) for r in rows]
     ms = [float(r["ms"]) for r in rows]
     before = [float(r["before_ms"]) for r in rows]
+    steady = [float(r["steady_ms"]) for r in rows]
     fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
     ax.plot(frame, before, "-", color="tab:red", alpha=0.6, label="before: render()")
+    ax.plot(frame, steady, "-", color="grey", alpha=0.6, label="steady: the first frame again")
     ax.plot(frame, ms, "-", color="tab:blue", label="update + draw")
     ax.axhline(1.5 * statistics.median(ms), color="tab:blue", ls=":", label="1.5 × median (the target)")
     for r in rows:

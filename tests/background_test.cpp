@@ -201,7 +201,8 @@ TEST(BackgroundTest, ANewPatternIsShownAtAQuarterOfItsResolutionUntilItIsMade) {
         double sum = 0, flips = 0;
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i) {
-                const double a = full->texels[(std::size_t(j) * n + i) * 2], b = m.sample((i + 0.5) / n, (j + 0.5) / n, 0);
+                const double a = full->texels[(std::size_t(j) * n + i) * 2],
+                             b = m.sample((i + 0.5) / n, (j + 0.5) / n, 0);
                 sum += std::abs(a - b), flips += (a < 0.4) != (b < 0.4);
             }
         meanChange = sum / (double(n) * n), flipped = flips / (double(n) * n);

@@ -48,7 +48,8 @@ TEST(FrameChangeTest, ALayerComeOrGoneIsAStepOfItsDensityWhereverItSits) {
     // A transition's new layer (ids between the others') at fade 0, then 0.01.
     for (double fade : {0.0, 0.01, 0.6}) {
         const FrameRecord now =
-            frame({low, layer(0.5, fade, 9), high}, {{&kLight[0], &kPattern[0]}, {&kLight[2], &kPattern[2]}, {&kLight[1], &kPattern[1]}});
+            frame({low, layer(0.5, fade, 9), high},
+                  {{&kLight[0], &kPattern[0]}, {&kLight[2], &kPattern[2]}, {&kLight[1], &kPattern[1]}});
         EXPECT_DOUBLE_EQ(compareFrames(now, before, kMaxStep).step, fade) << "fade " << fade;
         EXPECT_DOUBLE_EQ(compareFrames(before, now, kMaxStep).step, fade) << "gone at fade " << fade;
     }
@@ -67,8 +68,8 @@ TEST(FrameChangeTest, ADenseLayersNewTexturesAreRolledInADimOnesAreAStep) {
         EXPECT_EQ(c.step, 0.0);
     }
     // The dim layer's own pattern: a step of its density, nothing rolled in.
-    const FrameChange c = compareFrames(frame({dense, dim}, {{&kLight[0], &kPattern[0]}, {&kLight[1], &kPattern[2]}}),
-                                        before, kMaxStep);
+    const FrameChange c =
+        compareFrames(frame({dense, dim}, {{&kLight[0], &kPattern[0]}, {&kLight[1], &kPattern[2]}}), before, kMaxStep);
     EXPECT_FALSE(c.texturesReplaced);
     EXPECT_DOUBLE_EQ(c.step, 0.015);
     // A dense layer drawn for the first time (its first lighting volume): everything afresh.
@@ -98,6 +99,7 @@ TEST(FrameChangeTest, TheWeatherStepIsTheLargestChangeOfAnEntry) {
                     s.layers[0].base *= 1.015;
                 }),
                 std::log(1.015), 1e-4);  // the base's, 0.0149
-    EXPECT_NEAR(step([](Scene& s) { s.layers[0].base = 0; }) - step([](Scene& s) { s.layers[0].base = 1; }), 0.01, 1e-4);
+    EXPECT_NEAR(step([](Scene& s) { s.layers[0].base = 0; }) - step([](Scene& s) { s.layers[0].base = 1; }), 0.01,
+                1e-4);
     EXPECT_FALSE(step([](Scene& s) { s.layers[0].coverage = std::nan(""); }) <= kMaxStep);
 }

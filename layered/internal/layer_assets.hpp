@@ -45,9 +45,9 @@ public:
     // made. A texture: the seed's own pattern at a quarter of the resolution (at least 8
     // texels), made in the call (a sixteenth of the full one's work) and kept until the full one
     // is made; about 1% of the texels fall on the other side of a threshold
-    // (BackgroundTest.ANewPatternIsShownAtAQuarterOfItsResolutionUntilItIsMade). A layer is thus drawn from its first frame (a new
-    // layer of a transition fades in with the light of another thickness) and never withheld,
-    // and never shows another seed's clouds.
+    // (BackgroundTest.ANewPatternIsShownAtAQuarterOfItsResolutionUntilItIsMade). A layer is thus drawn from its first
+    // frame (a new layer of a transition fades in with the light of another thickness) and never withheld, and never
+    // shows another seed's clouds.
     std::shared_ptr<const LightingVolume> nearestLighting(const LightingParameters& parameters);
     std::shared_ptr<const ModulationTexture> nearestModulation(unsigned seed);
 
