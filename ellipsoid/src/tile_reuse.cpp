@@ -159,7 +159,12 @@ void TileReuse::staleness(Candidate& c, const ReuseSettings& s, const Scene& sce
     // as much as it grew: that part is the reshape's error, counted below.
     if (outsidePixels(c.rect, p.rect, view) > s.errorPixels + reshaped) return;
     c.must = false;
-    const double drift = scene.medium.noise > 0 ? glm::length(e.shape.center - L.centre) : 0.0;
+    // How far textures moved through the cloud since: the world-fixed noise by the cloud's own
+    // move, the detail by its drift less that move (the detail and the cloud each go with their wind).
+    const Vec3 moved = e.shape.center - L.centre;
+    const Medium::Detail& detail = scene.medium.detail;
+    const double drift = (scene.medium.noise > 0 ? glm::length(moved) : 0.0) +
+                         (detail.erosion > 0 ? glm::length(detail.drift - L.detailDrift - moved) : 0.0);
     const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
     c.error = (px + reshaped) / s.errorPixels;
     // The phase towards the eye, as the eye moves (a new sun is a change of light, below).
@@ -298,6 +303,7 @@ void TileReuse::writePlan(const Scene& scene, const View& view, const PreparedCl
         L.reusable = !e.projection.crossesNear;
         L.eyeFromCentre = view.eye - e.shape.center;
         L.centre = e.shape.center;
+        L.detailDrift = scene.medium.detail.drift;
         L.phase = sunPhase(e.shape.center, view, scene);
         L.seen = frame;
         fresh_[std::size_t(i)] = &L;

@@ -47,8 +47,8 @@ double sunPhase(const Vec3& centre, const View& view, const Scene& scene);
 // reprojected as the plane through its centre: the angle the eye moved around the centre
 // (eye - centre then, and now), and the change of distance (a point `radius` in front of the
 // plane grows by radius / distance more than the plane). A turn of the view alone costs
-// nothing: the reprojection is exact for it. Plus `drift` (m) carried through the world-fixed
-// noise (0 without noise). Pixels.
+// nothing: the reprojection is exact for it. Plus `drift` (m): how far the world-fixed noise and
+// the detail moved through the ellipsoid (0 without either). Pixels.
 double parallaxPixels(double r, const Vec3& eyeFromCentreThen, const Vec3& eyeFromCentreNow, double radius,
                       double drift);
 // How far (m) an ellipsoid's surface and its light grid's box moved relative to its centre since
@@ -121,6 +121,7 @@ private:
         std::uint64_t light = 0;          // the grid, the sun, the medium
         Vec3 eyeFromCentre{0.0};          // eye - centre when rendered (m)
         Vec3 centre{0.0};                 // m
+        Vec3 detailDrift{0.0};            // Medium::Detail::drift when rendered (m)
         double phase = 0;                 // the sun's phase towards the eye at its centre
         Vec3 rc{0.0}, rx{0.0}, ry{0.0};
         std::uint64_t seen = 0;  // the last frame it was visible

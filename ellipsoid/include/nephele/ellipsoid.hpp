@@ -106,7 +106,8 @@ struct EllipsoidSettings {
     // inside it), plus its pixel radius times the relative change of its distance times its
     // largest radius over its distance (a point that far in front of the plane grows that much
     // faster; a turn of the view alone costs nothing), plus (with noise) how far the wind carried
-    // it through the noise; also reached when the sun's phase towards the eye or the extinction
+    // it through the noise and (with the detail) how far the detail's drift moved through it;
+    // also reached when the sun's phase towards the eye or the extinction
     // (a near-LOD cloud fading) has changed by more than 3%, or the tile is magnified past its
     // size. Stale tiles are rendered again worst first within reuseBudget x the frame's pixels
     // of tile area a frame, what the tiles that must be rendered (below) take counted first
