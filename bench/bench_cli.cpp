@@ -190,7 +190,8 @@ CLI::App* addBenchCommand(CLI::App& app, BenchArgs& b) {
         "--cruise", b.cruise,
         "Instead: --reuse on against off on flights (a 4000-ellipsoid cruise, a sharp turn, approach, flythrough, "
         "layer_flight): ms per frame, tiles rendered, PSNR against every tile fresh");
-    bench->add_option("--flights", b.cruiseFlights, "--cruise: only these flights (scene file names)");
+    bench->add_option("--flights", b.cruiseFlights,
+                      "--cruise: only these flights (scene file names; cruise_detail: the cruise with the detail)");
     bench->add_flag("--scale", b.scale,
                     "Instead: load, plan and draw time and peak memory from 10^4 to 10^6 ellipsoids (--scale-counts)");
     bench->add_flag("--grids", b.grids,

@@ -41,10 +41,6 @@ struct Row {
     EllipsoidStats stats, baselineStats;
 };
 
-// The detail column's erosion: data/scenes/detailed_cumulus.json's, the detail's other settings
-// the format's defaults (octaves from 256 m down to 1 m, faded by projected size).
-constexpr double kBenchDetailErosion = 1.5;
-
 }  // namespace
 
 Scene benchScene(int count, int width, int height) {

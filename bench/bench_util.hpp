@@ -80,6 +80,11 @@ int publishChartBench(const std::string& outDir, const std::string& tag, const s
 // `charts` it drew there are then written to outDir (output_files.hpp's policy, all or
 // nothing). Throws with a message naming the package when the script fails.
 inline constexpr const char* kChartsFolder = "{charts}";
+
+// The erosion the benches draw the detail with (the count bench's column, the cruise's detail
+// flight): data/scenes/detailed_cumulus.json's, the detail's other settings the format's
+// defaults (octaves from 256 m down to 1 m, faded by projected size).
+inline constexpr double kBenchDetailErosion = 1.5;
 void runPlot(const std::string& scriptName, const std::vector<std::string>& args, const std::string& outDir,
              const std::vector<std::string>& charts);
 

@@ -51,6 +51,10 @@ struct Flight {
     double firstOnMs = 0, firstOffMs = 0;  // frame 0: the grids made and every tile rendered (both)
     bool reuseAlone = false;               // also run --reuse on --cloud-lod off (what each part gives)
     std::string pathFrom;                  // a flight file (data/flights) whose keyframes replace the scene's path
+    double erosion = 0;                    // > 0: the scene's detail on (Medium::Detail::erosion), its own settings
+    double seconds = 0;                    // > 0: only the path's first seconds
+    std::string key;                       // its name in --flights and the CSV (empty: the scene's file name)
+    const std::string& id() const { return key.empty() ? scene : key; }
 };
 
 // The keyframes of a `nephele fly --script` flight file (data/flights/*.json).
@@ -91,8 +95,10 @@ void fly(Flight& f, const CruiseBenchOptions& o) {
     Scene scene = loadScene(o.bench.scenesDir + "/" + f.scene);
     scene.camera.width = o.width, scene.camera.height = o.height;
     if (!f.pathFrom.empty()) scene.path = flightKeyframes(o.bench.scenesDir + "/../flights/" + f.pathFrom);
+    if (f.erosion > 0) scene.medium.detail.erosion = f.erosion;
     const double t0 = scene.path.front().t,
-                 t1 = o.bench.quick ? std::min(scene.path.back().t, t0 + 1.0) : scene.path.back().t;
+                 t1 = std::min({o.bench.quick ? t0 + 1.0 : scene.path.back().t, scene.path.back().t,
+                                f.seconds > 0 ? t0 + f.seconds : scene.path.back().t});
     const int frames = frameCount(t0, t1, f.fps);
     FrameRenderer on(optionsFor(true, true, o.bench.backend)), off(optionsFor(false, false, o.bench.backend));
     std::unique_ptr<FrameRenderer> alone;
@@ -147,7 +153,7 @@ std::string csvOf(const std::vector<Flight>& flights) {
     for (const Flight& f : flights)
         for (std::size_t i = 0; i < f.frames.size(); ++i) {
             const CruiseFrame& c = f.frames[i];
-            csv << f.scene << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << ","
+            csv << f.id() << "," << i + 1 << "," << fmt("%.3f", c.onMs) << "," << fmt("%.3f", c.offMs) << ","
                 << (c.repeatMs < 0 ? std::string() : fmt("%.3f", c.repeatMs)) << "," << c.onTiles << "," << c.must
                 << "," << (c.repacked ? 1 : 0) << "," << c.offTiles << "," << c.visible << "," << c.onPixels << ","
                 << c.offPixels << "," << fmt("%.2f", c.psnr) << "," << fmt("%.6f", c.onChange) << ","
@@ -223,6 +229,25 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
            << fmt("%.4f", maxOf(offCh)) << " | " << fmt("%.0f", f.firstOnMs) << " / " << fmt("%.0f", f.firstOffMs)
            << " |\n";
     }
+    // The detail's cost: its flight against the same frames of the cruise without it.
+    const auto plain =
+        std::find_if(flights.begin(), flights.end(), [](const Flight& f) { return f.id() == "cruise.json"; });
+    const auto detailed =
+        std::find_if(flights.begin(), flights.end(), [](const Flight& f) { return f.id() == "cruise_detail"; });
+    if (plain != flights.end() && detailed != flights.end() && !detailed->frames.empty() &&
+        plain->frames.size() >= detailed->frames.size()) {
+        const std::vector<CruiseFrame> same(plain->frames.begin(),
+                                            plain->frames.begin() + std::ptrdiff_t(detailed->frames.size()));
+        auto ms = [](const std::vector<CruiseFrame>& fr, bool on) {
+            return mean(column(fr, [on](const CruiseFrame& c) { return on ? c.onMs : c.offMs; }));
+        };
+        md << "\n**The detail's cost on the cruise** (issue 34 §5 allows 1.5×): over the same " << same.size()
+           << " frames, " << fmt("%.1f", ms(detailed->frames, true)) << " ms amortised with the detail against "
+           << fmt("%.1f", ms(same, true)) << " without, **" << fmt("%.2f", ms(detailed->frames, true) / ms(same, true))
+           << "×**, with the defaults (tiles that last, the cloud LOD); every tile fresh, "
+           << fmt("%.1f", ms(detailed->frames, false)) << " against " << fmt("%.1f", ms(same, false)) << ", "
+           << fmt("%.2f", ms(detailed->frames, false) / ms(same, false)) << "×.\n";
+    }
     md << "\n![ms per frame: auto (reuse and cloud LOD on), reuse alone, both off](cruise_bench.png)\n";
     return md.str();
 }
@@ -245,18 +270,32 @@ int runCruiseBench(const CruiseBenchOptions& o) {
          0,
          false,
          "into_cloud.json"},
+        // The detail's cost on the cruise (issue 34 §5: at most 1.5x the frame without it): the
+        // cruise's first 20 s with data/scenes/detailed_cumulus.json's erosion, beside the cruise's
+        // row (the same frames are its first 200).
+        {"cruise.json",
+         "cruise with the detail (erosion 1.5, the nephele kind): its first 20 s",
+         10,
+         {},
+         0,
+         0,
+         false,
+         "",
+         kBenchDetailErosion,
+         20,
+         "cruise_detail"},
     };
     if (o.bench.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
     if (!o.flights.empty()) {
         for (const std::string& f : o.flights)
-            if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.scene == f; })) {
+            if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.id() == f; })) {
                 std::cerr << "nephele: bench --cruise: --flights: no flight '" << f
                           << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json, "
-                             "showcase.json)\n";
+                             "showcase.json, cruise_detail)\n";
                 return 2;
             }
         std::erase_if(flights, [&](const Flight& x) {
-            return std::find(o.flights.begin(), o.flights.end(), x.scene) == o.flights.end();
+            return std::find(o.flights.begin(), o.flights.end(), x.id()) == o.flights.end();
         });
     }
     std::string renderer;
