@@ -5,6 +5,7 @@
 #include "ellipsoid_hooks.hpp"
 #include "noise_texture.hpp"
 
+#include "nephele/detail.hpp"
 #include "nephele/gl_state.hpp"
 
 #include <glm/gtc/matrix_access.hpp>
@@ -240,14 +241,22 @@ bool prepareFrame(const EllipsoidSettings& s, const Scene& scene, const View& vi
     for (const Cloud& c : scene.clouds) stats.ellipsoids += int(c.ellipsoids.size());
     out.prepared = prepareClouds(scene, view, s.noise);
     const PreparedClouds& prepared = out.prepared;
-    // The close LOD: no tile finer than its ellipsoid's image (closeTileTexels). The detail's image
-    // holds features of a few pixels at every distance (its octaves fade by projected size), so
-    // with it a tile keeps the texels its ellipsoid covers on screen.
-    if (lod && cloudLodApplies(s) && !scene.medium.detail.on()) {
+    // The close LOD: no tile finer than its ellipsoid's image (closeTileTexels), nor, with the
+    // detail, than its finest octave drawn (detailTileTexels: the detail's octaves fade by their
+    // angle, so a tile finer than that on a large screen holds nothing more).
+    if (lod && cloudLodApplies(s)) {
         const double noiseTexel =
             scene.medium.noise > 0 ? prepared.noisePeriod / s.noise.size : std::numeric_limits<double>::infinity();
-        for (PreparedEllipsoid& e : out.prepared.ellipsoids)
-            e.contentTexels = closeTileTexels(e.shape.maxRadius(), noiseTexel);
+        const Medium::Detail& detail = scene.medium.detail;
+        for (PreparedEllipsoid& e : out.prepared.ellipsoids) {
+            const double rMax = e.shape.maxRadius();
+            e.contentTexels = closeTileTexels(rMax, noiseTexel);
+            if (detail.on()) {
+                const double nearest = std::max(glm::length(e.shape.center - view.eye) - rMax, 0.0);
+                e.contentTexels = std::max(e.contentTexels,
+                                           detailTileTexels(rMax, nearest, model::kDetailFadeAngle, detail.smallest));
+            }
+        }
     }
     stats.visible = int(prepared.ellipsoids.size());
     return !prepared.ellipsoids.empty();
