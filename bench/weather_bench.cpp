@@ -109,6 +109,7 @@ struct FrameTime {
     double tileMegapixels = 0, planMs = 0;
     bool atlasGrown = false;
     bool farFieldReused = false;  // the far field kept what it could of the last frame (else every pixel afresh)
+    double farFieldKept = 0;      // the share of its reduced pixels kept (LayeredStats::reusedPixels)
     // What the process waited on during update + draw (getrusage, every thread): page faults
     // that read from disk, those that did not, and switches away from a running thread.
     long majorFaults = 0, minorFaults = 0, involuntarySwitches = 0;
@@ -176,6 +177,9 @@ std::vector<FrameTime> fly(const WeatherBenchOptions& o, const Scene& scene, con
         ft.involuntarySwitches = u1.ru_nivcsw - u0.ru_nivcsw;
         ft.uploads = st.layered.uploads, ft.pendingLayers = st.layered.pendingLayers;
         ft.farFieldReused = st.layered.reusedFrame;
+        ft.farFieldKept = st.layered.reducedPixels > 0 && st.layered.reusedPixels > 0
+                              ? double(st.layered.reusedPixels) / double(st.layered.reducedPixels)
+                              : 0.0;
         ft.farFieldMs = st.farFieldMs, ft.tilesMs = st.ellipsoids.tilesMs, ft.compositeMs = st.ellipsoids.compositeMs;
         ft.passes = st.ellipsoids.passes, ft.visible = st.ellipsoids.visible;
         ft.tilesRendered = st.ellipsoids.tilesRendered, ft.lightUploads = st.ellipsoids.lightUploads;
@@ -208,8 +212,8 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
            "cells_made,cells_pending,background_jobs,texture_uploads,layers_waiting,before_light_grids,far_field_ms,"
            "tiles_ms,"
            "composite_ms,passes,visible,tiles_rendered,tiles_must,tile_megapixels,impostors_rendered,plan_ms,light_"
-           "uploads,atlas_grown,transition,major_faults,minor_faults,involuntary_switches,far_field_reused,steady_ms,"
-           "event\n";
+           "uploads,atlas_grown,transition,major_faults,minor_faults,involuntary_switches,far_field_reused,far_field_"
+           "kept,steady_ms,event\n";
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameTime& f = frames[i];
         csv << i << "," << fmt("%.3f", f.ms) << "," << fmt("%.3f", f.updateMs) << "," << fmt("%.3f", f.ms - f.updateMs)
@@ -221,8 +225,8 @@ std::string csvOf(const std::vector<FrameTime>& frames) {
             << f.tilesRendered << "," << f.tilesMust << "," << fmt("%.4f", f.tileMegapixels) << ","
             << f.impostorsRendered << "," << fmt("%.3f", f.planMs) << "," << f.lightUploads << "," << int(f.atlasGrown)
             << "," << fmt("%.3f", f.update.transition) << "," << f.majorFaults << "," << f.minorFaults << ","
-            << f.involuntarySwitches << "," << int(f.farFieldReused) << "," << fmt("%.3f", f.steadyMs) << ",\""
-            << f.event << "\"\n";
+            << f.involuntarySwitches << "," << int(f.farFieldReused) << "," << fmt("%.3f", f.farFieldKept) << ","
+            << fmt("%.3f", f.steadyMs) << ",\"" << f.event << "\"\n";
     }
     return csv.str();
 }

@@ -231,11 +231,23 @@ TEST_F(CliTest, WeatherBenchWritesCsvChartAndTable) {
     std::string line;
     std::getline(csv, line);
     EXPECT_EQ(line.rfind("frame,ms,update_ms,draw_ms,before_ms,", 0), 0u) << line;
+    // The share of the far field kept, per frame: a column of its own, in [0, 1], some of it kept.
+    const std::size_t keptColumn =
+        std::size_t(std::count(line.begin(), line.begin() + std::ptrdiff_t(line.find("far_field_kept")), ','));
+    ASSERT_NE(line.find(",far_field_kept,"), std::string::npos) << line;
     int rows = 0, events = 0;
+    double mostKept = 0;
     for (; std::getline(csv, line); ++rows) {
         EXPECT_EQ(line.find("nan"), std::string::npos) << line;
         events += line.back() != '"' || line[line.size() - 2] != '"';
+        std::stringstream fields(line);
+        std::string field;
+        for (std::size_t k = 0; k <= keptColumn && std::getline(fields, field, ','); ++k) {}
+        const double kept = std::stod(field);
+        EXPECT_TRUE(kept >= 0 && kept <= 1) << line;
+        mostKept = std::max(mostKept, kept);
     }
+    EXPECT_GT(mostKept, 0.5);  // a flight at 30 fps keeps most of its far field (measured 0.96)
     EXPECT_EQ(rows, 24);
     EXPECT_EQ(events, 7);  // coverage, base, thickness, wind, sun, coverage and thickness, sun
     std::ifstream md(path("w/weather_bench.md"));
