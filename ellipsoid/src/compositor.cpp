@@ -252,9 +252,8 @@ bool prepareFrame(const EllipsoidSettings& s, const Scene& scene, const View& vi
             const double rMax = e.shape.maxRadius();
             e.contentTexels = closeTileTexels(rMax, noiseTexel);
             if (detail.on()) {
-                const double nearest = std::max(glm::length(e.shape.center - view.eye) - rMax, 0.0);
-                e.contentTexels = std::max(e.contentTexels,
-                                           detailTileTexels(rMax, nearest, model::kDetailFadeAngle, detail.smallest));
+                const double nearest = std::max(e.projection.distance - rMax, 0.0);
+                e.contentTexels = std::max(e.contentTexels, detailTileTexels(rMax, nearest, detail.smallest));
             }
         }
     }

@@ -3,6 +3,7 @@
 // (the public face is nephele/gardner.hpp).
 #pragma once
 
+#include "nephele/detail.hpp"
 #include "nephele/gardner.hpp"
 #include "nephele/projection.hpp"
 
@@ -61,12 +62,11 @@ inline double closeTileTexels(double rMax, double noiseTexel) {
 
 // The close LOD with the detail on: the texels across the tile of an ellipsoid of largest radius
 // `rMax` (m) whose nearest matter is `nearest` m from the eye that hold the finest octave the
-// detail draws there: a texel across its cut r = max(fadeAngle x nearest, smallest / 2), the
-// wavelength at which an octave's weight reaches 0, so two across the finest octave drawn whole
-// (2r: its Nyquist rate). Farther matter's octaves are coarser still.
-inline double detailTileTexels(double rMax, double nearest, double fadeAngle, double smallest) {
-    const double cut = std::max(fadeAngle * nearest, 0.5 * smallest);
-    return 2.0 * rMax / cut;
+// detail draws there: a texel across its cut r (detailFinestWavelength, where an octave's weight
+// reaches 0), so two across the finest octave drawn whole (2r: its Nyquist rate). Farther
+// matter's octaves are coarser still.
+inline double detailTileTexels(double rMax, double nearest, double smallest) {
+    return 2.0 * rMax / detailFinestWavelength(nearest, smallest);
 }
 
 // Projects and culls every ellipsoid for `view`, computes Ac and the noise offsets.

@@ -164,7 +164,7 @@ void TileReuse::staleness(Candidate& c, const ReuseSettings& s, const Scene& sce
     const Vec3 moved = e.shape.center - L.centre;
     const Medium::Detail& detail = scene.medium.detail;
     const double drift = (scene.medium.noise > 0 ? glm::length(moved) : 0.0) +
-                         (detail.erosion > 0 ? glm::length(detail.drift - L.detailDrift - moved) : 0.0);
+                         (detail.on() ? glm::length(detail.drift - L.detailDrift - moved) : 0.0);
     const double px = parallaxPixels(r, L.eyeFromCentre, view.eye - e.shape.center, rMax, drift);
     c.error = (px + reshaped) / s.errorPixels;
     // The phase towards the eye, as the eye moves (a new sun is a change of light, below).

@@ -15,7 +15,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <glm/gtc/constants.hpp>
 
 namespace nephele {

@@ -82,7 +82,7 @@ model::DetailParams detailParams(const Medium::Detail& detail, const Vec3& eye) 
 }
 
 int exactPieces(const model::DetailParams& p, float chord, float nearest) {
-    const float finest = std::max(model::kDetailFadeAngle * nearest, 0.5f * p.smallest);
+    const float finest = detailFinestWavelength(nearest, p.smallest);
     return int(std::clamp(std::ceil(4.0f * chord / finest), 1.0f, float(kExactPiecesMax)));
 }
 

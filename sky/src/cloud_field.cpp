@@ -94,8 +94,7 @@ double CloudField::cloudDepth(const CloudMatter& matter, const Vec3& o, const Ve
         if (matter.detailOn()) {
             const double nearest = glm::length(o + std::clamp(glm::dot(eye_ - o, d), a, b) * d - eye_);
             // A quarter of the finest wavelength drawn there (as exactPieces, over the whole run).
-            const double finest =
-                std::max(double(model::kDetailFadeAngle) * nearest, 0.5 * double(detail_.params.smallest));
+            const double finest = detailFinestWavelength(nearest, double(detail_.params.smallest));
             pieces = std::max(pieces, std::ceil(4 * span / finest));
         }
         const int n = int(std::min(pieces, double(kChordMaxPieces)));

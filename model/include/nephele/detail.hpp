@@ -46,6 +46,14 @@ model::DetailParams detailParams(const Medium::Detail& detail, const Vec3& eye);
 // The erosion delta = E D at the world point x, seen from `eye` (0 when the detail is off).
 float detailErosionAt(const Medium::Detail& detail, const Vec3& eye, const Vec3& x);
 
+// The finest wavelength the detail draws at `nearest` metres from the eye (m): where an
+// octave's weight reaches 0, max(fadeAngle x nearest, smallest / 2) (detailOctaveCut is log2 of
+// the scale over it). In the caller's precision, float or double.
+template <class T>
+T detailFinestWavelength(T nearest, T smallest) {
+    return std::max(T(model::kDetailFadeAngle) * nearest, T(0.5) * smallest);
+}
+
 // How many pieces erodedSegmentDepth needs to follow the detail along a chord of `chord` metres
 // whose nearest point is `nearest` metres from the eye: a quarter of the finest wavelength drawn
 // there, at most kExactPiecesMax (gardner-exact's "exact" opacity, to that quadrature).
