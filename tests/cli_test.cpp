@@ -553,6 +553,35 @@ TEST_F(CliTest, GenerateSceneRendersAndInfoReportsIt) {
     EXPECT_NE(r.output.find("generate[0].path"), std::string::npos) << r.output;
 }
 
+// `info SCENE` says how far the cloud the camera looks at is: along its line of sight, where the
+// matter begins and where the optical depth reaches 1, or that the camera is inside. A sphere of
+// radius 100 m and extinction 0.1 /m at its centre, (1 - q)^2 (no noise, no detail): from 300 m
+// out the matter begins at the hull, 200 m, within the 0.25 m step; the optical depth along the
+// radius reaches 1 at 48.1 m in (the integral of (1 - (1 - s/100)^2)^2 ds from 0 to 48.1 is
+// 1 / 0.1 = 10, by quadrature), within a step.
+TEST_F(CliTest, InfoSaysHowFarTheCloudIs) {
+    const auto scene = [&](const char* name, const char* position, const char* lookAt) {
+        return write(name, std::string(R"({"cloudscene": 1, "camera": {"position": )") + position + R"(, "look_at": )" +
+                               lookAt + R"(}, "medium": {"extinction": 0.1, "noise": 0},
+          "clouds": [{"name": "c", "ellipsoids": [{"center": [0, 0, 0], "radii": [100, 100, 100]}]}]})");
+    };
+    const auto number = [](const std::string& text, const std::string& before) {
+        const size_t at = text.find(before);
+        return at == std::string::npos ? -1.0 : std::stod(text.substr(at + before.size()));
+    };
+    CliRun r = run("info " + scene("out.json", "[0, -300, 0]", "[0, 0, 0]"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NEAR(number(r.output, "meets cloud matter at "), 200.0, 0.3) << r.output;
+    EXPECT_NEAR(number(r.output, "reaches optical depth 1 at "), 248.1, 0.3) << r.output;
+    EXPECT_EQ(r.output.find("inside"), std::string::npos) << r.output;
+    r = run("info " + scene("in.json", "[0, 0, 0]", "[0, 1, 0]"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NEAR(number(r.output, "inside cloud matter ("), 0.1, 1e-3) << r.output;
+    r = run("info " + scene("away.json", "[0, -300, 0]", "[0, -301, 0]"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("its line of sight meets no cloud matter"), std::string::npos) << r.output;
+}
+
 // `bench --accuracy` at a toy size: every method is timed and compared with the path tracer,
 // the CSV, both charts and its generated section are written to --out-dir; `bench --publish`
 // then puts the section into a docs folder's benchmarks.md, the text around it kept, and copies
