@@ -80,18 +80,21 @@ std::string lineOfSight(const Scene& scene) {
     std::vector<CloudMatter::Chord> chords;
     matter.chords(o, d, cam.nearClip, cam.farClip, chords);
     constexpr double kStep = 0.25;
-    constexpr long kMaxSteps = 4'000'000;                  // 1000 km of chords: bounded for any scene
-    double tau = 0, enter = -1, depth1 = -1, covered = 0;  // covered: the chords' span marched so far
+    constexpr long kMaxSteps = 4'000'000;  // 1000 km of chords: bounded for any scene
+    double tau = 0, enter = -1, depth1 = -1;
     long steps = 0;
-    for (size_t i = 0; i < chords.size() && depth1 < 0 && steps < kMaxSteps; ++i) {
-        const double t0 = std::max(chords[i].tIn, covered), t1 = chords[i].tOut;
-        for (double t = t0; t < t1 && depth1 < 0 && steps < kMaxSteps; t += kStep, ++steps) {
-            const double h = std::min(kStep, t1 - t), sigma = matter.extinctionAlong(o, d, t + h / 2, chords);
+    // Runs of overlapping chords (as CloudField::cloudDepth), each marched once with its own
+    // chords only: a step costs the chords at hand, not every chord of the line.
+    for (size_t first = 0, end; first < chords.size() && depth1 < 0 && steps < kMaxSteps; first = end) {
+        double t1 = chords[first].tOut;
+        for (end = first + 1; end < chords.size() && chords[end].tIn <= t1; ++end) t1 = std::max(t1, chords[end].tOut);
+        const std::span<const CloudMatter::Chord> run(chords.data() + first, end - first);
+        for (double t = chords[first].tIn; t < t1 && depth1 < 0 && steps < kMaxSteps; t += kStep, ++steps) {
+            const double h = std::min(kStep, t1 - t), sigma = matter.extinctionAlong(o, d, t + h / 2, run);
             if (sigma > 0 && enter < 0) enter = t;
             tau += sigma * h;
             if (tau >= 1) depth1 = t + h;
         }
-        covered = std::max(covered, t1);
     }
     if (enter < 0) return out << "its line of sight meets no cloud matter", out.str();
     out << "its line of sight ";
