@@ -5,8 +5,10 @@
 #   cli       nephele_app_tests that run the `nephele` executable (it renders through EGL);
 #   gl        nephele_gltests and nephele_app_gltests: a GL context (EGL, OSMesa, or GLFW under Xvfb);
 #   sanitize  what the sanitizers exist for: hostile input, the log, the host's GL state;
-#   slow      over 3 s under the sanitizers (clang -O1, ctest -j2, 2026-12-02 to -04): the
-#             sanitize-rest-quick test preset leaves these out (CMakePresets.json).
+#   slow      over 3 s under the sanitizers (clang -O1, ctest -j2, 2026-12-02 to -04; those
+#             over 4 s in a fresh clone's CI run of 2026-12-07 added, but the host-framebuffer
+#             tests and BackgroundTest, whose GL state and threads are what the sanitizers
+#             watch): the sanitize-rest-quick test preset, CI's, leaves these out.
 # A name listed here that no executable has is an error (tests/CMakeLists.txt checks it).
 
 set(NEPHELE_CLI_SUITES CliTest HostileInputTest VdbExportTest ScaleBenchTest GridBenchTest CigiIgTest FlyCliTest)
@@ -17,13 +19,16 @@ set(NEPHELE_SANITIZE_TESTS CloudQueryGLTest.QueriesAreSafeWhileUpdateRuns CloudQ
 # and the GL-state tests: every test whose name has LeavesHostStateUnchanged, HostState or Restored
 set(NEPHELE_SLOW_TESTS
   BigSceneGLTest.RaymarchTilesLoseNoCloud
-  CigiIgTest.AerosolAnswersAreTheCloudWaterAtThePoint
   CigiIgTest.ARewindKeepsTheHostsLayerIds
+  CigiIgTest.AWindowShowsEachFrame
+  CigiIgTest.AerosolAnswersAreTheCloudWaterAtThePoint
+  CigiIgTest.AnswersThreeFramesWithAdvancingStartOfFrame
   CigiIgTest.EntitiesAndTheSunComeFromTheHost
   CigiIgTest.ThreeChannelsAreOneWideViewThroughATransition
   CliTest.AccuracyBenchWritesCsvChartsAndReadmeSection
   CliTest.BadArgumentsExit2AndWriteNothing
   CliTest.ChannelFlagsFrameTheCameraAndAreValidated
+  CliTest.CompareTwoRenders
   CliTest.CruiseBenchWritesCsvChartAndTable
   CliTest.EverySettingHasARangeNamedByItsFlag
   CliTest.FlickerBenchReportsTheIndexAgainstTheExactModel
@@ -35,11 +40,17 @@ set(NEPHELE_SLOW_TESTS
   CliTest.LayeredMethodDrawsTheLayers
   CliTest.MomentCompositeRendersOnTheGpuAndExactly
   CliTest.QueryBenchTimesEveryQuery
+  CliTest.SilhouetteBenchMeasuresTheDetail
   CliTest.StaleTemporariesOfKilledRunsAreRemovedSafely
   CliTest.WeatherBenchWritesCsvChartAndTable
+  CloudLodGLTest.CloseTilesAreRenderedAtWhatTheirImageHolds
+  CloudLodGLTest.CloseTilesMagnifiedOnScreenAreCompositedAtAReducedResolution
+  CloudLodGLTest.DetailedTilesAreRenderedAtTheirFinestOctave
+  CloudLodGLTest.TheReducedCompositeKeepsToTheFramesDepth
   CloudQueryGLTest.LayersAreTheLayerVolumesField
   CloudQueryGLTest.NearCloudsAreWhatTheFrameDrawsAtTheirWeights
   CloudQueryGLTest.TransmittanceIsTheFieldsIntegral
+  CloudRadianceCacheTest.WorkNoLongerWantedIsDropped
   Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/1
   Downsample/LayeredShadowResolutionGLTest.ShaderMatchesSunTransmittanceOnObjectsAndGround/2
   Downsample/LayeredShadowResolutionGLTest.TwoLayersMultiplyTheirShadows/1
@@ -66,12 +77,14 @@ set(NEPHELE_SLOW_TESTS
   EllipsoidGLTest.WeightedCompositeMatchesGardnerExactWeighted
   FailureCaseGLTest.OrderFlipThroughOverlappingEllipsoidsDoesNotPop
   FailureCaseGLTest.TileSizeJumpOnApproachDoesNotPop
+  FarReuseGLTest.AFlightStaysWithinTheBoundOfFreshFrames
   FlyGLTest.HeadlessRecordingMatchesRender
   FlyGLTest.HudAndDebugViewsToggleWithoutGlErrors
   FlyGLTest.WindowRecordingUnderXvfbMatchesRender
   GardnerExactTest.MomentOrderKeepsOpacityFollowsThePixelOrderAndDoesNotPop
   GardnerExactTest.OrderFlipOfOverlappingEllipsoidsPopsOnlyInPerEllipsoidOrder
   GardnerExactTest.WeightedOrderKeepsOpacityAndDoesNotPop
+  GenerateTest.CumulusMediumGivesRealCumulusDensity
   HostApiGLTest.AChangeOfWindDoesNotJump
   HostApiGLTest.ALayerChangeIsDrawnWithTheLastLightingUntilItsJobIsDone
   HostApiGLTest.ANewSunNeverWaitsForTheCloudsGrids
@@ -91,6 +104,7 @@ set(NEPHELE_SLOW_TESTS
   LayerVolumeTest.MajorantBoundsTheExtinctionAndCoversAllMatter
   LayerVolumeTest.OpacityAlongRaysIsTheCpuIntegralOfTheLayersDensity
   LayerVolumeTest.ScenesWithoutRenderedLayersAreBitIdentical
+  LayeredGLTest.ADistantLayerIsAsOpaqueAsItsVolume
   LayeredGLTest.CoverageZeroLeavesTheFrameUnchanged
   LayeredGLTest.DrawCallsDoNotGrowWithTheLayerCount
   LayeredGLTest.EyeBelowInAndAboveTheLayer
@@ -129,6 +143,7 @@ set(NEPHELE_SLOW_TESTS
   ProjectionTest.RectContainsExactSilhouetteAndBoxIsTightAabb
   ProjectionTest.RectContainsSilhouetteOfRandomEllipsoids
   ProjectionTest.RectIsTightForEllipsoidsWellInFront
+  RaymarchGLTest.ARayPerBlockKeepsTheImageOfARayPerPixel
   RaymarchGLTest.HugeCloudsAndTinyStepsEndInBoundedTime
   RaymarchGLTest.LeavesHostStateUnchanged
   RaymarchGLTest.LightIsComputedOnlyWhenCloudsSunSkyOrMediumChange
@@ -139,13 +154,19 @@ set(NEPHELE_SLOW_TESTS
   ScaleBenchTest.QuickRunWritesPhasesAndExponents
   Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_edge
   Scenes/ObjectLightGLTest.FastMethodsLightObjectsAsThePathTracer/aircraft_shadow
+  TileReuseGLTest.ACameraCirclingTheCloudStaysCloseToFreshTiles
   TileReuseGLTest.AMovingCameraStaysCloseToFreshTiles
+  TileReuseGLTest.AReshapedOrFadingCloudIsRenderedAgainWithinTheBudget
   TileReuseGLTest.AStillCameraRendersNothingAfterTheFirstFrame
   TileReuseGLTest.ASunChangeRendersEveryTileAgainWithinTheBudget
+  TileReuseGLTest.NewTilesSpendTheBudgetBeforeStaleOnes
+  TileReuseGLTest.TheDetailsDriftRendersTilesAgain
   TileReuseGLTest.WindCarriesReusedTilesWithTheirClouds
   TransitionGLTest.ACoverageChangeRampsTheOpacitySmoothly
+  TransitionGLTest.ADisabledLayerFadesOut
   TransitionGLTest.ANewLayerFadesInWhileItsLightingIsMade
   TransitionGLTest.ANewLayersNearCloudsAreMadeWhileItsLightingIsMade
+  TransitionGLTest.ANewLayersNearCloudsFadeInWithIt
   TransitionGLTest.ARampEndsWhereTheChangeAtOnceIsAndZeroSecondsIsAtOnce
   TransitionGLTest.AThicknessRampQueuesOneLightingJob
   TransitionGLTest.NearCellsFollowARampWithinTheirBudget
