@@ -247,6 +247,7 @@ TEST_F(TransitionGLTest, ANewLayerFadesInWhileItsLightingIsMade) {
     h.weather.layers.at(2).layer.nearLod = false;  // the far field alone: cumulus would be near clouds over the eye
     h.weather.transitionSeconds = kRamp;
     std::vector<double> opacity;
+    std::string frames;  // each frame's opacity, * where the layer still waited: said on a failure
     int mostJobs = 0;
     bool drawnWhileWaiting = false;
     for (int k = 0; k <= kRampFrames; ++k) {
@@ -254,12 +255,13 @@ TEST_F(TransitionGLTest, ANewLayerFadesInWhileItsLightingIsMade) {
         const Frame f = h.step(&u);
         mostJobs = std::max(mostJobs, u.backgroundJobs);
         opacity.push_back(f.opacity);
+        frames += " " + std::to_string(f.opacity) + (f.stats.layered.pendingLayers > 0 ? "*" : "");
         if (k >= 1 && f.stats.layered.pendingLayers > 0 && f.opacity > 0) drawnWhileWaiting = true;
     }
     EXPECT_EQ(opacity[0], 0.0);  // s = 0: density x 0
     EXPECT_GT(opacity[1], 0.0) << "withheld while its lighting is made";
     EXPECT_TRUE(drawnWhileWaiting) << "the lighting was ready before the first frames: the test needs it pending";
-    EXPECT_TRUE(monotonic(0, opacity, +1, 1e-3));
+    EXPECT_TRUE(monotonic(0, opacity, +1, 1e-3)) << "opacity by frame:" << frames;
     // Its own pattern (from the first frame, at a quarter of the resolution until the full one is
     // made) covers 9% of this view at the fade's end: measured 0.091.
     EXPECT_GT(opacity.back(), 0.05);
