@@ -447,11 +447,7 @@ struct Methods {
     OpaquePass opaque;
 
     Methods(const std::vector<Config>& c, const ReferenceSettings& r)
-        : configs(c),
-          refSettings(r),
-          noise(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed)),
-          ellipsoids(c.size()),
-          marchers(c.size()) {
+        : configs(c), refSettings(r), noise(makeNoiseVolume(ns)), ellipsoids(c.size()), marchers(c.size()) {
         for (std::size_t i = 0; i < configs.size(); ++i) {
             if (configs[i].kind == Kind::Ellipsoid)
                 ellipsoids[i] = std::make_unique<EllipsoidRenderer>(configs[i].ellipsoid);

@@ -102,7 +102,7 @@ Image gpuFrame(const Scene& scene, const EllipsoidSettings& settings) {
 std::vector<Accuracy> measureAccuracy(const EllipsoidBenchOptions& o) {
     std::vector<Accuracy> out;
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     auto exactFrame = [&](const Scene& scene) {
         Image img = renderGardnerExact(scene, makeView(scene.camera), noise, ns);
         for (float& v : img.pixels) v = std::clamp(v, 0.0f, 1.0f);

@@ -238,7 +238,7 @@ std::vector<LayerViewAccuracy> measureLayerAccuracy(const LayerAccuracyOptions& 
     r.autoAlone =
         std::make_unique<SkyRenderer>(SkySettings{autoLayeredSettings(r.layered), alone, autoEllipsoidSettings()});
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     std::vector<LayerViewAccuracy> out;
     for (const LayerView& v : layerViews(base, o.bench.quick)) {
         const Scene scene = viewScene(base, v, o.bench.quick ? 64 : o.width);

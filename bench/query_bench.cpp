@@ -100,8 +100,7 @@ int runQueryBench(const QueryBenchOptions& o) {
                 const double x = g(rng), y = g(rng), z = g(rng);  // one by one, as above
                 dirs.push_back(glm::normalize(Vec3(x, y, 0.3 * z)));
             }
-            const NoiseVolume noise = makeNoiseVolume(NoiseSettings{}.size, NoiseSettings{}.cells,
-                                                      NoiseSettings{}.octaves, NoiseSettings{}.seed);
+            const NoiseVolume noise = makeNoiseVolume(NoiseSettings{});
             const ExtinctionField field(scene, &noise, nullptr, eye);
             const double density = microseconds(points, [&](const Vec3& p, std::size_t) { return sky.densityAt(p); });
             const double t1 =

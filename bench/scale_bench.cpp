@@ -193,7 +193,7 @@ std::vector<ScaleRow> measure(const ScaleBenchOptions& o, std::string& renderer)
             ScaleRow r =
                 row("gardner-exact", std::to_string(small.camera.width) + "x" + std::to_string(small.camera.height));
             const NoiseSettings ns;
-            const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+            const NoiseVolume noise = makeNoiseVolume(ns);
             resetPeak();
             const auto t1 = Clock::now();
             renderGardnerExact(small, makeView(small.camera), noise, ns);

@@ -395,9 +395,7 @@ TEST_F(CliTest, GardnerExactNeedsNoGl) {
         s.camera.width = 80;
         ASSERT_EQ(png.height, s.camera.height);
         const NoiseSettings ns;
-        Image exact = channels(
-            renderGardnerExact(s, makeView(s.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns), 0,
-            3);
+        Image exact = channels(renderGardnerExact(s, makeView(s.camera), makeNoiseVolume(ns), ns), 0, 3);
         for (float& v : exact.pixels) v = std::clamp(v, 0.0f, 1.0f);
         Image linear = png;
         for (float& v : linear.pixels) v = srgbToLinear(v);

@@ -58,7 +58,7 @@ Layer testLayer(bool nearLod) {
 
 NoiseVolume defaultNoise() {
     const NoiseSettings ns;
-    return makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    return makeNoiseVolume(ns);
 }
 
 // Points in the box [lo, hi], uniformly, from a fixed seed.

@@ -54,8 +54,7 @@ Gpu renderGpu(const Scene& scene, const EllipsoidSettings& settings = {}) {
 
 Image renderExact(const Scene& scene, CompositeOrder order = CompositeOrder::PerEllipsoid) {
     const NoiseSettings ns;
-    return renderGardnerExact(scene, makeView(scene.camera), makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed),
-                              ns, order);
+    return renderGardnerExact(scene, makeView(scene.camera), makeNoiseVolume(ns), ns, order);
 }
 
 EllipsoidSettings weightedSettings() {
@@ -727,7 +726,7 @@ TEST_F(EllipsoidGLTest, PassesMatchTheirGoldenImages) {
     // first and score 49.7 / 50.3 / 41.7 dB: with the photons off these views' light hardly
     // depends on the sun's irradiance, 0.4% of the mean. The test holds the pipeline here.)
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     const struct {
         const char* golden;
         const Scene* scene;

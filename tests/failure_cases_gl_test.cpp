@@ -60,7 +60,7 @@ TEST_F(FailureCaseGLTest, TileSizeJumpOnApproachDoesNotPop) {
     FrameTarget target(s.camera.width, s.camera.height);
     OpaquePass opaque;
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     std::set<int> tiles;
     Image prevGpu, prevExact;
     double worst = 0, meanExactChange = 0;
@@ -132,8 +132,7 @@ TEST_F(FailureCaseGLTest, EllipsoidCutByTheNearPlaneMatchesTheExactModel) {
     EllipsoidRenderer().render(s, view, target.framebuffer(), false);
     const Image gpu = clamped(target.readColor());
     const NoiseSettings ns;
-    const Image exact =
-        clamped(renderGardnerExact(s, view, makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed), ns));
+    const Image exact = clamped(renderGardnerExact(s, view, makeNoiseVolume(ns), ns));
     const double db = psnr(channels(gpu, 0, 3), channels(exact, 0, 3));
     std::printf("[ figure ] near-plane cut: GPU vs exact %.1f dB\n", db);
     if (db <= 33) save("failure_near_cut_gpu", gpu), save("failure_near_cut_exact", exact);
@@ -194,7 +193,7 @@ TEST_F(FailureCaseGLTest, RaymarchGrowingStepOnApproachDoesNotPop) {
 TEST_F(FailureCaseGLTest, OrderFlipThroughOverlappingEllipsoidsDoesNotPop) {
     const Scene s = test::sharedScene("flythrough.json");
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     EllipsoidSettings weightedSettings, backToFrontSettings, momentSettings;
     weightedSettings.order = CompositeOrder::Weighted;
     backToFrontSettings.order = CompositeOrder::PerEllipsoid;

@@ -322,7 +322,7 @@ double excessChange(const Image& a0, const Image& a1, const Image& r0, const Ima
 struct FlipFrames {
     Scene scene = loadScene(std::string(NEPHELE_SCENES) + "/flythrough.json");
     NoiseSettings ns;
-    NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    NoiseVolume noise = makeNoiseVolume(ns);
     mutable ExactLight light;  // the clouds' grids, made once for every frame
     Image at(double t, CompositeOrder order) const {
         Camera c = cameraAt(scene, t);
@@ -402,7 +402,7 @@ TEST(GardnerModelTest, CompositeWeightIsAScaleFreePowerOfDepth) {
 // key that missed one of them would draw the old light: the images would differ).
 TEST(GardnerExactTest, KeptLightIsTheLightOfTheSceneAsItIsNow) {
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     Scene scene = loadScene(std::string(NEPHELE_SCENES) + "/single.json");
     scene.camera.width = 32, scene.camera.height = 24;
     ExactLight kept;

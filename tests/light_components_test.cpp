@@ -50,7 +50,7 @@ struct Components {
 Components lightModel(const Scene& scene) {
     const View view = makeView(scene.camera);
     const NoiseSettings ns;
-    const NoiseVolume noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume noise = makeNoiseVolume(ns);
     RadianceGridSettings none;  // no photons: the sun's single scattering alone
     none.sunPhotons = none.skyPhotons = 0;
     Scene empty = scene;

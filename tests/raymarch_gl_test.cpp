@@ -422,7 +422,7 @@ TEST_F(RaymarchGLTest, NoisyFieldMatchesItsCpuTwin) {
     const Frame f = render(scene, s);
     const Image alpha = alphaOf(f.rgba);
     const NoiseSettings ns = raymarchNoiseSettings(s);
-    const NoiseVolume nv = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    const NoiseVolume nv = makeNoiseVolume(ns);
     const double period = raymarchNoisePeriod(scene.medium, ns);
     Image cpu(alpha.width, alpha.height, 1);
     Scene smooth = scene;

@@ -72,7 +72,7 @@ struct Field {
     std::unique_ptr<ExtinctionField> field;
     explicit Field(const std::string& file) : scene(loadScene(file)) {
         const NoiseSettings ns;
-        if (scene.medium.noise > 0) noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+        if (scene.medium.noise > 0) noise = makeNoiseVolume(ns);
         field = std::make_unique<ExtinctionField>(scene, &noise);
     }
     double operator()(const Vec3& p) const { return (*field)(p); }

@@ -76,7 +76,7 @@ void prepareGrid(const ExportOptions& o, ExportGrid& g) {
     scene.medium.detail.drift = scene.medium.detail.wind * o.time;  // the detail, carried to --time
     if (scene.medium.noise > 0) {
         const NoiseSettings ns;  // the path tracer's (PathTraceSettings has no others)
-        g.noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+        g.noise = makeNoiseVolume(ns);
     }
     std::shared_ptr<const LayerVolumes> layers;
     const Vec3 eye = cameraAt(scene, o.time).position;

@@ -64,7 +64,7 @@ std::string lineOfSight(const Scene& scene) {
     NoiseVolume noise;
     if (scene.medium.noise > 0) {
         const NoiseSettings ns;  // the path tracer's
-        noise = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+        noise = makeNoiseVolume(ns);
     }
     const Camera cam = cameraAt(scene, 0.0);
     const CloudMatter matter(scene, &noise, cam.position, kMaxOpticalDepth, false);

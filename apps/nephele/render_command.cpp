@@ -148,7 +148,7 @@ int reportError(const std::exception& e, const std::string& doing) {
 FrameRenderer::FrameRenderer(const RenderOptions& o) : options_(o) {
     if (o.method == Method::GardnerExact || o.method == Method::Pathtrace) {  // CPU: no GL context
         const NoiseSettings& ns = o.ellipsoid.noise;
-        noise_ = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+        noise_ = makeNoiseVolume(ns);
         return;
     }
     ContextOptions co;

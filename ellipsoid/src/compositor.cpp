@@ -184,7 +184,7 @@ void EllipsoidRenderer::Impl::makeTextures(const EllipsoidSettings& s) {
     glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTextureParameteri(falloff.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
 
-    noise = noiseTexture(makeNoiseVolume(s.noise.size, s.noise.cells, s.noise.octaves, s.noise.seed));
+    noise = noiseTexture(makeNoiseVolume(s.noise));
 }
 
 EllipsoidRenderer::EllipsoidRenderer(const EllipsoidSettings& s) : settings_(s), impl_(std::make_unique<Impl>()) {

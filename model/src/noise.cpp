@@ -162,6 +162,10 @@ NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed) {
     return volume;
 }
 
+NoiseVolume makeNoiseVolume(const NoiseSettings& settings) {
+    return makeNoiseVolume(settings.size, settings.cells, settings.octaves, settings.seed);
+}
+
 namespace {
 std::uint64_t splitmix64(std::uint64_t x) {
     x += 0x9E3779B97F4A7C15ull;

@@ -187,7 +187,7 @@ void SkyRenderer::Impl::prepare(const Scene& scene) {
     }
     assets_->setBackground(true);
     const NoiseSettings& ns = settings_.ellipsoid.noise;
-    noise_ = std::make_shared<const NoiseVolume>(makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed));
+    noise_ = std::make_shared<const NoiseVolume>(makeNoiseVolume(ns));
     explicitMatter_ =
         std::make_shared<const CloudMatter>(scene, noise_.get(), scene.camera.position, kMaxOpticalDepth, true);
     queryLayers_.clear();

@@ -207,7 +207,7 @@ RaymarchRenderer::~RaymarchRenderer() = default;
 void RaymarchRenderer::Impl::ensureNoise(const RaymarchSettings& s) {
     if (noise && noiseOctaves == s.octaves) return;
     const NoiseSettings ns = raymarchNoiseSettings(s);
-    noiseCpu = makeNoiseVolume(ns.size, ns.cells, ns.octaves, ns.seed);
+    noiseCpu = makeNoiseVolume(ns);
     noise = noiseTexture(noiseCpu);
     noiseOctaves = s.octaves;
     check("uploading the raymarch noise volume");

@@ -61,6 +61,8 @@ struct NoiseVolume {
 // texel 0 are neighbours like any others, and the texture tiles seamlessly.
 // Throws std::invalid_argument if size < 2, cells < 1 or octaves < 1.
 NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed);
+// The same of settings' size, cells, octaves and seed.
+NoiseVolume makeNoiseVolume(const NoiseSettings& settings);
 
 // Where ellipsoid `index` of cloud `cloud` reads the noise volume: every method that adds the
 // project's noise to an ellipsoid (the compositor, gardner-exact, the path-traced reference)
