@@ -86,8 +86,8 @@ std::string lineOfSight(const Scene& scene) {
     // Runs of overlapping chords (as CloudField::cloudDepth), each marched once with its own
     // chords only: a step costs the chords at hand, not every chord of the line.
     for (size_t first = 0, end; first < chords.size() && depth1 < 0 && steps < kMaxSteps; first = end) {
-        double t1 = chords[first].tOut;
-        for (end = first + 1; end < chords.size() && chords[end].tIn <= t1; ++end) t1 = std::max(t1, chords[end].tOut);
+        double t1;
+        end = CloudMatter::runEnd(chords, first, t1);
         const std::span<const CloudMatter::Chord> run(chords.data() + first, end - first);
         for (double t = chords[first].tIn; t < t1 && depth1 < 0 && steps < kMaxSteps; t += kStep, ++steps) {
             const double h = std::min(kStep, t1 - t), sigma = matter.extinctionAlong(o, d, t + h / 2, run);

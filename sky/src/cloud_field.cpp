@@ -82,12 +82,12 @@ double CloudField::cloudDepth(const CloudMatter& matter, const Vec3& o, const Ve
     if (!matter.varies()) return matter.smoothDepth(o, d, 0, length, chords);
     double tau = 0;
     for (std::size_t first = 0; first < chords.size();) {
-        std::size_t end = first + 1;  // the run: chords [first, end)
-        double a = chords[first].tIn, b = chords[first].tOut, closed = matter.smoothDepth(o, d, a, b, chords[first]);
-        for (; end < chords.size() && chords[end].tIn <= b; ++end) {
-            b = std::max(b, chords[end].tOut);
-            closed += matter.smoothDepth(o, d, chords[end].tIn, chords[end].tOut, chords[end]);
-        }
+        double b;
+        const std::size_t end = CloudMatter::runEnd(chords, first, b);  // the run: chords [first, end)
+        const double a = chords[first].tIn;
+        double closed = 0;
+        for (std::size_t c = first; c < end; ++c)
+            closed += matter.smoothDepth(o, d, chords[c].tIn, chords[c].tOut, chords[c]);
         const double span = b - a;
         double pieces = kChordMinPieces;
         if (noiseScale_ > 0) pieces = std::max(pieces, std::ceil(2 * span / noiseScale_));  // two per noise cell

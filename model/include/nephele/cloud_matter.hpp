@@ -22,6 +22,7 @@
 #include "nephele/noise.hpp"
 #include "nephele/scene.hpp"
 
+#include <algorithm>
 #include <span>
 #include <utility>
 #include <vector>
@@ -67,6 +68,14 @@ public:
     // The chords of o + t d (unit d) within [t0, t1] (a BVH over the ellipsoids' world boxes),
     // sorted by entry; `out` is cleared first.
     void chords(const Vec3& o, const Vec3& d, double t0, double t1, std::vector<Chord>& out) const;
+    // The run of overlapping chords that starts at `first` of chords() (sorted by entry): it ends
+    // before the returned index; `tOut` receives where it leaves the last of them.
+    static std::size_t runEnd(std::span<const Chord> chords, std::size_t first, double& tOut) {
+        tOut = chords[first].tOut;
+        std::size_t end = first + 1;
+        for (; end < chords.size() && chords[end].tIn <= tOut; ++end) tOut = std::max(tOut, chords[end].tOut);
+        return end;
+    }
     // The extinction at o + t d from the ray's chords (the same value as extinction(o + t d)).
     // Any run of them, in their order, will do.
     double extinctionAlong(const Vec3& o, const Vec3& d, double t, std::span<const Chord> chords) const {
