@@ -1,8 +1,8 @@
 // The clouds' radiance grids on the GPU (nephele/cloud_light_textures.hpp fills them): four
 // RGBA16F 3D textures holding every cloud's grid in a slot of its own, a fifth (R16F) holding
-// its sun transmittance on a grid lightSunRefinement times finer per axis in the same slot
+// its sun transmittance T^p on a grid lightSunRefinement times finer per axis in the same slot
 // scaled so, and per cloud three vec4 in a storage buffer: (grid min - eye (m), 0), (1 / grid
-// extent (1/m), 0), (the slot's first texel, the grid's voxels per side: a slot holds the
+// extent (1/m), 1 / p), (the slot's first texel, the grid's voxels per side: a slot holds the
 // largest grid, a smaller one its corner). Read with GL_LINEAR, clamped to the slot's outermost
 // voxel centres, as sampleRadiance() reads them on the CPU.
 // The buffer's binding point is CloudLightTextures::kBoxesBinding, set on the program by bind().
@@ -12,7 +12,7 @@ uniform sampler3D lightSunFew;
 uniform sampler3D lightSunMany;     // the same of the sun's light scattered more often
 uniform sampler3D lightSkyTau;      // (sky fluence rgb, unused)
 uniform sampler3D lightSkyFlux;     // (net flux of the sky light's luminance, its c20)
-uniform sampler3D lightSunTransmittance;  // exp(-tauSun), interpolated as that
+uniform sampler3D lightSunTransmittance;  // exp(-p tauSun), interpolated as that (CloudRadiance::sunPower)
 uniform float lightSunRefinement;   // kSunRefinement: its texels per axis per texel of the others
 uniform vec3 lightInvTexels;        // 1 / the four textures' size in texels
 
@@ -20,6 +20,7 @@ uniform vec3 lightInvTexels;        // 1 / the four textures' size in texels
 // the sun's (each clamped to its grid's outermost voxel centres).
 struct LightTexels {
     vec3 uvw, sun;
+    float invSunPower;  // 1 / p: the sun's texture holds T^p (CloudRadiance::sunPower)
 };
 LightTexels lightTexels(int cloud, vec3 rel) {
     vec3 u = (rel - cloudLightBoxes[3 * cloud].xyz) * cloudLightBoxes[3 * cloud + 1].xyz;
@@ -29,13 +30,14 @@ LightTexels lightTexels(int cloud, vec3 rel) {
     t.uvw = (clamp(u * slot.w, vec3(0.5), vec3(slot.w - 0.5)) + slot.xyz) * lightInvTexels;
     t.sun = (clamp(u * fine, vec3(0.5), vec3(fine - 0.5)) + lightSunRefinement * slot.xyz) * lightInvTexels /
             lightSunRefinement;
+    t.invSunPower = cloudLightBoxes[3 * cloud + 1].w;
     return t;
 }
-// (sky fluence rgb, optical depth to the sun): the sun's texture holds its transmittance, so
-// that it is interpolated as a transmittance (sampleRadiance() on the CPU).
+// (sky fluence rgb, optical depth to the sun): the sun's texture holds T^p, so that it is
+// interpolated as that (sampleRadiance() on the CPU).
 vec4 skyTauAt(LightTexels t) {
     vec3 sky = textureLod(lightSkyTau, t.uvw, 0.0).rgb;
-    return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)));
+    return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)) * t.invSunPower);
 }
 // The grids of cloud `cloud` at camera-relative point `rel`, as sampleRadiance() reads them on
 // the CPU (RadianceSample, nephele/cloud_radiance.hpp) but for skyTau.w, left as the texture's
@@ -53,7 +55,8 @@ RadianceSample gridSample(int cloud, vec3 rel) {
     return g;
 }
 float gridSunTransmittance(int cloud, vec3 rel) {
-    return textureLod(lightSunTransmittance, lightTexels(cloud, rel).sun, 0.0).r;
+    LightTexels t = lightTexels(cloud, rel);
+    return exp(log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)) * t.invSunPower);
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     LightTexels t = lightTexels(cloud, rel);

@@ -257,8 +257,8 @@ TEST(DetailTest, RadianceGridsSeeTheErosion) {
     double faintMax = 0;
     int below = 0, lifted = 0, shadowed = 0;
     for (std::size_t i = 0; i < smooth.sunTransmittance.size(); ++i) {
-        const double t0 = smooth.sunTransmittance[i], t1 = eroded.sunTransmittance[i];
-        faintMax = std::max(faintMax, std::abs(double(faint.sunTransmittance[i]) - t0));
+        const double t0 = smooth.sunTransmittanceAt(i), t1 = eroded.sunTransmittanceAt(i);
+        faintMax = std::max(faintMax, std::abs(faint.sunTransmittanceAt(i) - t0));
         if (t1 < t0 - 1e-4) ++below;
         if (t0 < 0.9) ++shadowed;
         if (t0 < 0.9 && t1 > t0 + 0.05) ++lifted;

@@ -168,8 +168,9 @@ void CloudLightTextures::setBoxes(const std::vector<PlacedRadiance>& placed, con
     for (const PlacedRadiance& p : placed) {
         const Vec3 lo = p.lo - eye, inv = 1.0 / p.extent;
         const glm::ivec3 at = origin(resident_.at(p.grid.get()));
-        boxes.insert(boxes.end(), {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y),
-                                   float(inv.z), 0.0f, float(at.x), float(at.y), float(at.z), float(p.grid->size)});
+        boxes.insert(boxes.end(),
+                     {float(lo.x), float(lo.y), float(lo.z), 0.0f, float(inv.x), float(inv.y), float(inv.z),
+                      1.0f / p.grid->sunPower, float(at.x), float(at.y), float(at.z), float(p.grid->size)});
     }
     uploadDynamic(boxes_, boxesCapacity_, boxes.data(), boxes.size() * sizeof(float));
 }

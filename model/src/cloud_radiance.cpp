@@ -379,7 +379,7 @@ double erodedSunDepth(const GridErosion& erosion, const glm::vec3& o, const glm:
 // where the ray first leaves the box across, on through g's voxelised field of the tiles beyond
 // until it leaves through the top or the bottom.
 std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, const Grid& g, int n,
-                                     const GridErosion& erosion) {
+                                     const GridErosion& erosion, double power) {
     // Per ellipsoid, the arguments of model::segmentDepth(M (p - c), M s, 0, infinity), M (p - c)
     // stepped from voxel to voxel rather than multiplied out: the finer grid has
     // kSunRefinement^3 times the voxels of the diffuse light's.
@@ -447,10 +447,33 @@ std::vector<float> sunTransmittances(const Scene& scene, const Cloud& cloud, con
             for (int x = 0; x < n; ++x) {
                 double t = tau[std::size_t(y) * n + x];
                 if (g.periodic) t += beyondTile(g, g.lo + (Vec3(x, y, z) + 0.5) * cell, sun);
-                out[(std::size_t(z) * n + y) * n + x] = float(std::exp(-t));
+                out[(std::size_t(z) * n + y) * n + x] = float(std::exp(-power * t));
             }
     });
     return out;
+}
+
+// The power p of the sun's transmittance the finer grid holds (CloudRadiance::sunPower): 1 where
+// a fine voxel holds little optical depth, towards 0 (the optical depth interpolated) where it
+// holds much. Across a fine voxel of matter whose depth to the sun grows by delta, T interpolated
+// between its ends overestimates T by up to cosh(delta / 2): 18% for delta = 1.2 (real cumulus,
+// 0.075 /m, in 16 m voxels); T^p interpolated, by cosh(p delta / 2)^(1 / p), about
+// exp(p delta^2 / 8). Across a shadow's edge, where the depth steps, T interpolated is the
+// better guess (the edge anywhere in the voxel) and T^p with p < 1 darkens it: cumulus27's
+// single scattering read 0.96 of the path tracer's with the depth interpolated, 0.986 with T.
+// So p keeps the interior's error near kSunInterpolationError, and is 1 wherever that allows.
+// delta: the mean extinction of the voxels with matter across a mean fine voxel side.
+constexpr double kSunInterpolationError = 0.02;
+constexpr double kMinSunPower = 0.05;
+double sunInterpolationPower(const Grid& g, int fine) {
+    double sum = 0;
+    std::size_t count = 0;
+    for (float s : g.sigma)
+        if (s > 0) sum += s, ++count;
+    if (count == 0) return 1;
+    const Vec3 cell = g.cell * double(g.n) / double(fine);
+    const double delta = sum / double(count) * (cell.x + cell.y + cell.z) / 3;
+    return std::clamp(8 * kSunInterpolationError / (delta * delta), kMinSunPower, 1.0);
 }
 
 // [1 2 1] along each axis, clamped at the box's faces.
@@ -570,7 +593,8 @@ CloudRadiance computeCloudRadiance(const Scene& sceneIn, const Cloud& cloud, con
         smooth(out.skyTau, s.size);
         smooth(out.skyFlux, s.size);
     }
-    out.sunTransmittance = sunTransmittances(scene, cloud, g, out.sunSize(), erosion);
+    out.sunPower = float(sunInterpolationPower(g, out.sunSize()));
+    out.sunTransmittance = sunTransmittances(scene, cloud, g, out.sunSize(), erosion, out.sunPower);
     out.computeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return out;
 }
@@ -584,10 +608,10 @@ RadianceSample sampleRadiance(const CloudRadiance& grid, const Vec3& world) {
         r.skyTau += w * grid.skyTau[i];
         r.skyFlux += w * grid.skyFlux[i];
     });
-    float sunTransmittance = 0;  // interpolated as that (model::kMinSunTransmittance), as on the GPU
+    float sunPowered = 0;  // T^p interpolated so (model::kMinSunTransmittance), as on the GPU
     trilinear(grid.boxMin, grid.boxExtent, grid.sunSize(), world,
-              [&](std::size_t i, float w) { sunTransmittance += w * grid.sunTransmittance[i]; });
-    r.skyTau.w = -std::log(std::max(sunTransmittance, model::kMinSunTransmittance));
+              [&](std::size_t i, float w) { sunPowered += w * grid.sunTransmittance[i]; });
+    r.skyTau.w = -std::log(std::max(sunPowered, model::kMinSunTransmittance)) / grid.sunPower;
     return r;
 }
 

@@ -19,8 +19,12 @@
 //                against the zonal spherical harmonic Y20.
 // and on a grid kSunRefinement times finer per axis (texel centres at boxMin + (i + 0.5) /
 // (kSunRefinement size) * boxExtent), one float, the GPU's fifth texture (R16F):
-//   sunTransmittance = exp(-tauSun), tauSun the optical depth sigma_t * m from the voxel centre
-//                to the sun, closed form through the cloud's ellipsoids.
+//   sunTransmittance = exp(-sunPower tauSun) = T^p, tauSun the optical depth sigma_t * m from
+//                the voxel centre to the sun, closed form through the cloud's ellipsoids; T^p is
+//                what is interpolated between voxel centres: a transmittance (p = 1) where a
+//                voxel holds little optical depth, towards the optical depth where it holds
+//                much (docs/light.md, "The sun's single scattering").
+//   sunPower   = p in [0.05, 1], per grid, from the cloud's mean extinction per fine voxel.
 // The diffuse light is found by tracing photons from the sun and from the sky and the ground
 // through the cloud's extinction (voxelised), with the path tracer's physics (the same
 // extinction, albedo and Henyey-Greenstein phase), scored by track length, then lightly
@@ -39,6 +43,7 @@
 #include "nephele/scene.hpp"
 
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -116,10 +121,13 @@ struct CloudRadiance {
     int size = 0;
     std::vector<glm::vec4> sunFew, sunMany, skyTau, skyFlux;  // size^3 each, see above
     std::vector<float> sunTransmittance;                      // sunSize()^3, see above
+    float sunPower = 1;                                       // p of sunTransmittance's T^p, see above
     double computeMs = 0;                                     // wall time it took
 
     std::size_t voxels() const { return std::size_t(size) * size * size; }
     int sunSize() const { return kSunRefinement * size; }
+    // The sun's transmittance at the finer grid's voxel i (sunTransmittance holds T^sunPower).
+    double sunTransmittanceAt(std::size_t i) const { return std::pow(double(sunTransmittance[i]), 1.0 / sunPower); }
 };
 
 // A cloud's optical radius: its volume-weighted extinction times half its box's mean side.
@@ -153,8 +161,8 @@ CloudRadiance computeCloudRadiance(const Scene& scene, const Cloud& cloud, const
 
 // The four texels at a world point, trilinear between voxel centres and clamped to the
 // outermost ones, as the GPU's GL_LINEAR, clamp-to-edge 3D textures read them; skyTau.w the
-// sun's optical depth, from the finer grid's transmittance interpolated so (its logarithm
-// floored at model::kMinSunTransmittance).
+// sun's optical depth, from the finer grid's T^p interpolated so (floored at
+// model::kMinSunTransmittance before its logarithm, over p).
 struct RadianceSample {
     glm::vec4 sunFew{0.0f}, sunMany{0.0f}, skyTau{0.0f}, skyFlux{0.0f};
 };
