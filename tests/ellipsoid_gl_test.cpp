@@ -679,6 +679,11 @@ TEST_F(EllipsoidGLTest, SmallLightGridsShareATextureSlot) {
     broken->sunTransmittance.resize(8 * 8 * 8);
     placed.push_back({broken, Vec3(0.0), Vec3(50.0)});
     EXPECT_THROW(textures.update(placed), GlError);
+    // So is one whose sun power the shaders would divide by zero with.
+    auto powerless = std::make_shared<CloudRadiance>(*grid(8));
+    powerless->sunPower = 0;
+    placed.back() = {powerless, Vec3(0.0), Vec3(50.0)};
+    EXPECT_THROW(textures.update(placed), GlError);
 }
 
 namespace {

@@ -96,6 +96,10 @@ void CloudLightTextures::upload(const CloudRadiance& grid, const Place& p) {
         throw GlError("cloud light grid of " + std::to_string(grid.size) + "^3 voxels: its arrays do not hold " +
                       std::to_string(grid.voxels()) + " voxels and " + std::to_string(fineVoxels) +
                       " sun transmittances");
+    // The shaders divide by it (the sun's texture holds T^p, CloudRadiance::sunPower).
+    if (!(grid.sunPower > 0 && grid.sunPower <= 1))
+        throw GlError("cloud light grid of " + std::to_string(grid.size) + "^3 voxels: its sunPower " +
+                      std::to_string(grid.sunPower) + " is not in (0, 1]");
     // The upload reads tightly packed client memory whatever the host's unpack state is; that
     // state is the host's again afterwards.
     constexpr GLenum kUnpack[6] = {GL_UNPACK_ALIGNMENT,   GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT,
