@@ -33,12 +33,13 @@ LightTexels lightTexels(int cloud, vec3 rel) {
     t.invSunPower = cloudLightBoxes[3 * cloud + 1].w;
     return t;
 }
-// (sky fluence rgb, optical depth to the sun): the sun's texture holds T^p, so that it is
-// interpolated as that (sampleRadiance() on the CPU).
-vec4 skyTauAt(LightTexels t) {
-    vec3 sky = textureLod(lightSkyTau, t.uvw, 0.0).rgb;
-    return vec4(sky, -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)) * t.invSunPower);
+// The optical depth to the sun: the sun's texture holds T^p, so that it is interpolated as that
+// (sampleRadiance() on the CPU).
+float sunDepthAt(LightTexels t) {
+    return -log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)) * t.invSunPower;
 }
+// (sky fluence rgb, optical depth to the sun).
+vec4 skyTauAt(LightTexels t) { return vec4(textureLod(lightSkyTau, t.uvw, 0.0).rgb, sunDepthAt(t)); }
 // The grids of cloud `cloud` at camera-relative point `rel`, as sampleRadiance() reads them on
 // the CPU (RadianceSample, nephele/cloud_radiance.hpp) but for skyTau.w, left as the texture's
 // (unused: the sun's transmittance is read on its own, gridSunTransmittance).
@@ -55,8 +56,7 @@ RadianceSample gridSample(int cloud, vec3 rel) {
     return g;
 }
 float gridSunTransmittance(int cloud, vec3 rel) {
-    LightTexels t = lightTexels(cloud, rel);
-    return exp(log(max(textureLod(lightSunTransmittance, t.sun, 0.0).r, kMinSunTransmittance)) * t.invSunPower);
+    return exp(-sunDepthAt(lightTexels(cloud, rel)));
 }
 vec3 cloudLightAt(int cloud, vec3 rel, vec3 d, vec3 sunDirection, float g) {
     LightTexels t = lightTexels(cloud, rel);

@@ -400,10 +400,9 @@ void radianceMatchesTheLightModel(const char* name) {
         }
     const double db = psnr(clamped(gpu), clamped(cpu));
     std::printf("[ figure ] %s radiance, GPU vs CPU integral of the light model: PSNR %.1f dB\n", name, db);
-    // Measured 70.6 dB on llvmpipe: the grid in half floats and the GPU's 8-bit filtering
-    // weights against the CPU's float trilinear reads, the marcher's growing step against 2 m
-    // steps. 50 dB leaves room for other drivers' filtering; a light term missing or read
-    // from the wrong grid costs far more.
+    // Measured on llvmpipe: cumulus27 70.9 dB, dense_cumulus 59.4 dB: the grid in half floats and the GPU's 8-bit
+    // filtering weights against the CPU's float trilinear reads, the marcher's growing step against 2 m steps. 50 dB
+    // leaves room for other drivers' filtering; a light term missing or read from the wrong grid costs far more.
     EXPECT_GT(db, 50.0);
     if (db <= 50.0) {
         save(std::string("raymarch_light_gpu_") + name, clamped(gpu));
