@@ -54,6 +54,7 @@ struct Flight {
     double erosion = 0;                    // > 0: the scene's detail on (Medium::Detail::erosion), its own settings
     double seconds = 0;                    // > 0: only the path's first seconds
     std::string key;                       // its name in --flights and the CSV (empty: the scene's file name)
+    bool ownFps = false;                   // flown at `fps` whatever --fps says (the cruise at 30 and at 6)
     const std::string& id() const { return key.empty() ? scene : key; }
 };
 
@@ -144,6 +145,11 @@ double mean(const std::vector<double>& v) {
 }
 double maxOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
 double minOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_element(v.begin(), v.end()); }
+// Frame pacing (issue 37 §4): "median / worst (worst ÷ median)" of a flight's frame times.
+std::string evenness(const std::vector<double>& ms) {
+    const double m = median(ms);
+    return fmt("%.1f", m) + " / " + fmt("%.1f", maxOf(ms)) + " (" + fmt("%.2f", maxOf(ms) / std::max(m, 1e-9)) + ")";
+}
 
 std::string csvOf(const std::vector<Flight>& flights) {
     std::ostringstream csv;
@@ -186,14 +192,15 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
           "composite, the planning and, on layer_flight, the layered sky. Tiles without an image: rendered whatever "
           "the budget (new in view, a "
           "part come into view, cut by the near plane).\n\n";
-    md << "| flight | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse floor ms | "
-          "worst ms on / off "
-          "(off's median) | tiles rendered a frame on (without an image) / off (visible) | impostors a frame (made) | "
+    md << "| flight | frames/s | frames | ms amortised on / off | on × faster | reuse alone ms (× faster) | reuse "
+          "floor ms | "
+          "median / worst ms on (worst ÷ median) | median / worst ms off (worst ÷ median) | tiles rendered a frame on "
+          "(without an image) / off (visible) | impostors a frame (made) | "
           "tile Mpx "
           "a frame on / off | atlas repacks | PSNR min / median dB (frames below 45) | change on − off | worst frame "
           "change on / off | frame 0 "
           "ms on / off |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Flight& f : flights) {
         const auto& fr = f.frames;
         const auto onMs = column(fr, [](const CruiseFrame& c) { return c.onMs; });
@@ -208,14 +215,15 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
             if (c.aloneMs >= 0) alone.push_back(c.aloneMs);
             repacks += c.repacked ? 1 : 0;
         }
-        md << "| " << f.what << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs)) << " / "
-           << fmt("%.1f", mean(offMs)) << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9)) << " | "
+        md << "| " << f.what << " | " << fmt("%g", f.fps) << " | " << fr.size() << " | " << fmt("%.1f", mean(onMs))
+           << " / " << fmt("%.1f", mean(offMs)) << " | " << fmt("%.2f", mean(offMs) / std::max(mean(onMs), 1e-9))
+           << " | "
            << (alone.empty()
                    ? std::string("–")
                    : fmt("%.1f", mean(alone)) + " (" + fmt("%.2f", mean(offMs) / std::max(mean(alone), 1e-9)) + ")")
-           << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat))) << " | "
-           << fmt("%.1f", maxOf(onMs)) << " / " << fmt("%.1f", maxOf(offMs)) << " (" << fmt("%.1f", median(offMs))
-           << ") | " << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
+           << " | " << (repeat.empty() ? std::string("–") : fmt("%.1f", mean(repeat))) << " | " << evenness(onMs)
+           << " | " << evenness(offMs) << " | "
+           << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.onTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.must; }))) << ") / "
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.offTiles; }))) << " ("
            << fmt("%.0f", mean(column(fr, [](const CruiseFrame& c) { return c.visible; }))) << ") | "
@@ -284,6 +292,21 @@ int runCruiseBench(const CruiseBenchOptions& o) {
          kBenchDetailErosion,
          20,
          "cruise_detail"},
+        // Even frames (issue 37 §4): the cruise at a simulator's pace and at a slow image generator's,
+        // whatever --fps says: its first 20 s at 30 frames a second, all 60 s at 6.
+        {"cruise.json",
+         "cruise at 30 frames a second: its first 20 s",
+         30,
+         {},
+         0,
+         0,
+         false,
+         "",
+         0,
+         20,
+         "cruise_30fps",
+         true},
+        {"cruise.json", "cruise at 6 frames a second", 6, {}, 0, 0, false, "", 0, 0, "cruise_6fps", true},
     };
     if (o.bench.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
     if (!o.flights.empty()) {
@@ -291,7 +314,7 @@ int runCruiseBench(const CruiseBenchOptions& o) {
             if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.id() == f; })) {
                 std::cerr << "nephele: bench --cruise: --flights: no flight '" << f
                           << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json, "
-                             "showcase.json, cruise_detail)\n";
+                             "showcase.json, cruise_detail, cruise_30fps, cruise_6fps)\n";
                 return 2;
             }
         std::erase_if(flights, [&](const Flight& x) {
@@ -303,7 +326,10 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         ContextOptions co;
         co.backend = o.bench.backend;
         renderer = Context::create(co)->description();
-        for (Flight& f : flights) f.fps = o.fps, fly(f, o);
+        for (Flight& f : flights) {
+            if (!f.ownFps) f.fps = o.fps;
+            fly(f, o);
+        }
     } catch (const std::exception& e) {
         std::cerr << "nephele: bench failed: " << e.what() << "\n";
         return 1;

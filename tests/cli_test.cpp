@@ -27,6 +27,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <regex>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -280,7 +281,12 @@ TEST_F(CliTest, CruiseBenchWritesCsvChartAndTable) {
     std::stringstream text;
     text << md.rdbuf();
     EXPECT_NE(text.str().find("Measured by `nephele bench --cruise` on "), std::string::npos);
-    EXPECT_NE(text.str().find("| approach.json (1 s) | 10 |"), std::string::npos) << text.str();
+    // frames per second, frames; then the pacing (issue 37 §4): median / worst ms (worst ÷ median), on and off
+    EXPECT_NE(text.str().find("| approach.json (1 s) | 10 | 10 |"), std::string::npos) << text.str();
+    EXPECT_TRUE(std::regex_search(
+        text.str(),
+        std::regex(R"(\| [0-9.]+ / [0-9.]+ \([0-9]+\.[0-9]{2}\) \| [0-9.]+ / [0-9.]+ \([0-9]+\.[0-9]{2}\) \|)")))
+        << text.str();
 }
 
 // flythrough.json records every frame's draw time and the tiles it rendered; with --reuse on a
