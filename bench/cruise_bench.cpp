@@ -46,7 +46,7 @@ struct CruiseFrame {
 
 struct Flight {
     std::string scene, what;
-    double fps = 10;
+    double fps = 0;  // frames a second; 0: --fps's (the cruise at 30 and at 6 keep their own)
     std::vector<CruiseFrame> frames;
     double firstOnMs = 0, firstOffMs = 0;  // frame 0: the grids made and every tile rendered (both)
     bool reuseAlone = false;               // also run --reuse on --cloud-lod off (what each part gives)
@@ -54,7 +54,6 @@ struct Flight {
     double erosion = 0;                    // > 0: the scene's detail on (Medium::Detail::erosion), its own settings
     double seconds = 0;                    // > 0: only the path's first seconds
     std::string key;                       // its name in --flights and the CSV (empty: the scene's file name)
-    bool ownFps = false;                   // flown at `fps` whatever --fps says (the cruise at 30 and at 6)
     const std::string& id() const { return key.empty() ? scene : key; }
 };
 
@@ -147,8 +146,8 @@ double maxOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_el
 double minOf(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_element(v.begin(), v.end()); }
 // Frame pacing (issue 37 §4): "median / worst (worst ÷ median)" of a flight's frame times.
 std::string evenness(const std::vector<double>& ms) {
-    const double m = median(ms);
-    return fmt("%.1f", m) + " / " + fmt("%.1f", maxOf(ms)) + " (" + fmt("%.2f", maxOf(ms) / std::max(m, 1e-9)) + ")";
+    const double m = median(ms), worst = maxOf(ms);
+    return fmt("%.1f", m) + " / " + fmt("%.1f", worst) + " (" + fmt("%.2f", worst / std::max(m, 1e-9)) + ")";
 }
 
 std::string csvOf(const std::vector<Flight>& flights) {
@@ -265,14 +264,14 @@ std::string markdownOf(const CruiseBenchOptions& o, const std::vector<Flight>& f
 int runCruiseBench(const CruiseBenchOptions& o) {
     if (!prepareBenchOutputs(o.bench.outDir)) return 2;
     std::vector<Flight> flights = {
-        {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus", 10, {}, 0, 0, true},
-        {"cruise_turn.json", "sharp turn: 180° in 3 s in that field", 10, {}, 0, 0, true},
+        {"cruise.json", "cruise: 60 s at 70 m/s over 4017 ellipsoids in 150 cumulus", 0, {}, 0, 0, true},
+        {"cruise_turn.json", "sharp turn: 180° in 3 s in that field", 0, {}, 0, 0, true},
         {"approach.json", "approach.json"},
         {"flythrough.json", "flythrough.json"},
         {"layer_flight.json", "layer_flight.json"},
         {"showcase.json",
          "showcase: into_cloud.json's flight (README command 1's scene)",
-         10,
+         0,
          {},
          0,
          0,
@@ -283,7 +282,7 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         // row (the same frames are its first 200).
         {"cruise.json",
          "cruise with the detail (erosion 1.5, the nephele kind): its first 20 s",
-         10,
+         0,
          {},
          0,
          0,
@@ -294,27 +293,16 @@ int runCruiseBench(const CruiseBenchOptions& o) {
          "cruise_detail"},
         // Even frames (issue 37 §4): the cruise at a simulator's pace and at a slow image generator's,
         // whatever --fps says: its first 20 s at 30 frames a second, all 60 s at 6.
-        {"cruise.json",
-         "cruise at 30 frames a second: its first 20 s",
-         30,
-         {},
-         0,
-         0,
-         false,
-         "",
-         0,
-         20,
-         "cruise_30fps",
-         true},
-        {"cruise.json", "cruise at 6 frames a second", 6, {}, 0, 0, false, "", 0, 0, "cruise_6fps", true},
+        {"cruise.json", "cruise at 30 frames a second: its first 20 s", 30, {}, 0, 0, false, "", 0, 20, "cruise_30fps"},
+        {"cruise.json", "cruise at 6 frames a second", 6, {}, 0, 0, false, "", 0, 0, "cruise_6fps"},
     };
     if (o.bench.quick) flights.resize(1), flights[0].scene = "approach.json", flights[0].what = "approach.json (1 s)";
     if (!o.flights.empty()) {
         for (const std::string& f : o.flights)
             if (std::none_of(flights.begin(), flights.end(), [&](const Flight& x) { return x.id() == f; })) {
-                std::cerr << "nephele: bench --cruise: --flights: no flight '" << f
-                          << "' (cruise.json, cruise_turn.json, approach.json, flythrough.json, layer_flight.json, "
-                             "showcase.json, cruise_detail, cruise_30fps, cruise_6fps)\n";
+                std::string known;
+                for (const Flight& x : flights) known += (known.empty() ? "" : ", ") + x.id();
+                std::cerr << "nephele: bench --cruise: --flights: no flight '" << f << "' (" << known << ")\n";
                 return 2;
             }
         std::erase_if(flights, [&](const Flight& x) {
@@ -327,7 +315,7 @@ int runCruiseBench(const CruiseBenchOptions& o) {
         co.backend = o.bench.backend;
         renderer = Context::create(co)->description();
         for (Flight& f : flights) {
-            if (!f.ownFps) f.fps = o.fps;
+            if (f.fps <= 0) f.fps = o.fps;
             fly(f, o);
         }
     } catch (const std::exception& e) {
