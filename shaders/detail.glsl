@@ -4,11 +4,12 @@
 // (model/include/nephele/detail.hpp), so the two cannot drift. Include gardner_model.glsl first.
 // Common subset: float, int, uint, vec3; every literal with a suffix; functions MODEL_FN.
 //
-// DETAIL_TEX / DETAIL_FETCH(tex, uvw): the "nephele" kind's tileable texture. GLSL: a sampler3D
-// (GL_LINEAR, GL_REPEAT); C++: a NoiseVolume, whose sample() reproduces that filtering.
+// DETAIL_TEX / DETAIL_FETCH(tex, uvw): the "nephele" kind's tileable texture, three octaves in its
+// three channels (vec3). GLSL: a sampler3D (GL_RGBA8, GL_LINEAR, GL_REPEAT); C++: a DetailVolume,
+// whose sample() filters the same bytes in float.
 #ifndef DETAIL_TEX
 #define DETAIL_TEX sampler3D
-#define DETAIL_FETCH(tex, uvw) textureLod(tex, uvw, 0.0).r
+#define DETAIL_FETCH(tex, uvw) textureLod(tex, uvw, 0.0).rgb
 #endif
 
 // What a renderer needs of medium.detail for one view. origin = eye - drift: the detail is
@@ -19,7 +20,8 @@ struct DetailParams {
     float erosion;   // E in [0, 4]; 0: no detail
     float scale;     // m: L, the largest octave's wavelength
     float smallest;  // m: the smallest wavelength drawn (at most L)
-    float mean;      // mu: the octave value a faded octave stands in with (the noise's mean)
+    vec3 mean;       // mu: what a faded octave stands in with (the noise's mean): per channel of the
+                     // nephele kind's texture (octave k reads channel k mod 3); the reference kind's in all three
     int octaves;     // K = floor(log2(L / smallest)) + 1
     int kind;        // kDetailNephele or kDetailReference
 };
@@ -38,8 +40,13 @@ const float kDetailGain = 0.8f;
 const vec3 kDetailOctaveOffset = vec3(0.5698403f, 0.7548777f, 0.4301597f);
 const uint kDetailSeed = 0x5EEDu;       // the reference kind's seed of octave 0
 const uint kDetailSeedStep = 0x9E3779B9u;
-// The nephele kind's texture holds 8 Worley cells per period (model/src/detail.cpp).
-const float kDetailTextureCells = 8.0f;
+// The nephele kind's texture holds in channel c Worley noise of 4 * 2^c cells per period (16, 8
+// and 4 texels a cell; model/src/detail.cpp): one fetch reads octaves 3g, 3g + 1 and 3g + 2, at
+// the coordinate of octave 3g (group g). On llvmpipe the detailed tiles' time was mostly these
+// fetches, and one RGBA8 fetch costs about what one R32F fetch did (docs/detail.md). With 8 cells
+// in channel 0, channel 2 had 2 texels a cell: too smooth to cut grooves.
+const float kDetailTextureCells = 4.0f;
+const int kDetailGroup = 3;
 
 // PCG-RXS-M-XS 32-bit hash (Jarzynski & Olano 2020), as model/src/noise.cpp.
 MODEL_FN uint detailHash(uint v) {
@@ -87,22 +94,11 @@ MODEL_FN float detailPerlin(vec3 p, uint seed) {
 // low inside them, so that erosion cuts grooves and leaves bulges (cauliflower).
 // reference: (1 - |perlin|)^8, near 1 on the noise's zero sheets. nephele: the texture's
 // squared Worley F1 distance (model/src/detail.cpp), high where cells meet.
-// DETAIL_KIND: a GLSL program is built for one kind (DetailTexture::defines), which it reads
-// whatever `kind` says: with the kind a uniform, the reference kind's Perlin octave was paid for
-// in every octave of the nephele kind too on llvmpipe (the tiles' detail cost halved without it).
-// Without DETAIL_KIND (C++), the kind is chosen at run time.
 MODEL_FN float detailReferenceOctave(vec3 p, int octave) {
     float a = 1.0f - min(abs(detailPerlin(p, kDetailSeed + uint(octave) * kDetailSeedStep)), 1.0f);
     float a2 = a * a;
     float a4 = a2 * a2;
     return a4 * a4;
-}
-MODEL_FN float detailOctave(DETAIL_TEX tex, int kind, vec3 p, int octave) {
-#ifdef DETAIL_KIND
-    kind = DETAIL_KIND;
-#endif
-    if (kind == kDetailReference) return detailReferenceOctave(p, octave);
-    return DETAIL_FETCH(tex, p * (1.0f / kDetailTextureCells));
 }
 
 // log2(L / r): octave k is drawn with weight clamp(c - k, 0, 1) (continuous in the distance: no pop).
@@ -110,25 +106,53 @@ MODEL_FN float detailOctaveCut(DetailParams dp, float dist) {
     return log2(dp.scale / max(kDetailFadeAngle * dist, 0.5f * dp.smallest));
 }
 
+// sum_k G^k f_k (N_k - mu) of the drawn octaves (below), at the moved point y. `top` =
+// min(cut, K): f_k = clamp(top - k, 0, 1) is the fade and 0 past the last octave.
+MODEL_FN float detailReferenceSum(DetailParams dp, vec3 y, float top) {
+    float sum = 0.0f, weight = 1.0f, frequency = 1.0f / dp.scale;
+    for (int k = 0; float(k) < top; ++k) {
+        float f = clamp(top - float(k), 0.0f, 1.0f);
+        sum += weight * f * (detailReferenceOctave(y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean.x);
+        weight *= kDetailGain;
+        frequency *= 2.0f;
+    }
+    return sum;
+}
+// The nephele kind: group g's fetch at y 8^g / L + g o, its channels octaves 3g .. 3g + 2.
+MODEL_FN float detailNepheleSum(DETAIL_TEX tex, DetailParams dp, vec3 y, float top) {
+    vec3 gains = vec3(1.0f, kDetailGain, kDetailGain * kDetailGain);
+    float groupGain = kDetailGain * kDetailGain * kDetailGain;
+    float sum = 0.0f, weight = 1.0f, frequency = 1.0f / dp.scale;
+    for (int g = 0; float(g * kDetailGroup) < top; ++g) {
+        vec3 n = DETAIL_FETCH(tex, (y * frequency + float(g) * kDetailOctaveOffset) * (1.0f / kDetailTextureCells));
+        vec3 f = clamp(vec3(top - float(g * kDetailGroup)) - vec3(0.0f, 1.0f, 2.0f), 0.0f, 1.0f);
+        sum += weight * dot(gains * f, n - dp.mean);
+        weight *= groupGain;
+        frequency *= 8.0f;
+    }
+    return sum;
+}
+
 // D >= 0 at the point rel metres from the eye: S = sum_k G^k (f_k N_k + (1 - f_k) mu) / sum_k G^k,
 // D = max(1/2 + C (S - mu), 0). A faded octave stands in with the mean, so the erosion's mean does
 // not change with distance. The contrast C spreads S (a mean of many octaves, so close to mu):
 // the rim is cut deep where D is high and left whole where it is 0. No upper clamp: a clamp there
 // flattened the small octaves wherever the large ones saturated it.
-// The octaves past the cut are all their mean: the loop stops at the cut (reading none of them)
+// The octaves past the cut are all their mean: the loops stop at the cut (reading none of them)
 // and S - mu is the drawn octaves' share alone, sum_k G^k f_k (N_k - mu) / sum_k G^k.
+// DETAIL_KIND: a GLSL program is built for one kind (DetailTexture::defines), which it reads
+// whatever `kind` says: with the kind a uniform, the reference kind's Perlin octave was paid for
+// in every octave of the nephele kind too on llvmpipe (the tiles' detail cost halved without it).
+// Without DETAIL_KIND (C++), the kind is chosen at run time.
 const float kDetailContrast = 6.0f;  // C
 MODEL_FN float detailValue(DETAIL_TEX tex, DetailParams dp, vec3 rel) {
     vec3 y = dp.origin + rel;
-    float cut = detailOctaveCut(dp, length(rel));
-    int drawn = min(dp.octaves, int(ceil(max(cut, 0.0f))));
-    float sum = 0.0f, weight = 1.0f, frequency = 1.0f / dp.scale;
-    for (int k = 0; k < drawn; ++k) {
-        float f = clamp(cut - float(k), 0.0f, 1.0f);
-        sum += weight * f * (detailOctave(tex, dp.kind, y * frequency + float(k) * kDetailOctaveOffset, k) - dp.mean);
-        weight *= kDetailGain;
-        frequency *= 2.0f;
-    }
+    float top = min(detailOctaveCut(dp, length(rel)), float(dp.octaves));
+    int kind = dp.kind;
+#ifdef DETAIL_KIND
+    kind = DETAIL_KIND;
+#endif
+    float sum = kind == kDetailReference ? detailReferenceSum(dp, y, top) : detailNepheleSum(tex, dp, y, top);
     float total = (1.0f - pow(kDetailGain, float(dp.octaves))) / (1.0f - kDetailGain);
     return max(0.5f + kDetailContrast * (sum / total), 0.0f);
 }

@@ -80,9 +80,13 @@ Scene detailedCumulus(double distance, int width) {
 
 class DetailGLTest : public ::testing::TestWithParam<GlBackend> {};
 
-// The GLSL and C++ twins at 600 points from 2 m to 6 km (both kinds): they differ only by
-// float rounding in different orders. Measured: 7.2e-7 (nephele), 1.8e-7 (reference), bound 2e-4; broken (the
-// GLSL fetch at half the frequency, tests/sabotage/110-detail-glsl-octave-frequency.sabotage): 1.64.
+// The GLSL and C++ twins at 600 points from 2 m to 6 km (both kinds). The reference kind differs
+// only by float rounding in different orders: measured 2.4e-7, bound 2e-4. The nephele kind's
+// texture is 8-bit: the GPU filters its bytes in its own fixed point (llvmpipe: weights and
+// result in 8 bits), the C++ twin in float, so D differs by up to a few 1/255 of a texel per
+// octave times the contrast 6: measured 0.015, bound 0.03 (an eroded radius moves by E D of
+// itself: 0.03 at E 1). Broken (the GLSL fetch at half the frequency,
+// tests/sabotage/110-detail-glsl-octave-frequency.sabotage): 1.47.
 TEST_P(DetailGLTest, GlslTwinMatchesCpu) {
     auto ctx = test::makeContext(GetParam());
     std::mt19937 rng(11);
@@ -104,7 +108,7 @@ TEST_P(DetailGLTest, GlslTwinMatchesCpu) {
         for (std::size_t i = 0; i < rel.size(); ++i)
             largest =
                 std::max(largest, double(std::abs(gpu[i] - model::detailValue(detailVolume(), p, glm::vec3(rel[i])))));
-        EXPECT_LT(largest, 2e-4) << int(kind);
+        EXPECT_LT(largest, kind == Medium::Detail::Kind::Nephele ? 0.03 : 2e-4) << int(kind);
         std::printf("kind %d: largest |GPU - CPU| %.3g\n", int(kind), largest);
     }
 }

@@ -1,10 +1,32 @@
 // The detail field's texture and uniforms (see model/internal/detail_texture.hpp).
 #include "detail_texture.hpp"
 
-#include "noise_texture.hpp"
+#include <cmath>
+#include <cstdint>
+#include <vector>
 
 namespace nephele {
 using namespace gl;
+
+namespace {
+
+// detailVolume() as GL_RGBA8 (alpha unused: a 3-byte texel is not a format llvmpipe samples
+// fast), GL_LINEAR, GL_REPEAT. Its texels are multiples of 1/255 already: the bytes are exact.
+Texture detailTexture(const DetailVolume& v) {
+    std::vector<std::uint8_t> bytes(v.texels.size() * 4, 0);
+    for (std::size_t i = 0; i < v.texels.size(); ++i)
+        for (int c = 0; c < 3; ++c) bytes[4 * i + std::size_t(c)] = std::uint8_t(std::lround(v.texels[i][c] * 255.0f));
+    Texture t = Texture::create(GL_TEXTURE_3D);
+    glTextureStorage3D(t.id(), 1, GL_RGBA8, v.size, v.size, v.size);
+    glTextureSubImage3D(t.id(), 0, 0, 0, 0, v.size, v.size, v.size, GL_RGBA, GL_UNSIGNED_BYTE, bytes.data());
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+        glTextureParameteri(t.id(), w, GL_REPEAT);
+    return t;
+}
+
+}  // namespace
 
 DetailTexture::Variant DetailTexture::variant(const Medium::Detail& detail) {
     if (!detail.on()) return Variant::Off;
@@ -20,7 +42,7 @@ std::string DetailTexture::defines(Variant variant) {
 void DetailTexture::bind(const Program& program, const Medium::Detail& detail, const Vec3& eye) {
     program.set("detail.erosion", float(detail.erosion));
     if (!detail.on()) return;
-    if (!texture_) texture_ = noiseTexture(detailVolume());
+    if (!texture_) texture_ = detailTexture(detailVolume());
     const model::DetailParams p = detailParams(detail, eye);
     program.set("detail.origin", p.origin);
     program.set("detail.scale", p.scale);

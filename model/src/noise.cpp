@@ -117,20 +117,25 @@ float fbm(const glm::vec3& p, int octaves, int period, unsigned seed) {
     return sum / total;
 }
 
-float NoiseVolume::sample(const glm::vec3& uvw) const {
-    if (size <= 0) return 0.0f;
+template <class T>
+T sampleLinearRepeat(const std::vector<T>& texels, int size, const glm::vec3& uvw) {
+    if (size <= 0) return T(0);
     const Tap x = linearRepeat(uvw.x, size), y = linearRepeat(uvw.y, size), z = linearRepeat(uvw.z, size);
     const auto at = [&](int i, int j, int k) {
         return texels[std::size_t(i) + std::size_t(size) * (j + std::size_t(size) * k)];
     };
     // (1-a)*t0 + a*t1 as in the GL specification's formula: at a = 0 it is t0 exactly.
-    const auto mix = [](float t0, float t1, float a) { return (1.0f - a) * t0 + a * t1; };
-    const float c00 = mix(at(x.i0, y.i0, z.i0), at(x.i1, y.i0, z.i0), x.a);
-    const float c10 = mix(at(x.i0, y.i1, z.i0), at(x.i1, y.i1, z.i0), x.a);
-    const float c01 = mix(at(x.i0, y.i0, z.i1), at(x.i1, y.i0, z.i1), x.a);
-    const float c11 = mix(at(x.i0, y.i1, z.i1), at(x.i1, y.i1, z.i1), x.a);
+    const auto mix = [](const T& t0, const T& t1, float a) { return (1.0f - a) * t0 + a * t1; };
+    const T c00 = mix(at(x.i0, y.i0, z.i0), at(x.i1, y.i0, z.i0), x.a);
+    const T c10 = mix(at(x.i0, y.i1, z.i0), at(x.i1, y.i1, z.i0), x.a);
+    const T c01 = mix(at(x.i0, y.i0, z.i1), at(x.i1, y.i0, z.i1), x.a);
+    const T c11 = mix(at(x.i0, y.i1, z.i1), at(x.i1, y.i1, z.i1), x.a);
     return mix(mix(c00, c10, y.a), mix(c01, c11, y.a), z.a);
 }
+template float sampleLinearRepeat(const std::vector<float>&, int, const glm::vec3&);
+template glm::vec3 sampleLinearRepeat(const std::vector<glm::vec3>&, int, const glm::vec3&);
+
+float NoiseVolume::sample(const glm::vec3& uvw) const { return sampleLinearRepeat(texels, size, uvw); }
 
 NoiseVolume makeNoiseVolume(int size, int cells, int octaves, unsigned seed) {
     if (size < 2 || size > 1024)

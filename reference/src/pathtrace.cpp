@@ -481,6 +481,10 @@ std::string cacheKey(const Scene& sc, const View& view, const PathTraceSettings&
         k.tag("detail");
         k.num(std::int64_t(m.detail.kind)), k.num(m.detail.erosion), k.num(m.detail.scale), k.num(m.detail.smallest);
         k.vec(m.detail.drift);
+        if (m.detail.kind == Medium::Detail::Kind::Nephele) {  // its texture is the project's to change
+            const DetailVolume& v = detailVolume();
+            k.num(std::int64_t(fnv1a(v.texels.data(), v.texels.size() * sizeof(glm::vec3), 0xCBF29CE484222325ull)));
+        }
     }
     if (m.noise > 0 && noise) {  // the noise field only matters when it is used
         k.num(std::int64_t(noise->size));

@@ -12,15 +12,34 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <vector>
 
 NEPHELE_API_BEGIN
+namespace nephele {
+
+// The nephele kind's tileable texture (kDetailTextureSize^3 texels, three channels): channel c
+// holds min(F1, 1)^2, F1 the distance in cells to the nearest feature point of Worley noise with
+// 4 * 2^c cells per period (one point per cell, placed by a hash of the cell and the channel),
+// spread about its mean to channel 0's deviation as filtered, and rounded to a multiple of 1/255:
+// the GPU holds the same bytes (GL_RGBA8). Built once, the same on every platform.
+struct DetailVolume {
+    int size = 0;
+    std::vector<glm::vec3> texels;  // x fastest, then y, then z, as NoiseVolume's
+
+    // Trilinear filtering with repeat wrap, as NoiseVolume::sample, in float. The GPU's filter
+    // of the 8-bit texture differs from it by its own rounding (DetailGLTest.GlslTwinMatchesCpu).
+    glm::vec3 sample(const glm::vec3& uvw) const;
+};
+
+}  // namespace nephele
+
 namespace nephele::model {
 using glm::abs;
 using glm::floor;
 using glm::log2;
 using uint = std::uint32_t;
 #define MODEL_FN inline
-#define DETAIL_TEX const ::nephele::NoiseVolume&
+#define DETAIL_TEX const ::nephele::DetailVolume&
 #define DETAIL_FETCH(tex, uvw) (tex).sample(uvw)
 #include "nephele/detail.glsl"  // the build's copy of shaders/detail.glsl (model/CMakeLists.txt)
 #undef DETAIL_FETCH
@@ -30,14 +49,13 @@ using uint = std::uint32_t;
 
 namespace nephele {
 
-// The nephele kind's tileable texture: kDetailTextureSize^3 texels, kDetailTextureCells Worley
-// cells per period, texel = min(F1, 1)^2 with F1 the distance to the nearest feature point in
-// cells (one point per cell, placed by a hash). Built once, the same on every platform.
+// The nephele kind's texture (DetailVolume): 64^3 texels of 4 bytes, 1 MB. A larger one cost more
+// than it saved on llvmpipe (128^3: the detailed tiles 30% slower).
 inline constexpr int kDetailTextureSize = 64;
-const NoiseVolume& detailVolume();
-// The mean of detailVolume()'s texels, and the reference kind's mean of (1 - |perlin|)^8
-// (data/scene-format.md): what an octave faded out stands in with.
-float detailVolumeMean();
+const DetailVolume& detailVolume();
+// The mean of each channel of detailVolume()'s texels, and the reference kind's mean of
+// (1 - |perlin|)^8 (data/scene-format.md): what an octave faded out stands in with.
+glm::vec3 detailVolumeMeans();
 inline constexpr float kDetailReferenceMean = 0.284f;
 
 // The parameters a renderer hands to the shared functions for the eye `eye` (m, world).

@@ -44,6 +44,12 @@ struct NoiseSettings {
     unsigned seed = 7;
 };
 
+// Trilinear filtering with repeat wrap of a size^3 volume of texels (float or glm::vec3), as
+// GL_LINEAR + GL_REPEAT samples it at texture coordinate uvw (texel centres at (i + 0.5) / size,
+// period 1). At a texel centre it returns that texel exactly; an empty volume gives 0.
+template <class T>
+T sampleLinearRepeat(const std::vector<T>& texels, int size, const glm::vec3& uvw);
+
 // A size^3 scalar volume, uploaded as a 3D texture and sampled as one.
 struct NoiseVolume {
     int size = 0;               // size^3 texels
