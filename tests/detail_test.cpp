@@ -145,7 +145,8 @@ TEST(DetailTest, TextureChannelsAreOctaves) {
         const glm::vec3 p(u(rng), u(rng), u(rng)), dir = glm::normalize(glm::vec3(u(rng), u(rng), u(rng)) - 0.5f);
         const glm::dvec3 a(v.sample(p));
         glm::dvec3 b;
-        for (int c = 0; c < 3; ++c) b[c] = v.sample(p + dir * (0.25f / float(int(model::kDetailTextureCells) << c)))[c];
+        for (int c = 0; c < model::kDetailGroup; ++c)
+            b[c] = v.sample(p + dir * (0.25f / float(int(model::kDetailTextureCells) << c)))[c];
         sum += a, squares += a * a, products += a * b, lagSum += b, lagSquares += b * b;
     }
     const glm::dvec3 mean = sum / double(n), lagMean = lagSum / double(n);
@@ -154,7 +155,7 @@ TEST(DetailTest, TextureChannelsAreOctaves) {
     const glm::dvec3 correlation = (products / double(n) - mean * lagMean) / (deviation * lagDeviation);
     std::printf("correlation at a quarter cell %.3f / %.3f / %.3f, deviation %.3f / %.3f / %.3f of channel 0's\n",
                 correlation.x, correlation.y, correlation.z, 1.0, deviation.y / deviation.x, deviation.z / deviation.x);
-    for (int c = 1; c < 3; ++c) {
+    for (int c = 1; c < model::kDetailGroup; ++c) {
         EXPECT_NEAR(correlation[c], correlation.x, 0.06) << c;
         EXPECT_NEAR(deviation[c] / deviation.x, 1.0, 0.05) << c;
     }

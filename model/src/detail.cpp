@@ -75,7 +75,8 @@ DetailVolume makeDetailVolume() {
     glm::vec3 mean(0.0f);
     for (const glm::vec3& t : v.texels) mean += t / float(v.texels.size());
     glm::vec3 spread(1.0f);
-    for (int c = 1; c < model::kDetailGroup; ++c) spread[c] = sampledDeviation(v, 0) / sampledDeviation(v, c);
+    const float deviation0 = sampledDeviation(v, 0);
+    for (int c = 1; c < model::kDetailGroup; ++c) spread[c] = deviation0 / sampledDeviation(v, c);
     for (glm::vec3& t : v.texels) t = glm::round(glm::clamp(mean + (t - mean) * spread, 0.0f, 1.0f) * 255.0f) / 255.0f;
     return v;
 }

@@ -1,6 +1,8 @@
 // The detail field's texture and uniforms (see model/internal/detail_texture.hpp).
 #include "detail_texture.hpp"
 
+#include "noise_texture.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -15,15 +17,9 @@ namespace {
 Texture detailTexture(const DetailVolume& v) {
     std::vector<std::uint8_t> bytes(v.texels.size() * 4, 0);
     for (std::size_t i = 0; i < v.texels.size(); ++i)
-        for (int c = 0; c < 3; ++c) bytes[4 * i + std::size_t(c)] = std::uint8_t(std::lround(v.texels[i][c] * 255.0f));
-    Texture t = Texture::create(GL_TEXTURE_3D);
-    glTextureStorage3D(t.id(), 1, GL_RGBA8, v.size, v.size, v.size);
-    glTextureSubImage3D(t.id(), 0, 0, 0, 0, v.size, v.size, v.size, GL_RGBA, GL_UNSIGNED_BYTE, bytes.data());
-    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-        glTextureParameteri(t.id(), w, GL_REPEAT);
-    return t;
+        for (int c = 0; c < model::kDetailGroup; ++c)
+            bytes[4 * i + std::size_t(c)] = std::uint8_t(std::lround(v.texels[i][c] * 255.0f));
+    return linearRepeatTexture3D(v.size, GL_RGBA8, GL_RGBA, GL_UNSIGNED_BYTE, bytes.data());
 }
 
 }  // namespace
