@@ -113,15 +113,16 @@ void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
                             falloffTexture);
         tileCut = buildProgram({{GL_VERTEX_SHADER, "ellipsoid_tile.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile.frag"}},
                                falloffTexture + "#define CUT 1\n");
-        rayDefines = defines;
-        tileRay = Program();  // made again, if needed, by groupTiles
     } else {
-        tileRay = buildProgram(
-            {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, defines);
         tileRayCut = buildProgram(
             {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
             defines + "#define CUT 1\n");
     }
+    // Polygon tiles, and mesh tiles lit per pixel (near the sun).
+    tileRay = buildProgram(
+        {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, defines);
+    tileProgramsWarm = false;
+    drawnTilePrograms.clear();
 }
 
 // The programs these settings use, and only those (llvmpipe compiles each in tens of milliseconds).
@@ -469,10 +470,6 @@ void EllipsoidRenderer::Impl::groupTiles(const EllipsoidSettings& s, const Scene
     if (s.geometry == TileGeometry::Mesh) {
         for (std::size_t i = 0; i < prepared.ellipsoids.size(); ++i)
             out.perPixelLight[i] = nearTheSun(prepared.ellipsoids[i], view, scene) ? 1 : 0;
-        if (!tileRay && std::any_of(out.perPixelLight.begin(), out.perPixelLight.end(), [](char c) { return c != 0; }))
-            tileRay = buildProgram(
-                {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}},
-                rayDefines);
     }
     auto group = [&](const TilePlacement& p) {
         return drawGroup(s, prepared.ellipsoids[p.id], p.size, out.perPixelLight[p.id] != 0);

@@ -20,6 +20,7 @@
 #include "reduced_target.hpp"
 
 #include <map>
+#include <set>
 #include <memory>
 #include <string>
 #include <vector>
@@ -128,7 +129,6 @@ struct EllipsoidRenderer::Impl {
     Program impostor, impostorFraction;                             // cloudLod: an impostor over the frame
     std::unique_ptr<ReducedTarget> reduced;  // cloudLod: close tiles at 1 / closeDownsample (made with the renderer)
     PerViewCache<CloudImpostors, glm::ivec4> impostors;  // cloudLod: per view size and place
-    std::string rayDefines;  // tileRay's defines: built on the first mesh frame with tiles lit per pixel
     VertexArray empty;
     std::map<int, IndexedMesh> meshes;  // by slices
     Texture falloff, noise;
@@ -229,6 +229,11 @@ struct EllipsoidRenderer::Impl {
     void clearTilePass(const FramePlan& plan, int pass, int first, int count, EllipsoidStats& stats);
     void drawTilePass(const EllipsoidSettings& s, const FramePlan& plan, int first, int count, EllipsoidStats& stats);
     void colourMatrixPass(int first, int count, EllipsoidStats& stats);
+    void tileDrawState(const EllipsoidSettings& s);
+    bool drawGroupInstances(const EllipsoidSettings& s, int key, int base, int instances);
+    int warmTilePrograms(const EllipsoidSettings& s, const FramePlan& plan);
+    bool tileProgramsWarm = false;       // warmTilePrograms() has drawn with the tile programs built last
+    std::set<GLuint> drawnTilePrograms;  // of those, the ones drawn with (EllipsoidStats::programsFirstDrawn)
     void compositeTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
                         const HostFrame& frame, EllipsoidStats& stats);
     // compositeTiles() by order: "over" back to front, weighted (into its target, then resolved),

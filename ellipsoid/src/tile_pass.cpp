@@ -13,6 +13,10 @@ void EllipsoidRenderer::Impl::drawTiles(const EllipsoidSettings& s, const FrameP
     glDisable(GL_DEPTH_TEST);
     glFrontFace(GL_CCW);
     setTileUniforms(s, plan, scene, view);
+    if (!tileProgramsWarm && !placements.empty()) {
+        stats.programsFirstDrawn += warmTilePrograms(s, plan);
+        tileProgramsWarm = true;
+    }
     for (int pass = 0, first = 0; pass < plan.packed.passes; ++pass) {
         int count = 0;
         while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
@@ -87,15 +91,7 @@ void EllipsoidRenderer::Impl::clearTilePass(const FramePlan& plan, int pass, int
 void EllipsoidRenderer::Impl::drawTilePass(const EllipsoidSettings& s, const FramePlan& plan, int first, int count,
                                            EllipsoidStats& stats) {
     const std::vector<TilePlacement>& placements = plan.placements;
-    // Ellipsoids: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D (subtract).
-    const bool polygon = s.geometry == TileGeometry::Polygon;
-    if (!polygon) {
-        glEnable(GL_CULL_FACE);  // the mesh's back faces
-        glCullFace(GL_FRONT);
-    }
-    glEnable(GL_BLEND);
-    glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
-    glBlendFunc(GL_ONE, GL_ONE);
+    tileDrawState(s);
     auto group = [&](const TilePlacement& p) {
         return drawGroup(s, plan.prepared.ellipsoids[p.id], p.size, plan.perPixelLight[p.id] != 0);
     };
@@ -103,29 +99,14 @@ void EllipsoidRenderer::Impl::drawTilePass(const EllipsoidSettings& s, const Fra
         const int key = group(placements[k]);
         int n = 0;
         while (k + n < first + count && group(placements[k + n]) == key) ++n;
-        const bool cut = key >= 1000 && key < 2000;
-        const bool ray = polygon || key >= 2000;  // polygon tiles, or mesh tiles lit per pixel
-        const Program& tp = ray ? (cut ? tileRayCut : tileRay) : (cut ? tileCut : tile);
-        glUseProgram(tp.id());
-        const IndexedMesh* sphere = ray ? nullptr : &mesh(key % 1000);
-        glBindVertexArray(ray ? empty.id() : sphere->vao.id());
-        if (!polygon) ray ? glDisable(GL_CULL_FACE) : glEnable(GL_CULL_FACE);
-        // Clip distances keep the geometry in its tile (the polygon's whole-tile quad needs none).
-        const bool clip = !(ray && cut);
-        for (int c = 0; c < 4; ++c) clip ? glEnable(GL_CLIP_DISTANCE0 + c) : glDisable(GL_CLIP_DISTANCE0 + c);
-        auto draw = [&](int instances) {
-            if (ray) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
-            else glDrawElementsInstanced(GL_TRIANGLES, sphere->indexCount, GL_UNSIGNED_INT, nullptr, instances);
-            ++stats.drawCalls;
-        };
         if (s.instanced) {
-            tp.set("instanceBase", k);
-            draw(n);
+            stats.programsFirstDrawn += drawGroupInstances(s, key, k, n);
+            ++stats.drawCalls;
         } else {
             for (int i = k; i < k + n; ++i) {  // the paper: a viewport and a draw per ellipsoid
                 glViewport(placements[i].x, placements[i].y, placements[i].size, placements[i].size);
-                tp.set("instanceBase", i);
-                draw(1);
+                stats.programsFirstDrawn += drawGroupInstances(s, key, i, 1);
+                ++stats.drawCalls;
             }
             glViewport(0, 0, plan.atlasW, plan.atlasH);
         }
@@ -134,6 +115,63 @@ void EllipsoidRenderer::Impl::drawTilePass(const EllipsoidSettings& s, const Fra
     for (int c = 0; c < 4; ++c) glDisable(GL_CLIP_DISTANCE0 + c);
     glDisable(GL_CULL_FACE);
     check("ellipsoid tile pass");
+}
+
+// The blending of every tile draw: red = T2 - T2 g (reverse subtract), alpha = I/D - T1/D
+// (subtract); meshes cull their front faces (a tile is drawn from the mesh's back faces).
+void EllipsoidRenderer::Impl::tileDrawState(const EllipsoidSettings& s) {
+    if (s.geometry == TileGeometry::Mesh) {
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
+    }
+    glEnable(GL_BLEND);
+    glBlendEquationSeparate(GL_FUNC_REVERSE_SUBTRACT, GL_FUNC_SUBTRACT);
+    glBlendFunc(GL_ONE, GL_ONE);
+}
+
+// The tiles [base, + instances) of one draw group (drawGroup's key): its program, geometry,
+// culling and clip distances, and one instanced draw. true: the program's first draw.
+bool EllipsoidRenderer::Impl::drawGroupInstances(const EllipsoidSettings& s, int key, int base, int instances) {
+    const bool polygon = s.geometry == TileGeometry::Polygon;
+    const bool cut = key >= 1000 && key < 2000;
+    const bool ray = polygon || key >= 2000;  // polygon tiles, or mesh tiles lit per pixel
+    const Program& tp = ray ? (cut ? tileRayCut : tileRay) : (cut ? tileCut : tile);
+    glUseProgram(tp.id());
+    const IndexedMesh* sphere = ray ? nullptr : &mesh(key % 1000);
+    glBindVertexArray(ray ? empty.id() : sphere->vao.id());
+    if (!polygon) ray ? glDisable(GL_CULL_FACE) : glEnable(GL_CULL_FACE);
+    // Clip distances keep the geometry in its tile (the polygon's whole-tile quad needs none).
+    const bool clip = !(ray && cut);
+    for (int c = 0; c < 4; ++c) clip ? glEnable(GL_CLIP_DISTANCE0 + c) : glDisable(GL_CLIP_DISTANCE0 + c);
+    tp.set("instanceBase", base);
+    if (ray) glDrawArraysInstanced(GL_TRIANGLE_FAN, 0, cut ? 4 : 8, instances);  // quad or octagon
+    else glDrawElementsInstanced(GL_TRIANGLES, sphere->indexCount, GL_UNSIGNED_INT, nullptr, instances);
+    return drawnTilePrograms.insert(tp.id()).second;
+}
+
+// Every tile program these settings may draw with, drawn once into one texel of the first fresh
+// tile (cleared and drawn again by its pass). llvmpipe compiles a program's machine code at its
+// first draw: 0.4-0.5 s for each tile program on a cold shader cache, which a flight met in
+// whichever frame first had a tile cut by the near plane or lit per pixel (near the sun).
+// Here it is paid in the first frame, which makes every tile anyway.
+// Returns how many were drawn for the first time.
+int EllipsoidRenderer::Impl::warmTilePrograms(const EllipsoidSettings& s, const FramePlan& plan) {
+    const TilePlacement& at = plan.placements.front();
+    glBindFramebuffer(GL_FRAMEBUFFER, atlas->fbos[at.pass].id());
+    glViewport(0, 0, plan.atlasW, plan.atlasH);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(at.x, at.y, 1, 1);
+    tileDrawState(s);
+    const int slices = meshSlices(s, s.minTile, false);
+    const std::vector<int> keys =
+        s.geometry == TileGeometry::Mesh ? std::vector<int>{slices, 1000 + slices, 2000} : std::vector<int>{0, 1000};
+    int first = 0;
+    for (int key : keys) first += drawGroupInstances(s, key, 0, 1);
+    for (int c = 0; c < 4; ++c) glDisable(GL_CLIP_DISTANCE0 + c);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_SCISSOR_TEST);
+    check("tile programs' first draw");
+    return first;
 }
 
 // The paper's colour-matrix copy of one pass's tiles placements[first, + count), in one draw.

@@ -181,6 +181,9 @@ struct EllipsoidStats {
                                           // plane, a new shape, a part come into view)
     bool atlasRepacked = false;           // reuse: the atlas was too full or fragmented and packed anew (all fresh)
     bool atlasGrown = false;              // the atlas texture was made anew with more layers this frame (a stall)
+    int programsFirstDrawn = 0;           // tile programs drawn for the first time this frame: a driver may compile
+                                          // at a program's first draw (llvmpipe 0.4-0.5 s each on a cold shader
+                                          // cache), so every one the settings may use is drawn in the first frame
     int impostors = 0;                    // cloudLod: clouds drawn as one impostor this frame
     int impostorsRendered = 0;            // ... of those, made (again) from their tiles this frame
     int tilesDownsampled = 0;             // cloudLod: tiles composited at 1 / closeDownsample of the resolution
