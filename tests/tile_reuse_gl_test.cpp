@@ -22,13 +22,18 @@ EllipsoidSettings reuseOn(CompositeOrder order = CompositeOrder::PerEllipsoid) {
     return s;
 }
 
-// cumulus27 from 600 m, 320 px: tiles of 8 to 128 px.
-Scene nearCumulus() {
-    Scene scene = sharedScene("cumulus27.json", 320);
+// The mean of the first cloud's ellipsoid centres.
+Vec3 cloudCentre(const Scene& scene) {
     Vec3 centre(0.0);
     for (const Ellipsoid& e : scene.clouds[0].ellipsoids)
         centre += e.center / double(scene.clouds[0].ellipsoids.size());
-    scene.camera.position = centre - scene.camera.direction * 900.0;
+    return centre;
+}
+
+// cumulus27 from 600 m, 320 px: tiles of 8 to 128 px.
+Scene nearCumulus() {
+    Scene scene = sharedScene("cumulus27.json", 320);
+    scene.camera.position = cloudCentre(scene) - scene.camera.direction * 900.0;
     return scene;
 }
 
@@ -91,9 +96,7 @@ TEST_F(TileReuseGLTest, ACameraCirclingTheCloudStaysCloseToFreshTiles) {
     // each sphere, seen from a direction that turned.
     for (Ellipsoid& e : scene.clouds[0].ellipsoids) e.radii = Vec3((e.radii.x + e.radii.y + e.radii.z) / 3);
     Flight on(reuseOn(), scene), off(EllipsoidSettings{}, scene);
-    Vec3 centre(0.0);
-    for (const Ellipsoid& e : scene.clouds[0].ellipsoids)
-        centre += e.center / double(scene.clouds[0].ellipsoids.size());
+    const Vec3 centre = cloudCentre(scene);
     const Vec3 arm = scene.camera.position - centre;
     int rendered = 0, visible = 0;
     double worst = 1e9, sum = 0;
@@ -295,8 +298,6 @@ TEST_F(TileReuseGLTest, TheDetailsDriftRendersTilesAgain) {
     EXPECT_GE(worst, 40);
 }
 
-}  // namespace
-
 // A driver may compile a program's machine code at its first draw: llvmpipe takes 0.4-0.5 s for
 // a tile program on a cold shader cache, which a flight met in the frame of its first tile cut
 // by the near plane and again at its first tile near the sun. Every tile program the settings
@@ -308,11 +309,8 @@ TEST_F(TileReuseGLTest, TheDetailsDriftRendersTilesAgain) {
 TEST_F(TileReuseGLTest, NoLaterFrameDrawsATileProgramForTheFirstTime) {
     Scene scene = nearCumulus();
     scene.sun.direction = -scene.camera.direction;
-    Vec3 centre(0.0);
-    for (const Ellipsoid& e : scene.clouds[0].ellipsoids)
-        centre += e.center / double(scene.clouds[0].ellipsoids.size());
     Camera inside = scene.camera;
-    inside.position = centre;
+    inside.position = cloudCentre(scene);
     inside.direction = scene.sun.direction;
     for (TileGeometry geometry : {TileGeometry::Mesh, TileGeometry::Polygon}) {
         EllipsoidSettings s = reuseOn();
@@ -326,3 +324,5 @@ TEST_F(TileReuseGLTest, NoLaterFrameDrawsATileProgramForTheFirstTime) {
         EXPECT_EQ(f.last.programsFirstDrawn, 0) << "geometry " << int(geometry);
     }
 }
+
+}  // namespace

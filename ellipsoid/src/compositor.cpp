@@ -121,7 +121,6 @@ void EllipsoidRenderer::Impl::buildTilePrograms(const EllipsoidSettings& s) {
     // Polygon tiles, and mesh tiles lit per pixel (near the sun).
     tileRay = buildProgram(
         {{GL_VERTEX_SHADER, "ellipsoid_tile_ray.vert"}, {GL_FRAGMENT_SHADER, "ellipsoid_tile_ray.frag"}}, defines);
-    tileProgramsWarm = false;
     drawnTilePrograms.clear();
 }
 

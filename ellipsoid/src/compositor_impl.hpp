@@ -232,8 +232,9 @@ struct EllipsoidRenderer::Impl {
     void tileDrawState(const EllipsoidSettings& s);
     bool drawGroupInstances(const EllipsoidSettings& s, int key, int base, int instances);
     int warmTilePrograms(const EllipsoidSettings& s, const FramePlan& plan);
-    bool tileProgramsWarm = false;       // warmTilePrograms() has drawn with the tile programs built last
-    std::set<GLuint> drawnTilePrograms;  // of those, the ones drawn with (EllipsoidStats::programsFirstDrawn)
+    // The tile programs built last that have been drawn with (EllipsoidStats::programsFirstDrawn);
+    // empty until warmTilePrograms() has drawn them all.
+    std::set<GLuint> drawnTilePrograms;
     void compositeTiles(const EllipsoidSettings& s, const FramePlan& plan, const Scene& scene, const View& view,
                         const HostFrame& frame, EllipsoidStats& stats);
     // compositeTiles() by order: "over" back to front, weighted (into its target, then resolved),

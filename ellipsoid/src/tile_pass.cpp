@@ -13,10 +13,7 @@ void EllipsoidRenderer::Impl::drawTiles(const EllipsoidSettings& s, const FrameP
     glDisable(GL_DEPTH_TEST);
     glFrontFace(GL_CCW);
     setTileUniforms(s, plan, scene, view);
-    if (!tileProgramsWarm && !placements.empty()) {
-        stats.programsFirstDrawn += warmTilePrograms(s, plan);
-        tileProgramsWarm = true;
-    }
+    if (drawnTilePrograms.empty() && !placements.empty()) stats.programsFirstDrawn += warmTilePrograms(s, plan);
     for (int pass = 0, first = 0; pass < plan.packed.passes; ++pass) {
         int count = 0;
         while (first + count < int(placements.size()) && placements[first + count].pass == pass) ++count;
